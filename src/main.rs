@@ -1,0 +1,17 @@
+//! The `chassis-mc` command line: parse flags, call the library, map errors to exit codes
+//! (0 success, 1 failure while running, 2 bad study file or arguments).
+
+mod cli;
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let command = cli::parse();
+    match cli::run(command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(failure) => {
+            eprintln!("error: {:#}", failure.error);
+            ExitCode::from(failure.code)
+        }
+    }
+}

@@ -1,0 +1,173 @@
+//! The model layer: what one Monte Carlo realisation computes, and how its results are laid
+//! out, independent of how realisations are scheduled, summarised or written.
+//!
+//! A [`Model`] owns its prepared conditions (for the vehicle: one simulated drive cycle per
+//! condition) and turns (condition, realisation) into one row per estimator: status,
+//! estimates, derived quantities and bounds. The executor, the statistics and the Parquet
+//! output work from the model's [`Layout`] alone, so a second model (the line fit of the
+//! thesis's worked example) reuses all of them unchanged.
+
+pub mod vehicle;
+
+use std::fmt;
+
+/// A model parameter: a component of θ.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterInfo {
+    /// Column-safe name, e.g. `inv_mass`.
+    pub name: &'static str,
+    /// Unit, e.g. `1/kg`.
+    pub unit: &'static str,
+    /// One-line description.
+    pub description: &'static str,
+}
+
+/// A per-row derived quantity stored next to the estimates (e.g. `mass_hat`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExtraInfo {
+    /// Column name.
+    pub name: &'static str,
+    /// Unit.
+    pub unit: &'static str,
+    /// One-line description.
+    pub description: &'static str,
+}
+
+/// A bound or predicted standard error reported for each parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundInfo {
+    /// Name used as column prefix, e.g. `thesis_bound`.
+    pub name: &'static str,
+    /// What it is and when it is valid.
+    pub description: &'static str,
+}
+
+/// Everything the executor, statistics and output need to know about a model's rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Condition axis columns (f64), e.g. `scale`, `velocity_sd`.
+    pub axes: Vec<&'static str>,
+    /// Per-condition metric columns of the summary (f64), e.g. `terrain_ms_grid`.
+    pub condition_metrics: Vec<&'static str>,
+    /// Parameters θ, in order.
+    pub parameters: Vec<ParameterInfo>,
+    /// Estimator names, in the order rows are written for each realisation.
+    pub estimators: Vec<&'static str>,
+    /// Derived per-row quantities.
+    pub extras: Vec<ExtraInfo>,
+    /// Bounds, each with one value per parameter.
+    pub bounds: Vec<BoundInfo>,
+}
+
+impl Layout {
+    /// f64 slots of one estimator's row: status, θ, extras, bounds × parameters.
+    pub fn estimator_stride(&self) -> usize {
+        1 + self.parameters.len() + self.extras.len() + self.bounds.len() * self.parameters.len()
+    }
+
+    /// f64 slots of one realisation (all estimators).
+    pub fn realisation_stride(&self) -> usize {
+        self.estimators.len() * self.estimator_stride()
+    }
+
+    /// Offset of the status slot of estimator `e` in a realisation's slots.
+    pub fn status_at(&self, e: usize) -> usize {
+        e * self.estimator_stride()
+    }
+
+    /// Offset of θ_p of estimator `e`.
+    pub fn theta_at(&self, e: usize, p: usize) -> usize {
+        self.status_at(e) + 1 + p
+    }
+
+    /// Offset of extra `x` of estimator `e`.
+    pub fn extra_at(&self, e: usize, x: usize) -> usize {
+        self.status_at(e) + 1 + self.parameters.len() + x
+    }
+
+    /// Offset of bound `b` for parameter `p` of estimator `e`.
+    pub fn bound_at(&self, e: usize, b: usize, p: usize) -> usize {
+        self.status_at(e)
+            + 1
+            + self.parameters.len()
+            + self.extras.len()
+            + b * self.parameters.len()
+            + p
+    }
+
+    /// Index of the estimator called `name`.
+    pub fn estimator_index(&self, name: &str) -> Option<usize> {
+        self.estimators.iter().position(|e| *e == name)
+    }
+}
+
+/// Outcome of one estimator on one realisation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// Estimates are valid.
+    Ok = 0,
+    /// The normal equations were singular; estimates are NaN.
+    Singular = 1,
+}
+
+impl Status {
+    /// Name written to the `status` column.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Singular => "singular",
+        }
+    }
+
+    /// Status from its slot value.
+    pub fn from_slot(v: f64) -> Status {
+        if v == 0.0 {
+            Status::Ok
+        } else {
+            Status::Singular
+        }
+    }
+
+    /// Status from its column name.
+    pub fn from_name(name: &str) -> Option<Status> {
+        [Status::Ok, Status::Singular]
+            .into_iter()
+            .find(|s| s.name() == name)
+    }
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What is known about a condition before any realisation: its axes, metrics, the truth,
+/// and which bounds apply to which estimator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConditionInfo {
+    /// Values of the layout's axes.
+    pub axes: Vec<f64>,
+    /// Values of the layout's condition metrics.
+    pub metrics: Vec<f64>,
+    /// True θ.
+    pub truth: Vec<f64>,
+    /// `applies[e][b]`: bound `b` is valid (and reported) for estimator `e`.
+    pub applies: Vec<Vec<bool>>,
+}
+
+/// A model: prepared conditions and the per-realisation computation.
+pub trait Model: Sync {
+    /// Layout of this model's rows.
+    fn layout(&self) -> &Layout;
+
+    /// Number of conditions.
+    fn condition_count(&self) -> usize;
+
+    /// What is known about condition `c` before realising it.
+    fn condition_info(&self, c: usize) -> &ConditionInfo;
+
+    /// Compute realisation `r` of condition `c` into `slots` (length
+    /// [`Layout::realisation_stride`]); a pure function of (seed, c, r).
+    fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]);
+}

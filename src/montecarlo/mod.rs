@@ -1,0 +1,90 @@
+//! The Monte Carlo executor: runs realisations of a [`Model`] on rayon and hands them, in
+//! index order, to a sink.
+//!
+//! Each realisation is a pure function of (seed, condition, realisation) — its random
+//! streams are keyed by those integers — so the slots computed here are bit-identical
+//! whatever the thread count. Work is done in chunks of realisations: the chunk is computed
+//! in parallel into one flat buffer (no allocation per realisation), then passed whole to
+//! the sink on the calling thread. Memory is bounded by the chunk size, not by R.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use crate::model::Model;
+
+/// Realisations computed per chunk (one Arrow batch per chunk).
+pub const DEFAULT_CHUNK: u64 = 1024;
+
+/// A contiguous range of realisations of one condition.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Work {
+    /// Condition index.
+    pub condition: usize,
+    /// Realisation indices.
+    pub realisations: Range<u64>,
+}
+
+/// A computed chunk: realisations `first..first + len` of `condition`.
+#[derive(Debug)]
+pub struct Chunk<'a> {
+    /// Condition index.
+    pub condition: usize,
+    /// Index of the first realisation in the chunk.
+    pub first: u64,
+    /// The slots of every realisation, `Layout::realisation_stride` each.
+    pub slots: &'a [f64],
+}
+
+/// Watches a run; every method has a no-op default (e.g. a progress bar implements it).
+pub trait Observer: Sync {
+    /// `count` more realisations are done.
+    fn realisations_done(&self, _count: u64) {}
+}
+
+/// An observer that does nothing.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Silent;
+
+impl Observer for Silent {}
+
+/// Run every item of `work` in order, chunk by chunk, and pass each chunk to `sink`.
+///
+/// Parallelism comes from the ambient rayon pool (use `ThreadPool::install` to choose it).
+pub fn execute<M, E>(
+    model: &M,
+    seed: u64,
+    work: &[Work],
+    chunk: u64,
+    observer: &dyn Observer,
+    mut sink: impl FnMut(Chunk<'_>) -> Result<(), E>,
+) -> Result<(), E>
+where
+    M: Model,
+{
+    let stride = model.layout().realisation_stride();
+    let chunk = chunk.max(1);
+    let mut buffer: Vec<f64> = Vec::new();
+    for item in work {
+        let mut first = item.realisations.start;
+        while first < item.realisations.end {
+            let len = chunk.min(item.realisations.end - first);
+            buffer.clear();
+            buffer.resize(len as usize * stride, f64::NAN);
+            buffer
+                .par_chunks_mut(stride)
+                .enumerate()
+                .for_each(|(i, slots)| {
+                    model.realise(seed, item.condition, first + i as u64, slots);
+                });
+            observer.realisations_done(len);
+            sink(Chunk {
+                condition: item.condition,
+                first,
+                slots: &buffer,
+            })?;
+            first += len;
+        }
+    }
+    Ok(())
+}

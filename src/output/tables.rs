@@ -1,0 +1,395 @@
+//! Arrow schemas of the three tables and the conversions to and from record batches.
+//!
+//! The schemas are built from the model's [`Layout`], so every model gets the same column
+//! conventions: `theta_<parameter>`, `<bound>_<parameter>`, snake_case, SI units.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{
+    Array, ArrayRef, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray,
+};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+
+use super::OutputError;
+use crate::model::{ConditionInfo, Layout, Status};
+use crate::montecarlo::Chunk;
+use crate::stats::measures::Estimate;
+use crate::stats::summary::{Record, SummaryRow};
+use crate::vehicle::DriveCycle;
+
+fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
+    Field::new(name, DataType::Float64, nullable)
+}
+
+/// Schema of `realisations.parquet`: one row per realisation × estimator.
+pub fn realisation_schema(layout: &Layout) -> SchemaRef {
+    let mut fields = vec![Field::new("condition", DataType::Int32, false)];
+    fields.extend(layout.axes.iter().map(|a| f64_field(*a, false)));
+    fields.push(Field::new("estimator", DataType::Utf8, false));
+    fields.push(Field::new("realisation", DataType::Int64, false));
+    for p in &layout.parameters {
+        fields.push(f64_field(format!("theta_{}", p.name), false));
+    }
+    for x in &layout.extras {
+        fields.push(f64_field(x.name, false));
+    }
+    for b in &layout.bounds {
+        for p in &layout.parameters {
+            fields.push(f64_field(format!("{}_{}", b.name, p.name), true));
+        }
+    }
+    fields.push(Field::new("status", DataType::Utf8, false));
+    Arc::new(Schema::new(fields))
+}
+
+/// The rows of a computed chunk as a record batch (realisation-major, estimators adjacent).
+pub fn realisations_batch(
+    layout: &Layout,
+    schema: &SchemaRef,
+    info: &ConditionInfo,
+    chunk: &Chunk<'_>,
+) -> Result<RecordBatch, arrow::error::ArrowError> {
+    let stride = layout.realisation_stride();
+    let n_real = chunk.slots.len() / stride;
+    let n_est = layout.estimators.len();
+    let rows = n_real * n_est;
+    // slot value of (row, offset-within-realisation)
+    let slot = |row: usize, offset: usize| chunk.slots[(row / n_est) * stride + offset];
+    let est = |row: usize| row % n_est;
+
+    let mut columns: Vec<ArrayRef> = Vec::with_capacity(schema.fields().len());
+    columns.push(Arc::new(Int32Array::from(vec![
+        chunk.condition as i32;
+        rows
+    ])));
+    for &a in &info.axes {
+        columns.push(Arc::new(Float64Array::from(vec![a; rows])));
+    }
+    columns.push(Arc::new(StringArray::from_iter_values(
+        (0..rows).map(|r| layout.estimators[est(r)]),
+    )));
+    columns.push(Arc::new(Int64Array::from_iter_values(
+        (0..rows).map(|r| (chunk.first + (r / n_est) as u64) as i64),
+    )));
+    for p in 0..layout.parameters.len() {
+        columns.push(Arc::new(Float64Array::from_iter_values(
+            (0..rows).map(|r| slot(r, layout.theta_at(est(r), p))),
+        )));
+    }
+    for x in 0..layout.extras.len() {
+        columns.push(Arc::new(Float64Array::from_iter_values(
+            (0..rows).map(|r| slot(r, layout.extra_at(est(r), x))),
+        )));
+    }
+    for b in 0..layout.bounds.len() {
+        for p in 0..layout.parameters.len() {
+            columns.push(Arc::new(Float64Array::from_iter((0..rows).map(|r| {
+                let v = slot(r, layout.bound_at(est(r), b, p));
+                (!v.is_nan()).then_some(v)
+            }))));
+        }
+    }
+    columns.push(Arc::new(StringArray::from_iter_values((0..rows).map(
+        |r| Status::from_slot(slot(r, layout.status_at(est(r)))).name(),
+    ))));
+    RecordBatch::try_new(schema.clone(), columns)
+}
+
+/// Realisation rows decoded from a batch, ready to be fed to the summarizer.
+#[derive(Debug)]
+pub struct RealisationBatches {
+    condition: Vec<usize>,
+    realisation: Vec<u64>,
+    estimator: Vec<usize>,
+    ok: Vec<bool>,
+    /// row-major θ, P per row
+    theta: Vec<f64>,
+    /// row-major bounds, B × P per row
+    bounds: Vec<f64>,
+    n_params: usize,
+    n_bound_values: usize,
+}
+
+impl RealisationBatches {
+    /// Decode `batch` (a realisation table read back from `path`).
+    pub fn decode(layout: &Layout, batch: &RecordBatch, path: &Path) -> Result<Self, OutputError> {
+        let column = |name: &str| {
+            batch
+                .column_by_name(name)
+                .ok_or_else(|| OutputError::format(path, format!("missing column `{name}`")))
+        };
+        let f64_col = |name: &str| -> Result<Float64Array, OutputError> {
+            column(name)?
+                .as_any()
+                .downcast_ref::<Float64Array>()
+                .cloned()
+                .ok_or_else(|| OutputError::format(path, format!("column `{name}` is not double")))
+        };
+        let str_col = |name: &str| -> Result<StringArray, OutputError> {
+            column(name)?
+                .as_any()
+                .downcast_ref::<StringArray>()
+                .cloned()
+                .ok_or_else(|| {
+                    OutputError::format(path, format!("column `{name}` is not a string"))
+                })
+        };
+        let n = batch.num_rows();
+        let cond = column("condition")?
+            .as_any()
+            .downcast_ref::<Int32Array>()
+            .cloned()
+            .ok_or_else(|| OutputError::format(path, "column `condition` is not int32"))?;
+        let real = column("realisation")?
+            .as_any()
+            .downcast_ref::<Int64Array>()
+            .cloned()
+            .ok_or_else(|| OutputError::format(path, "column `realisation` is not int64"))?;
+        let est = str_col("estimator")?;
+        let status = str_col("status")?;
+        let mut estimator = Vec::with_capacity(n);
+        let mut ok = Vec::with_capacity(n);
+        for i in 0..n {
+            let name = est.value(i);
+            estimator.push(layout.estimator_index(name).ok_or_else(|| {
+                OutputError::format(path, format!("row {i}: unknown estimator \"{name}\""))
+            })?);
+            let s = status.value(i);
+            ok.push(
+                Status::from_name(s).ok_or_else(|| {
+                    OutputError::format(path, format!("row {i}: unknown status \"{s}\""))
+                })? == Status::Ok,
+            );
+        }
+        let np = layout.parameters.len();
+        let thetas: Vec<Float64Array> = layout
+            .parameters
+            .iter()
+            .map(|p| f64_col(&format!("theta_{}", p.name)))
+            .collect::<Result<_, _>>()?;
+        let mut bound_cols = Vec::new();
+        for b in &layout.bounds {
+            for p in &layout.parameters {
+                bound_cols.push(f64_col(&format!("{}_{}", b.name, p.name))?);
+            }
+        }
+        let mut theta = Vec::with_capacity(n * np);
+        let mut bounds = Vec::with_capacity(n * bound_cols.len());
+        for i in 0..n {
+            theta.extend(thetas.iter().map(|c| c.value(i)));
+            bounds.extend(
+                bound_cols
+                    .iter()
+                    .map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }),
+            );
+        }
+        let mut condition = Vec::with_capacity(n);
+        let mut realisation = Vec::with_capacity(n);
+        for i in 0..n {
+            let c = cond.value(i);
+            let r = real.value(i);
+            if c < 0 || r < 0 {
+                return Err(OutputError::format(
+                    path,
+                    format!("row {i}: negative index"),
+                ));
+            }
+            condition.push(c as usize);
+            realisation.push(r as u64);
+        }
+        Ok(RealisationBatches {
+            condition,
+            realisation,
+            estimator,
+            ok,
+            theta,
+            bounds,
+            n_params: np,
+            n_bound_values: bound_cols.len(),
+        })
+    }
+
+    /// The decoded rows as summarizer records.
+    pub fn records(&self) -> impl Iterator<Item = Record<'_>> {
+        (0..self.condition.len()).map(move |i| Record {
+            condition: self.condition[i],
+            realisation: self.realisation[i],
+            estimator: self.estimator[i],
+            ok: self.ok[i],
+            theta: &self.theta[i * self.n_params..(i + 1) * self.n_params],
+            bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
+        })
+    }
+}
+
+/// Names of the per-bound summary columns of bound `b`, in schema order.
+fn bound_columns(b: &str) -> [String; 11] {
+    [
+        format!("{b}_se"),
+        format!("{b}_se_mcse"),
+        format!("emp_over_{b}"),
+        format!("emp_over_{b}_mcse"),
+        format!("{b}_rel_error"),
+        format!("{b}_rel_error_mcse"),
+        format!("coverage_{b}"),
+        format!("coverage_{b}_mcse"),
+        format!("be_coverage_{b}"),
+        format!("be_coverage_{b}_mcse"),
+        format!("{b}_chi2_p"),
+    ]
+}
+
+/// Measures of every summary row, in schema order after the identifying columns.
+const MEASURES: [&str; 7] = [
+    "mean",
+    "bias",
+    "rel_bias",
+    "emp_se",
+    "mse",
+    "rmse",
+    "rel_precision",
+];
+
+fn measure(row: &SummaryRow, name: &str) -> Estimate {
+    match name {
+        "mean" => row.mean,
+        "bias" => row.bias,
+        "rel_bias" => row.rel_bias,
+        "emp_se" => row.emp_se,
+        "mse" => row.mse,
+        "rmse" => row.rmse,
+        "rel_precision" => row.rel_precision,
+        _ => unreachable!("unknown measure {name}"),
+    }
+}
+
+/// Schema of `summary.parquet`: one row per condition × estimator × parameter.
+pub fn summary_schema(layout: &Layout) -> SchemaRef {
+    let mut fields = vec![Field::new("condition", DataType::Int32, false)];
+    fields.extend(layout.axes.iter().map(|a| f64_field(*a, false)));
+    fields.extend(
+        layout
+            .condition_metrics
+            .iter()
+            .map(|a| f64_field(*a, false)),
+    );
+    fields.push(Field::new("estimator", DataType::Utf8, false));
+    fields.push(Field::new("parameter", DataType::Utf8, false));
+    fields.push(f64_field("truth", false));
+    fields.push(Field::new("n", DataType::Int64, false));
+    fields.push(Field::new("n_failed", DataType::Int64, false));
+    for m in MEASURES {
+        fields.push(f64_field(m, true));
+        fields.push(f64_field(format!("{m}_mcse"), true));
+    }
+    for b in &layout.bounds {
+        for name in bound_columns(b.name) {
+            fields.push(f64_field(name, true));
+        }
+    }
+    Arc::new(Schema::new(fields))
+}
+
+fn finite_or_null(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// The summary rows as one record batch.
+pub fn summary_batch(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    rows: &[SummaryRow],
+) -> Result<RecordBatch, arrow::error::ArrowError> {
+    let schema = summary_schema(layout);
+    let mut columns: Vec<ArrayRef> = Vec::new();
+    columns.push(Arc::new(Int32Array::from_iter_values(
+        rows.iter().map(|r| r.condition as i32),
+    )));
+    for a in 0..layout.axes.len() {
+        columns.push(Arc::new(Float64Array::from_iter_values(
+            rows.iter().map(|r| infos[r.condition].axes[a]),
+        )));
+    }
+    for m in 0..layout.condition_metrics.len() {
+        columns.push(Arc::new(Float64Array::from_iter_values(
+            rows.iter().map(|r| infos[r.condition].metrics[m]),
+        )));
+    }
+    columns.push(Arc::new(StringArray::from_iter_values(
+        rows.iter().map(|r| layout.estimators[r.estimator]),
+    )));
+    columns.push(Arc::new(StringArray::from_iter_values(
+        rows.iter().map(|r| layout.parameters[r.parameter].name),
+    )));
+    columns.push(Arc::new(Float64Array::from_iter_values(
+        rows.iter().map(|r| r.truth),
+    )));
+    columns.push(Arc::new(Int64Array::from_iter_values(
+        rows.iter().map(|r| r.n as i64),
+    )));
+    columns.push(Arc::new(Int64Array::from_iter_values(
+        rows.iter().map(|r| r.n_failed as i64),
+    )));
+    for m in MEASURES {
+        columns.push(Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| finite_or_null(measure(r, m).value)),
+        )));
+        columns.push(Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| finite_or_null(measure(r, m).mcse)),
+        )));
+    }
+    for b in 0..layout.bounds.len() {
+        let get = |f: fn(&crate::stats::summary::BoundSummary) -> f64| -> ArrayRef {
+            Arc::new(Float64Array::from_iter(
+                rows.iter()
+                    .map(|r| r.bounds[b].as_ref().map(f).and_then(finite_or_null)),
+            ))
+        };
+        columns.push(get(|s| s.se.value));
+        columns.push(get(|s| s.se.mcse));
+        columns.push(get(|s| s.emp_over.value));
+        columns.push(get(|s| s.emp_over.mcse));
+        columns.push(get(|s| s.rel_error.value));
+        columns.push(get(|s| s.rel_error.mcse));
+        columns.push(get(|s| s.coverage.value));
+        columns.push(get(|s| s.coverage.mcse));
+        columns.push(get(|s| s.be_coverage.value));
+        columns.push(get(|s| s.be_coverage.mcse));
+        columns.push(get(|s| s.chi2_p));
+    }
+    RecordBatch::try_new(schema, columns)
+}
+
+/// Schema of `cycles.parquet`: the noise-free time series of each condition.
+pub fn cycles_schema() -> SchemaRef {
+    Arc::new(Schema::new(vec![
+        Field::new("condition", DataType::Int32, false),
+        f64_field("t", false),
+        f64_field("x", false),
+        f64_field("v", false),
+        f64_field("grade", false),
+        f64_field("f_prop", false),
+        f64_field("accel", false),
+    ]))
+}
+
+/// One condition's drive cycle as a record batch.
+pub fn cycles_batch(
+    condition: usize,
+    cycle: &DriveCycle,
+) -> Result<RecordBatch, arrow::error::ArrowError> {
+    let col = |v: &Vec<f64>| -> ArrayRef { Arc::new(Float64Array::from(v.clone())) };
+    RecordBatch::try_new(
+        cycles_schema(),
+        vec![
+            Arc::new(Int32Array::from(vec![condition as i32; cycle.len()])),
+            col(&cycle.t_s),
+            col(&cycle.x_m),
+            col(&cycle.v_m_s),
+            col(&cycle.grade_rad),
+            col(&cycle.f_prop_n),
+            col(&cycle.accel_m_s2),
+        ],
+    )
+}

@@ -1,0 +1,102 @@
+//! The human-readable table printed after a run: per parameter, one line per condition ×
+//! estimator with the mean ± MCSE, the empirical SE, the applicable bound and EmpSE/bound.
+
+use std::fmt::Write as _;
+
+use crate::model::{ConditionInfo, Layout};
+use crate::stats::summary::SummaryRow;
+
+/// Format `rows` as plain-text tables, one per parameter.
+pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> String {
+    let mut out = String::new();
+    for (p, param) in layout.parameters.iter().enumerate() {
+        let truth = rows
+            .iter()
+            .find(|r| r.parameter == p)
+            .map_or(f64::NAN, |r| r.truth);
+        let _ = writeln!(
+            out,
+            "\n{} — {} [{}], truth {:.6e}",
+            param.name, param.description, param.unit, truth
+        );
+        let mut header = format!("{:>4}", "cond");
+        for a in &layout.axes {
+            let _ = write!(header, " {a:>11}");
+        }
+        if let Some(m) = layout.condition_metrics.first() {
+            let _ = write!(header, " {:>11}", short_metric(m));
+        }
+        let _ = write!(
+            header,
+            " {:>5}  {:>27}  {:>10}  {:>20}  {:>16}",
+            "est", "mean ± MCSE", "EmpSE", "bound", "EmpSE/bound"
+        );
+        let _ = writeln!(out, "{header}");
+        for r in rows.iter().filter(|r| r.parameter == p) {
+            let info = &infos[r.condition];
+            let mut line = format!("{:>4}", r.condition);
+            for a in &info.axes {
+                let _ = write!(line, " {a:>11.4}");
+            }
+            if let Some(m) = info.metrics.first() {
+                let _ = write!(line, " {m:>11.5e}");
+            }
+            let mean = format!("{:.6e} ± {:.1e}", r.mean.value, r.mean.mcse);
+            let (bound, ratio) = match r
+                .bounds
+                .iter()
+                .enumerate()
+                .find_map(|(b, s)| s.as_ref().map(|s| (b, s)))
+            {
+                Some((b, s)) => (
+                    format!("{:.3e} {}", s.se.value, short_bound(layout.bounds[b].name)),
+                    format!("{:.4} ± {:.4}", s.emp_over.value, s.emp_over.mcse),
+                ),
+                None => ("—".to_string(), "—".to_string()),
+            };
+            let _ = writeln!(
+                line,
+                " {:>5}  {:>27}  {:>10.3e}  {:>20}  {:>16}",
+                layout.estimators[r.estimator], mean, r.emp_se.value, bound, ratio
+            );
+            out.push_str(&line);
+        }
+    }
+    if let Some(r) = rows.first() {
+        let _ = writeln!(
+            out,
+            "\n{} realisations per condition{}; bound = the first that applies (see summary.parquet for all).",
+            r.n + r.n_failed,
+            failed_note(rows)
+        );
+    }
+    out
+}
+
+fn failed_note(rows: &[SummaryRow]) -> String {
+    let failed: u64 = rows
+        .iter()
+        .filter(|r| r.parameter == 0)
+        .map(|r| r.n_failed)
+        .sum();
+    if failed > 0 {
+        format!(" ({failed} estimates failed: singular normal equations)")
+    } else {
+        String::new()
+    }
+}
+
+fn short_metric(name: &str) -> &str {
+    match name {
+        "terrain_ms_grid" => "ς_grid",
+        other => other,
+    }
+}
+
+fn short_bound(name: &str) -> &str {
+    match name {
+        "thesis_bound" => "(thesis)",
+        "crlb_output" => "(CRLB)",
+        other => other,
+    }
+}

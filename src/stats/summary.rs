@@ -1,0 +1,432 @@
+//! The summary of a study: every measure of SPEC §6 per condition × estimator × parameter,
+//! from two passes over the realisation rows.
+//!
+//! Pass one gives counts, means and coverage of the truth; pass two, knowing the means,
+//! gives centred sums (so variances never come from the difference of two large sums),
+//! bias-eliminated coverage and the cross-products of estimators. All sums are
+//! [`ExactSum`]s, so the summary is bit-identical whatever the order in which rows arrive:
+//! one file or many shards, one thread or many.
+
+use thiserror::Error;
+
+use super::measures::{
+    self, BoundSums, Estimate, EstimateSums, coverage, emp_over_model, model_se,
+    model_se_relative_error, relative_precision, variance_ratio_p,
+};
+use super::sum::ExactSum;
+use crate::model::{ConditionInfo, Layout};
+
+/// One realisation row of one estimator, as read from memory or from Parquet.
+#[derive(Debug, Clone, Copy)]
+pub struct Record<'a> {
+    /// Condition index.
+    pub condition: usize,
+    /// Realisation index.
+    pub realisation: u64,
+    /// Estimator index in the layout.
+    pub estimator: usize,
+    /// The estimator succeeded (status "ok").
+    pub ok: bool,
+    /// θ̂, one per parameter.
+    pub theta: &'a [f64],
+    /// Bound values, bound-major (`b * P + p`); NaN where the bound is absent.
+    pub bounds: &'a [f64],
+}
+
+/// Rows that do not form a complete, consistent set of realisations.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[non_exhaustive]
+pub enum SummaryError {
+    /// A row names a condition or estimator the study does not have.
+    #[error(
+        "row refers to condition {condition} / estimator {estimator}, which the study does not have"
+    )]
+    UnknownRow {
+        /// Condition index of the row.
+        condition: usize,
+        /// Estimator index of the row.
+        estimator: usize,
+    },
+    /// A realisation appears twice, or its estimator rows are not adjacent.
+    #[error("realisation {realisation} of condition {condition} appears more than once")]
+    Duplicate {
+        /// Condition index.
+        condition: usize,
+        /// Realisation index.
+        realisation: u64,
+    },
+    /// Realisations are missing.
+    #[error(
+        "condition {condition} has {found} of its {expected} realisations (estimator {estimator})"
+    )]
+    Incomplete {
+        /// Condition index.
+        condition: usize,
+        /// Estimator name.
+        estimator: String,
+        /// Rows found.
+        found: u64,
+        /// Rows expected.
+        expected: u64,
+    },
+}
+
+/// The measures of one bound for one condition × estimator × parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundSummary {
+    /// Realisations with a value of this bound.
+    pub n: u64,
+    /// Model SE √(mean b²).
+    pub se: Estimate,
+    /// EmpSE / ModSE.
+    pub emp_over: Estimate,
+    /// 100 (ModSE / EmpSE − 1) [%].
+    pub rel_error: Estimate,
+    /// Coverage of θ̂ ± z·b.
+    pub coverage: Estimate,
+    /// Bias-eliminated coverage: of θ̄ by θ̂ ± z·b.
+    pub be_coverage: Estimate,
+    /// p-value of the χ² test of EmpSE² = ModSE².
+    pub chi2_p: f64,
+}
+
+/// One summary row: condition × estimator × parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SummaryRow {
+    /// Condition index.
+    pub condition: usize,
+    /// Estimator index.
+    pub estimator: usize,
+    /// Parameter index.
+    pub parameter: usize,
+    /// True value.
+    pub truth: f64,
+    /// Realisations with a valid estimate.
+    pub n: u64,
+    /// Realisations where the estimator failed (singular).
+    pub n_failed: u64,
+    /// Mean of θ̂.
+    pub mean: Estimate,
+    /// Bias.
+    pub bias: Estimate,
+    /// Relative bias.
+    pub rel_bias: Estimate,
+    /// Empirical SE.
+    pub emp_se: Estimate,
+    /// Mean squared error.
+    pub mse: Estimate,
+    /// Root mean squared error.
+    pub rmse: Estimate,
+    /// Precision relative to the first estimator, 100((S_ref/S)² − 1) [%].
+    pub rel_precision: Estimate,
+    /// Per bound of the layout: its measures where it applies.
+    pub bounds: Vec<Option<BoundSummary>>,
+}
+
+#[derive(Debug, Clone, Default)]
+struct BoundAcc {
+    n: u64,
+    sum_b_sq: ExactSum,
+    covered: u64,
+    // pass two
+    sum_b_sq_dev_sq: ExactSum,
+    be_covered: u64,
+    mean_b_sq: f64,
+}
+
+#[derive(Debug, Clone, Default)]
+struct ParamAcc {
+    n: u64,
+    sum_d: ExactSum,
+    sum_d_sq: ExactSum,
+    bounds: Vec<BoundAcc>,
+    // pass two
+    sum_centred_sq: ExactSum,
+    sum_sq_dev_sq: ExactSum,
+    sum_cross_ref: ExactSum,
+    mean: f64,
+    mse: f64,
+}
+
+/// Per condition: which realisations have been seen, for completeness checks.
+#[derive(Debug, Clone)]
+struct Seen {
+    bits: Vec<u64>,
+}
+
+impl Seen {
+    fn new(n: u64) -> Self {
+        Seen {
+            bits: vec![0; n.div_ceil(64) as usize],
+        }
+    }
+
+    /// Mark `r`; false if it was already marked.
+    fn mark(&mut self, r: u64) -> bool {
+        let (w, b) = ((r / 64) as usize, r % 64);
+        if w >= self.bits.len() {
+            self.bits.resize(w + 1, 0);
+        }
+        let was = self.bits[w] >> b & 1 == 1;
+        self.bits[w] |= 1 << b;
+        !was
+    }
+}
+
+/// Two-pass accumulation of the summary.
+#[derive(Debug)]
+pub struct Summarizer<'a> {
+    layout: &'a Layout,
+    infos: &'a [ConditionInfo],
+    realisations: u64,
+    z: f64,
+    /// [condition][estimator][parameter]
+    acc: Vec<Vec<Vec<ParamAcc>>>,
+    /// [condition][estimator] rows seen
+    rows: Vec<Vec<u64>>,
+    failed: Vec<Vec<u64>>,
+    seen: Vec<Seen>,
+    /// The realisation currently streaming (condition, realisation) and its estimators seen.
+    current: Option<(usize, u64)>,
+    current_estimators: Vec<bool>,
+    /// Pass two: centred θ̂ of each estimator of the current realisation (NaN when absent).
+    current_centred: Vec<f64>,
+}
+
+impl<'a> Summarizer<'a> {
+    /// A summarizer for `realisations` per condition of a model with `layout`, whose
+    /// conditions are `infos`; intervals are θ̂ ± z·bound.
+    pub fn new(layout: &'a Layout, infos: &'a [ConditionInfo], realisations: u64, z: f64) -> Self {
+        let e = layout.estimators.len();
+        let p = layout.parameters.len();
+        let b = layout.bounds.len();
+        let param = ParamAcc {
+            bounds: vec![BoundAcc::default(); b],
+            ..ParamAcc::default()
+        };
+        Summarizer {
+            layout,
+            infos,
+            realisations,
+            z,
+            acc: vec![vec![vec![param; p]; e]; infos.len()],
+            rows: vec![vec![0; e]; infos.len()],
+            failed: vec![vec![0; e]; infos.len()],
+            seen: (0..infos.len()).map(|_| Seen::new(realisations)).collect(),
+            current: None,
+            current_estimators: vec![false; e],
+            current_centred: vec![f64::NAN; e * p],
+        }
+    }
+
+    fn check_row(&self, r: &Record<'_>) -> Result<(), SummaryError> {
+        if r.condition >= self.infos.len() || r.estimator >= self.layout.estimators.len() {
+            return Err(SummaryError::UnknownRow {
+                condition: r.condition,
+                estimator: r.estimator,
+            });
+        }
+        Ok(())
+    }
+
+    /// Pass one: counts, Σd, Σd², bound sums and coverage of the truth.
+    pub fn first_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
+        self.check_row(r)?;
+        let key = (r.condition, r.realisation);
+        if self.current != Some(key) {
+            if !self.seen[r.condition].mark(r.realisation) {
+                return Err(SummaryError::Duplicate {
+                    condition: r.condition,
+                    realisation: r.realisation,
+                });
+            }
+            self.current = Some(key);
+            self.current_estimators.fill(false);
+        }
+        if std::mem::replace(&mut self.current_estimators[r.estimator], true) {
+            return Err(SummaryError::Duplicate {
+                condition: r.condition,
+                realisation: r.realisation,
+            });
+        }
+        self.rows[r.condition][r.estimator] += 1;
+        if !r.ok {
+            self.failed[r.condition][r.estimator] += 1;
+            return Ok(());
+        }
+        let np = self.layout.parameters.len();
+        let info = &self.infos[r.condition];
+        for (p, acc) in self.acc[r.condition][r.estimator].iter_mut().enumerate() {
+            let d = r.theta[p] - info.truth[p];
+            acc.n += 1;
+            acc.sum_d.add(d);
+            acc.sum_d_sq.add(d * d);
+            for (b, bacc) in acc.bounds.iter_mut().enumerate() {
+                let bound = r.bounds[b * np + p];
+                if bound.is_nan() {
+                    continue;
+                }
+                bacc.n += 1;
+                bacc.sum_b_sq.add(bound * bound);
+                bacc.covered += u64::from(d.abs() <= self.z * bound);
+            }
+        }
+        Ok(())
+    }
+
+    /// Close pass one: check that every realisation of every condition arrived once.
+    pub fn end_first_pass(&mut self) -> Result<(), SummaryError> {
+        for (c, rows) in self.rows.iter().enumerate() {
+            for (e, &found) in rows.iter().enumerate() {
+                if found != self.realisations {
+                    return Err(SummaryError::Incomplete {
+                        condition: c,
+                        estimator: self.layout.estimators[e].to_string(),
+                        found,
+                        expected: self.realisations,
+                    });
+                }
+            }
+        }
+        for per_c in &mut self.acc {
+            for per_e in per_c {
+                for acc in per_e {
+                    let n = acc.n as f64;
+                    acc.mean = acc.sum_d.value() / n;
+                    acc.mse = acc.sum_d_sq.value() / n;
+                    for b in &mut acc.bounds {
+                        b.mean_b_sq = b.sum_b_sq.value() / b.n as f64;
+                    }
+                }
+            }
+        }
+        self.current = None;
+        Ok(())
+    }
+
+    /// Pass two (same rows, any order that keeps a realisation's rows adjacent): centred
+    /// sums, bias-eliminated coverage and cross-products with the first estimator.
+    pub fn second_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
+        self.check_row(r)?;
+        let key = (r.condition, r.realisation);
+        if self.current != Some(key) {
+            self.flush_cross();
+            self.current = Some(key);
+        }
+        if !r.ok {
+            return Ok(());
+        }
+        let np = self.layout.parameters.len();
+        let info = &self.infos[r.condition];
+        for (p, acc) in self.acc[r.condition][r.estimator].iter_mut().enumerate() {
+            let d = r.theta[p] - info.truth[p];
+            let centred = d - acc.mean;
+            acc.sum_centred_sq.add(centred * centred);
+            let q = d * d - acc.mse;
+            acc.sum_sq_dev_sq.add(q * q);
+            self.current_centred[r.estimator * np + p] = centred;
+            for (b, bacc) in acc.bounds.iter_mut().enumerate() {
+                let bound = r.bounds[b * np + p];
+                if bound.is_nan() {
+                    continue;
+                }
+                let dev = bound * bound - bacc.mean_b_sq;
+                bacc.sum_b_sq_dev_sq.add(dev * dev);
+                bacc.be_covered += u64::from(centred.abs() <= self.z * bound);
+            }
+        }
+        Ok(())
+    }
+
+    /// Add the current realisation's cross-products with the reference estimator (index 0).
+    fn flush_cross(&mut self) {
+        let Some((c, _)) = self.current else {
+            return;
+        };
+        let np = self.layout.parameters.len();
+        for e in 0..self.layout.estimators.len() {
+            for p in 0..np {
+                let x = self.current_centred[e * np + p];
+                let reference = self.current_centred[p];
+                if !(x.is_nan() || reference.is_nan()) {
+                    self.acc[c][e][p].sum_cross_ref.add(x * reference);
+                }
+            }
+        }
+        self.current_centred.fill(f64::NAN);
+    }
+
+    /// Finish pass two and compute every measure.
+    pub fn finish(mut self) -> Vec<SummaryRow> {
+        self.flush_cross();
+        let mut out = Vec::new();
+        for (c, per_c) in self.acc.iter().enumerate() {
+            let info = &self.infos[c];
+            for (e, per_e) in per_c.iter().enumerate() {
+                for (p, acc) in per_e.iter().enumerate() {
+                    let truth = info.truth[p];
+                    let sums = estimate_sums(acc);
+                    let reference = estimate_sums(&per_c[0][p]);
+                    let bounds = acc
+                        .bounds
+                        .iter()
+                        .enumerate()
+                        .map(|(b, bacc)| {
+                            (info.applies[e][b] && bacc.n > 0)
+                                .then(|| bound_summary(&sums, bacc, acc.n))
+                        })
+                        .collect();
+                    out.push(SummaryRow {
+                        condition: c,
+                        estimator: e,
+                        parameter: p,
+                        truth,
+                        n: acc.n,
+                        n_failed: self.failed[c][e],
+                        mean: measures::mean(truth, &sums),
+                        bias: measures::bias(&sums),
+                        rel_bias: measures::relative_bias(truth, &sums),
+                        emp_se: measures::emp_se(&sums),
+                        mse: measures::mse(&sums),
+                        rmse: measures::rmse(&sums),
+                        rel_precision: relative_precision(
+                            &reference,
+                            &sums,
+                            acc.sum_cross_ref.value(),
+                        ),
+                        bounds,
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+fn estimate_sums(acc: &ParamAcc) -> EstimateSums {
+    EstimateSums {
+        n: acc.n as f64,
+        sum_d: acc.sum_d.value(),
+        sum_centred_sq: acc.sum_centred_sq.value(),
+        sum_d_sq: acc.sum_d_sq.value(),
+        sum_sq_dev_sq: acc.sum_sq_dev_sq.value(),
+    }
+}
+
+fn bound_summary(sums: &EstimateSums, b: &BoundAcc, n_estimates: u64) -> BoundSummary {
+    let bs = BoundSums {
+        n: b.n as f64,
+        sum_b_sq: b.sum_b_sq.value(),
+        sum_b_sq_dev_sq: b.sum_b_sq_dev_sq.value(),
+    };
+    debug_assert!(b.n <= n_estimates);
+    BoundSummary {
+        n: b.n,
+        se: model_se(&bs),
+        emp_over: emp_over_model(sums, &bs),
+        rel_error: model_se_relative_error(sums, &bs),
+        coverage: coverage(b.covered as f64, b.n as f64),
+        be_coverage: coverage(b.be_covered as f64, b.n as f64),
+        chi2_p: variance_ratio_p(sums, &bs),
+    }
+}

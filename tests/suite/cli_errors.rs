@@ -1,0 +1,291 @@
+//! Acceptance 6 (issue 2): a bad study file exits with status 2 and one message that names
+//! the file, the key (and line) and the reason; no output file is created or changed. And
+//! an existing output directory survives an interrupted run untouched.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::common::*;
+
+struct Case {
+    name: &'static str,
+    study: String,
+    key: &'static str,
+    line: Option<usize>,
+    reason: &'static str,
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.starts_with(needle)).unwrap() + 1
+}
+
+fn cases() -> Vec<Case> {
+    let t = study_text("thesis.toml");
+    let set = |k: &str, v: &str| set_key(&t, k, v);
+    vec![
+        Case {
+            name: "syntax error",
+            study: set("mass", "= 1800.0"),
+            key: "vehicle.mass",
+            line: Some(line_of(&t, "mass =")),
+            reason: "TOML syntax error",
+        },
+        Case {
+            name: "unknown key",
+            study: t.replace("wheel_radius = 0.3", "wheel_radius = 0.3\nwheel_count = 4"),
+            key: "vehicle.wheel_count",
+            line: Some(line_of(&t, "wheel_radius") + 1),
+            reason: "unknown field `wheel_count`",
+        },
+        Case {
+            name: "missing required key",
+            study: t
+                .lines()
+                .filter(|l| !l.starts_with("gravity"))
+                .collect::<Vec<_>>()
+                .join("\n"),
+            key: "vehicle.gravity",
+            line: Some(line_of(&t, "[vehicle]")),
+            reason: "required key is missing",
+        },
+        Case {
+            name: "wrong type",
+            study: set("mass", "\"heavy\""),
+            key: "vehicle.mass",
+            line: Some(line_of(&t, "mass =")),
+            reason: "invalid type: string",
+        },
+        Case {
+            name: "mass <= 0",
+            study: set("mass", "-1800.0"),
+            key: "vehicle.mass",
+            line: Some(line_of(&t, "mass =")),
+            reason: "must be > 0, got -1800",
+        },
+        Case {
+            name: "time_step <= 0",
+            study: set("time_step", "0.0"),
+            key: "drive.time_step",
+            line: Some(line_of(&t, "time_step =")),
+            reason: "must be > 0",
+        },
+        Case {
+            name: "duration not a multiple of time_step",
+            study: set("duration", "600.005"),
+            key: "drive.duration",
+            line: Some(line_of(&t, "duration =")),
+            reason: "whole multiple of drive.time_step",
+        },
+        Case {
+            name: "negative sigma",
+            study: set("velocity_sd", "[1.0, -0.5]"),
+            key: "noise.velocity_sd[1]",
+            line: Some(line_of(&t, "velocity_sd =")),
+            reason: "must be >= 0, got -0.5",
+        },
+        Case {
+            name: "realisations = 0",
+            study: set("realisations", "0"),
+            key: "realisations",
+            line: Some(line_of(&t, "realisations =")),
+            reason: "must be at least 1",
+        },
+        Case {
+            name: "empty scales",
+            study: set("scales", "[]"),
+            key: "terrain.scales",
+            line: Some(line_of(&t, "scales =")),
+            reason: "at least one value",
+        },
+        Case {
+            name: "non-finite number",
+            study: set("height", "nan"),
+            key: "terrain.height",
+            line: Some(line_of(&t, "height =")),
+            reason: "must be a finite number",
+        },
+        Case {
+            name: "a scale at which the vehicle stalls",
+            study: set("scales", "[1.0, 8.0]"),
+            key: "terrain.scales[1]",
+            line: Some(line_of(&t, "scales =")),
+            reason: "the vehicle stalls",
+        },
+    ]
+}
+
+fn run_cli(study: &Path, out: &Path, extra: &[&str]) -> (i32, String, String) {
+    let output = Command::new(bin())
+        .arg("run")
+        .arg(study)
+        .arg("--out")
+        .arg(out)
+        .arg("--quiet")
+        .args(extra)
+        .output()
+        .unwrap();
+    (
+        output.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Every file in `dir` with its bytes.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn bad_study_files_exit_2_with_file_key_line_and_reason() {
+    let tmp = tempfile::tempdir().unwrap();
+    // An existing results directory that no failed run may touch.
+    let existing = tmp.path().join("existing");
+    let (code, _, err) = run_cli(
+        &study_path("thesis.toml"),
+        &existing,
+        &["--realisations", "3"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let before = snapshot(&existing);
+    assert_eq!(before.len(), 3);
+
+    for case in cases() {
+        let file = tmp
+            .path()
+            .join(format!("{}.toml", case.name.replace(' ', "_")));
+        std::fs::write(&file, &case.study).unwrap();
+        let fresh = tmp
+            .path()
+            .join(format!("out-{}", case.name.replace(' ', "_")));
+        for out in [&fresh, &existing] {
+            let (code, stdout, stderr) = run_cli(&file, out, &[]);
+            assert_eq!(code, 2, "{}: exit {code}, stderr: {stderr}", case.name);
+            assert!(stdout.is_empty(), "{}: {stdout}", case.name);
+            let message = stderr.trim();
+            assert_eq!(
+                message.lines().count(),
+                1,
+                "{}: one line: {message}",
+                case.name
+            );
+            assert!(
+                message.contains(&file.display().to_string()),
+                "{}: file: {message}",
+                case.name
+            );
+            assert!(
+                message.contains(&format!("`{}`", case.key)),
+                "{}: key: {message}",
+                case.name
+            );
+            if let Some(line) = case.line {
+                assert!(
+                    message.contains(&format!("line {line}")),
+                    "{}: line: {message}",
+                    case.name
+                );
+            }
+            assert!(
+                message.contains(case.reason),
+                "{}: reason: {message}",
+                case.name
+            );
+        }
+        assert!(
+            !fresh.exists(),
+            "{}: created {}",
+            case.name,
+            fresh.display()
+        );
+        assert_eq!(
+            snapshot(&existing),
+            before,
+            "{}: changed existing output",
+            case.name
+        );
+    }
+}
+
+#[test]
+fn bad_arguments_exit_2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    for extra in [
+        &["--realisations", "0"][..],
+        &["--threads", "0"],
+        &["--seed", "-1"],
+        &["--bogus"],
+    ] {
+        let (code, _, stderr) = run_cli(&study_path("thesis.toml"), &out, extra);
+        assert_eq!(code, 2, "{extra:?}: {stderr}");
+        assert!(!out.exists());
+    }
+    let (code, _, stderr) = run_cli(&tmp.path().join("nope.toml"), &out, &[]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("nope.toml") && stderr.contains("cannot read"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn an_interrupted_run_leaves_existing_results_untouched() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let (code, _, err) = run_cli(&study_path("thesis.toml"), &out, &["--realisations", "3"]);
+    assert_eq!(code, 0, "{err}");
+    let before = snapshot(&out);
+
+    // A long run into the same directory, killed (SIGKILL) once it has started writing.
+    let mut child = Command::new(bin())
+        .args([
+            "run",
+            "--quiet",
+            "--threads",
+            "1",
+            "--realisations",
+            "100000",
+            "--out",
+        ])
+        .arg(&out)
+        .arg(study_path("thesis.toml"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    let writing = || {
+        std::fs::read_dir(&out)
+            .unwrap()
+            .any(|e| e.unwrap().file_name().to_string_lossy().contains(".tmp-"))
+    };
+    while !writing() && started.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(writing(), "the run never started writing");
+    std::thread::sleep(Duration::from_millis(300));
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let after: Vec<_> = snapshot(&out)
+        .into_iter()
+        .filter(|(name, _)| !name.contains(".tmp-"))
+        .collect();
+    assert_eq!(
+        after, before,
+        "committed files changed by an interrupted run"
+    );
+}

@@ -1,0 +1,134 @@
+//! Shared helpers: load the shipped studies, run them into temporary directories, read
+//! Parquet columns back.
+
+#![allow(dead_code)]
+
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use arrow::array::{Array, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray};
+use chassis_mc::montecarlo::Silent;
+use chassis_mc::run::{RunOptions, RunReport, run_study};
+use chassis_mc::study::Study;
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A shipped study file.
+pub fn study_path(name: &str) -> PathBuf {
+    root().join("studies").join(name)
+}
+
+/// Text of a shipped study file.
+pub fn study_text(name: &str) -> String {
+    std::fs::read_to_string(study_path(name)).unwrap()
+}
+
+/// Load a shipped study with `realisations` per condition.
+pub fn study(name: &str, realisations: u64) -> Study {
+    Study::load(&study_path(name))
+        .unwrap()
+        .with_overrides(Some(realisations), None)
+        .unwrap()
+}
+
+/// Replace the line starting with `key =` in `text` by `key = value`.
+pub fn set_key(text: &str, key: &str, value: &str) -> String {
+    let mut found = false;
+    let out: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.trim_start().starts_with(&format!("{key} =")) && !found {
+                found = true;
+                format!("{key} = {value}")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    assert!(found, "no key {key}");
+    out.join("\n") + "\n"
+}
+
+/// Run `study` into a fresh temporary directory.
+pub fn run(study: &Study, threads: Option<usize>) -> (tempfile::TempDir, RunReport) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut options = RunOptions::new(dir.path());
+    options.threads = threads;
+    let report = run_study(study, &options, &Silent).unwrap();
+    (dir, report)
+}
+
+/// All record batches of a Parquet file.
+pub fn read_batches(path: &Path) -> Vec<RecordBatch> {
+    let file = File::open(path).unwrap();
+    ParquetRecordBatchReaderBuilder::try_new(file)
+        .unwrap()
+        .build()
+        .unwrap()
+        .map(|b| b.unwrap())
+        .collect()
+}
+
+/// One whole table, concatenated.
+pub fn read_table(path: &Path) -> RecordBatch {
+    let batches = read_batches(path);
+    arrow::compute::concat_batches(&batches[0].schema(), &batches).unwrap()
+}
+
+/// A double column (nulls as NaN).
+pub fn f64_col(batch: &RecordBatch, name: &str) -> Vec<f64> {
+    let a = batch
+        .column_by_name(name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .unwrap();
+    (0..a.len())
+        .map(|i| if a.is_null(i) { f64::NAN } else { a.value(i) })
+        .collect()
+}
+
+/// An int32 column.
+pub fn i32_col(batch: &RecordBatch, name: &str) -> Vec<i32> {
+    let a = batch
+        .column_by_name(name)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Int32Array>()
+        .unwrap();
+    a.values().to_vec()
+}
+
+/// An int64 column.
+pub fn i64_col(batch: &RecordBatch, name: &str) -> Vec<i64> {
+    let a = batch
+        .column_by_name(name)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Int64Array>()
+        .unwrap();
+    a.values().to_vec()
+}
+
+/// A string column.
+pub fn str_col(batch: &RecordBatch, name: &str) -> Vec<String> {
+    let a = batch
+        .column_by_name(name)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<StringArray>()
+        .unwrap();
+    (0..a.len()).map(|i| a.value(i).to_string()).collect()
+}
+
+/// Path of the `chassis-mc` binary built for these tests.
+pub fn bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_chassis-mc"))
+}
+
+/// Parameter names in output order.
+pub const PARAMS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
