@@ -40,7 +40,10 @@ fn normals_pass_kolmogorov_smirnov_and_tail_checks() {
     let r = 3.654152885361009;
     let tail = x.iter().filter(|v| v.abs() > r).count() as f64;
     let expected = 2.0 * phi.sf(r) * n;
-    assert!((tail - expected).abs() < 5.0 * expected.sqrt(), "{tail} vs {expected}");
+    assert!(
+        (tail - expected).abs() < 5.0 * expected.sqrt(),
+        "{tail} vs {expected}"
+    );
 
     // Wedge region checks by equiprobable bins: χ² with 99 df; P(χ²₉₉ > 148.2) = 0.001.
     let bins = 100usize;
