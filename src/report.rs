@@ -6,9 +6,24 @@ use std::fmt::Write as _;
 use crate::model::{ConditionInfo, Layout};
 use crate::stats::summary::SummaryRow;
 
-/// Format `rows` as plain-text tables, one per parameter.
+/// Format `rows` as plain-text tables, one per parameter. Axes that take one value in
+/// every condition are named once above the tables instead of repeated in every line.
 pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> String {
     let mut out = String::new();
+    let varies: Vec<bool> = (0..layout.axes.len())
+        .map(|a| a == 0 || infos.iter().any(|i| i.axes[a] != infos[0].axes[a]))
+        .collect();
+    let fixed: Vec<String> = layout
+        .axes
+        .iter()
+        .zip(&varies)
+        .enumerate()
+        .filter(|(_, (_, v))| !**v)
+        .map(|(a, (axis, _))| format!("{} = {}", axis.name, infos[0].axes[a]))
+        .collect();
+    if !fixed.is_empty() {
+        let _ = writeln!(out, "\nIn every condition: {}.", fixed.join(", "));
+    }
     for (p, param) in layout.parameters.iter().enumerate() {
         let truth = rows
             .iter()
@@ -20,8 +35,8 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
             param.name, param.description, param.unit, truth
         );
         let mut header = format!("{:>4}", "cond");
-        for a in &layout.axes {
-            let _ = write!(header, " {a:>11}");
+        for (a, _) in layout.axes.iter().zip(&varies).filter(|(_, v)| **v) {
+            let _ = write!(header, " {:>11}", a.name);
         }
         if let Some(m) = layout.condition_metrics.first() {
             let _ = write!(header, " {:>11}", short_metric(m));
@@ -35,8 +50,15 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
         for r in rows.iter().filter(|r| r.parameter == p) {
             let info = &infos[r.condition];
             let mut line = format!("{:>4}", r.condition);
-            for a in &info.axes {
-                let _ = write!(line, " {a:>11.4}");
+            for (a, _) in info.axes.iter().zip(&varies).filter(|(_, v)| **v) {
+                match a {
+                    crate::model::AxisValue::Number(v) => {
+                        let _ = write!(line, " {v:>11.4}");
+                    }
+                    crate::model::AxisValue::Text(t) => {
+                        let _ = write!(line, " {t:>11}");
+                    }
+                }
             }
             if let Some(m) = info.metrics.first() {
                 let _ = write!(line, " {m:>11.5e}");

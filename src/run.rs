@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::model::line_fit::LineFitModel;
 use crate::model::vehicle::VehicleModel;
 use crate::model::{ConditionInfo, Layout, Model};
 use crate::montecarlo::{self, DEFAULT_CHUNK, Observer, Work};
@@ -85,6 +86,8 @@ impl RunOptions {
 pub enum PreparedModel {
     /// The vehicle model.
     Vehicle(VehicleModel),
+    /// The line-fit example.
+    LineFit(LineFitModel),
 }
 
 impl PreparedModel {
@@ -92,6 +95,7 @@ impl PreparedModel {
     pub fn new(study: &Study) -> Result<Self, StudyError> {
         match &study.model {
             ModelSpec::Vehicle(_) => Ok(PreparedModel::Vehicle(VehicleModel::new(study)?)),
+            ModelSpec::LineFit(_) => Ok(PreparedModel::LineFit(LineFitModel::new(study)?)),
         }
     }
 
@@ -99,6 +103,7 @@ impl PreparedModel {
     pub fn model(&self) -> &dyn DynModel {
         match self {
             PreparedModel::Vehicle(m) => m,
+            PreparedModel::LineFit(m) => m,
         }
     }
 }
@@ -169,6 +174,12 @@ impl ExtraFiles for VehicleModel {
             sink.write(&batch)?;
         }
         Ok(vec![sink.finish()?])
+    }
+}
+
+impl ExtraFiles for LineFitModel {
+    fn write(&self, _dir: &Path, _meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError> {
+        Ok(Vec::new())
     }
 }
 

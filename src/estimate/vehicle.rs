@@ -1,5 +1,5 @@
 //! The vehicle regression (thesis eqs. 32–37), its per-realisation sufficient statistics,
-//! and its estimators and bounds (SPEC §3–§4).
+//! its estimators and its bounds (SPEC §3–§4).
 //!
 //! One row per sample i:
 //!
@@ -9,16 +9,24 @@
 //! θ   = [ 1/M , Cd/M , Cr ]                     y = X θ
 //! ```
 //!
-//! Under speed-measurement noise only the middle column changes (`V → Ṽ = V + e`), so a
-//! realisation is summarised by five sums of w = Ṽ² against the fixed columns
-//! (Σw, ΣwF, Σwc, Σw², Σwy) plus, under output noise, four sums against η. The kernel never
-//! forms the N×3 matrix: XᵀX and Xᵀy are assembled from these sums and the per-condition
-//! constants.
+//! A realisation is summarised by the [`Moments`] of its noisy columns: with w = Ṽ² the
+//! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
+//! kernel never forms the N×3 matrix.
+//!
+//! Noise channels and what they do to OLS (each a condition axis, σ = 0 means off):
+//!
+//! | channel | enters | effect on OLS | bounds that apply |
+//! |---|---|---|---|
+//! | speed, σ_v [m/s] | Ṽ² in column 2 | errors-in-variables: Cd/M biased low (attenuation), Cr biased high (the lost drag is absorbed by the constant-like column 3) | `thesis_bound` (not a real bound), `eiv_sandwich`, `eiv_crlb_linearized` |
+//! | output, σ_y [m/s²] | y | none: OLS unbiased and efficient | `crlb_output` (when alone) |
+//! | grade, σ_θ [rad] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
+//! | force, σ_F [N] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::linalg::{SolveError, inverse_spd, solve_spd};
-use crate::stats::sum::ExactSum;
+pub use crate::noise::NoiseLevels;
+use crate::stats::sum::{ExactSum, exact_sum};
 use crate::vehicle::{DriveCycle, VehicleParams};
 
 /// The noise-free regression of one drive cycle and its constant sums.
@@ -32,13 +40,21 @@ pub struct Regression {
     pub v: Vec<f64>,
     /// Output y = dV/dt + g sin θ [m/s²].
     pub y: Vec<f64>,
+    /// Model acceleration dV/dt [m/s²] (y without the grade term).
+    pub accel: Vec<f64>,
+    /// sin θ of each sample.
+    pub sin_grade: Vec<f64>,
+    /// cos θ of each sample.
+    pub cos_grade: Vec<f64>,
     /// k = ½ ρ A [kg/m].
     pub k: f64,
+    /// g [m/s²].
+    pub g: f64,
     /// Noise-free XᵀX.
     pub xtx: Matrix3<f64>,
     /// Noise-free Xᵀy.
     pub xty: Vector3<f64>,
-    /// Σ F, Σ c, Σ y: the sums the compensations and output noise need.
+    /// Σ F.
     pub sum_f: f64,
     /// Σ c.
     pub sum_c: f64,
@@ -51,20 +67,18 @@ impl Regression {
     pub fn new(cycle: &DriveCycle, vehicle: &VehicleParams) -> Self {
         let g = vehicle.gravity_m_s2;
         let k = vehicle.drag_factor_kg_m();
+        let sin_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.sin()).collect();
+        let cos_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.cos()).collect();
         let f = cycle.f_prop_n.clone();
-        let c: Vec<f64> = cycle.grade_rad.iter().map(|t| -g * t.cos()).collect();
+        let c: Vec<f64> = cos_grade.iter().map(|cs| -g * cs).collect();
         let v = cycle.v_m_s.clone();
         let y: Vec<f64> = cycle
             .accel_m_s2
             .iter()
-            .zip(&cycle.grade_rad)
-            .map(|(a, t)| a + g * t.sin())
+            .zip(&sin_grade)
+            .map(|(a, s)| a + g * s)
             .collect();
-        let dot = |a: &[f64], b: &[f64]| {
-            let mut s = ExactSum::new();
-            s.add_all(a.iter().zip(b).map(|(p, q)| p * q));
-            s.value()
-        };
+        let dot = |a: &[f64], b: &[f64]| exact_sum(a.iter().zip(b).map(|(p, q)| p * q));
         let x2: Vec<f64> = v.iter().map(|v| -k * v * v).collect();
         let cols = [&f, &x2, &c];
         let mut xtx = Matrix3::zeros();
@@ -75,16 +89,20 @@ impl Regression {
             }
             xty[i] = dot(cols[i], &y);
         }
-        let sum = |a: &[f64]| crate::stats::sum::exact_sum(a.iter().copied());
+        let sum = |a: &[f64]| exact_sum(a.iter().copied());
         Regression {
             sum_f: sum(&f),
             sum_c: sum(&c),
             sum_y: sum(&y),
+            accel: cycle.accel_m_s2.clone(),
+            sin_grade,
+            cos_grade,
             f,
             c,
             v,
             y,
             k,
+            g,
             xtx,
             xty,
         }
@@ -100,129 +118,369 @@ impl Regression {
         self.f.is_empty()
     }
 
-    /// Σ F², Σ F c, Σ c², Σ F y, Σ c y: the entries that no speed noise touches.
-    fn fixed(&self) -> [f64; 5] {
-        [
-            self.xtx[(0, 0)],
-            self.xtx[(0, 2)],
-            self.xtx[(2, 2)],
-            self.xty[0],
-            self.xty[2],
-        ]
+    /// First-order variance Ω_i of the equation error u_i = ỹ_i − x̃_iᵀθ at each sample:
+    /// `θ₂²k²(4V²σ_v² + 2σ_v⁴) + θ₁²σ_F² + g²(cos θ − θ₃ sin θ)²σ_θ² + σ_y²`.
+    ///
+    /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
+    /// Force: (F̃ − F)θ₁. Grade: d/dθ [g sin θ + θ₃ g cos θ] = g (cos θ − θ₃ sin θ).
+    pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
+        let (sv2, sv4) = (noise.velocity_sd.powi(2), noise.velocity_sd.powi(4));
+        let speed = (theta[1] * self.k).powi(2);
+        let force = (theta[0] * noise.force_sd).powi(2);
+        let grade = (self.g * noise.grade_sd).powi(2);
+        let output = noise.output_sd.powi(2);
+        (0..self.len())
+            .map(|i| {
+                let v2 = self.v[i] * self.v[i];
+                let slope = self.cos_grade[i] - theta[2] * self.sin_grade[i];
+                speed * (4.0 * v2 * sv2 + 2.0 * sv4) + force + grade * slope * slope + output
+            })
+            .collect()
+    }
+
+    /// Σ wᵢ xᵢ xᵢᵀ over the noise-free rows, with exactly rounded entries.
+    fn weighted_gram(&self, weight: &[f64]) -> Matrix3<f64> {
+        let mut sums: [ExactSum; 6] = Default::default();
+        for (i, &w) in weight.iter().enumerate() {
+            let x = [self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]];
+            sums[0].add(w * x[0] * x[0]);
+            sums[1].add(w * x[0] * x[1]);
+            sums[2].add(w * x[0] * x[2]);
+            sums[3].add(w * x[1] * x[1]);
+            sums[4].add(w * x[1] * x[2]);
+            sums[5].add(w * x[2] * x[2]);
+        }
+        let s: Vec<f64> = sums.iter().map(ExactSum::value).collect();
+        Matrix3::new(s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5])
+    }
+
+    /// `eiv_sandwich`: the first-order covariance of OLS (and BCLS) under regressor noise,
+    /// (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ with the noise-free X; returns the standard errors.
+    pub fn sandwich_se(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Result<[f64; 3], SolveError> {
+        let omega = self.equation_error_variance(theta, noise);
+        let bread = inverse_spd(&self.xtx)?;
+        let meat = self.weighted_gram(&omega);
+        let cov = bread * meat * bread;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
+    /// equation-error model with independent Gaussian errors of variance Ω_i (the best a
+    /// weighted, unbiased estimator could do); returns the standard errors.
+    pub fn linearized_crlb_se(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Result<[f64; 3], SolveError> {
+        let inv_omega: Vec<f64> = self
+            .equation_error_variance(theta, noise)
+            .iter()
+            .map(|o| 1.0 / o)
+            .collect();
+        let info = self.weighted_gram(&inv_omega);
+        let cov = inverse_spd(&info)?;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
     }
 }
 
-/// Sufficient statistics of one realisation under speed and output noise.
+/// The sums of one realisation from which every estimator's normal equations are built.
 ///
-/// With w_i = Ṽ_i² and η_i the output-noise draw (σ_y η_i is added to y_i):
-/// `s_w = Σw, s_wf = ΣwF, s_wc = Σwc, s_ww = Σw², s_wy = Σwy`,
-/// `s_eta = Ση, s_f_eta = ΣFη, s_c_eta = Σcη, s_w_eta = Σwη`.
+/// With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output (column 2 is −k w).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct NoisySums {
-    /// Σ Ṽ².
-    pub s_w: f64,
-    /// Σ F Ṽ².
-    pub s_wf: f64,
-    /// Σ c Ṽ².
-    pub s_wc: f64,
-    /// Σ Ṽ⁴.
+pub struct Moments {
+    /// Σ x̃₁².
+    pub s_11: f64,
+    /// Σ x̃₁ x̃₃.
+    pub s_13: f64,
+    /// Σ x̃₃².
+    pub s_33: f64,
+    /// Σ x̃₁ ỹ.
+    pub s_1y: f64,
+    /// Σ x̃₃ ỹ.
+    pub s_3y: f64,
+    /// Σ x̃₁ w.
+    pub s_1w: f64,
+    /// Σ x̃₃ w.
+    pub s_3w: f64,
+    /// Σ w².
     pub s_ww: f64,
-    /// Σ y Ṽ².
+    /// Σ w ỹ.
     pub s_wy: f64,
-    /// Σ η.
-    pub s_eta: f64,
-    /// Σ F η.
-    pub s_f_eta: f64,
-    /// Σ c η.
-    pub s_c_eta: f64,
-    /// Σ Ṽ² η.
-    pub s_w_eta: f64,
+    /// Σ w.
+    pub s_w: f64,
+    /// Σ x̃₁.
+    pub s_1: f64,
+    /// Σ x̃₃.
+    pub s_3: f64,
+    /// Σ ỹ.
+    pub s_y: f64,
+    /// N.
+    pub n: f64,
 }
 
-impl NoisySums {
-    /// Add another block's partial sums (blocked summation keeps rounding error ~ log N).
-    #[inline]
-    pub fn add(&mut self, o: &NoisySums) {
-        self.s_w += o.s_w;
-        self.s_wf += o.s_wf;
-        self.s_wc += o.s_wc;
-        self.s_ww += o.s_ww;
-        self.s_wy += o.s_wy;
-        self.s_eta += o.s_eta;
-        self.s_f_eta += o.s_f_eta;
-        self.s_c_eta += o.s_c_eta;
-        self.s_w_eta += o.s_w_eta;
+impl Moments {
+    /// OLS normal equations X̃ᵀX̃ θ = X̃ᵀỹ (thesis eq. 20).
+    pub fn ols_system(&self, k: f64) -> (Matrix3<f64>, Vector3<f64>) {
+        self.system(k, self.s_1w, self.s_3w, self.s_ww, self.s_wy)
     }
 
-    /// Accumulate samples `start..start + e.len()` with standard-normal draws `e` (speed,
-    /// scaled by `sd_v`) and `eta` (output, scaled by `sd_y`; empty when off).
-    #[inline]
-    pub fn accumulate_block(
-        &mut self,
-        reg: &Regression,
-        start: usize,
-        sd_v: f64,
-        e: &[f64],
-        eta: Option<&[f64]>,
-    ) {
-        let n = e.len();
-        let v = &reg.v[start..start + n];
-        let f = &reg.f[start..start + n];
-        let c = &reg.c[start..start + n];
-        let y = &reg.y[start..start + n];
-        let mut b = NoisySums::default();
-        for i in 0..n {
-            let vt = v[i] + sd_v * e[i];
-            let w = vt * vt;
-            b.s_w += w;
-            b.s_wf += w * f[i];
-            b.s_wc += w * c[i];
-            b.s_ww += w * w;
-            b.s_wy += w * y[i];
-        }
-        if let Some(eta) = eta {
-            let eta = &eta[..n];
-            for i in 0..n {
-                let vt = v[i] + sd_v * e[i];
-                let w = vt * vt;
-                b.s_eta += eta[i];
-                b.s_f_eta += f[i] * eta[i];
-                b.s_c_eta += c[i] * eta[i];
-                b.s_w_eta += w * eta[i];
-            }
-        }
-        self.add(&b);
+    /// BCLS normal equations for speed noise of known σ_v: each noisy power of speed is
+    /// replaced by its unbiased estimate, `V² → Ṽ² − σ²`, `V⁴ → Ṽ⁴ − 6σ²Ṽ² + 3σ⁴`, in
+    /// Σ F V², Σ c V², Σ V⁴ and Σ y V² (E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6V²σ² + 3σ⁴).
+    pub fn bcls_system(&self, k: f64, velocity_sd: f64) -> (Matrix3<f64>, Vector3<f64>) {
+        let s2 = velocity_sd * velocity_sd;
+        self.system(
+            k,
+            self.s_1w - s2 * self.s_1,
+            self.s_3w - s2 * self.s_3,
+            self.s_ww - 6.0 * s2 * self.s_w + 3.0 * s2 * s2 * self.n,
+            self.s_wy - s2 * self.s_y,
+        )
     }
 
-    /// Normal equations XᵀX θ = Xᵀy of OLS on the noisy data (thesis eq. 20).
-    pub fn ols_system(&self, reg: &Regression, sd_y: f64) -> (Matrix3<f64>, Vector3<f64>) {
-        let [ff, fc, cc, fy, cy] = reg.fixed();
-        let k = reg.k;
+    fn system(
+        &self,
+        k: f64,
+        s_1w: f64,
+        s_3w: f64,
+        s_ww: f64,
+        s_wy: f64,
+    ) -> (Matrix3<f64>, Vector3<f64>) {
         let a = Matrix3::new(
-            ff,
-            -k * self.s_wf,
-            fc,
-            -k * self.s_wf,
-            k * k * self.s_ww,
-            -k * self.s_wc,
-            fc,
-            -k * self.s_wc,
-            cc,
+            self.s_11,
+            -k * s_1w,
+            self.s_13,
+            -k * s_1w,
+            k * k * s_ww,
+            -k * s_3w,
+            self.s_13,
+            -k * s_3w,
+            self.s_33,
         );
-        let b = Vector3::new(
-            fy + sd_y * self.s_f_eta,
-            -k * (self.s_wy + sd_y * self.s_w_eta),
-            cy + sd_y * self.s_c_eta,
-        );
+        let b = Vector3::new(self.s_1y, -k * s_wy, self.s_3y);
         (a, b)
     }
 }
 
-/// An estimate with its status.
-pub type Estimate = Result<Vector3<f64>, SolveError>;
+/// Partial sums of the fast path (speed and output noise only): everything that the noise
+/// touches, accumulated per block.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct SpeedOutputSums {
+    s_w: f64,
+    s_wf: f64,
+    s_wc: f64,
+    s_ww: f64,
+    s_wy: f64,
+    s_eta: f64,
+    s_f_eta: f64,
+    s_c_eta: f64,
+    s_w_eta: f64,
+}
 
-/// OLS: θ̂ = (X̃ᵀX̃)⁻¹ X̃ᵀỹ.
-pub fn ols(system: &(Matrix3<f64>, Vector3<f64>)) -> Estimate {
+/// Standard-normal draws of one block, per channel (`None` when the channel is off).
+#[derive(Debug, Clone, Copy)]
+pub struct BlockNoise<'a> {
+    /// Speed noise draws.
+    pub velocity: Option<&'a [f64]>,
+    /// Output noise draws.
+    pub output: Option<&'a [f64]>,
+    /// Grade noise draws.
+    pub grade: Option<&'a [f64]>,
+    /// Force noise draws.
+    pub force: Option<&'a [f64]>,
+}
+
+/// Accumulates one realisation's [`Moments`] block by block.
+#[derive(Debug, Clone)]
+pub struct MomentAccumulator<'r> {
+    reg: &'r Regression,
+    noise: NoiseLevels,
+    /// Only speed and output noise: the constant columns stay noise-free and five sums per
+    /// sample suffice.
+    use_fast_path: bool,
+    fast: SpeedOutputSums,
+    general: Moments,
+}
+
+impl<'r> MomentAccumulator<'r> {
+    /// Start a realisation of `reg` with noise levels `noise`.
+    pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
+        MomentAccumulator {
+            reg,
+            noise,
+            use_fast_path: noise.grade_sd == 0.0 && noise.force_sd == 0.0,
+            fast: SpeedOutputSums::default(),
+            general: Moments::default(),
+        }
+    }
+
+    /// Like [`new`](Self::new) but always on the general path (for cross-checks).
+    pub fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
+        MomentAccumulator {
+            use_fast_path: false,
+            ..Self::new(reg, noise)
+        }
+    }
+
+    /// Add samples `start .. start + len` with the block's standard-normal draws. Each
+    /// block is summed separately and then added, so rounding grows like the number of
+    /// blocks, not of samples.
+    #[inline]
+    pub fn add_block(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        if self.use_fast_path {
+            self.add_fast(start, len, draws);
+        } else {
+            self.add_general(start, len, draws);
+        }
+    }
+
+    #[inline]
+    fn add_fast(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        let reg = self.reg;
+        let sd_v = self.noise.velocity_sd;
+        let range = start..start + len;
+        let (v, f, c, y) = (
+            &reg.v[range.clone()],
+            &reg.f[range.clone()],
+            &reg.c[range.clone()],
+            &reg.y[range],
+        );
+        let mut b = SpeedOutputSums::default();
+        match draws.velocity {
+            Some(e) => {
+                let e = &e[..len];
+                for i in 0..len {
+                    let vt = v[i] + sd_v * e[i];
+                    let w = vt * vt;
+                    b.s_w += w;
+                    b.s_wf += w * f[i];
+                    b.s_wc += w * c[i];
+                    b.s_ww += w * w;
+                    b.s_wy += w * y[i];
+                }
+            }
+            None => {
+                for i in 0..len {
+                    let w = v[i] * v[i];
+                    b.s_w += w;
+                    b.s_wf += w * f[i];
+                    b.s_wc += w * c[i];
+                    b.s_ww += w * w;
+                    b.s_wy += w * y[i];
+                }
+            }
+        }
+        if let Some(eta) = draws.output {
+            let eta = &eta[..len];
+            for i in 0..len {
+                let vt = match draws.velocity {
+                    Some(e) => v[i] + sd_v * e[i],
+                    None => v[i],
+                };
+                b.s_eta += eta[i];
+                b.s_f_eta += f[i] * eta[i];
+                b.s_c_eta += c[i] * eta[i];
+                b.s_w_eta += vt * vt * eta[i];
+            }
+        }
+        let s = &mut self.fast;
+        s.s_w += b.s_w;
+        s.s_wf += b.s_wf;
+        s.s_wc += b.s_wc;
+        s.s_ww += b.s_ww;
+        s.s_wy += b.s_wy;
+        s.s_eta += b.s_eta;
+        s.s_f_eta += b.s_f_eta;
+        s.s_c_eta += b.s_c_eta;
+        s.s_w_eta += b.s_w_eta;
+    }
+
+    fn add_general(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        let reg = self.reg;
+        let nz = self.noise;
+        let mut b = Moments::default();
+        let at = |d: Option<&[f64]>, i: usize| d.map_or(0.0, |d| d[i]);
+        for j in 0..len {
+            let i = start + j;
+            let x1 = reg.f[i] + nz.force_sd * at(draws.force, j);
+            let vt = reg.v[i] + nz.velocity_sd * at(draws.velocity, j);
+            let w = vt * vt;
+            let (sin_t, cos_t) = if nz.grade_sd > 0.0 {
+                // sin/cos of θ + δ from those of θ and δ (angle addition)
+                let (sd, cd) = (nz.grade_sd * at(draws.grade, j)).sin_cos();
+                (
+                    reg.sin_grade[i] * cd + reg.cos_grade[i] * sd,
+                    reg.cos_grade[i] * cd - reg.sin_grade[i] * sd,
+                )
+            } else {
+                (reg.sin_grade[i], reg.cos_grade[i])
+            };
+            let x3 = -reg.g * cos_t;
+            let y = reg.accel[i] + reg.g * sin_t + nz.output_sd * at(draws.output, j);
+            b.s_11 += x1 * x1;
+            b.s_13 += x1 * x3;
+            b.s_33 += x3 * x3;
+            b.s_1y += x1 * y;
+            b.s_3y += x3 * y;
+            b.s_1w += x1 * w;
+            b.s_3w += x3 * w;
+            b.s_ww += w * w;
+            b.s_wy += w * y;
+            b.s_w += w;
+            b.s_1 += x1;
+            b.s_3 += x3;
+            b.s_y += y;
+        }
+        let g = &mut self.general;
+        g.s_11 += b.s_11;
+        g.s_13 += b.s_13;
+        g.s_33 += b.s_33;
+        g.s_1y += b.s_1y;
+        g.s_3y += b.s_3y;
+        g.s_1w += b.s_1w;
+        g.s_3w += b.s_3w;
+        g.s_ww += b.s_ww;
+        g.s_wy += b.s_wy;
+        g.s_w += b.s_w;
+        g.s_1 += b.s_1;
+        g.s_3 += b.s_3;
+        g.s_y += b.s_y;
+    }
+
+    /// The realisation's moments.
+    pub fn finish(&self) -> Moments {
+        let reg = self.reg;
+        let n = reg.len() as f64;
+        if !self.use_fast_path {
+            return Moments { n, ..self.general };
+        }
+        let s = &self.fast;
+        let sd_y = self.noise.output_sd;
+        Moments {
+            s_11: reg.xtx[(0, 0)],
+            s_13: reg.xtx[(0, 2)],
+            s_33: reg.xtx[(2, 2)],
+            s_1y: reg.xty[0] + sd_y * s.s_f_eta,
+            s_3y: reg.xty[2] + sd_y * s.s_c_eta,
+            s_1w: s.s_wf,
+            s_3w: s.s_wc,
+            s_ww: s.s_ww,
+            s_wy: s.s_wy + sd_y * s.s_w_eta,
+            s_w: s.s_w,
+            s_1: reg.sum_f,
+            s_3: reg.sum_c,
+            s_y: reg.sum_y + sd_y * s.s_eta,
+            n,
+        }
+    }
+}
+
+/// Solve a normal-equation system (OLS or BCLS).
+pub fn solve(system: &(Matrix3<f64>, Vector3<f64>)) -> Result<Vector3<f64>, SolveError> {
     solve_spd(&system.0, &system.1)
 }
 
@@ -236,4 +494,151 @@ pub fn scaled_inverse_sd(a: &Matrix3<f64>, sd: f64) -> Result<[f64; 3], SolveErr
 pub fn mass_and_drag(theta: &Vector3<f64>) -> (f64, f64) {
     let m = 1.0 / theta[0];
     (m, m * theta[1])
+}
+
+/// The thesis's error conversions of the 1/M and Cd/M bounds σ₁, σ₂ into errors of M [kg]
+/// and Cd [-] (thesis eqs. 41–42):
+///
+/// ```text
+/// σ_M  = 1 / (θ̂₁ − σ₁) − M̂                      (41)
+/// σ_Cd = (θ̂₂ + σ₂) (θ̂₁ + σ₁)⁻¹ − Ĉd             (42)
+/// ```
+///
+/// How the garbled equations were read: the extracted eq. 41 is a fraction `1 / (θ̂(1) −
+/// σ_{1/M})` followed by `− M̂`, unambiguous. Eq. 42 prints as `(θ̂(2) + σ_{Cd/M})
+/// (θ̂(1) + σ_{1/M}) − Ĉd` with the subscripts `M` of σ_{Cd/M} and σ_{1/M} on the line
+/// below. Taken literally it multiplies two quantities in 1/kg and subtracts a
+/// dimensionless Ĉd, so the exponent −1 on the second factor was lost in extraction:
+/// Ĉd = θ̂₂/θ̂₁ (eq. 39), and the perturbed value (θ̂₂ + σ₂)/(θ̂₁ + σ₁) is dimensionless. The
+/// signs are kept as printed (+σ₁ in eq. 42, −σ₁ in eq. 41), although they make the two
+/// conversions lean in different directions. These are the thesis's heuristics, reported
+/// for fidelity, not propagated standard errors (the delta method would give
+/// σ_M ≈ σ₁/θ̂₁²).
+pub fn thesis_error_conversions(theta: &Vector3<f64>, bound: &[f64; 3]) -> (f64, f64) {
+    let (m, cd) = mass_and_drag(theta);
+    let sigma_m = 1.0 / (theta[0] - bound[0]) - m;
+    let sigma_cd = (theta[1] + bound[1]) / (theta[0] + bound[0]) - cd;
+    (sigma_m, sigma_cd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::noise::{BLOCK, Channel, NormalStream};
+    use crate::terrain::GradeTable;
+    use crate::vehicle::{DriveParams, simulate};
+
+    fn regression() -> Regression {
+        let vehicle = VehicleParams {
+            mass_kg: 1800.0,
+            drag_coefficient: 0.35,
+            rolling_resistance: 0.0125,
+            frontal_area_m2: 5.5,
+            air_density_kg_m3: 1.2,
+            gravity_m_s2: 9.81,
+            final_drive_ratio: 2.7,
+            wheel_radius_m: 0.3,
+        };
+        let drive = DriveParams {
+            duration_s: 60.0,
+            time_step_s: 0.01,
+            steps: 6000,
+            initial_speed_m_s: 0.0,
+            torque_mean_n_m: 225.0,
+            torque_amplitude: 0.1,
+            torque_frequency_rad_s: 0.1,
+        };
+        let grades = (0..3000).map(|i| 0.08 * (i as f64 / 150.0).sin()).collect();
+        let cycle = simulate(&vehicle, &drive, &GradeTable::from_grades(grades)).unwrap();
+        Regression::new(&cycle, &vehicle)
+    }
+
+    fn moments(reg: &Regression, noise: NoiseLevels, general: bool) -> Moments {
+        let mut acc = if general {
+            MomentAccumulator::new_general(reg, noise)
+        } else {
+            MomentAccumulator::new(reg, noise)
+        };
+        let mut speed = NormalStream::for_realisation(1, 0, Channel::Velocity, 0);
+        let mut output = NormalStream::for_realisation(1, 0, Channel::Output, 0);
+        let (mut e, mut eta) = ([0.0; BLOCK], [0.0; BLOCK]);
+        for start in (0..reg.len()).step_by(BLOCK) {
+            let len = BLOCK.min(reg.len() - start);
+            speed.fill_block(&mut e[..len]);
+            output.fill_block(&mut eta[..len]);
+            acc.add_block(
+                start,
+                len,
+                BlockNoise {
+                    velocity: Some(&e[..len]),
+                    output: Some(&eta[..len]),
+                    grade: None,
+                    force: None,
+                },
+            );
+        }
+        acc.finish()
+    }
+
+    #[test]
+    fn fast_and_general_paths_build_the_same_moments() {
+        let reg = regression();
+        let noise = NoiseLevels {
+            velocity_sd: 0.7,
+            output_sd: 0.3,
+            ..NoiseLevels::default()
+        };
+        let a = moments(&reg, noise, false);
+        let b = moments(&reg, noise, true);
+        // Same products summed in a different grouping: agreement to rounding (1e-12
+        // relative is ~10^4 ulps of headroom for 6001 terms).
+        let pairs = [
+            (a.s_11, b.s_11),
+            (a.s_13, b.s_13),
+            (a.s_33, b.s_33),
+            (a.s_1y, b.s_1y),
+            (a.s_3y, b.s_3y),
+            (a.s_1w, b.s_1w),
+            (a.s_3w, b.s_3w),
+            (a.s_ww, b.s_ww),
+            (a.s_wy, b.s_wy),
+            (a.s_w, b.s_w),
+            (a.s_1, b.s_1),
+            (a.s_3, b.s_3),
+            (a.s_y, b.s_y),
+        ];
+        for (i, (x, y)) in pairs.iter().enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-12 * x.abs().max(y.abs()),
+                "moment {i}: {x} vs {y}"
+            );
+        }
+        assert_eq!(a.n, b.n);
+    }
+
+    #[test]
+    fn without_noise_the_moments_are_the_noise_free_normal_equations() {
+        let reg = regression();
+        let m = MomentAccumulator::new(&reg, NoiseLevels::default());
+        let mut acc = m;
+        for start in (0..reg.len()).step_by(BLOCK) {
+            let len = BLOCK.min(reg.len() - start);
+            let none = BlockNoise {
+                velocity: None,
+                output: None,
+                grade: None,
+                force: None,
+            };
+            acc.add_block(start, len, none);
+        }
+        let (a, b) = acc.finish().ols_system(reg.k);
+        for i in 0..3 {
+            assert!((b[i] - reg.xty[i]).abs() <= 1e-12 * reg.xty[i].abs());
+            for j in 0..3 {
+                assert!((a[(i, j)] - reg.xtx[(i, j)]).abs() <= 1e-12 * reg.xtx[(i, j)].abs());
+            }
+        }
+        // BCLS with σ_v = 0 is OLS.
+        assert_eq!(acc.finish().bcls_system(reg.k, 0.0), (a, b));
+    }
 }

@@ -7,9 +7,78 @@
 //! output work from the model's [`Layout`] alone, so a second model (the line fit of the
 //! thesis's worked example) reuses all of them unchanged.
 
+pub mod line_fit;
 pub mod vehicle;
 
 use std::fmt;
+
+/// The type of a condition axis column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisKind {
+    /// A number (Float64 column).
+    Number,
+    /// A label (string column), e.g. a noise distribution.
+    Text,
+}
+
+/// A condition axis: one column of every table, one value per condition.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// Column name, e.g. `scale`.
+    pub name: &'static str,
+    /// Column type.
+    pub kind: AxisKind,
+    /// Unit, e.g. `m/s` (empty when dimensionless or a label).
+    pub unit: &'static str,
+}
+
+impl Axis {
+    /// A numeric axis.
+    pub const fn number(name: &'static str, unit: &'static str) -> Self {
+        Axis {
+            name,
+            kind: AxisKind::Number,
+            unit,
+        }
+    }
+
+    /// A label axis.
+    pub const fn text(name: &'static str) -> Self {
+        Axis {
+            name,
+            kind: AxisKind::Text,
+            unit: "",
+        }
+    }
+}
+
+/// The value of one axis for one condition.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AxisValue {
+    /// For [`AxisKind::Number`].
+    Number(f64),
+    /// For [`AxisKind::Text`].
+    Text(String),
+}
+
+impl AxisValue {
+    /// The number, or NaN for a label.
+    pub fn number(&self) -> f64 {
+        match self {
+            AxisValue::Number(v) => *v,
+            AxisValue::Text(_) => f64::NAN,
+        }
+    }
+}
+
+impl fmt::Display for AxisValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AxisValue::Number(v) => write!(f, "{v}"),
+            AxisValue::Text(t) => f.write_str(t),
+        }
+    }
+}
 
 /// A model parameter: a component of θ.
 #[derive(Debug, Clone, PartialEq)]
@@ -45,8 +114,8 @@ pub struct BoundInfo {
 /// Everything the executor, statistics and output need to know about a model's rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Layout {
-    /// Condition axis columns (f64), e.g. `scale`, `velocity_sd`.
-    pub axes: Vec<&'static str>,
+    /// Condition axis columns, e.g. `scale`, `velocity_sd`.
+    pub axes: Vec<Axis>,
     /// Per-condition metric columns of the summary (f64), e.g. `terrain_ms_grid`.
     pub condition_metrics: Vec<&'static str>,
     /// Parameters θ, in order.
@@ -99,6 +168,12 @@ impl Layout {
     pub fn estimator_index(&self, name: &str) -> Option<usize> {
         self.estimators.iter().position(|e| *e == name)
     }
+
+    /// The estimator others are compared with (relative precision): `ols` when present,
+    /// else the first listed.
+    pub fn reference_estimator(&self) -> usize {
+        self.estimator_index("ols").unwrap_or(0)
+    }
 }
 
 /// Outcome of one estimator on one realisation.
@@ -147,7 +222,7 @@ impl fmt::Display for Status {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConditionInfo {
     /// Values of the layout's axes.
-    pub axes: Vec<f64>,
+    pub axes: Vec<AxisValue>,
     /// Values of the layout's condition metrics.
     pub metrics: Vec<f64>,
     /// True θ.

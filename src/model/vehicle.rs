@@ -1,13 +1,19 @@
-//! The thesis's vehicle study as a [`Model`]: one drive cycle per terrain scale, noise on
-//! the measured speed and/or the output, OLS estimates and their bounds per realisation.
+//! The thesis's vehicle study as a [`Model`]: one drive cycle per terrain scale; noise on
+//! the measured speed, output, grade and force; OLS and BCLS on the same draw of each
+//! realisation (common random numbers); and every bound that applies.
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use super::{BoundInfo, ConditionInfo, ExtraInfo, Layout, Model, ParameterInfo, Status};
+use super::{
+    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, Layout, Model, ParameterInfo, Status,
+};
 use crate::estimate::linalg::condition_number;
-use crate::estimate::vehicle::{NoisySums, Regression, mass_and_drag, ols, scaled_inverse_sd};
+use crate::estimate::vehicle::{
+    BlockNoise, MomentAccumulator, NoiseLevels, Regression, mass_and_drag, scaled_inverse_sd,
+    solve, thesis_error_conversions,
+};
 use crate::noise::{BLOCK, Channel, NormalStream};
 use crate::study::{EstimatorKind, Study, StudyError, VehicleStudy};
 use crate::vehicle::{DriveCycle, simulate};
@@ -15,25 +21,31 @@ use crate::vehicle::{DriveCycle, simulate};
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
 
-/// Index of each bound in the layout.
-const THESIS_BOUND: usize = 0;
-const CRLB_OUTPUT: usize = 1;
+/// Bounds, in layout order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Bound {
+    Thesis = 0,
+    CrlbOutput = 1,
+    EivSandwich = 2,
+    EivCrlbLinearized = 3,
+}
 
-/// Index of each extra in the layout.
+/// Extras, in layout order.
 const MASS_HAT: usize = 0;
 const CD_HAT: usize = 1;
 const FISHER_CONDITION: usize = 2;
+const MASS_SD_THESIS: usize = 3;
+const CD_SD_THESIS: usize = 4;
 
-/// One prepared condition: its axes and the regression of its drive cycle.
+/// One prepared condition: its noise and the regression of its drive cycle.
 #[derive(Debug)]
 struct Condition {
     info: ConditionInfo,
     scale_index: usize,
-    sd_v: f64,
-    sd_y: f64,
+    noise: NoiseLevels,
     regression: Arc<Regression>,
-    /// sqrt(diag(σ_y² (XᵀX)⁻¹)) with the noise-free X, when output noise is the only noise.
-    crlb_output: Option<[f64; 3]>,
+    /// Standard errors of the bounds that are constant over realisations (NaN when absent).
+    constant_bounds: [[f64; 3]; 4],
 }
 
 /// The vehicle model with all its conditions prepared (drive cycles simulated).
@@ -52,7 +64,7 @@ impl VehicleModel {
             .vehicle()
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
             .clone();
-        let truth = vs.vehicle.theta().to_vec();
+        let truth = vs.vehicle.theta();
         let mut regressions = Vec::with_capacity(vs.scales.len());
         let mut metrics = Vec::with_capacity(vs.scales.len());
         for (i, &scale) in vs.scales.iter().enumerate() {
@@ -69,30 +81,47 @@ impl VehicleModel {
         let layout = layout(&vs.estimators);
         let mut conditions = Vec::new();
         for (scale_index, &scale) in vs.scales.iter().enumerate() {
-            for &sd_v in &vs.noise.velocity_sd {
-                for &sd_y in &vs.noise.output_sd {
-                    let regression = regressions[scale_index].clone();
-                    let output_only = sd_y > 0.0 && sd_v == 0.0;
-                    let crlb_output = if output_only {
-                        scaled_inverse_sd(&regression.xtx, sd_y).ok()
-                    } else {
-                        None
-                    };
-                    let applies_row = vec![sd_v > 0.0, crlb_output.is_some()];
-                    conditions.push(Condition {
-                        info: ConditionInfo {
-                            axes: vec![scale, sd_v, sd_y],
-                            metrics: metrics[scale_index].clone(),
-                            truth: truth.clone(),
-                            applies: vec![applies_row; vs.estimators.len()],
-                        },
-                        scale_index,
-                        sd_v,
-                        sd_y,
-                        regression,
-                        crlb_output,
-                    });
+            for noise in vs.noise.levels() {
+                let regression = regressions[scale_index].clone();
+                let nan = [f64::NAN; 3];
+                let mut constant_bounds = [nan; 4];
+                if noise.output_only() {
+                    constant_bounds[Bound::CrlbOutput as usize] =
+                        scaled_inverse_sd(&regression.xtx, noise.output_sd).unwrap_or(nan);
                 }
+                if noise.in_regressors() {
+                    constant_bounds[Bound::EivSandwich as usize] =
+                        regression.sandwich_se(&truth, &noise).unwrap_or(nan);
+                    constant_bounds[Bound::EivCrlbLinearized as usize] =
+                        regression.linearized_crlb_se(&truth, &noise).unwrap_or(nan);
+                }
+                let applies_row = vec![
+                    noise.velocity_sd > 0.0,
+                    noise.output_only(),
+                    noise.in_regressors(),
+                    noise.in_regressors(),
+                ];
+                conditions.push(Condition {
+                    info: ConditionInfo {
+                        axes: [
+                            scale,
+                            noise.velocity_sd,
+                            noise.output_sd,
+                            noise.grade_sd,
+                            noise.force_sd,
+                        ]
+                        .into_iter()
+                        .map(AxisValue::Number)
+                        .collect(),
+                        metrics: metrics[scale_index].clone(),
+                        truth: truth.to_vec(),
+                        applies: vec![applies_row; vs.estimators.len()],
+                    },
+                    scale_index,
+                    noise,
+                    regression,
+                    constant_bounds,
+                });
             }
         }
         Ok(VehicleModel {
@@ -114,11 +143,61 @@ impl VehicleModel {
     pub fn study(&self) -> &VehicleStudy {
         &self.study
     }
+
+    /// The moments of realisation `r` of condition `c`: the kernel. Draws each active
+    /// channel's normals block by block and accumulates the normal-equation sums.
+    pub fn moments(&self, seed: u64, c: usize, r: u64) -> crate::estimate::vehicle::Moments {
+        let cond = &self.conditions[c];
+        let reg = &*cond.regression;
+        let noise = cond.noise;
+        let stream = |on: bool, channel| {
+            on.then(|| NormalStream::for_realisation(seed, c as u64, channel, r))
+        };
+        let mut speed = stream(noise.velocity_sd > 0.0, Channel::Velocity);
+        let mut output = stream(noise.output_sd > 0.0, Channel::Output);
+        let mut grade = stream(noise.grade_sd > 0.0, Channel::Grade);
+        let mut force = stream(noise.force_sd > 0.0, Channel::Force);
+        let mut buffers = [[0.0; BLOCK]; 4];
+        let mut acc = MomentAccumulator::new(reg, noise);
+        let n = reg.len();
+        for start in (0..n).step_by(BLOCK) {
+            let len = BLOCK.min(n - start);
+            let [bv, bo, bg, bf] = &mut buffers;
+            let draw = |s: &mut Option<NormalStream>, buf: &mut [f64; BLOCK]| {
+                s.as_mut().map(|s| {
+                    s.fill_block(&mut buf[..len]);
+                })
+            };
+            let has = [
+                draw(&mut speed, bv).is_some(),
+                draw(&mut output, bo).is_some(),
+                draw(&mut grade, bg).is_some(),
+                draw(&mut force, bf).is_some(),
+            ];
+            acc.add_block(
+                start,
+                len,
+                BlockNoise {
+                    velocity: has[0].then_some(&bv[..len]),
+                    output: has[1].then_some(&bo[..len]),
+                    grade: has[2].then_some(&bg[..len]),
+                    force: has[3].then_some(&bf[..len]),
+                },
+            );
+        }
+        acc.finish()
+    }
 }
 
 fn layout(estimators: &[EstimatorKind]) -> Layout {
     Layout {
-        axes: vec!["scale", "velocity_sd", "output_sd"],
+        axes: vec![
+            Axis::number("scale", ""),
+            Axis::number("velocity_sd", "m/s"),
+            Axis::number("output_sd", "m/s^2"),
+            Axis::number("grade_sd", "rad"),
+            Axis::number("force_sd", "N"),
+        ],
         condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
         parameters: vec![
             ParameterInfo {
@@ -154,15 +233,33 @@ fn layout(estimators: &[EstimatorKind]) -> Layout {
                 unit: "1",
                 description: "2-norm condition number of the noisy X̃ᵀX̃ (the thesis's cond(FI))",
             },
+            ExtraInfo {
+                name: "mass_sd_thesis",
+                unit: "kg",
+                description: "σ_M = 1/(θ̂₁ − σ₁) − M̂ from the thesis bound (thesis eq. 41)",
+            },
+            ExtraInfo {
+                name: "cd_sd_thesis",
+                unit: "1",
+                description: "σ_Cd = (θ̂₂ + σ₂)/(θ̂₁ + σ₁) − Ĉd from the thesis bound (thesis eq. 42)",
+            },
         ],
         bounds: vec![
             BoundInfo {
                 name: "thesis_bound",
-                description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); not a valid bound under speed noise",
+                description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
             },
             BoundInfo {
                 name: "crlb_output",
                 description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
+            },
+            BoundInfo {
+                name: "eiv_sandwich",
+                description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance",
+            },
+            BoundInfo {
+                name: "eiv_crlb_linearized",
+                description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach)",
             },
         ],
     }
@@ -183,62 +280,45 @@ impl Model for VehicleModel {
 
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
         let cond = &self.conditions[c];
-        let reg = &*cond.regression;
-        let n = reg.len();
-        let mut speed = (cond.sd_v > 0.0)
-            .then(|| NormalStream::for_realisation(seed, c as u64, Channel::Velocity, r));
-        let mut output = (cond.sd_y > 0.0)
-            .then(|| NormalStream::for_realisation(seed, c as u64, Channel::Output, r));
-        let mut e = [0.0; BLOCK];
-        let mut eta = [0.0; BLOCK];
-        let mut sums = NoisySums::default();
-        for start in (0..n).step_by(BLOCK) {
-            let len = BLOCK.min(n - start);
-            if let Some(s) = speed.as_mut() {
-                s.fill_block(&mut e[..len]);
-            }
-            if let Some(s) = output.as_mut() {
-                s.fill_block(&mut eta[..len]);
-            }
-            sums.accumulate_block(
-                reg,
-                start,
-                cond.sd_v,
-                &e[..len],
-                output.is_some().then_some(&eta[..len]),
-            );
-        }
-
-        let system = sums.ols_system(reg, cond.sd_y);
-        let fisher_condition = condition_number(&system.0);
-        let thesis_bound = if cond.info.applies[0][THESIS_BOUND] {
-            scaled_inverse_sd(&system.0, cond.sd_v).ok()
+        let k = cond.regression.k;
+        let moments = self.moments(seed, c, r);
+        let ols_system = moments.ols_system(k);
+        let fisher_condition = condition_number(&ols_system.0);
+        let thesis_bound = if cond.noise.velocity_sd > 0.0 {
+            scaled_inverse_sd(&ols_system.0, cond.noise.velocity_sd).ok()
         } else {
             None
         };
         let layout = &self.layout;
         for (ei, est) in self.study.estimators.iter().enumerate() {
             let estimate = match est {
-                EstimatorKind::Ols => ols(&system),
+                EstimatorKind::Ols => solve(&ols_system),
+                EstimatorKind::Bcls => solve(&moments.bcls_system(k, cond.noise.velocity_sd)),
             };
-            let theta = estimate.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             let status = if estimate.is_ok() {
                 Status::Ok
             } else {
                 Status::Singular
             };
+            let theta = estimate.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             slots[layout.status_at(ei)] = status as u8 as f64;
+            let mut bounds = cond.constant_bounds;
+            bounds[Bound::Thesis as usize] = thesis_bound.unwrap_or([f64::NAN; 3]);
             for p in 0..3 {
                 slots[layout.theta_at(ei, p)] = theta[p];
-                slots[layout.bound_at(ei, THESIS_BOUND, p)] =
-                    thesis_bound.map_or(f64::NAN, |b| b[p]);
-                slots[layout.bound_at(ei, CRLB_OUTPUT, p)] =
-                    cond.crlb_output.map_or(f64::NAN, |b| b[p]);
+                for (b, values) in bounds.iter().enumerate() {
+                    slots[layout.bound_at(ei, b, p)] = values[p];
+                }
             }
             let (mass, cd) = mass_and_drag(&theta);
+            let (mass_sd, cd_sd) = thesis_bound.map_or((f64::NAN, f64::NAN), |b| {
+                thesis_error_conversions(&theta, &b)
+            });
             slots[layout.extra_at(ei, MASS_HAT)] = mass;
             slots[layout.extra_at(ei, CD_HAT)] = cd;
             slots[layout.extra_at(ei, FISHER_CONDITION)] = fisher_condition;
+            slots[layout.extra_at(ei, MASS_SD_THESIS)] = mass_sd;
+            slots[layout.extra_at(ei, CD_SD_THESIS)] = cd_sd;
         }
     }
 }

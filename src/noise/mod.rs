@@ -35,6 +35,31 @@ pub enum Channel {
     LineFit = 5,
 }
 
+/// Noise levels of one condition (standard deviations; 0 = off).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct NoiseLevels {
+    /// Speed-measurement noise σ_v [m/s].
+    pub velocity_sd: f64,
+    /// Additive output noise σ_y [m/s²].
+    pub output_sd: f64,
+    /// Grade-measurement noise σ_θ [rad].
+    pub grade_sd: f64,
+    /// Propulsion-force measurement noise σ_F [N].
+    pub force_sd: f64,
+}
+
+impl NoiseLevels {
+    /// True when noise enters a regressor (speed, grade or force), not only the output.
+    pub fn in_regressors(&self) -> bool {
+        self.velocity_sd > 0.0 || self.grade_sd > 0.0 || self.force_sd > 0.0
+    }
+
+    /// True when only the output is noisy.
+    pub fn output_only(&self) -> bool {
+        self.output_sd > 0.0 && !self.in_regressors()
+    }
+}
+
 /// Tag that separates chassis-mc keys from any other use of the same seed.
 const KEY_TAG: &[u8; 8] = b"chassmc1";
 
@@ -118,6 +143,14 @@ impl NormalStream {
     pub fn fill(&mut self, out: &mut [f64]) {
         for chunk in out.chunks_mut(BLOCK) {
             self.fill_block(chunk);
+        }
+    }
+
+    /// Fill `out` with independent U[0, 1) variates (53 bits each, one word per value) from
+    /// the same stream.
+    pub fn fill_uniform(&mut self, out: &mut [f64]) {
+        for u in out.iter_mut() {
+            *u = (self.rng.next_u64() >> 11) as f64 * TWO_POW_M53;
         }
     }
 

@@ -12,7 +12,7 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 
 use super::OutputError;
-use crate::model::{ConditionInfo, Layout, Status};
+use crate::model::{Axis, AxisKind, AxisValue, ConditionInfo, Layout, Status};
 use crate::montecarlo::Chunk;
 use crate::stats::measures::Estimate;
 use crate::stats::summary::{Record, SummaryRow};
@@ -22,17 +22,37 @@ fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
     Field::new(name, DataType::Float64, nullable)
 }
 
+fn axis_field(axis: &Axis) -> Field {
+    match axis.kind {
+        AxisKind::Number => f64_field(axis.name, false),
+        AxisKind::Text => Field::new(axis.name, DataType::Utf8, false),
+    }
+}
+
+/// A column holding one condition's value of `axis` on `rows` rows.
+fn axis_column<'a>(axis: &Axis, values: impl Iterator<Item = &'a AxisValue>) -> ArrayRef {
+    match axis.kind {
+        AxisKind::Number => Arc::new(Float64Array::from_iter_values(
+            values.map(AxisValue::number),
+        )),
+        AxisKind::Text => Arc::new(StringArray::from_iter_values(values.map(|v| match v {
+            AxisValue::Text(t) => t.clone(),
+            AxisValue::Number(n) => n.to_string(),
+        }))),
+    }
+}
+
 /// Schema of `realisations.parquet`: one row per realisation × estimator.
 pub fn realisation_schema(layout: &Layout) -> SchemaRef {
     let mut fields = vec![Field::new("condition", DataType::Int32, false)];
-    fields.extend(layout.axes.iter().map(|a| f64_field(*a, false)));
+    fields.extend(layout.axes.iter().map(axis_field));
     fields.push(Field::new("estimator", DataType::Utf8, false));
     fields.push(Field::new("realisation", DataType::Int64, false));
     for p in &layout.parameters {
-        fields.push(f64_field(format!("theta_{}", p.name), false));
+        fields.push(f64_field(format!("theta_{}", p.name), true));
     }
     for x in &layout.extras {
-        fields.push(f64_field(x.name, false));
+        fields.push(f64_field(x.name, true));
     }
     for b in &layout.bounds {
         for p in &layout.parameters {
@@ -63,8 +83,8 @@ pub fn realisations_batch(
         chunk.condition as i32;
         rows
     ])));
-    for &a in &info.axes {
-        columns.push(Arc::new(Float64Array::from(vec![a; rows])));
+    for (axis, value) in layout.axes.iter().zip(&info.axes) {
+        columns.push(axis_column(axis, std::iter::repeat_n(value, rows)));
     }
     columns.push(Arc::new(StringArray::from_iter_values(
         (0..rows).map(|r| layout.estimators[est(r)]),
@@ -72,22 +92,22 @@ pub fn realisations_batch(
     columns.push(Arc::new(Int64Array::from_iter_values(
         (0..rows).map(|r| (chunk.first + (r / n_est) as u64) as i64),
     )));
+    // NaN slots (failed estimates, bounds that do not apply) are written as nulls.
+    let nullable = |offset: &dyn Fn(usize) -> usize| -> ArrayRef {
+        Arc::new(Float64Array::from_iter((0..rows).map(|r| {
+            let v = slot(r, offset(est(r)));
+            (!v.is_nan()).then_some(v)
+        })))
+    };
     for p in 0..layout.parameters.len() {
-        columns.push(Arc::new(Float64Array::from_iter_values(
-            (0..rows).map(|r| slot(r, layout.theta_at(est(r), p))),
-        )));
+        columns.push(nullable(&|e| layout.theta_at(e, p)));
     }
     for x in 0..layout.extras.len() {
-        columns.push(Arc::new(Float64Array::from_iter_values(
-            (0..rows).map(|r| slot(r, layout.extra_at(est(r), x))),
-        )));
+        columns.push(nullable(&|e| layout.extra_at(e, x)));
     }
     for b in 0..layout.bounds.len() {
         for p in 0..layout.parameters.len() {
-            columns.push(Arc::new(Float64Array::from_iter((0..rows).map(|r| {
-                let v = slot(r, layout.bound_at(est(r), b, p));
-                (!v.is_nan()).then_some(v)
-            }))));
+            columns.push(nullable(&|e| layout.bound_at(e, b, p)));
         }
     }
     columns.push(Arc::new(StringArray::from_iter_values((0..rows).map(
@@ -177,7 +197,11 @@ impl RealisationBatches {
         let mut theta = Vec::with_capacity(n * np);
         let mut bounds = Vec::with_capacity(n * bound_cols.len());
         for i in 0..n {
-            theta.extend(thetas.iter().map(|c| c.value(i)));
+            theta.extend(
+                thetas
+                    .iter()
+                    .map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }),
+            );
             bounds.extend(
                 bound_cols
                     .iter()
@@ -267,7 +291,7 @@ fn measure(row: &SummaryRow, name: &str) -> Estimate {
 /// Schema of `summary.parquet`: one row per condition × estimator × parameter.
 pub fn summary_schema(layout: &Layout) -> SchemaRef {
     let mut fields = vec![Field::new("condition", DataType::Int32, false)];
-    fields.extend(layout.axes.iter().map(|a| f64_field(*a, false)));
+    fields.extend(layout.axes.iter().map(axis_field));
     fields.extend(
         layout
             .condition_metrics
@@ -306,10 +330,11 @@ pub fn summary_batch(
     columns.push(Arc::new(Int32Array::from_iter_values(
         rows.iter().map(|r| r.condition as i32),
     )));
-    for a in 0..layout.axes.len() {
-        columns.push(Arc::new(Float64Array::from_iter_values(
-            rows.iter().map(|r| infos[r.condition].axes[a]),
-        )));
+    for (a, axis) in layout.axes.iter().enumerate() {
+        columns.push(axis_column(
+            axis,
+            rows.iter().map(|r| &infos[r.condition].axes[a]),
+        ));
     }
     for m in 0..layout.condition_metrics.len() {
         columns.push(Arc::new(Float64Array::from_iter_values(

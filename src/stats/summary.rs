@@ -117,7 +117,8 @@ pub struct SummaryRow {
     pub mse: Estimate,
     /// Root mean squared error.
     pub rmse: Estimate,
-    /// Precision relative to the first estimator, 100((S_ref/S)² − 1) [%].
+    /// Precision relative to the reference estimator (OLS when run),
+    /// 100((S_ref/S)² − 1) [%].
     pub rel_precision: Estimate,
     /// Per bound of the layout: its measures where it applies.
     pub bounds: Vec<Option<BoundSummary>>,
@@ -338,16 +339,17 @@ impl<'a> Summarizer<'a> {
         Ok(())
     }
 
-    /// Add the current realisation's cross-products with the reference estimator (index 0).
+    /// Add the current realisation's cross-products with the reference estimator.
     fn flush_cross(&mut self) {
         let Some((c, _)) = self.current else {
             return;
         };
         let np = self.layout.parameters.len();
+        let r = self.layout.reference_estimator();
         for e in 0..self.layout.estimators.len() {
             for p in 0..np {
                 let x = self.current_centred[e * np + p];
-                let reference = self.current_centred[p];
+                let reference = self.current_centred[r * np + p];
                 if !(x.is_nan() || reference.is_nan()) {
                     self.acc[c][e][p].sum_cross_ref.add(x * reference);
                 }
@@ -360,13 +362,14 @@ impl<'a> Summarizer<'a> {
     pub fn finish(mut self) -> Vec<SummaryRow> {
         self.flush_cross();
         let mut out = Vec::new();
+        let reference = self.layout.reference_estimator();
         for (c, per_c) in self.acc.iter().enumerate() {
             let info = &self.infos[c];
             for (e, per_e) in per_c.iter().enumerate() {
                 for (p, acc) in per_e.iter().enumerate() {
                     let truth = info.truth[p];
                     let sums = estimate_sums(acc);
-                    let reference = estimate_sums(&per_c[0][p]);
+                    let reference = estimate_sums(&per_c[reference][p]);
                     let bounds = acc
                         .bounds
                         .iter()

@@ -14,6 +14,7 @@ use std::path::Path;
 use raw::RawStudy;
 pub use spans::KeySpans;
 
+use crate::noise::NoiseLevels;
 use crate::terrain::{ScaleTarget, TerrainSpec};
 use crate::vehicle::{DriveParams, VehicleParams};
 
@@ -58,6 +59,32 @@ pub struct NoiseAxes {
     pub velocity_sd: Vec<f64>,
     /// Standard deviations of the additive output (acceleration) noise [m/s²].
     pub output_sd: Vec<f64>,
+    /// Standard deviations of the grade-measurement noise [rad] (default `[0.0]`).
+    pub grade_sd: Vec<f64>,
+    /// Standard deviations of the propulsion-force measurement noise [N] (default `[0.0]`).
+    pub force_sd: Vec<f64>,
+}
+
+impl NoiseAxes {
+    /// Every combination, nested velocity × output × grade × force (the last varies fastest).
+    pub fn levels(&self) -> Vec<NoiseLevels> {
+        let mut out = Vec::new();
+        for &velocity_sd in &self.velocity_sd {
+            for &output_sd in &self.output_sd {
+                for &grade_sd in &self.grade_sd {
+                    for &force_sd in &self.force_sd {
+                        out.push(NoiseLevels {
+                            velocity_sd,
+                            output_sd,
+                            grade_sd,
+                            force_sd,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
 }
 
 /// An estimator the study asks for.
@@ -65,16 +92,19 @@ pub struct NoiseAxes {
 pub enum EstimatorKind {
     /// Ordinary least squares on the noisy regressors (the thesis).
     Ols,
+    /// Bias-compensated least squares for speed noise of known σ_v (SPEC §3).
+    Bcls,
 }
 
 impl EstimatorKind {
-    /// All estimators, in the order of their names below.
-    pub const ALL: [EstimatorKind; 1] = [EstimatorKind::Ols];
+    /// All estimators.
+    pub const ALL: [EstimatorKind; 2] = [EstimatorKind::Ols, EstimatorKind::Bcls];
 
     /// The name used in study files and output columns.
     pub fn name(self) -> &'static str {
         match self {
             EstimatorKind::Ols => "ols",
+            EstimatorKind::Bcls => "bcls",
         }
     }
 
@@ -100,11 +130,49 @@ pub struct VehicleStudy {
     pub estimators: Vec<EstimatorKind>,
 }
 
+/// Shape of the measurement noise of the line-fit example.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseShape {
+    /// Uniform on [−√3 σ, √3 σ] (the thesis's `18*(rand − 0.5)` has σ = 18/√12 = 5.196).
+    Uniform,
+    /// Normal N(0, σ²).
+    Gaussian,
+}
+
+impl NoiseShape {
+    /// The name used in study files and output columns.
+    pub fn name(self) -> &'static str {
+        match self {
+            NoiseShape::Uniform => "uniform",
+            NoiseShape::Gaussian => "gaussian",
+        }
+    }
+}
+
+/// The validated worked example of thesis §3.2–3.3: y = θ₁ + θ₂ t with i.i.d. noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineFitStudy {
+    /// True intercept θ₁.
+    pub intercept: f64,
+    /// True slope θ₂.
+    pub slope: f64,
+    /// Sample times t_i.
+    pub times: Vec<f64>,
+    /// The σ the bound assumes (the thesis uses 7.5).
+    pub assumed_sd: f64,
+    /// Noise shapes, one condition axis.
+    pub noise: Vec<NoiseShape>,
+    /// True noise standard deviations, one condition axis.
+    pub noise_sd: Vec<f64>,
+}
+
 /// The model a study runs, with its validated settings.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModelSpec {
     /// The longitudinal vehicle model of the thesis.
     Vehicle(VehicleStudy),
+    /// The straight-line example of thesis §3.2–3.3.
+    LineFit(LineFitStudy),
 }
 
 /// A validated study: everything needed to run it, and nothing unchecked.
@@ -194,9 +262,8 @@ impl Study {
     /// Number of conditions the study runs (the product of its axes).
     pub fn condition_count(&self) -> usize {
         match &self.model {
-            ModelSpec::Vehicle(v) => {
-                v.scales.len() * v.noise.velocity_sd.len() * v.noise.output_sd.len()
-            }
+            ModelSpec::Vehicle(v) => v.scales.len() * v.noise.levels().len(),
+            ModelSpec::LineFit(l) => l.noise.len() * l.noise_sd.len(),
         }
     }
 
@@ -204,6 +271,15 @@ impl Study {
     pub fn vehicle(&self) -> Option<&VehicleStudy> {
         match &self.model {
             ModelSpec::Vehicle(v) => Some(v),
+            ModelSpec::LineFit(_) => None,
+        }
+    }
+
+    /// The line-fit study, if this is one.
+    pub fn line_fit(&self) -> Option<&LineFitStudy> {
+        match &self.model {
+            ModelSpec::LineFit(l) => Some(l),
+            ModelSpec::Vehicle(_) => None,
         }
     }
 }
@@ -366,11 +442,28 @@ fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<Study, Study
     check_realisations(raw.realisations as i128).map_err(|r| c.fail("realisations", r))?;
 
     let model = match raw.model.as_str() {
-        "vehicle" => ModelSpec::Vehicle(validate_vehicle(&raw, &c)?),
+        "vehicle" => {
+            if raw.line_fit.is_some() {
+                return Err(c.fail("line_fit", "is not used by model \"vehicle\""));
+            }
+            ModelSpec::Vehicle(validate_vehicle(&raw, &c)?)
+        }
+        "line_fit" => {
+            let unused = [
+                ("vehicle", raw.vehicle.is_some()),
+                ("drive", raw.drive.is_some()),
+                ("terrain", raw.terrain.is_some()),
+                ("noise", raw.noise.is_some()),
+            ];
+            if let Some((key, _)) = unused.iter().find(|(_, present)| *present) {
+                return Err(c.fail(key, "is not used by model \"line_fit\""));
+            }
+            ModelSpec::LineFit(validate_line_fit(&raw, &c)?)
+        }
         other => {
             return Err(c.fail(
                 "model",
-                format!("unknown model \"{other}\"; expected \"vehicle\""),
+                format!("unknown model \"{other}\"; expected \"vehicle\" or \"line_fit\""),
             ));
         }
     };
@@ -481,26 +574,10 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
     let noise = NoiseAxes {
         velocity_sd: c.list("noise.velocity_sd", &n.velocity_sd, Checker::non_negative)?,
         output_sd: c.list("noise.output_sd", &n.output_sd, Checker::non_negative)?,
+        grade_sd: c.list("noise.grade_sd", &n.grade_sd, Checker::non_negative)?,
+        force_sd: c.list("noise.force_sd", &n.force_sd, Checker::non_negative)?,
     };
-
-    if e.estimators.is_empty() {
-        return Err(c.fail("estimation.estimators", "must list at least one estimator"));
-    }
-    let mut estimators = Vec::new();
-    for (i, name) in e.estimators.iter().enumerate() {
-        let key = format!("estimation.estimators[{i}]");
-        let kind = EstimatorKind::parse(name).ok_or_else(|| {
-            let known: Vec<_> = EstimatorKind::ALL.iter().map(|e| e.name()).collect();
-            c.fail(
-                &key,
-                format!("unknown estimator \"{name}\"; expected one of {known:?}"),
-            )
-        })?;
-        if estimators.contains(&kind) {
-            return Err(c.fail(&key, format!("estimator \"{name}\" is listed twice")));
-        }
-        estimators.push(kind);
-    }
+    let estimators = validate_estimators(&e.estimators, &EstimatorKind::ALL, c)?;
 
     Ok(VehicleStudy {
         vehicle,
@@ -509,5 +586,87 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         scales,
         noise,
         estimators,
+    })
+}
+
+fn validate_estimators(
+    names: &[String],
+    allowed: &[EstimatorKind],
+    c: &Checker<'_>,
+) -> Result<Vec<EstimatorKind>, StudyError> {
+    if names.is_empty() {
+        return Err(c.fail("estimation.estimators", "must list at least one estimator"));
+    }
+    let mut estimators = Vec::new();
+    for (i, name) in names.iter().enumerate() {
+        let key = format!("estimation.estimators[{i}]");
+        let kind = EstimatorKind::parse(name)
+            .filter(|k| allowed.contains(k))
+            .ok_or_else(|| {
+                let known: Vec<_> = allowed.iter().map(|e| e.name()).collect();
+                c.fail(
+                    &key,
+                    format!("unknown estimator \"{name}\"; expected one of {known:?}"),
+                )
+            })?;
+        if estimators.contains(&kind) {
+            return Err(c.fail(&key, format!("estimator \"{name}\" is listed twice")));
+        }
+        estimators.push(kind);
+    }
+    Ok(estimators)
+}
+
+fn validate_line_fit(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, StudyError> {
+    let l = raw
+        .line_fit
+        .as_ref()
+        .ok_or_else(|| c.missing_table("line_fit"))?;
+    if let Some(e) = &raw.estimation {
+        validate_estimators(&e.estimators, &[EstimatorKind::Ols], c)?;
+    }
+    let t_start = c.finite("line_fit.t_start", l.t_start)?;
+    let t_step = c.positive("line_fit.t_step", l.t_step)?;
+    let t_end = c.finite("line_fit.t_end", l.t_end)?;
+    let span = (t_end - t_start) / t_step;
+    let steps = span.round();
+    if steps < 1.0 || (steps - span).abs() > 1e-9 * span.abs().max(1.0) {
+        return Err(c.fail(
+            "line_fit.t_end",
+            format!(
+                "must lie a whole number (≥ 1) of t_step = {t_step} after t_start = {t_start}, got {t_end}"
+            ),
+        ));
+    }
+    if steps + 1.0 > MAX_SAMPLES as f64 {
+        return Err(c.fail("line_fit.t_step", "gives too many samples"));
+    }
+    let times = (0..=steps as usize)
+        .map(|i| t_start + i as f64 * t_step)
+        .collect();
+    if l.noise.is_empty() {
+        return Err(c.fail("line_fit.noise", "must list at least one noise shape"));
+    }
+    let mut noise = Vec::new();
+    for (i, name) in l.noise.iter().enumerate() {
+        let shape = match name.as_str() {
+            "uniform" => NoiseShape::Uniform,
+            "gaussian" => NoiseShape::Gaussian,
+            other => {
+                return Err(c.fail(
+                    &format!("line_fit.noise[{i}]"),
+                    format!("unknown noise \"{other}\"; expected \"uniform\" or \"gaussian\""),
+                ));
+            }
+        };
+        noise.push(shape);
+    }
+    Ok(LineFitStudy {
+        intercept: c.finite("line_fit.intercept", l.intercept)?,
+        slope: c.finite("line_fit.slope", l.slope)?,
+        times,
+        assumed_sd: c.positive("line_fit.assumed_sd", l.assumed_sd)?,
+        noise,
+        noise_sd: c.list("line_fit.noise_sd", &l.noise_sd, Checker::non_negative)?,
     })
 }

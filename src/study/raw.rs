@@ -38,6 +38,9 @@ pub struct RawStudy {
     /// `[estimation]`: estimators to run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimation: Option<RawEstimation>,
+    /// `[line_fit]`: the worked example of thesis §3.2–3.3 (model = "line_fit").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line_fit: Option<RawLineFit>,
 }
 
 /// `[vehicle]`
@@ -84,6 +87,28 @@ pub struct RawTerrain {
 pub struct RawNoise {
     pub velocity_sd: Vec<f64>,
     pub output_sd: Vec<f64>,
+    #[serde(default = "zero_axis")]
+    pub grade_sd: Vec<f64>,
+    #[serde(default = "zero_axis")]
+    pub force_sd: Vec<f64>,
+}
+
+fn zero_axis() -> Vec<f64> {
+    vec![0.0]
+}
+
+/// `[line_fit]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLineFit {
+    pub intercept: f64,
+    pub slope: f64,
+    pub t_start: f64,
+    pub t_step: f64,
+    pub t_end: f64,
+    pub assumed_sd: f64,
+    pub noise: Vec<String>,
+    pub noise_sd: Vec<f64>,
 }
 
 /// `[estimation]`

@@ -1,7 +1,10 @@
 mod common;
 
+mod bias_bounds;
 mod cli_errors;
 mod determinism;
+mod line_fit;
+mod mcse;
 mod noise;
 mod noise_free;
 mod output_noise;

@@ -33,6 +33,27 @@ fn crlb_is_tight_and_ols_unbiased_under_output_noise() {
             bias_mcse[i]
         );
     }
+    // Issue 3 acceptance 3: coverage of θ̂ ± 1.96·CRLB within 4 MCSE of 0.95 (MCSE at the
+    // nominal p: √(0.95·0.05/400) = 0.0109), and the χ² variance-ratio test's p-values are
+    // not systematically small: none below 1e-4 (P(any of 33 < 1e-4) = 0.0033 under H₀).
+    let coverage = f64_col(&s, "coverage_crlb_output");
+    let nominal_mcse = (0.95f64 * 0.05 / 400.0).sqrt();
+    for (i, c) in coverage.iter().enumerate() {
+        assert!(
+            (c - 0.95).abs() <= 4.0 * nominal_mcse,
+            "{} at scale {}: coverage {c}",
+            params[i],
+            scales[i]
+        );
+    }
+    for (i, p) in f64_col(&s, "crlb_output_chi2_p").iter().enumerate() {
+        assert!(
+            *p >= 1e-4,
+            "{} at scale {}: χ² p = {p}",
+            params[i],
+            scales[i]
+        );
+    }
     // The thesis bound needs speed noise; under output noise it is not reported.
     assert!(f64_col(&s, "thesis_bound_se").iter().all(|v| v.is_nan()));
 }
