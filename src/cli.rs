@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::anyhow;
 use chassis_mc::montecarlo::Observer;
-use chassis_mc::run::{RunError, RunOptions, run_study};
+use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -58,10 +58,40 @@ enum Command {
         /// Worker threads (default: all cores). Results do not depend on it.
         #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
         threads: Option<u16>,
+        /// Run only shard K of N (0-based): realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every
+        /// condition, written to DIR/shard=K/realisations.parquet. Combine the shards with
+        /// `chassis-mc summarize DIR`.
+        #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+        shard: Option<Shard>,
         /// Print no table and no progress bar.
         #[arg(long)]
         quiet: bool,
     },
+    /// Rebuild summary.parquet (and cycles.parquet) from realisation files: the shards of a
+    /// sharded run, or any run's realisations.parquet.
+    #[command(
+        long_about = "Rebuild summary.parquet (and cycles.parquet) from realisation files.\n\n\
+        Each DIR may be a run's output directory (its realisations.parquet and every \
+        shard=*/realisations.parquet are read) or a realisation file. The study is read from \
+        the files' footers; every realisation of every condition must be present exactly \
+        once. The result is bit-identical to the summary of an unsharded run.\n\n\
+        Example: chassis-mc summarize results/thesis"
+    )]
+    Summarize {
+        /// Output directories or realisation files.
+        #[arg(required = true, value_name = "DIR")]
+        inputs: Vec<PathBuf>,
+        /// Where to write summary.parquet and cycles.parquet (default: the first DIR).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Print no table.
+        #[arg(long)]
+        quiet: bool,
+    },
+}
+
+fn parse_shard(text: &str) -> Result<Shard, String> {
+    Shard::parse(text)
 }
 
 /// A failure with the exit code it maps to.
@@ -91,6 +121,19 @@ pub fn parse() -> Cli {
 struct Progress(ProgressBar);
 
 impl Observer for Progress {
+    fn planned(&self, total: u64, done: u64) {
+        self.0.set_length(total);
+        self.0.set_position(done);
+        if done > 0 {
+            self.0.suspend(|| {
+                eprintln!(
+                    "resuming: {done} of {total} realisations kept from an earlier run; computing {}",
+                    total - done
+                )
+            });
+        }
+    }
+
     fn realisations_done(&self, count: u64) {
         self.0.inc(count);
     }
@@ -105,6 +148,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             realisations,
             seed,
             threads,
+            shard,
             quiet,
         } => {
             let study = Study::load(&study)
@@ -112,6 +156,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 .map_err(RunError::from)?;
             let mut options = RunOptions::new(out);
             options.threads = threads.map(usize::from);
+            options.shard = shard;
             let conditions = study.condition_count();
             let total = conditions as u64 * study.realisations;
             let bar = if quiet {
@@ -128,7 +173,15 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             let started = Instant::now();
             let report = run_study(&study, &options, &Progress(bar.clone()))?;
             bar.finish_and_clear();
-            if !quiet {
+            if let (Some(shard), false) = (shard, quiet) {
+                println!(
+                    "shard {shard}: {} realisations computed, {} kept; wrote {}",
+                    report.computed,
+                    report.reused,
+                    report.files[0].display()
+                );
+                println!("when every shard is done: chassis-mc summarize <DIR>");
+            } else if !quiet {
                 print!(
                     "{}",
                     chassis_mc::report::table(&report.layout, &report.infos, &report.summary)
@@ -138,6 +191,25 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                     conditions,
                     study.realisations,
                     started.elapsed().as_secs_f64()
+                );
+                for f in &report.files {
+                    println!("  {}", f.display());
+                }
+            }
+            Ok(())
+        }
+        Command::Summarize { inputs, out, quiet } => {
+            let out = out.unwrap_or_else(|| inputs[0].clone());
+            let out = if out.is_file() {
+                out.parent().map(PathBuf::from).unwrap_or_default()
+            } else {
+                out
+            };
+            let report = summarize(&inputs, &out)?;
+            if !quiet {
+                print!(
+                    "{}",
+                    chassis_mc::report::table(&report.layout, &report.infos, &report.summary)
                 );
                 for f in &report.files {
                     println!("  {}", f.display());

@@ -15,7 +15,7 @@ use crate::model::vehicle::VehicleModel;
 use crate::model::{ConditionInfo, Layout, Model};
 use crate::montecarlo::{self, DEFAULT_CHUNK, Observer, Work};
 use crate::output::{
-    self, FileMetadata, OutputError, ParquetSink, PendingFile, RealisationBatches,
+    self, FileMetadata, OutputError, ParquetSink, PendingFile, RealisationBatches, keys, store,
 };
 use crate::stats::measures::Z_95;
 use crate::stats::summary::{Summarizer, SummaryError, SummaryRow};
@@ -68,6 +68,8 @@ pub struct RunOptions {
     pub threads: Option<usize>,
     /// Realisations per computed chunk.
     pub chunk: u64,
+    /// Run only this shard of every condition (written to `out_dir/shard=K/`).
+    pub shard: Option<Shard>,
 }
 
 impl RunOptions {
@@ -77,6 +79,7 @@ impl RunOptions {
             out_dir: out_dir.into(),
             threads: None,
             chunk: DEFAULT_CHUNK,
+            shard: None,
         }
     }
 }
@@ -169,8 +172,8 @@ impl ExtraFiles for VehicleModel {
     fn write(&self, dir: &Path, meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError> {
         let mut sink =
             ParquetSink::create(dir, files::CYCLES, output::cycles_schema(), meta, "cycles")?;
-        for c in 0..self.condition_count() {
-            let batch = output::cycles_batch(c, &self.cycle(c)).map_err(|e| arrow_error(dir, e))?;
+        for (c, cycle) in self.cycles().iter().enumerate() {
+            let batch = output::cycles_batch(c, cycle).map_err(|e| arrow_error(dir, e))?;
             sink.write(&batch)?;
         }
         Ok(vec![sink.finish()?])
@@ -197,11 +200,65 @@ pub struct RunReport {
     pub layout: Layout,
     /// The conditions.
     pub infos: Vec<ConditionInfo>,
-    /// The summary rows (also in summary.parquet).
+    /// The summary rows (also in summary.parquet); empty for a shard.
     pub summary: Vec<SummaryRow>,
     /// The files written.
     pub files: Vec<PathBuf>,
+    /// Realisations (per condition, summed) kept from earlier, interrupted or smaller runs.
+    pub reused: u64,
+    /// Realisations computed by this run.
+    pub computed: u64,
 }
+
+/// Shard K of N: the contiguous realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every condition.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// K, 0-based.
+    pub index: u64,
+    /// N ≥ 1.
+    pub count: u64,
+}
+
+impl Shard {
+    /// Parse "K/N" with 0 ≤ K < N.
+    pub fn parse(text: &str) -> Result<Shard, String> {
+        let (k, n) = text
+            .split_once('/')
+            .ok_or_else(|| format!("expected K/N (e.g. 0/4), got \"{text}\""))?;
+        let index: u64 = k
+            .trim()
+            .parse()
+            .map_err(|_| format!("K in K/N must be a whole number, got \"{k}\""))?;
+        let count: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("N in K/N must be a whole number, got \"{n}\""))?;
+        if count == 0 || index >= count {
+            return Err(format!("need 0 <= K < N, got {index}/{count}"));
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// The realisations of this shard out of `r` per condition.
+    pub fn range(&self, r: u64) -> std::ops::Range<u64> {
+        let at = |k: u64| (u128::from(k) * u128::from(r) / u128::from(self.count)) as u64;
+        at(self.index)..at(self.index + 1)
+    }
+
+    /// Directory of this shard inside the output directory (`shard=K`, hive style).
+    pub fn dir_name(&self) -> String {
+        format!("shard={}", self.index)
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+/// Staging directory for parts, inside the directory of the realisation file.
+pub const STAGING: &str = ".chassis-mc-parts";
 
 /// Run `study` into `options.out_dir`.
 pub fn run_study(
@@ -209,9 +266,11 @@ pub fn run_study(
     options: &RunOptions,
     observer: &dyn Observer,
 ) -> Result<RunReport, RunError> {
-    let prepared = PreparedModel::new(study)?;
     let pool = thread_pool(options.threads)?;
-    pool.install(|| run_prepared(study, prepared.model(), options, observer))
+    pool.install(|| {
+        let prepared = PreparedModel::new(study)?;
+        run_prepared(study, prepared.model(), options, observer)
+    })
 }
 
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
@@ -225,73 +284,279 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
     })
 }
 
+/// Delete files left under temporary names by killed runs.
+fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
+    for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
+        let entry = entry.map_err(|e| OutputError::io(dir, e))?;
+        if store::is_temporary(&entry.file_name().to_string_lossy()) {
+            fs::remove_file(entry.path()).map_err(|e| OutputError::io(&entry.path(), e))?;
+        }
+    }
+    Ok(())
+}
+
 fn run_prepared(
     study: &Study,
     model: &dyn DynModel,
     options: &RunOptions,
     observer: &dyn Observer,
 ) -> Result<RunReport, RunError> {
-    let dir = &options.out_dir;
-    fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, e))?;
+    let out_dir = &options.out_dir;
+    let dir = match options.shard {
+        Some(shard) => out_dir.join(shard.dir_name()),
+        None => out_dir.clone(),
+    };
+    let staging = dir.join(STAGING);
+    fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    remove_temporaries(&dir)?;
+    let identity = study.identity();
     let meta = FileMetadata {
         study_toml: study.to_toml(),
         seed: study.seed,
         realisations: study.realisations,
+        identity: identity.clone(),
+        extra: Vec::new(),
     };
     let layout = model.layout().clone();
     let infos = model.infos();
-
-    // 1. Realisations, streamed to Parquet chunk by chunk.
     let schema = output::realisation_schema(&layout);
+    let range = options
+        .shard
+        .map_or(0..study.realisations, |s| s.range(study.realisations));
+    let needed = vec![range.clone(); infos.len()];
+    let target = dir.join(files::REALISATIONS);
+
+    // 1. What exists already: completed parts of an interrupted run, and the realisation
+    //    file of an earlier run of the same study (e.g. with a smaller R).
+    let find_sources = || -> Result<Vec<store::Source>, OutputError> {
+        let mut sources = store::scan_parts(&staging, &identity)?;
+        sources.extend(store::existing_file(&target, &identity)?);
+        Ok(sources)
+    };
+    let sources = find_sources()?;
+    let segments = store::plan(&needed, &sources);
+    let length = |s: &store::Segment| s.range.end - s.range.start;
+    let total: u64 = segments.iter().map(length).sum();
+    let computed: u64 = segments
+        .iter()
+        .filter(|s| s.source.is_none())
+        .map(length)
+        .sum();
+    observer.planned(total, total - computed);
+
+    // 2. Compute what is missing into staged parts, each renamed into place when complete.
+    for seg in segments.iter().filter(|s| s.source.is_none()) {
+        let mut start = seg.range.start;
+        while start < seg.range.end {
+            let end = (start + store::PART_REALISATIONS).min(seg.range.end);
+            let piece = Work {
+                condition: seg.condition,
+                realisations: start..end,
+            };
+            let part_meta = meta.with(keys::PART, store::part_value(seg.condition, &(start..end)));
+            let mut sink = ParquetSink::create(
+                &staging,
+                &store::part_name(seg.condition, start),
+                schema.clone(),
+                &part_meta,
+                "realisations",
+            )?;
+            model.execute(
+                study.seed,
+                &[piece],
+                options.chunk,
+                observer,
+                &mut |chunk| {
+                    let batch = output::realisations_batch(
+                        &layout,
+                        &schema,
+                        &infos[chunk.condition],
+                        &chunk,
+                    )
+                    .map_err(|e| arrow_error(&staging, e))?;
+                    sink.write(&batch)
+                },
+            )?;
+            sink.finish()?.commit()?;
+            start = end;
+        }
+    }
+
+    // 3. Merge every source, in (condition, realisation) order, into the new file.
+    let sources = find_sources()?;
+    let segments = store::plan(&needed, &sources);
+    if let Some(gap) = segments.iter().find(|s| s.source.is_none()) {
+        return Err(OutputError::format(
+            &staging,
+            format!(
+                "realisations {:?} of condition {} are missing after computing them",
+                gap.range, gap.condition
+            ),
+        )
+        .into());
+    }
+    let file_meta = match options.shard {
+        Some(shard) => meta.with(keys::SHARD, shard.to_string()),
+        None => meta.clone(),
+    };
     let mut sink = ParquetSink::create(
-        dir,
+        &dir,
         files::REALISATIONS,
-        schema.clone(),
-        &meta,
+        schema,
+        &file_meta,
         "realisations",
     )?;
-    let work: Vec<Work> = (0..infos.len())
-        .map(|c| Work {
-            condition: c,
-            realisations: 0..study.realisations,
-        })
-        .collect();
-    model.execute(study.seed, &work, options.chunk, observer, &mut |chunk| {
-        let batch = output::realisations_batch(&layout, &schema, &infos[chunk.condition], &chunk)
-            .map_err(|e| arrow_error(dir, e))?;
-        sink.write(&batch)
-    })?;
+    store::merge(&sources, &segments, &mut sink)?;
     let realisations = sink.finish()?;
 
-    // 2. Summary, from the realisation file itself (two passes), so `run` and any later
-    //    re-summary of the same rows agree by construction.
-    let summary = summarise_files(
-        &layout,
-        &infos,
-        study.realisations,
-        &[realisations.tmp_path()],
-    )?;
+    // 4. The summary, from the merged file itself (two passes), so `run` and `summarize`
+    //    agree by construction; a shard's summary comes from `summarize` over all shards.
+    let mut pending = Vec::new();
+    let mut summary = Vec::new();
+    if options.shard.is_none() {
+        summary = summarise_files(
+            &layout,
+            &infos,
+            study.realisations,
+            &[realisations.tmp_path()],
+        )?;
+        pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
+        pending.extend(model.extra_files(out_dir, &meta)?);
+    }
+    pending.insert(0, realisations);
+    let files = output::commit_all(pending)?;
+    fs::remove_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    Ok(RunReport {
+        layout,
+        infos,
+        summary,
+        files,
+        reused: total - computed,
+        computed,
+    })
+}
+
+fn write_summary(
+    dir: &Path,
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    summary: &[SummaryRow],
+    meta: &FileMetadata,
+) -> Result<Vec<PendingFile>, OutputError> {
     let mut sink = ParquetSink::create(
         dir,
         files::SUMMARY,
-        output::summary_schema(&layout),
-        &meta,
+        output::summary_schema(layout),
+        meta,
         "summary",
     )?;
-    let batch =
-        output::summary_batch(&layout, &infos, &summary).map_err(|e| arrow_error(dir, e))?;
+    let batch = output::summary_batch(layout, infos, summary).map_err(|e| arrow_error(dir, e))?;
     sink.write(&batch)?;
-    let summary_file = sink.finish()?;
+    Ok(vec![sink.finish()?])
+}
 
-    // 3. Model-specific tables, then commit everything together.
-    let mut pending = vec![realisations, summary_file];
-    pending.extend(model.extra_files(dir, &meta)?);
+/// The realisation files in `input`: the file itself, or in a directory its
+/// `realisations.parquet` and every `shard=*/realisations.parquet`.
+pub fn realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    if input.is_file() {
+        return Ok(vec![input.to_path_buf()]);
+    }
+    let mut found = Vec::new();
+    let direct = input.join(files::REALISATIONS);
+    if direct.is_file() {
+        found.push(direct);
+    }
+    let entries = fs::read_dir(input).map_err(|e| OutputError::io(input, e))?;
+    let mut shards = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| OutputError::io(input, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let file = entry.path().join(files::REALISATIONS);
+        if name.starts_with("shard=") && file.is_file() {
+            shards.push(file);
+        }
+    }
+    shards.sort();
+    found.extend(shards);
+    Ok(found)
+}
+
+/// Rebuild `summary.parquet` (and the model's extra tables) in `out_dir` from realisation
+/// files of one study: any split into shards, in any order. The study is read from the
+/// files' footers; every realisation of every condition must be present exactly once.
+pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunError> {
+    let mut paths = Vec::new();
+    for input in inputs {
+        paths.extend(realisation_files(input)?);
+    }
+    let first = paths.first().ok_or_else(|| {
+        RunError::Study(StudyError {
+            file: inputs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            key: None,
+            line: None,
+            reason: "no realisation files found (expected realisations.parquet or shard=*/realisations.parquet)".into(),
+        })
+    })?;
+    let footer = |path: &Path| -> Result<(String, String, u64), RunError> {
+        let kv = output::read_metadata(path)?;
+        let get = |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+        let missing = || {
+            OutputError::format(
+                path,
+                "not a chassis-mc realisation file (footer metadata missing)",
+            )
+        };
+        let study = get(keys::STUDY).ok_or_else(missing)?;
+        let identity = get(keys::IDENTITY).ok_or_else(missing)?;
+        let r = get(keys::REALISATIONS)
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(missing)?;
+        Ok((study, identity, r))
+    };
+    let (study_toml, identity, realisations) = footer(first)?;
+    for path in &paths[1..] {
+        let (_, other, r) = footer(path)?;
+        if other != identity || r != realisations {
+            return Err(OutputError::format(
+                path,
+                format!(
+                    "belongs to a different study or R than {} (realisations {r} vs {realisations})",
+                    first.display()
+                ),
+            )
+            .into());
+        }
+    }
+    let origin = format!("{} (footer)", first.display());
+    let study = Study::from_toml(&study_toml, &origin)?;
+    let prepared = PreparedModel::new(&study)?;
+    let model = prepared.model();
+    let layout = model.layout().clone();
+    let infos = model.infos();
+    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let summary = summarise_files(&layout, &infos, realisations, &refs)?;
+    fs::create_dir_all(out_dir).map_err(|e| OutputError::io(out_dir, e))?;
+    let meta = FileMetadata {
+        study_toml: study.to_toml(),
+        seed: study.seed,
+        realisations,
+        identity,
+        extra: Vec::new(),
+    };
+    let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
+    pending.extend(model.extra_files(out_dir, &meta)?);
     let files = output::commit_all(pending)?;
     Ok(RunReport {
         layout,
         infos,
         summary,
         files,
+        reused: 0,
+        computed: 0,
     })
 }
 

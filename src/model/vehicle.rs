@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::{
     Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, Layout, Model, ParameterInfo, Status,
@@ -65,24 +66,32 @@ impl VehicleModel {
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
             .clone();
         let truth = vs.vehicle.theta();
-        let mut regressions = Vec::with_capacity(vs.scales.len());
-        let mut metrics = Vec::with_capacity(vs.scales.len());
-        for (i, &scale) in vs.scales.iter().enumerate() {
-            let table = vs.terrain.grade_table(scale);
-            let cycle = simulate(&vs.vehicle, &vs.drive, &table).map_err(|e| {
-                study.error_at(
-                    &format!("terrain.scales[{i}]"),
-                    format!("at scale {scale}: {e}"),
-                )
-            })?;
-            metrics.push(vec![table.mean_square(), cycle.terrain_mean_square()]);
-            regressions.push(Arc::new(Regression::new(&cycle, &vs.vehicle)));
-        }
+        // One drive cycle per scale, simulated in parallel (each is independent).
+        let prepared: Vec<(Vec<f64>, Arc<Regression>)> = vs
+            .scales
+            .par_iter()
+            .enumerate()
+            .map(|(i, &scale)| {
+                let table = vs.terrain.grade_table(scale);
+                let cycle = simulate(&vs.vehicle, &vs.drive, &table).map_err(|e| {
+                    study.error_at(
+                        &format!("terrain.scales[{i}]"),
+                        format!("at scale {scale}: {e}"),
+                    )
+                })?;
+                let metrics = vec![table.mean_square(), cycle.terrain_mean_square()];
+                Ok((metrics, Arc::new(Regression::new(&cycle, &vs.vehicle))))
+            })
+            .collect::<Result<_, StudyError>>()?;
         let layout = layout(&vs.estimators);
-        let mut conditions = Vec::new();
-        for (scale_index, &scale) in vs.scales.iter().enumerate() {
-            for noise in vs.noise.levels() {
-                let regression = regressions[scale_index].clone();
+        let pairs: Vec<(usize, NoiseLevels)> = (0..vs.scales.len())
+            .flat_map(|s| vs.noise.levels().into_iter().map(move |n| (s, n)))
+            .collect();
+        let conditions = pairs
+            .par_iter()
+            .map(|&(scale_index, noise)| {
+                let (metrics, regression) = &prepared[scale_index];
+                let regression = regression.clone();
                 let nan = [f64::NAN; 3];
                 let mut constant_bounds = [nan; 4];
                 if noise.output_only() {
@@ -101,10 +110,10 @@ impl VehicleModel {
                     noise.in_regressors(),
                     noise.in_regressors(),
                 ];
-                conditions.push(Condition {
+                Condition {
                     info: ConditionInfo {
                         axes: [
-                            scale,
+                            vs.scales[scale_index],
                             noise.velocity_sd,
                             noise.output_sd,
                             noise.grade_sd,
@@ -113,7 +122,7 @@ impl VehicleModel {
                         .into_iter()
                         .map(AxisValue::Number)
                         .collect(),
-                        metrics: metrics[scale_index].clone(),
+                        metrics: metrics.clone(),
                         truth: truth.to_vec(),
                         applies: vec![applies_row; vs.estimators.len()],
                     },
@@ -121,9 +130,9 @@ impl VehicleModel {
                     noise,
                     regression,
                     constant_bounds,
-                });
-            }
-        }
+                }
+            })
+            .collect();
         Ok(VehicleModel {
             study: vs,
             layout,
@@ -133,10 +142,26 @@ impl VehicleModel {
 
     /// The noise-free drive cycle of condition `c` (simulated again: cycles are not kept).
     pub fn cycle(&self, c: usize) -> DriveCycle {
-        let scale = self.study.scales[self.conditions[c].scale_index];
-        let table = self.study.terrain.grade_table(scale);
+        self.scale_cycle(self.conditions[c].scale_index)
+    }
+
+    /// The drive cycle of terrain scale number `s`.
+    fn scale_cycle(&self, s: usize) -> DriveCycle {
+        let table = self.study.terrain.grade_table(self.study.scales[s]);
         simulate(&self.study.vehicle, &self.study.drive, &table)
             .expect("the cycle simulated when the model was prepared")
+    }
+
+    /// Every condition's drive cycle, one simulation per scale, in parallel.
+    pub fn cycles(&self) -> Vec<Arc<DriveCycle>> {
+        let per_scale: Vec<Arc<DriveCycle>> = (0..self.study.scales.len())
+            .into_par_iter()
+            .map(|s| Arc::new(self.scale_cycle(s)))
+            .collect();
+        self.conditions
+            .iter()
+            .map(|c| per_scale[c.scale_index].clone())
+            .collect()
     }
 
     /// The validated study settings.

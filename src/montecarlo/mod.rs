@@ -38,6 +38,10 @@ pub struct Chunk<'a> {
 
 /// Watches a run; every method has a no-op default (e.g. a progress bar implements it).
 pub trait Observer: Sync {
+    /// The run needs `total` realisations (all conditions), `done` of which exist already
+    /// (kept from an interrupted or smaller run).
+    fn planned(&self, _total: u64, _done: u64) {}
+
     /// `count` more realisations are done.
     fn realisations_done(&self, _count: u64) {}
 }

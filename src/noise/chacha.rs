@@ -96,25 +96,28 @@ impl ChaCha8Words {
     #[inline]
     pub fn fill(&mut self, out: &mut [u64]) {
         let mut i = 0;
-        // Drain what is buffered.
-        let take = (WORDS_PER_CALL - self.pos).min(out.len());
-        out[..take].copy_from_slice(&self.buffer[self.pos..self.pos + take]);
-        self.pos += take;
-        i += take;
-        while out.len() - i >= WORDS_PER_CALL {
-            let chunk: &mut [u64; WORDS_PER_CALL] = (&mut out[i..i + WORDS_PER_CALL])
-                .try_into()
-                .expect("chunk length");
-            self.generate(chunk);
-            i += WORDS_PER_CALL;
-        }
         while i < out.len() {
-            out[i] = self.next_u64();
-            i += 1;
+            if self.pos == WORDS_PER_CALL {
+                if out.len() - i >= WORDS_PER_CALL {
+                    let chunk: &mut [u64; WORDS_PER_CALL] = (&mut out[i..i + WORDS_PER_CALL])
+                        .try_into()
+                        .expect("chunk length");
+                    self.generate(chunk);
+                    i += WORDS_PER_CALL;
+                    continue;
+                }
+                blocks(&self.key, self.stream, self.counter, &mut self.buffer);
+                self.counter = self.counter.wrapping_add(BLOCKS_PER_CALL as u64);
+                self.pos = 0;
+            }
+            let take = (WORDS_PER_CALL - self.pos).min(out.len() - i);
+            out[i..i + take].copy_from_slice(&self.buffer[self.pos..self.pos + take]);
+            self.pos += take;
+            i += take;
         }
     }
 
-    /// Compute the next eight blocks into `out`.
+    /// Compute the next sixteen blocks into `out`.
     #[inline]
     fn generate(&mut self, out: &mut [u64; WORDS_PER_CALL]) {
         blocks(&self.key, self.stream, self.counter, out);

@@ -6,6 +6,7 @@
 //! failed run leaves the previous results untouched. Compression is zstd, row groups are
 //! bounded, and the footer carries the study as run, the engine version and the seed.
 
+pub mod store;
 mod tables;
 
 use std::fs::{self, File};
@@ -44,6 +45,13 @@ pub mod keys {
     pub const REALISATIONS: &str = "chassis_mc.realisations";
     /// Which table the file holds: `realisations`, `summary` or `cycles`.
     pub const TABLE: &str = "chassis_mc.table";
+    /// The study as run without its realisation count, plus the engine version: files
+    /// with the same identity hold interchangeable realisations.
+    pub const IDENTITY: &str = "chassis_mc.identity";
+    /// On a staged part: "condition first_realisation end_realisation".
+    pub const PART: &str = "chassis_mc.part";
+    /// On a shard's realisation file: "K/N".
+    pub const SHARD: &str = "chassis_mc.shard";
 }
 
 /// Failure while writing or reading output.
@@ -116,17 +124,35 @@ pub struct FileMetadata {
     pub seed: u64,
     /// Realisations per condition.
     pub realisations: u64,
+    /// See [`keys::IDENTITY`].
+    pub identity: String,
+    /// Further key-value pairs (e.g. [`keys::PART`], [`keys::SHARD`]).
+    pub extra: Vec<(String, String)>,
 }
 
 impl FileMetadata {
+    /// The same metadata with one more key-value pair.
+    pub fn with(&self, key: &str, value: String) -> Self {
+        let mut m = self.clone();
+        m.extra.push((key.to_string(), value));
+        m
+    }
+
     fn key_values(&self, table: &str) -> Vec<KeyValue> {
-        vec![
+        let mut kv = vec![
             KeyValue::new(keys::TABLE.into(), table.to_string()),
             KeyValue::new(keys::STUDY.into(), self.study_toml.clone()),
             KeyValue::new(keys::VERSION.into(), env!("CARGO_PKG_VERSION").to_string()),
             KeyValue::new(keys::SEED.into(), self.seed.to_string()),
             KeyValue::new(keys::REALISATIONS.into(), self.realisations.to_string()),
-        ]
+            KeyValue::new(keys::IDENTITY.into(), self.identity.clone()),
+        ];
+        kv.extend(
+            self.extra
+                .iter()
+                .map(|(k, v)| KeyValue::new(k.clone(), v.clone())),
+        );
+        kv
     }
 }
 
@@ -192,6 +218,13 @@ impl ParquetSink {
     pub fn write(&mut self, batch: &RecordBatch) -> Result<(), OutputError> {
         self.writer
             .write(batch)
+            .map_err(|e| OutputError::parquet(&self.pending.tmp_path, e))
+    }
+
+    /// End the current row group here.
+    pub fn flush(&mut self) -> Result<(), OutputError> {
+        self.writer
+            .flush()
             .map_err(|e| OutputError::parquet(&self.pending.tmp_path, e))
     }
 

@@ -249,6 +249,18 @@ impl Study {
         toml::to_string(&self.raw).expect("a validated study serialises")
     }
 
+    /// What makes two runs' realisations interchangeable: the study as run without its
+    /// realisation count, and the engine version (a new version may change the numbers).
+    pub fn identity(&self) -> String {
+        let mut raw = self.raw.clone();
+        raw.realisations = 0;
+        format!(
+            "{}# chassis-mc {}\n",
+            toml::to_string(&raw).expect("a validated study serialises"),
+            env!("CARGO_PKG_VERSION")
+        )
+    }
+
     /// An error about key `key` of this study, with its line when the file has it.
     pub fn error_at(&self, key: &str, reason: impl Into<String>) -> StudyError {
         StudyError {

@@ -132,12 +132,13 @@ fn run_cli(study: &Path, out: &Path, extra: &[&str]) -> (i32, String, String) {
     )
 }
 
-/// Every file in `dir` with its bytes.
+/// Every regular file in `dir` with its bytes.
 fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files: Vec<_> = std::fs::read_dir(dir)
         .unwrap()
+        .map(|e| e.unwrap())
+        .filter(|e| e.path().is_file())
         .map(|e| {
-            let e = e.unwrap();
             (
                 e.file_name().to_string_lossy().into_owned(),
                 std::fs::read(e.path()).unwrap(),
@@ -267,11 +268,9 @@ fn an_interrupted_run_leaves_existing_results_untouched() {
         .spawn()
         .unwrap();
     let started = Instant::now();
-    let writing = || {
-        std::fs::read_dir(&out)
-            .unwrap()
-            .any(|e| e.unwrap().file_name().to_string_lossy().contains(".tmp-"))
-    };
+    // Started writing: the staging directory holds a part or a part being written.
+    let staging = out.join(chassis_mc::run::STAGING);
+    let writing = || std::fs::read_dir(&staging).is_ok_and(|mut d| d.next().is_some());
     while !writing() && started.elapsed() < Duration::from_secs(60) {
         std::thread::sleep(Duration::from_millis(20));
     }

@@ -8,5 +8,6 @@ mod mcse;
 mod noise;
 mod noise_free;
 mod output_noise;
+mod shards_resume;
 mod terrain_metric;
 mod thesis_table3;

@@ -1,0 +1,166 @@
+#!/usr/bin/env python3
+"""chassis-mc against an independent NumPy reference of the same Monte Carlo, in one run.
+
+The reference re-implements the thesis study from SPEC §1-§3 with NumPy only: the cos²
+terrain and forward-Euler grade, RK4 drive cycles (all scales integrated together), speed
+noise from NumPy's own generator (PCG64), OLS through the 3×3 normal equations, and the
+thesis bound. It shares no code and no random numbers with chassis-mc, so the two agree
+only statistically: for every scale and parameter the means and empirical SEs must agree
+within 4 combined Monte Carlo standard errors (66 comparisons; a 4-MCSE band has
+two-sided probability 6e-5 each, 0.4 % for all).
+
+It then prints the time per realisation of each, single-threaded, measured in this run:
+chassis-mc's is its whole `run` (cycle simulation, output and summary included) divided
+by the realisations; the reference's is its Monte Carlo loop alone (cycle simulation
+excluded), so the ratio is conservative.
+
+    python3 -m venv .venv && .venv/bin/pip install -r benches/requirements.txt
+    cargo build --release
+    .venv/bin/python benches/compare_numpy.py [--r-rust 2000] [--r-numpy 200]
+"""
+
+import os
+
+# Single-threaded BLAS: the comparison is per realisation on one core each.
+for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+import argparse  # noqa: E402
+import pathlib  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+import tomllib  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pyarrow.parquet as pq  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BINARY = ROOT / "target" / "release" / "chassis-mc"
+STUDY = ROOT / "studies" / "thesis.toml"
+PARAMS = ["inv_mass", "drag_over_mass", "rolling_resistance"]
+
+
+def grade_tables(study):
+    t = study["terrain"]
+    x = np.arange(t["length"] + 1, dtype=float)
+    y = t["height"] * np.cos(x / t["period"]) ** 2
+    base = np.arctan(np.diff(y))  # θ_i = atan(y_{i+1} - y_i), i = 0 … L-1
+    return np.array([a * base for a in t["scales"]])  # scale multiplies the grade
+
+
+def simulate(study, grades):
+    """RK4 at the sample step for every scale at once; grade by linear interpolation."""
+    v, d = study["vehicle"], study["drive"]
+    m, g = v["mass"], v["gravity"]
+    k_drag = 0.5 * v["air_density"] * v["frontal_area"] * v["drag_coefficient"]
+    h = d["time_step"]
+    n = int(round(d["duration"] / h)) + 1
+    rows = np.arange(grades.shape[0])
+
+    def grade_at(x):
+        i = np.minimum(np.floor(x).astype(int), grades.shape[1] - 2)
+        f = x - i
+        return grades[rows, i] + f * (grades[rows, i + 1] - grades[rows, i])
+
+    def force(t):
+        tau = d["torque_mean"] * (1 + d["torque_amplitude"] * np.sin(d["torque_frequency"] * t))
+        return tau * v["final_drive_ratio"] / v["wheel_radius"]
+
+    def accel(t, x, vel):
+        th = grade_at(x)
+        return (force(t) - k_drag * vel**2 - v["rolling_resistance"] * m * g * np.cos(th)
+                - m * g * np.sin(th)) / m
+
+    out = {k: np.empty((len(rows), n)) for k in ("v", "grade", "f", "a")}
+    x = np.zeros(len(rows))
+    vel = np.full(len(rows), d["initial_speed"])
+    for i in range(n):
+        t = i * h
+        out["v"][:, i], out["grade"][:, i], out["f"][:, i] = vel, grade_at(x), force(t)
+        out["a"][:, i] = accel(t, x, vel)
+        k1x, k1v = vel, out["a"][:, i]
+        k2x = vel + 0.5 * h * k1v
+        k2v = accel(t + 0.5 * h, x + 0.5 * h * k1x, k2x)
+        k3x = vel + 0.5 * h * k2v
+        k3v = accel(t + 0.5 * h, x + 0.5 * h * k2x, k3x)
+        k4x = vel + h * k3v
+        k4v = accel(t + h, x + h * k3x, k4x)
+        x = x + h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x)
+        vel = vel + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+    return out
+
+
+def numpy_monte_carlo(study, cycles, r, seed):
+    """OLS estimates of θ for r realisations of speed noise per scale: (scales, r, 3)."""
+    v = study["vehicle"]
+    g, k = v["gravity"], 0.5 * v["air_density"] * v["frontal_area"]
+    sd = study["noise"]["velocity_sd"][0]
+    rng = np.random.default_rng(seed)
+    est = np.empty((cycles["v"].shape[0], r, 3))
+    for s in range(cycles["v"].shape[0]):
+        f, vel = cycles["f"][s], cycles["v"][s]
+        c = -g * np.cos(cycles["grade"][s])
+        y = cycles["a"][s] + g * np.sin(cycles["grade"][s])
+        for j in range(r):
+            vt = vel + sd * rng.standard_normal(vel.shape[0])
+            x = np.column_stack((f, -k * vt * vt, c))
+            est[s, j] = np.linalg.solve(x.T @ x, x.T @ y)
+    return est
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--r-rust", type=int, default=2000, help="chassis-mc realisations per scale")
+    ap.add_argument("--r-numpy", type=int, default=200, help="NumPy realisations per scale")
+    ap.add_argument("--seed", type=int, default=7)
+    args = ap.parse_args()
+    if not BINARY.exists():
+        sys.exit(f"{BINARY} not found: run `cargo build --release` first")
+    study = tomllib.loads(STUDY.read_text())
+
+    with tempfile.TemporaryDirectory() as out:
+        started = time.perf_counter()
+        subprocess.run([BINARY, "run", STUDY, "--out", out, "--quiet", "--threads", "1",
+                        "--realisations", str(args.r_rust)], check=True)
+        rust_s = time.perf_counter() - started
+        summary = pq.read_table(pathlib.Path(out) / "summary.parquet").to_pandas()
+
+    cycles = simulate(study, grade_tables(study))
+    started = time.perf_counter()
+    est = numpy_monte_carlo(study, cycles, args.r_numpy, args.seed)
+    numpy_s = time.perf_counter() - started
+
+    failures = 0
+    scales = study["terrain"]["scales"]
+    print(f"{'scale':>5} {'parameter':>18} {'mean (chassis-mc)':>18} {'mean (NumPy)':>14} "
+          f"{'z':>6} {'EmpSE ratio':>11} {'z':>6}")
+    for s, scale in enumerate(scales):
+        for p, name in enumerate(PARAMS):
+            row = summary[(np.isclose(summary.scale, scale)) & (summary.parameter == name)].iloc[0]
+            x = est[s, :, p]
+            n = len(x)
+            mean, sd = x.mean(), x.std(ddof=1)
+            z_mean = (row["mean"] - mean) / np.hypot(row["mean_mcse"], sd / np.sqrt(n))
+            ratio = row["emp_se"] / sd
+            # MCSE of a ratio of independent SD estimates: ratio·√(1/(2(n₁−1)) + 1/(2(n₂−1)))
+            ratio_mcse = ratio * np.sqrt(1 / (2 * (row["n"] - 1)) + 1 / (2 * (n - 1)))
+            z_ratio = (ratio - 1) / ratio_mcse
+            bad = abs(z_mean) > 4 or abs(z_ratio) > 4
+            failures += bad
+            print(f"{scale:5.1f} {name:>18} {row['mean']:18.6e} {mean:14.6e} {z_mean:6.2f} "
+                  f"{ratio:11.4f} {z_ratio:6.2f}{'  <-- disagree' if bad else ''}")
+
+    rust_ms = 1e3 * rust_s / (len(scales) * args.r_rust)
+    numpy_ms = 1e3 * numpy_s / (len(scales) * args.r_numpy)
+    print(f"\nper realisation, single thread: chassis-mc {rust_ms:.3f} ms (whole run), "
+          f"NumPy {numpy_ms:.3f} ms (Monte Carlo loop only)")
+    print(f"speed ratio NumPy / chassis-mc: {numpy_ms / rust_ms:.1f}x")
+    if failures:
+        sys.exit(f"{failures} of {3 * len(scales) * 2} comparisons disagree beyond 4 MCSE")
+    print("all 66 comparisons agree within 4 MCSE")
+
+
+if __name__ == "__main__":
+    main()

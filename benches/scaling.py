@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Thread scaling, wall time and peak memory of `chassis-mc run studies/thesis.toml`.
+
+Measured in one run on this machine (issue 4, acceptance 2-3):
+  - two threads against one at R = 4000 (ratio of wall times),
+  - R = 10 000 on all cores: wall time and peak RSS,
+  - R = 100 000 on all cores: peak RSS, as a ratio to R = 10 000 (memory must not grow
+    with R: realisations stream to Parquet, summaries use exact sums).
+
+Peak RSS is the child's ru_maxrss, read in a fresh Python process per run, so no other
+run's memory counts. No third-party packages are needed.
+
+    cargo build --release && python3 benches/scaling.py [--skip-large]
+"""
+
+import argparse
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BINARY = ROOT / "target" / "release" / "chassis-mc"
+STUDY = ROOT / "studies" / "thesis.toml"
+
+MEASURE = r"""
+import json, resource, subprocess, sys, time
+t = time.perf_counter()
+subprocess.run(sys.argv[1:], check=True, stdout=subprocess.DEVNULL)
+wall = time.perf_counter() - t
+print(json.dumps({"wall_s": wall, "max_rss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))
+"""
+
+
+def measure(realisations, threads=None):
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [str(BINARY), "run", str(STUDY), "--out", out, "--quiet",
+               "--realisations", str(realisations)]
+        if threads:
+            cmd += ["--threads", str(threads)]
+        res = subprocess.run([sys.executable, "-c", MEASURE, *cmd], check=True,
+                             capture_output=True, text=True)
+        return json.loads(res.stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--skip-large", action="store_true", help="skip the R = 100 000 run")
+    args = ap.parse_args()
+    if not BINARY.exists():
+        sys.exit(f"{BINARY} not found: run `cargo build --release` first")
+    one = measure(4000, threads=1)
+    two = measure(4000, threads=2)
+    print(f"R = 4000, 1 thread : {one['wall_s']:7.2f} s")
+    print(f"R = 4000, 2 threads: {two['wall_s']:7.2f} s   speed-up {one['wall_s'] / two['wall_s']:.2f}x")
+    ten = measure(10_000)
+    print(f"R = 10 000, all cores: {ten['wall_s']:7.2f} s wall, peak RSS {ten['max_rss_mb']:.0f} MB")
+    if not args.skip_large:
+        big = measure(100_000)
+        print(f"R = 100 000, all cores: {big['wall_s']:7.2f} s wall, peak RSS {big['max_rss_mb']:.0f} MB"
+              f"   RSS ratio to R = 10 000: {big['max_rss_mb'] / ten['max_rss_mb']:.2f}")
+
+
+if __name__ == "__main__":
+    main()

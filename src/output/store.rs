@@ -1,0 +1,350 @@
+//! Durable realisation storage: staged parts, resuming and extending, and merging sources
+//! into one sorted file.
+//!
+//! A run computes its realisations into *parts* in a staging directory: Parquet files of at
+//! most [`PART_REALISATIONS`] realisations of one condition, each written under a temporary
+//! name and renamed when complete. If the run is killed, completed parts survive and a
+//! torn part (a temporary file, or one whose footer does not parse) is deleted and redone.
+//! When every needed realisation exists — in parts, or in the realisation file of an
+//! earlier run of the same study — the sources are merged in (condition, realisation) order
+//! into the final file. Re-running with a larger R therefore computes only the new
+//! realisations, and any interrupted run ends identical to an uninterrupted one: each
+//! realisation is a pure function of (seed, condition, realisation).
+
+use std::fs::{self, File};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
+use parquet::arrow::ProjectionMask;
+use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
+
+use super::{OutputError, ParquetSink, keys, read_metadata};
+
+/// Realisations per staged part (bounds the work lost when a run is killed).
+pub const PART_REALISATIONS: u64 = 8192;
+
+/// Rows per batch when reading sources.
+const READ_ROWS: usize = 65_536;
+
+/// A file holding realisation rows, sorted by (condition, realisation).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Source {
+    /// The file.
+    pub path: PathBuf,
+    /// Per condition, the realisation ranges it holds.
+    pub covers: Vec<(usize, Range<u64>)>,
+}
+
+/// Where the rows of one stretch of the output come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Segment {
+    /// Condition index.
+    pub condition: usize,
+    /// Realisations.
+    pub range: Range<u64>,
+    /// Index into the sources, or `None` when the rows must be computed.
+    pub source: Option<usize>,
+}
+
+/// The footer value identifying a part: "condition start end".
+pub fn part_value(condition: usize, range: &Range<u64>) -> String {
+    format!("{condition} {} {}", range.start, range.end)
+}
+
+fn parse_part(value: &str) -> Option<(usize, Range<u64>)> {
+    let mut it = value.split_whitespace().map(str::parse::<u64>);
+    let (c, s, e) = (it.next()?.ok()?, it.next()?.ok()?, it.next()?.ok()?);
+    (s < e).then_some((c as usize, s..e))
+}
+
+/// File name of the part of `condition` starting at realisation `start`.
+pub fn part_name(condition: usize, start: u64) -> String {
+    format!("part-c{condition:06}-r{start:015}.parquet")
+}
+
+/// True for names chassis-mc uses for files being written (`.name.tmp-<pid>`).
+pub fn is_temporary(name: &str) -> bool {
+    name.starts_with('.') && name.contains(".tmp-")
+}
+
+/// The staged parts in `staging` that belong to the study `identity`. Temporary files,
+/// files whose footer does not parse (torn) and parts of another study are deleted.
+pub fn scan_parts(staging: &Path, identity: &str) -> Result<Vec<Source>, OutputError> {
+    let mut parts = Vec::new();
+    let entries = match fs::read_dir(staging) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(parts),
+        Err(e) => return Err(OutputError::io(staging, e)),
+    };
+    let mut paths: Vec<PathBuf> = entries
+        .map(|e| e.map(|e| e.path()).map_err(|e| OutputError::io(staging, e)))
+        .collect::<Result<_, _>>()?;
+    paths.sort();
+    for path in paths {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let keep = !is_temporary(&name)
+            && match read_metadata(&path) {
+                Ok(kv) => {
+                    let get =
+                        |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.as_str());
+                    match (get(keys::IDENTITY), get(keys::PART).and_then(parse_part)) {
+                        (Some(id), Some((c, range))) if id == identity => {
+                            parts.push(Source {
+                                path: path.clone(),
+                                covers: vec![(c, range)],
+                            });
+                            true
+                        }
+                        _ => false,
+                    }
+                }
+                Err(_) => false, // torn: no readable footer
+            };
+        if !keep {
+            fs::remove_file(&path).map_err(|e| OutputError::io(&path, e))?;
+        }
+    }
+    Ok(parts)
+}
+
+/// The realisation file of an earlier run at `path`, if it exists and belongs to the study
+/// `identity`, with the realisation ranges it holds.
+pub fn existing_file(path: &Path, identity: &str) -> Result<Option<Source>, OutputError> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let Ok(kv) = read_metadata(path) else {
+        return Ok(None); // unreadable: it will be replaced
+    };
+    if !kv.iter().any(|(k, v)| k == keys::IDENTITY && v == identity) {
+        return Ok(None);
+    }
+    Ok(Some(Source {
+        path: path.to_path_buf(),
+        covers: covered_ranges(path)?,
+    }))
+}
+
+/// Contiguous realisation ranges per condition of a sorted realisation file (reads only
+/// the two index columns).
+fn covered_ranges(path: &Path) -> Result<Vec<(usize, Range<u64>)>, OutputError> {
+    let mut out: Vec<(usize, Range<u64>)> = Vec::new();
+    let mut reader = index_reader(path)?;
+    for batch in &mut reader {
+        let batch = batch.map_err(|e| arrow_err(path, e))?;
+        let (cond, real) = index_columns(&batch, path)?;
+        for i in 0..batch.num_rows() {
+            let (c, r) = (cond.value(i) as usize, real.value(i) as u64);
+            match out.last_mut() {
+                Some((lc, range)) if *lc == c && range.end == r + 1 => {}
+                Some((lc, range)) if *lc == c && range.end == r => range.end = r + 1,
+                _ => out.push((c, r..r + 1)),
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn index_reader(path: &Path) -> Result<ParquetRecordBatchReader, OutputError> {
+    let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .map_err(|e| OutputError::parquet(path, e))?;
+    let schema = builder.parquet_schema();
+    let wanted: Vec<usize> = (0..schema.num_columns())
+        .filter(|&i| matches!(schema.column(i).name(), "condition" | "realisation"))
+        .collect();
+    let mask = ProjectionMask::leaves(schema, wanted);
+    builder
+        .with_projection(mask)
+        .with_batch_size(READ_ROWS)
+        .build()
+        .map_err(|e| OutputError::parquet(path, e))
+}
+
+fn arrow_err(path: &Path, source: arrow::error::ArrowError) -> OutputError {
+    OutputError::Arrow {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn index_columns<'a>(
+    batch: &'a RecordBatch,
+    path: &Path,
+) -> Result<(&'a Int32Array, &'a Int64Array), OutputError> {
+    let cond = batch
+        .column_by_name("condition")
+        .and_then(|c| c.as_any().downcast_ref::<Int32Array>())
+        .ok_or_else(|| OutputError::format(path, "no int32 column `condition`"))?;
+    let real = batch
+        .column_by_name("realisation")
+        .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
+        .ok_or_else(|| OutputError::format(path, "no int64 column `realisation`"))?;
+    Ok((cond, real))
+}
+
+/// Assign every needed realisation to a source, or to computation.
+///
+/// `needed[c]` is the range condition c must have. Where sources overlap, the one reaching
+/// furthest is used, so each realisation comes from exactly one place.
+pub fn plan(needed: &[Range<u64>], sources: &[Source]) -> Vec<Segment> {
+    let mut segments = Vec::new();
+    for (c, need) in needed.iter().enumerate() {
+        let mut at = need.start;
+        while at < need.end {
+            let best = sources
+                .iter()
+                .enumerate()
+                .flat_map(|(i, s)| s.covers.iter().map(move |(sc, r)| (i, *sc, r)))
+                .filter(|(_, sc, r)| *sc == c && r.start <= at && at < r.end)
+                .max_by_key(|(i, _, r)| (r.end, std::cmp::Reverse(*i)));
+            match best {
+                Some((i, _, r)) => {
+                    let end = r.end.min(need.end);
+                    segments.push(Segment {
+                        condition: c,
+                        range: at..end,
+                        source: Some(i),
+                    });
+                    at = end;
+                }
+                None => {
+                    let next = sources
+                        .iter()
+                        .flat_map(|s| s.covers.iter())
+                        .filter(|(sc, r)| *sc == c && r.start > at)
+                        .map(|(_, r)| r.start)
+                        .min()
+                        .unwrap_or(need.end)
+                        .min(need.end);
+                    segments.push(Segment {
+                        condition: c,
+                        range: at..next,
+                        source: None,
+                    });
+                    at = next;
+                }
+            }
+        }
+    }
+    segments
+}
+
+/// Reads a sorted realisation file forward, handing out the rows of requested ranges.
+struct Cursor {
+    path: PathBuf,
+    reader: ParquetRecordBatchReader,
+    batch: Option<RecordBatch>,
+    row: usize,
+}
+
+impl Cursor {
+    fn open(path: &Path) -> Result<Self, OutputError> {
+        Ok(Cursor {
+            path: path.to_path_buf(),
+            reader: super::open_reader(path, READ_ROWS)?,
+            batch: None,
+            row: 0,
+        })
+    }
+
+    /// Key (condition, realisation) of the current row, loading batches as needed; `None`
+    /// at the end of the file.
+    fn key(&mut self) -> Result<Option<(usize, u64)>, OutputError> {
+        loop {
+            if let Some(batch) = &self.batch
+                && self.row < batch.num_rows()
+            {
+                let (cond, real) = index_columns(batch, &self.path)?;
+                return Ok(Some((
+                    cond.value(self.row) as usize,
+                    real.value(self.row) as u64,
+                )));
+            }
+            match self.reader.next() {
+                Some(batch) => {
+                    self.batch = Some(batch.map_err(|e| arrow_err(&self.path, e))?);
+                    self.row = 0;
+                }
+                None => return Ok(None),
+            }
+        }
+    }
+
+    /// Pass the rows of `condition` with realisations in `range` to `sink`, skipping rows
+    /// before them. Rows of one realisation are adjacent, so whole realisations move.
+    fn copy(
+        &mut self,
+        condition: usize,
+        range: &Range<u64>,
+        sink: &mut dyn FnMut(&RecordBatch) -> Result<(), OutputError>,
+    ) -> Result<u64, OutputError> {
+        let start = (condition, range.start);
+        let end = (condition, range.end);
+        let mut rows = 0;
+        while let Some(key) = self.key()? {
+            if key >= end {
+                break;
+            }
+            let batch = self.batch.clone().expect("a batch is loaded");
+            let (cond, real) = index_columns(&batch, &self.path)?;
+            let key_at = |i: usize| (cond.value(i) as usize, real.value(i) as u64);
+            // the run of rows from here that fall in one class (before / inside the range)
+            let inside = key >= start;
+            let mut stop = self.row;
+            while stop < batch.num_rows() && {
+                let k = key_at(stop);
+                k < end && (k >= start) == inside
+            } {
+                stop += 1;
+            }
+            if inside {
+                sink(&batch.slice(self.row, stop - self.row))?;
+                rows += (stop - self.row) as u64;
+            }
+            self.row = stop;
+        }
+        Ok(rows)
+    }
+}
+
+/// Write the rows of `segments` (all with sources) from `sources`, in order, to `out`,
+/// ending a row group at every change of condition.
+pub fn merge(
+    sources: &[Source],
+    segments: &[Segment],
+    out: &mut ParquetSink,
+) -> Result<(), OutputError> {
+    let mut cursors: Vec<Option<Cursor>> = sources.iter().map(|_| None).collect();
+    // A source's reader (and the row group it buffers) is dropped after its last segment,
+    // so memory stays bounded however many parts there are.
+    let mut last_use = vec![0; sources.len()];
+    for (k, seg) in segments.iter().enumerate() {
+        if let Some(i) = seg.source {
+            last_use[i] = k;
+        }
+    }
+    let mut last_condition = None;
+    for (k, seg) in segments.iter().enumerate() {
+        let i = seg
+            .source
+            .expect("every segment has a source before merging");
+        if last_condition.is_some_and(|c| c != seg.condition) {
+            out.flush()?;
+        }
+        last_condition = Some(seg.condition);
+        if cursors[i].is_none() {
+            cursors[i] = Some(Cursor::open(&sources[i].path)?);
+        }
+        let cursor = cursors[i].as_mut().expect("opened above");
+        cursor.copy(seg.condition, &seg.range, &mut |batch| out.write(batch))?;
+        if last_use[i] == k {
+            cursors[i] = None;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,165 @@
+//! Issue 4 acceptance 4–5, and extension: sharded + summarize == unsharded, a run killed
+//! with SIGKILL and re-run ends identical, and growing R keeps the earlier realisations.
+//! Every realisation is a pure function of (seed, condition, realisation) and summaries use
+//! exact sums, so all of these are byte-for-byte comparisons, not tolerances.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use chassis_mc::montecarlo::Silent;
+use chassis_mc::run::{RunOptions, STAGING, Shard, run_study, summarize};
+
+use super::common::*;
+
+fn bytes(path: &std::path::Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn four_shards_and_summarize_equal_the_unsharded_run() {
+    let study = study("thesis.toml", 203); // 203 does not divide by 4
+    let (whole, _) = run(&study, None);
+    let sharded = tempfile::tempdir().unwrap();
+    // Shards in a scrambled order, as a cluster may finish them.
+    for k in [2, 0, 3, 1] {
+        let mut options = RunOptions::new(sharded.path());
+        options.shard = Some(Shard { index: k, count: 4 });
+        let report = run_study(&study, &options, &Silent).unwrap();
+        assert!(report.summary.is_empty());
+    }
+    let report = summarize(&[sharded.path().to_path_buf()], sharded.path()).unwrap();
+    assert_eq!(report.summary.len(), 33);
+    for name in ["summary.parquet", "cycles.parquet"] {
+        assert!(
+            bytes(&whole.path().join(name)) == bytes(&sharded.path().join(name)),
+            "{name} differs"
+        );
+    }
+    // The shards' rows are exactly the unsharded rows.
+    let all = read_table(&whole.path().join("realisations.parquet"));
+    let mut rows = 0;
+    let mut parts = Vec::new();
+    for k in 0..4 {
+        let t = read_table(
+            &sharded
+                .path()
+                .join(format!("shard={k}/realisations.parquet")),
+        );
+        rows += t.num_rows();
+        parts.push(t);
+    }
+    assert_eq!(rows, all.num_rows());
+    let r_all = i64_col(&all, "realisation");
+    let c_all = i32_col(&all, "condition");
+    let theta_all = f64_col(&all, "theta_drag_over_mass");
+    for t in &parts {
+        let (c, r, th) = (
+            i32_col(t, "condition"),
+            i64_col(t, "realisation"),
+            f64_col(t, "theta_drag_over_mass"),
+        );
+        for i in 0..t.num_rows() {
+            let j = (0..all.num_rows())
+                .find(|&j| c_all[j] == c[i] && r_all[j] == r[i])
+                .unwrap();
+            assert_eq!(th[i].to_bits(), theta_all[j].to_bits());
+        }
+    }
+    // A shard missing is an error, not a silently smaller summary.
+    std::fs::remove_dir_all(sharded.path().join("shard=1")).unwrap();
+    let err = summarize(&[sharded.path().to_path_buf()], sharded.path()).unwrap_err();
+    assert!(err.to_string().contains("realisations"), "{err}");
+}
+
+#[test]
+fn growing_r_computes_only_the_new_realisations() {
+    let dir = tempfile::tempdir().unwrap();
+    let options = RunOptions::new(dir.path());
+    let first = run_study(&study("thesis.toml", 100), &options, &Silent).unwrap();
+    assert_eq!((first.reused, first.computed), (0, 1100));
+    let second = run_study(&study("thesis.toml", 250), &options, &Silent).unwrap();
+    assert_eq!((second.reused, second.computed), (1100, 1650));
+    let (direct, _) = run(&study("thesis.toml", 250), None);
+    for name in ["realisations.parquet", "summary.parquet"] {
+        assert!(
+            bytes(&dir.path().join(name)) == bytes(&direct.path().join(name)),
+            "{name} differs"
+        );
+    }
+}
+
+#[test]
+fn a_run_killed_midway_resumes_to_identical_output() {
+    let r = "3000";
+    let (reference, _) = run(&study("thesis.toml", 3000), None);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = |cmd: &mut Command| {
+        cmd.args([
+            "run",
+            "--quiet",
+            "--threads",
+            "1",
+            "--realisations",
+            r,
+            "--out",
+        ])
+        .arg(&out)
+        .arg(study_path("thesis.toml"));
+    };
+    let mut first = Command::new(bin());
+    args(&mut first);
+    let mut child = first
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for two completed parts (conditions 0 and 1), then SIGKILL.
+    let staging = out.join(STAGING);
+    let completed = || {
+        std::fs::read_dir(&staging).map_or(0, |d| {
+            d.filter(|e| {
+                let name = e.as_ref().unwrap().file_name();
+                let name = name.to_string_lossy();
+                name.starts_with("part-") && name.ends_with(".parquet")
+            })
+            .count()
+        })
+    };
+    let started = Instant::now();
+    while completed() < 2 && started.elapsed() < Duration::from_secs(120) {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    let kept = completed();
+    assert!(kept >= 2, "killed before two parts were complete");
+    assert!(
+        !out.join("realisations.parquet").exists(),
+        "the run finished before the kill"
+    );
+    // A torn part, as a crash in the middle of a rename-less write would leave.
+    std::fs::write(
+        staging.join("part-c000010-r000000000000000.parquet"),
+        b"PAR1 torn",
+    )
+    .unwrap();
+
+    let mut again = Command::new(bin());
+    args(&mut again);
+    let output = again.output().unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("resuming:"), "{stderr}");
+    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"] {
+        assert!(
+            bytes(&out.join(name)) == bytes(&reference.path().join(name)),
+            "{name} differs from an uninterrupted run"
+        );
+    }
+    assert!(!staging.exists(), "staging is removed after a complete run");
+}
