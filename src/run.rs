@@ -124,7 +124,7 @@ pub trait DynModel: Sync {
         work: &[Work],
         chunk: u64,
         observer: &dyn Observer,
-        sink: &mut dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError>,
+        sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
     ) -> Result<(), OutputError>;
     /// Write model-specific extra tables (the vehicle's cycles) into `dir`.
     fn extra_files(&self, dir: &Path, meta: &FileMetadata)
@@ -148,7 +148,7 @@ impl<M: Model + ExtraFiles> DynModel for M {
         work: &[Work],
         chunk: u64,
         observer: &dyn Observer,
-        sink: &mut dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError>,
+        sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
     ) -> Result<(), OutputError> {
         montecarlo::execute(self, seed, work, chunk, observer, sink)
     }

@@ -55,40 +55,64 @@ impl Observer for Silent {}
 /// Run every item of `work` in order, chunk by chunk, and pass each chunk to `sink`.
 ///
 /// Parallelism comes from the ambient rayon pool (use `ThreadPool::install` to choose it).
+/// While a chunk is computed, the previous one is handed to the sink on another task, so
+/// writing overlaps computing; the sink still sees every chunk, in order.
 pub fn execute<M, E>(
     model: &M,
     seed: u64,
     work: &[Work],
     chunk: u64,
     observer: &dyn Observer,
-    mut sink: impl FnMut(Chunk<'_>) -> Result<(), E>,
+    mut sink: impl FnMut(Chunk<'_>) -> Result<(), E> + Send,
 ) -> Result<(), E>
 where
     M: Model,
+    E: Send,
 {
     let stride = model.layout().realisation_stride();
     let chunk = chunk.max(1);
-    let mut buffer: Vec<f64> = Vec::new();
+    // (condition, first realisation, count) of every chunk, in order
+    let mut plan = Vec::new();
     for item in work {
         let mut first = item.realisations.start;
         while first < item.realisations.end {
             let len = chunk.min(item.realisations.end - first);
-            buffer.clear();
-            buffer.resize(len as usize * stride, f64::NAN);
-            buffer
-                .par_chunks_mut(stride)
-                .enumerate()
-                .for_each(|(i, slots)| {
-                    model.realise(seed, item.condition, first + i as u64, slots);
-                });
-            observer.realisations_done(len);
-            sink(Chunk {
-                condition: item.condition,
-                first,
-                slots: &buffer,
-            })?;
+            plan.push((item.condition, first, len));
             first += len;
         }
+    }
+    let compute = |(condition, first, len): (usize, u64, u64), buffer: &mut Vec<f64>| {
+        buffer.clear();
+        buffer.resize(len as usize * stride, f64::NAN);
+        buffer
+            .par_chunks_mut(stride)
+            .enumerate()
+            .for_each(|(i, slots)| model.realise(seed, condition, first + i as u64, slots));
+        observer.realisations_done(len);
+    };
+    let mut current: Vec<f64> = Vec::new();
+    let mut previous: Vec<f64> = Vec::new();
+    let mut done: Option<(usize, u64)> = None; // the computed chunk waiting in `previous`
+    for &step in &plan {
+        let waiting = done.map(|(condition, first)| Chunk {
+            condition,
+            first,
+            slots: &previous,
+        });
+        let (_, written) = rayon::join(
+            || compute(step, &mut current),
+            || waiting.map_or(Ok(()), &mut sink),
+        );
+        written?;
+        std::mem::swap(&mut current, &mut previous);
+        done = Some((step.0, step.1));
+    }
+    if let Some((condition, first)) = done {
+        sink(Chunk {
+            condition,
+            first,
+            slots: &previous,
+        })?;
     }
     Ok(())
 }
