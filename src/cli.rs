@@ -63,6 +63,9 @@ enum Command {
         /// `chassis-mc summarize DIR`.
         #[arg(long, value_name = "K/N", value_parser = parse_shard)]
         shard: Option<Shard>,
+        /// Do not draw DIR/figures/*.svg.
+        #[arg(long)]
+        no_figures: bool,
         /// Print no table and no progress bar.
         #[arg(long)]
         quiet: bool,
@@ -84,9 +87,24 @@ enum Command {
         /// Where to write summary.parquet and cycles.parquet (default: the first DIR).
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
+        /// Do not draw OUT/figures/*.svg.
+        #[arg(long)]
+        no_figures: bool,
         /// Print no table.
         #[arg(long)]
         quiet: bool,
+    },
+    /// Redraw DIR/figures/*.svg from an output directory's summary.parquet and cycles.parquet.
+    #[command(
+        long_about = "Redraw DIR/figures/*.svg from DIR/summary.parquet and DIR/cycles.parquet.\n\n\
+        Per parameter: se_<p>.svg (empirical SE ± MCSE and every bound against the terrain \
+        metric ς, the thesis's Figures 4-6 and more), bias_<p>.svg, ratio_<p>.svg (EmpSE / \
+        bound with its MCSE around 1) and coverage_<p>.svg (against the nominal 95 %); and \
+        cycles.svg (speed and grade against time)."
+    )]
+    Figures {
+        /// An output directory of `run` or `summarize`.
+        dir: PathBuf,
     },
 }
 
@@ -149,6 +167,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             seed,
             threads,
             shard,
+            no_figures,
             quiet,
         } => {
             let study = Study::load(&study)
@@ -171,8 +190,11 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 .expect("valid progress template"),
             );
             let started = Instant::now();
-            let report = run_study(&study, &options, &Progress(bar.clone()))?;
+            let mut report = run_study(&study, &options, &Progress(bar.clone()))?;
             bar.finish_and_clear();
+            if shard.is_none() && !no_figures {
+                report.files.extend(draw_figures(&options.out_dir)?);
+            }
             if let (Some(shard), false) = (shard, quiet) {
                 println!(
                     "shard {shard}: {} realisations computed, {} kept; wrote {}",
@@ -198,14 +220,22 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
-        Command::Summarize { inputs, out, quiet } => {
+        Command::Summarize {
+            inputs,
+            out,
+            no_figures,
+            quiet,
+        } => {
             let out = out.unwrap_or_else(|| inputs[0].clone());
             let out = if out.is_file() {
                 out.parent().map(PathBuf::from).unwrap_or_default()
             } else {
                 out
             };
-            let report = summarize(&inputs, &out)?;
+            let mut report = summarize(&inputs, &out)?;
+            if !no_figures {
+                report.files.extend(draw_figures(&out)?);
+            }
             if !quiet {
                 print!(
                     "{}",
@@ -217,5 +247,24 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
+        Command::Figures { dir } => {
+            for f in draw_figures(&dir)? {
+                println!("{}", f.display());
+            }
+            Ok(())
+        }
     }
+}
+
+fn draw_figures(dir: &std::path::Path) -> Result<Vec<PathBuf>, Failure> {
+    chassis_mc::figures::draw(dir).map_err(|e| {
+        let code = match e {
+            chassis_mc::figures::FigureError::Study(_) => EXIT_BAD_INPUT,
+            _ => EXIT_FAILURE,
+        };
+        Failure {
+            error: anyhow!(e),
+            code,
+        }
+    })
 }

@@ -13,11 +13,13 @@
 //!
 //! study file → [`study`] → [`terrain`] + [`vehicle`] (drive cycle) → [`noise`] →
 //! [`estimate`] (estimates and bounds) → [`montecarlo`] (executor over a [`model`]) →
-//! [`stats`] (measures and MCSEs) → [`output`] (Parquet). [`run`] ties them together.
+//! [`stats`] (measures and MCSEs) → [`output`] (Parquet) → [`figures`] (SVG). [`run`] ties
+//! them together.
 
 #![deny(missing_docs)]
 
 pub mod estimate;
+pub mod figures;
 pub mod model;
 pub mod montecarlo;
 pub mod noise;

@@ -111,6 +111,14 @@ impl PreparedModel {
     }
 }
 
+/// The row layout a study's model will have, without preparing it (no simulation).
+pub fn layout_of(study: &Study) -> Layout {
+    match &study.model {
+        ModelSpec::Vehicle(v) => crate::model::vehicle::layout(&v.estimators),
+        ModelSpec::LineFit(_) => crate::model::line_fit::layout(),
+    }
+}
+
 /// Object-safe view of a [`Model`] (the trait itself is used generically in the executor).
 pub trait DynModel: Sync {
     /// Layout of the rows.

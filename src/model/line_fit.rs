@@ -71,34 +71,7 @@ impl LineFitModel {
                 });
             }
         }
-        let layout = Layout {
-            axes: vec![Axis::text("noise"), Axis::number("noise_sd", "")],
-            condition_metrics: vec![],
-            parameters: vec![
-                ParameterInfo {
-                    name: "intercept",
-                    unit: "",
-                    description: "θ₁, the intercept",
-                },
-                ParameterInfo {
-                    name: "slope",
-                    unit: "1/t",
-                    description: "θ₂, the slope",
-                },
-            ],
-            estimators: vec!["ols"],
-            extras: vec![],
-            bounds: vec![
-                BoundInfo {
-                    name: "assumed_sigma",
-                    description: "sqrt(diag(σ_a² (XᵀX)⁻¹)) with the assumed σ_a (the thesis's 7.5)",
-                },
-                BoundInfo {
-                    name: "true_sigma",
-                    description: "sqrt(diag(σ² (XᵀX)⁻¹)) with the true noise SD: the exact OLS SE; the CRLB only for Gaussian noise",
-                },
-            ],
-        };
+        let layout = layout();
         Ok(LineFitModel {
             study: ls,
             layout,
@@ -106,6 +79,38 @@ impl LineFitModel {
             xtx,
             unit_se,
         })
+    }
+}
+
+/// The row layout of the line-fit model.
+pub fn layout() -> Layout {
+    Layout {
+        axes: vec![Axis::text("noise"), Axis::number("noise_sd", "")],
+        condition_metrics: vec![],
+        parameters: vec![
+            ParameterInfo {
+                name: "intercept",
+                unit: "",
+                description: "θ₁, the intercept",
+            },
+            ParameterInfo {
+                name: "slope",
+                unit: "1/t",
+                description: "θ₂, the slope",
+            },
+        ],
+        estimators: vec!["ols"],
+        extras: vec![],
+        bounds: vec![
+            BoundInfo {
+                name: "assumed_sigma",
+                description: "sqrt(diag(σ_a² (XᵀX)⁻¹)) with the assumed σ_a (the thesis's 7.5)",
+            },
+            BoundInfo {
+                name: "true_sigma",
+                description: "sqrt(diag(σ² (XᵀX)⁻¹)) with the true noise SD: the exact OLS SE; the CRLB only for Gaussian noise",
+            },
+        ],
     }
 }
 

@@ -214,7 +214,8 @@ impl VehicleModel {
     }
 }
 
-fn layout(estimators: &[EstimatorKind]) -> Layout {
+/// The row layout of the vehicle model running `estimators`.
+pub fn layout(estimators: &[EstimatorKind]) -> Layout {
     Layout {
         axes: vec![
             Axis::number("scale", ""),

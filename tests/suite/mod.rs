@@ -3,6 +3,7 @@ mod common;
 mod bias_bounds;
 mod cli_errors;
 mod determinism;
+mod figures;
 mod line_fit;
 mod mcse;
 mod noise;
