@@ -52,10 +52,10 @@ def main():
     args = ap.parse_args()
     if not BINARY.exists():
         sys.exit(f"{BINARY} not found: run `cargo build --release` first")
-    # Alternate 1 and 2 threads and keep each one's best of three: the machine is shared and
+    # Alternate 1 and 2 threads and keep each one's best of five: the machine is shared and
     # its speed drifts, so a single pair of runs can mislead in either direction.
     runs = {1: [], 2: []}
-    for _ in range(3):
+    for _ in range(5):
         for threads in (1, 2):
             runs[threads].append(measure(args.r_threads, threads=threads)["wall_s"])
     one, two = min(runs[1]), min(runs[2])

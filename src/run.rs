@@ -353,42 +353,49 @@ fn run_prepared(
     observer.planned(total, total - computed);
 
     // 2. Compute what is missing into staged parts, each renamed into place when complete.
+    //    One pass over every part keeps the executor's compute/write pipeline full.
+    let mut pieces = Vec::new();
     for seg in segments.iter().filter(|s| s.source.is_none()) {
         let mut start = seg.range.start;
         while start < seg.range.end {
             let end = (start + store::PART_REALISATIONS).min(seg.range.end);
-            let piece = Work {
+            pieces.push(Work {
                 condition: seg.condition,
                 realisations: start..end,
-            };
-            let part_meta = meta.with(keys::PART, store::part_value(seg.condition, &(start..end)));
-            let mut sink = ParquetSink::create(
+            });
+            start = end;
+        }
+    }
+    let mut open: Option<(usize, ParquetSink)> = None; // (piece index, its part file)
+    let mut next_piece = 0;
+    model.execute(study.seed, &pieces, options.chunk, observer, &mut |chunk| {
+        if open.is_none() {
+            let piece = &pieces[next_piece];
+            let part_meta = meta.with(
+                keys::PART,
+                store::part_value(piece.condition, &piece.realisations),
+            );
+            let sink = ParquetSink::create(
                 &staging,
-                &store::part_name(seg.condition, start),
+                &store::part_name(piece.condition, piece.realisations.start),
                 schema.clone(),
                 &part_meta,
                 "realisations",
             )?;
-            model.execute(
-                study.seed,
-                &[piece],
-                options.chunk,
-                observer,
-                &mut |chunk| {
-                    let batch = output::realisations_batch(
-                        &layout,
-                        &schema,
-                        &infos[chunk.condition],
-                        &chunk,
-                    )
-                    .map_err(|e| arrow_error(&staging, e))?;
-                    sink.write(&batch)
-                },
-            )?;
-            sink.finish()?.commit()?;
-            start = end;
+            open = Some((next_piece, sink));
+            next_piece += 1;
         }
-    }
+        let (index, sink) = open.as_mut().expect("a part is open");
+        let batch = output::realisations_batch(&layout, &schema, &infos[chunk.condition], &chunk)
+            .map_err(|e| arrow_error(&staging, e))?;
+        sink.write(&batch)?;
+        let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
+        if chunk.first + rows == pieces[*index].realisations.end {
+            let (_, sink) = open.take().expect("a part is open");
+            sink.finish()?.commit()?;
+        }
+        Ok(())
+    })?;
 
     // 3. Merge every source, in (condition, realisation) order, into the new file.
     let sources = find_sources()?;
@@ -422,14 +429,22 @@ fn run_prepared(
     let mut pending = Vec::new();
     let mut summary = Vec::new();
     if options.shard.is_none() {
-        summary = summarise_files(
-            &layout,
-            &infos,
-            study.realisations,
-            &[realisations.tmp_path()],
-        )?;
+        // Two independent serial jobs: summarising, and writing the model's extra tables.
+        let (summarised, extra) = rayon::join(
+            || {
+                summarise_files(
+                    &layout,
+                    &infos,
+                    study.realisations,
+                    &[realisations.tmp_path()],
+                )
+            },
+            || model.extra_files(out_dir, &meta),
+        );
+        summary = summarised?;
+        let extra = extra?;
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
-        pending.extend(model.extra_files(out_dir, &meta)?);
+        pending.extend(extra);
     }
     pending.insert(0, realisations);
     let files = output::commit_all(pending)?;

@@ -24,6 +24,7 @@ use std::path::{Path, PathBuf};
 
 use arrow::array::{Array, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray};
 use plotters::prelude::*;
+use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::model::{AxisKind, Layout};
@@ -523,206 +524,228 @@ fn draw_into(
     t: &Table,
     cycles: Option<&Table>,
 ) -> Result<Vec<String>, FigureError> {
+    let x = x_axis(layout, t);
+    let groups = group_labels(layout, t, &x);
+    // One job per parameter (four figures each) and one for the cycles, in parallel.
+    let (per_parameter, cycle_figure) = rayon::join(
+        || {
+            layout
+                .parameters
+                .par_iter()
+                .map(|p| draw_parameter(dir, layout, t, &x, &groups, p))
+                .collect::<Result<Vec<_>, _>>()
+        },
+        || match (cycles, t.number("scale")) {
+            (Some(cy), Some(scale)) => draw_cycles(dir, t, cy, scale).map(Some),
+            _ => Ok(None),
+        },
+    );
+    let mut names: Vec<String> = per_parameter?.into_iter().flatten().collect();
+    names.extend(cycle_figure?);
+    Ok(names)
+}
+
+/// The four figures of parameter `p`.
+fn draw_parameter(
+    dir: &Path,
+    layout: &Layout,
+    t: &Table,
+    x: &XAxis,
+    groups: &[String],
+    p: &crate::model::ParameterInfo,
+) -> Result<Vec<String>, FigureError> {
     let missing = |name: &str| FigureError::Draw {
         path: dir.to_path_buf(),
         reason: format!("summary has no column `{name}`"),
     };
-    let x = x_axis(layout, t);
-    let groups = group_labels(layout, t, &x);
     let estimator = t.text("estimator").ok_or_else(|| missing("estimator"))?;
     let parameter = t.text("parameter").ok_or_else(|| missing("parameter"))?;
     let get = |name: &str| t.number(name).ok_or_else(|| missing(name));
     let many_estimators = layout.estimators.len() > 1;
     let mut names = Vec::new();
-
-    for p in &layout.parameters {
-        let rows: Vec<usize> = (0..t.rows).filter(|&i| parameter[i] == p.name).collect();
-        let sym = symbol(p.description);
-        let unit = unit_suffix(p.unit);
-        // Series keys (estimator, group) in first-seen order.
-        let mut keys_seen: Vec<(String, String)> = Vec::new();
-        for &i in &rows {
-            let k = (estimator[i].clone(), groups[i].clone());
-            if !keys_seen.contains(&k) {
-                keys_seen.push(k);
-            }
+    let rows: Vec<usize> = (0..t.rows).filter(|&i| parameter[i] == p.name).collect();
+    let sym = symbol(p.description);
+    let unit = unit_suffix(p.unit);
+    // Series keys (estimator, group) in first-seen order.
+    let mut keys_seen: Vec<(String, String)> = Vec::new();
+    for &i in &rows {
+        let k = (estimator[i].clone(), groups[i].clone());
+        if !keys_seen.contains(&k) {
+            keys_seen.push(k);
         }
-        let est_label = |e: &str| {
-            if many_estimators {
-                e.to_string()
-            } else {
-                String::new()
-            }
-        };
+    }
+    let est_label = |e: &str| {
+        if many_estimators {
+            e.to_string()
+        } else {
+            String::new()
+        }
+    };
 
-        // (a) EmpSE with MCSE and every bound, against x.
-        let emp_se = get("emp_se")?;
-        let emp_se_mcse = get("emp_se_mcse")?;
-        let mut series = Vec::new();
-        for (k, (e, g)) in keys_seen.iter().enumerate() {
+    // (a) EmpSE with MCSE and every bound, against x.
+    let emp_se = get("emp_se")?;
+    let emp_se_mcse = get("emp_se_mcse")?;
+    let mut series = Vec::new();
+    for (k, (e, g)) in keys_seen.iter().enumerate() {
+        let idx: Vec<usize> = rows
+            .iter()
+            .copied()
+            .filter(|&i| &estimator[i] == e && &groups[i] == g)
+            .collect();
+        series.push(Series {
+            label: join_label(&["EmpSE ± MCSE", &est_label(e), g]),
+            color: color(k),
+            points: idx
+                .iter()
+                .map(|&i| (x.values[i], emp_se[i], emp_se_mcse[i]))
+                .collect(),
+            markers: true,
+        });
+    }
+    let mut c = keys_seen.len();
+    for b in &layout.bounds {
+        let se = get(&format!("{}_se", b.name))?;
+        // A bound's value does not depend on the estimator: draw it once per group.
+        let mut seen_groups: Vec<&String> = Vec::new();
+        for (e, g) in &keys_seen {
+            if seen_groups.contains(&g) {
+                continue;
+            }
             let idx: Vec<usize> = rows
                 .iter()
                 .copied()
-                .filter(|&i| &estimator[i] == e && &groups[i] == g)
+                .filter(|&i| &estimator[i] == e && &groups[i] == g && se[i].is_finite())
                 .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            seen_groups.push(g);
             series.push(Series {
-                label: join_label(&["EmpSE ± MCSE", &est_label(e), g]),
-                color: color(k),
+                label: join_label(&[b.name, g]),
+                color: color(c),
                 points: idx
                     .iter()
-                    .map(|&i| (x.values[i], emp_se[i], emp_se_mcse[i]))
+                    .map(|&i| (x.values[i], se[i], f64::NAN))
                     .collect(),
-                markers: true,
+                markers: false,
             });
+            c += 1;
         }
-        let mut c = keys_seen.len();
+    }
+    let name = format!("se_{}.svg", p.name);
+    chart(
+        &dir.join(&name),
+        &Axes {
+            title: &format!("{sym}: empirical SE and bounds"),
+            x_label: &x.label,
+            y_label: &format!("standard error of {sym}{unit}"),
+            log_y: true,
+        },
+        &series,
+        &[],
+    )?;
+    names.push(name);
+
+    // (b) bias ± MCSE.
+    let bias = get("bias")?;
+    let bias_mcse = get("bias_mcse")?;
+    let series: Vec<Series> = keys_seen
+        .iter()
+        .enumerate()
+        .map(|(k, (e, g))| Series {
+            label: join_label(&[&est_label(e), g, "bias ± MCSE"]),
+            color: color(k),
+            points: rows
+                .iter()
+                .filter(|&&i| &estimator[i] == e && &groups[i] == g)
+                .map(|&i| (x.values[i], bias[i], bias_mcse[i]))
+                .collect(),
+            markers: true,
+        })
+        .collect();
+    let name = format!("bias_{}.svg", p.name);
+    chart(
+        &dir.join(&name),
+        &Axes {
+            title: &format!("{sym}: bias of the estimates"),
+            x_label: &x.label,
+            y_label: &format!("bias of {sym}{unit}"),
+            log_y: false,
+        },
+        &series,
+        &[Reference {
+            y: 0.0,
+            label: "no bias".into(),
+        }],
+    )?;
+    names.push(name);
+
+    // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
+    for (figure, column, mcse_suffix, log_y, reference, title, y_label) in [
+        (
+            "ratio",
+            "emp_over_{b}",
+            "_mcse",
+            true,
+            Reference {
+                y: 1.0,
+                label: "EmpSE = bound".into(),
+            },
+            format!("{sym}: EmpSE / bound"),
+            "EmpSE / bound [-]".to_string(),
+        ),
+        (
+            "coverage",
+            "coverage_{b}",
+            "_mcse",
+            false,
+            Reference {
+                y: NOMINAL,
+                label: "nominal 95 %".into(),
+            },
+            format!("{sym}: coverage of θ̂ ± 1.96·bound"),
+            "coverage [-]".to_string(),
+        ),
+    ] {
+        let mut series = Vec::new();
+        let mut c = 0;
         for b in &layout.bounds {
-            let se = get(&format!("{}_se", b.name))?;
-            // A bound's value does not depend on the estimator: draw it once per group.
-            let mut seen_groups: Vec<&String> = Vec::new();
+            let col = column.replace("{b}", b.name);
+            let value = get(&col)?;
+            let mcse = get(&format!("{col}{mcse_suffix}"))?;
             for (e, g) in &keys_seen {
-                if seen_groups.contains(&g) {
-                    continue;
-                }
-                let idx: Vec<usize> = rows
+                let points: Vec<(f64, f64, f64)> = rows
                     .iter()
-                    .copied()
-                    .filter(|&i| &estimator[i] == e && &groups[i] == g && se[i].is_finite())
+                    .filter(|&&i| &estimator[i] == e && &groups[i] == g && value[i].is_finite())
+                    .map(|&i| (x.values[i], value[i], mcse[i]))
                     .collect();
-                if idx.is_empty() {
+                if points.is_empty() {
                     continue;
                 }
-                seen_groups.push(g);
                 series.push(Series {
-                    label: join_label(&[b.name, g]),
+                    label: join_label(&[b.name, &est_label(e), g]),
                     color: color(c),
-                    points: idx
-                        .iter()
-                        .map(|&i| (x.values[i], se[i], f64::NAN))
-                        .collect(),
-                    markers: false,
+                    points,
+                    markers: true,
                 });
                 c += 1;
             }
         }
-        let name = format!("se_{}.svg", p.name);
+        let name = format!("{figure}_{}.svg", p.name);
         chart(
             &dir.join(&name),
             &Axes {
-                title: &format!("{sym}: empirical SE and bounds"),
+                title: &title,
                 x_label: &x.label,
-                y_label: &format!("standard error of {sym}{unit}"),
-                log_y: true,
+                y_label: &y_label,
+                log_y,
             },
             &series,
-            &[],
+            &[reference],
         )?;
         names.push(name);
-
-        // (b) bias ± MCSE.
-        let bias = get("bias")?;
-        let bias_mcse = get("bias_mcse")?;
-        let series: Vec<Series> = keys_seen
-            .iter()
-            .enumerate()
-            .map(|(k, (e, g))| Series {
-                label: join_label(&[&est_label(e), g, "bias ± MCSE"]),
-                color: color(k),
-                points: rows
-                    .iter()
-                    .filter(|&&i| &estimator[i] == e && &groups[i] == g)
-                    .map(|&i| (x.values[i], bias[i], bias_mcse[i]))
-                    .collect(),
-                markers: true,
-            })
-            .collect();
-        let name = format!("bias_{}.svg", p.name);
-        chart(
-            &dir.join(&name),
-            &Axes {
-                title: &format!("{sym}: bias of the estimates"),
-                x_label: &x.label,
-                y_label: &format!("bias of {sym}{unit}"),
-                log_y: false,
-            },
-            &series,
-            &[Reference {
-                y: 0.0,
-                label: "no bias".into(),
-            }],
-        )?;
-        names.push(name);
-
-        // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
-        for (figure, column, mcse_suffix, log_y, reference, title, y_label) in [
-            (
-                "ratio",
-                "emp_over_{b}",
-                "_mcse",
-                true,
-                Reference {
-                    y: 1.0,
-                    label: "EmpSE = bound".into(),
-                },
-                format!("{sym}: EmpSE / bound"),
-                "EmpSE / bound [-]".to_string(),
-            ),
-            (
-                "coverage",
-                "coverage_{b}",
-                "_mcse",
-                false,
-                Reference {
-                    y: NOMINAL,
-                    label: "nominal 95 %".into(),
-                },
-                format!("{sym}: coverage of θ̂ ± 1.96·bound"),
-                "coverage [-]".to_string(),
-            ),
-        ] {
-            let mut series = Vec::new();
-            let mut c = 0;
-            for b in &layout.bounds {
-                let col = column.replace("{b}", b.name);
-                let value = get(&col)?;
-                let mcse = get(&format!("{col}{mcse_suffix}"))?;
-                for (e, g) in &keys_seen {
-                    let points: Vec<(f64, f64, f64)> = rows
-                        .iter()
-                        .filter(|&&i| &estimator[i] == e && &groups[i] == g && value[i].is_finite())
-                        .map(|&i| (x.values[i], value[i], mcse[i]))
-                        .collect();
-                    if points.is_empty() {
-                        continue;
-                    }
-                    series.push(Series {
-                        label: join_label(&[b.name, &est_label(e), g]),
-                        color: color(c),
-                        points,
-                        markers: true,
-                    });
-                    c += 1;
-                }
-            }
-            let name = format!("{figure}_{}.svg", p.name);
-            chart(
-                &dir.join(&name),
-                &Axes {
-                    title: &title,
-                    x_label: &x.label,
-                    y_label: &y_label,
-                    log_y,
-                },
-                &series,
-                &[reference],
-            )?;
-            names.push(name);
-        }
     }
 
-    if let (Some(cy), Some(scale)) = (cycles, t.number("scale")) {
-        names.push(draw_cycles(dir, t, cy, scale)?);
-    }
     Ok(names)
 }
 

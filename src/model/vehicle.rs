@@ -55,6 +55,8 @@ pub struct VehicleModel {
     study: VehicleStudy,
     layout: Layout,
     conditions: Vec<Condition>,
+    /// One simulated cycle per terrain scale (kept for cycles.parquet and figures).
+    cycles: Vec<Arc<DriveCycle>>,
 }
 
 impl VehicleModel {
@@ -67,7 +69,7 @@ impl VehicleModel {
             .clone();
         let truth = vs.vehicle.theta();
         // One drive cycle per scale, simulated in parallel (each is independent).
-        let prepared: Vec<(Vec<f64>, Arc<Regression>)> = vs
+        let prepared: Vec<(Vec<f64>, Arc<Regression>, Arc<DriveCycle>)> = vs
             .scales
             .par_iter()
             .enumerate()
@@ -80,7 +82,8 @@ impl VehicleModel {
                     )
                 })?;
                 let metrics = vec![table.mean_square(), cycle.terrain_mean_square()];
-                Ok((metrics, Arc::new(Regression::new(&cycle, &vs.vehicle))))
+                let regression = Arc::new(Regression::new(&cycle, &vs.vehicle));
+                Ok((metrics, regression, Arc::new(cycle)))
             })
             .collect::<Result<_, StudyError>>()?;
         let layout = layout(&vs.estimators);
@@ -90,7 +93,7 @@ impl VehicleModel {
         let conditions = pairs
             .par_iter()
             .map(|&(scale_index, noise)| {
-                let (metrics, regression) = &prepared[scale_index];
+                let (metrics, regression, _) = &prepared[scale_index];
                 let regression = regression.clone();
                 let nan = [f64::NAN; 3];
                 let mut constant_bounds = [nan; 4];
@@ -137,30 +140,20 @@ impl VehicleModel {
             study: vs,
             layout,
             conditions,
+            cycles: prepared.into_iter().map(|(_, _, cycle)| cycle).collect(),
         })
     }
 
-    /// The noise-free drive cycle of condition `c` (simulated again: cycles are not kept).
-    pub fn cycle(&self, c: usize) -> DriveCycle {
-        self.scale_cycle(self.conditions[c].scale_index)
+    /// The noise-free drive cycle of condition `c`.
+    pub fn cycle(&self, c: usize) -> &DriveCycle {
+        &self.cycles[self.conditions[c].scale_index]
     }
 
-    /// The drive cycle of terrain scale number `s`.
-    fn scale_cycle(&self, s: usize) -> DriveCycle {
-        let table = self.study.terrain.grade_table(self.study.scales[s]);
-        simulate(&self.study.vehicle, &self.study.drive, &table)
-            .expect("the cycle simulated when the model was prepared")
-    }
-
-    /// Every condition's drive cycle, one simulation per scale, in parallel.
+    /// Every condition's drive cycle (conditions with the same terrain scale share one).
     pub fn cycles(&self) -> Vec<Arc<DriveCycle>> {
-        let per_scale: Vec<Arc<DriveCycle>> = (0..self.study.scales.len())
-            .into_par_iter()
-            .map(|s| Arc::new(self.scale_cycle(s)))
-            .collect();
         self.conditions
             .iter()
-            .map(|c| per_scale[c.scale_index].clone())
+            .map(|c| self.cycles[c.scale_index].clone())
             .collect()
     }
 
