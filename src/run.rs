@@ -317,14 +317,66 @@ fn run_prepared(
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     remove_temporaries(&dir)?;
-    let identity = study.identity();
     let meta = FileMetadata {
         study_toml: study.to_toml(),
         seed: study.seed,
         realisations: study.realisations,
-        identity: identity.clone(),
+        identity: study.identity(),
         extra: Vec::new(),
     };
+    let layout = model.layout().clone();
+    let infos = model.infos();
+
+    // The model's extra tables (the cycles) do not depend on the realisations: they are
+    // written while the realisations are computed.
+    let (realised, extra) = rayon::join(
+        || realise(study, model, options, observer, &dir, &meta),
+        || match options.shard {
+            None => model.extra_files(out_dir, &meta),
+            Some(_) => Ok(Vec::new()),
+        },
+    );
+    let (realisations, reused, computed) = realised?;
+    let extra = extra?;
+
+    // The summary, from the merged file itself (two passes), so `run` and `summarize`
+    // agree by construction; a shard's summary comes from `summarize` over all shards.
+    let mut pending = vec![realisations];
+    let mut summary = Vec::new();
+    if options.shard.is_none() {
+        summary = summarise_files(
+            &layout,
+            &infos,
+            study.realisations,
+            &[pending[0].tmp_path()],
+        )?;
+        pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
+        pending.extend(extra);
+    }
+    let files = output::commit_all(pending)?;
+    fs::remove_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    Ok(RunReport {
+        layout,
+        infos,
+        summary,
+        files,
+        reused,
+        computed,
+    })
+}
+
+/// Make every needed realisation exist and merge them, in order, into the realisation
+/// file (still under its temporary name). Returns it with the counts reused and computed.
+fn realise(
+    study: &Study,
+    model: &dyn DynModel,
+    options: &RunOptions,
+    observer: &dyn Observer,
+    dir: &Path,
+    meta: &FileMetadata,
+) -> Result<(PendingFile, u64, u64), RunError> {
+    let staging = dir.join(STAGING);
+    let identity = &meta.identity;
     let layout = model.layout().clone();
     let infos = model.infos();
     let schema = output::realisation_schema(&layout);
@@ -333,12 +385,11 @@ fn run_prepared(
         .map_or(0..study.realisations, |s| s.range(study.realisations));
     let needed = vec![range.clone(); infos.len()];
     let target = dir.join(files::REALISATIONS);
-
     // 1. What exists already: completed parts of an interrupted run, and the realisation
     //    file of an earlier run of the same study (e.g. with a smaller R).
     let find_sources = || -> Result<Vec<store::Source>, OutputError> {
-        let mut sources = store::scan_parts(&staging, &identity)?;
-        sources.extend(store::existing_file(&target, &identity)?);
+        let mut sources = store::scan_parts(&staging, identity)?;
+        sources.extend(store::existing_file(&target, identity)?);
         Ok(sources)
     };
     let sources = find_sources()?;
@@ -415,7 +466,7 @@ fn run_prepared(
         None => meta.clone(),
     };
     let mut sink = ParquetSink::create(
-        &dir,
+        dir,
         files::REALISATIONS,
         schema,
         &file_meta,
@@ -424,39 +475,7 @@ fn run_prepared(
     store::merge(&sources, &segments, &mut sink)?;
     let realisations = sink.finish()?;
 
-    // 4. The summary, from the merged file itself (two passes), so `run` and `summarize`
-    //    agree by construction; a shard's summary comes from `summarize` over all shards.
-    let mut pending = Vec::new();
-    let mut summary = Vec::new();
-    if options.shard.is_none() {
-        // Two independent serial jobs: summarising, and writing the model's extra tables.
-        let (summarised, extra) = rayon::join(
-            || {
-                summarise_files(
-                    &layout,
-                    &infos,
-                    study.realisations,
-                    &[realisations.tmp_path()],
-                )
-            },
-            || model.extra_files(out_dir, &meta),
-        );
-        summary = summarised?;
-        let extra = extra?;
-        pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
-        pending.extend(extra);
-    }
-    pending.insert(0, realisations);
-    let files = output::commit_all(pending)?;
-    fs::remove_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    Ok(RunReport {
-        layout,
-        infos,
-        summary,
-        files,
-        reused: total - computed,
-        computed,
-    })
+    Ok((realisations, total - computed, computed))
 }
 
 fn write_summary(
