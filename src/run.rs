@@ -465,13 +465,8 @@ fn realise(
         Some(shard) => meta.with(keys::SHARD, shard.to_string()),
         None => meta.clone(),
     };
-    let mut sink = ParquetSink::create(
-        dir,
-        files::REALISATIONS,
-        schema,
-        &file_meta,
-        "realisations",
-    )?;
+    let mut sink =
+        ParquetSink::create(dir, files::REALISATIONS, schema, &file_meta, "realisations")?;
     store::merge(&sources, &segments, &mut sink)?;
     let realisations = sink.finish()?;
 

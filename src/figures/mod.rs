@@ -80,8 +80,13 @@ struct Table {
 
 impl Table {
     fn read(path: &Path) -> Result<Table, OutputError> {
+        Self::read_columns(path, None)
+    }
+
+    /// Read only the named columns (all when `None`).
+    fn read_columns(path: &Path, columns: Option<&[&str]>) -> Result<Table, OutputError> {
         let mut t = Table::default();
-        for batch in output::open_reader(path, 65_536)? {
+        for batch in output::open_projected_reader(path, 65_536, columns)? {
             let batch = batch.map_err(|source| OutputError::Arrow {
                 path: path.to_path_buf(),
                 source,
@@ -215,34 +220,28 @@ fn chart(
         .margin_right(LEGEND_WIDTH)
         .x_label_area_size(60)
         .y_label_area_size(100);
+    // The two branches differ only in the y coordinate type (linear or logarithmic).
+    macro_rules! draw_on {
+        ($y_range:expr, $y_format:literal) => {{
+            let mut c = builder
+                .build_cartesian_2d(x_lo..x_hi, $y_range)
+                .map_err(|e| draw_error(path, e))?;
+            c.configure_mesh()
+                .x_desc(axes.x_label)
+                .y_desc(axes.y_label)
+                .axis_desc_style(("sans-serif", 17))
+                .label_style(("sans-serif", 14))
+                .x_label_formatter(&|v| format!("{v:.3e}"))
+                .y_label_formatter(&|v| format!($y_format, v))
+                .draw()
+                .map_err(|e| draw_error(path, e))?;
+            plot_series(&mut c, series, references, (x_lo, x_hi), y_lo, path)?;
+        }};
+    }
     if axes.log_y {
-        let mut c = builder
-            .build_cartesian_2d(x_lo..x_hi, (y_lo..y_hi).log_scale())
-            .map_err(|e| draw_error(path, e))?;
-        c.configure_mesh()
-            .x_desc(axes.x_label)
-            .y_desc(axes.y_label)
-            .axis_desc_style(("sans-serif", 17))
-            .label_style(("sans-serif", 14))
-            .x_label_formatter(&|v| format!("{v:.3e}"))
-            .y_label_formatter(&|v| format!("{v:.1e}"))
-            .draw()
-            .map_err(|e| draw_error(path, e))?;
-        plot_series(&mut c, series, references, (x_lo, x_hi), y_lo, path)?;
+        draw_on!((y_lo..y_hi).log_scale(), "{:.1e}");
     } else {
-        let mut c = builder
-            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
-            .map_err(|e| draw_error(path, e))?;
-        c.configure_mesh()
-            .x_desc(axes.x_label)
-            .y_desc(axes.y_label)
-            .axis_desc_style(("sans-serif", 17))
-            .label_style(("sans-serif", 14))
-            .x_label_formatter(&|v| format!("{v:.3e}"))
-            .y_label_formatter(&|v| format!("{v:.2e}"))
-            .draw()
-            .map_err(|e| draw_error(path, e))?;
-        plot_series(&mut c, series, references, (x_lo, x_hi), y_lo, path)?;
+        draw_on!(y_lo..y_hi, "{:.2e}");
     }
     let mut entries: Vec<(String, Key)> = references
         .iter()
@@ -494,7 +493,11 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
     let summary = Table::read(&summary_path)?;
     let cycles_path = dir.join("cycles.parquet");
     let cycles = if cycles_path.exists() {
-        Some(Table::read(&cycles_path)?)
+        // Only what the cycles figure draws (the file also holds x, f_prop and accel).
+        Some(Table::read_columns(
+            &cycles_path,
+            Some(&["condition", "t", "v", "grade"]),
+        )?)
     } else {
         None
     };

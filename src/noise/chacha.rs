@@ -161,13 +161,49 @@ fn blocks_portable(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WO
     }
 }
 
+/// The initial state of `L` blocks with counters `counter .. counter + L`, one row per
+/// state word and one column per block (the layout every path computes on).
+#[inline(always)]
+fn initial_state<const L: usize>(
+    key: &[u32; 8],
+    stream: u64,
+    counter: u64,
+) -> [[u32; L]; BLOCK_WORDS] {
+    let mut x = [[0u32; L]; BLOCK_WORDS];
+    for (k, &c) in SIGMA.iter().enumerate() {
+        x[k] = [c; L];
+    }
+    for (k, &w) in key.iter().enumerate() {
+        x[4 + k] = [w; L];
+    }
+    x[12] = std::array::from_fn(|i| counter.wrapping_add(i as u64) as u32);
+    x[13] = std::array::from_fn(|i| (counter.wrapping_add(i as u64) >> 32) as u32);
+    x[14] = [stream as u32; L];
+    x[15] = [(stream >> 32) as u32; L];
+    x
+}
+
+/// Blocks in order, each as eight little-endian 64-bit words: word j of block `lane` is
+/// state words 2j (low half) and 2j + 1 (high half) of that block.
+#[inline(always)]
+fn interleave<const L: usize>(words: &[[u32; L]; BLOCK_WORDS], out: &mut [u64]) {
+    for lane in 0..L {
+        for j in 0..BLOCK_WORDS / 2 {
+            out[lane * BLOCK_WORDS / 2 + j] =
+                u64::from(words[2 * j][lane]) | (u64::from(words[2 * j + 1][lane]) << 32);
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     //! ChaCha8 on sixteen blocks at once: one block per 32-bit lane of a 512-bit register.
 
     use std::arch::x86_64::*;
 
-    use super::{BLOCK_WORDS, BLOCKS_PER_CALL, DOUBLE_ROUNDS, SIGMA, WORDS_PER_CALL};
+    use super::{
+        BLOCK_WORDS, BLOCKS_PER_CALL, DOUBLE_ROUNDS, WORDS_PER_CALL, initial_state, interleave,
+    };
 
     #[inline]
     #[target_feature(enable = "avx512f")]
@@ -190,28 +226,10 @@ mod avx512 {
         out: &mut [u64; WORDS_PER_CALL],
     ) {
         const L: usize = BLOCKS_PER_CALL;
-        let lo: [u32; L] = std::array::from_fn(|i| counter.wrapping_add(i as u64) as u32);
-        let hi: [u32; L] = std::array::from_fn(|i| (counter.wrapping_add(i as u64) >> 32) as u32);
-        let splat = |v: u32| _mm512_set1_epi32(v as i32);
-        let init: [__m512i; BLOCK_WORDS] = [
-            splat(SIGMA[0]),
-            splat(SIGMA[1]),
-            splat(SIGMA[2]),
-            splat(SIGMA[3]),
-            splat(key[0]),
-            splat(key[1]),
-            splat(key[2]),
-            splat(key[3]),
-            splat(key[4]),
-            splat(key[5]),
-            splat(key[6]),
-            splat(key[7]),
-            // SAFETY: reads 16 u32 from arrays of 16 u32.
-            unsafe { _mm512_loadu_si512(lo.as_ptr().cast()) },
-            unsafe { _mm512_loadu_si512(hi.as_ptr().cast()) },
-            splat(stream as u32),
-            splat((stream >> 32) as u32),
-        ];
+        let state = initial_state::<L>(key, stream, counter);
+        // SAFETY: each row is an array of 16 u32.
+        let init: [__m512i; BLOCK_WORDS] =
+            std::array::from_fn(|k| unsafe { _mm512_loadu_si512(state[k].as_ptr().cast()) });
         let mut x = init;
         for _ in 0..DOUBLE_ROUNDS {
             quarter_round(&mut x, (0, 4, 8, 12));
@@ -229,12 +247,7 @@ mod avx512 {
             // SAFETY: writes 16 u32 into an array of 16 u32.
             unsafe { _mm512_storeu_si512(words[k].as_mut_ptr().cast(), v) };
         }
-        for lane in 0..L {
-            for j in 0..BLOCK_WORDS / 2 {
-                out[lane * BLOCK_WORDS / 2 + j] =
-                    u64::from(words[2 * j][lane]) | (u64::from(words[2 * j + 1][lane]) << 32);
-            }
-        }
+        interleave(&words, out);
     }
 }
 
@@ -244,7 +257,7 @@ mod avx2 {
 
     use std::arch::x86_64::*;
 
-    use super::{BLOCK_WORDS, DOUBLE_ROUNDS, LANES, SIGMA, WORDS_PER_PASS};
+    use super::{BLOCK_WORDS, DOUBLE_ROUNDS, LANES, WORDS_PER_PASS, initial_state, interleave};
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -286,29 +299,10 @@ mod avx2 {
             3, 0, 1, 2, 7, 4, 5, 6, 11, 8, 9, 10, 15, 12, 13, 14, 3, 0, 1, 2, 7, 4, 5, 6, 11, 8, 9,
             10, 15, 12, 13, 14,
         );
-        let lo: [u32; LANES] = std::array::from_fn(|i| counter.wrapping_add(i as u64) as u32);
-        let hi: [u32; LANES] =
-            std::array::from_fn(|i| (counter.wrapping_add(i as u64) >> 32) as u32);
-        let splat = |v: u32| _mm256_set1_epi32(v as i32);
-        let init: [__m256i; BLOCK_WORDS] = [
-            splat(SIGMA[0]),
-            splat(SIGMA[1]),
-            splat(SIGMA[2]),
-            splat(SIGMA[3]),
-            splat(key[0]),
-            splat(key[1]),
-            splat(key[2]),
-            splat(key[3]),
-            splat(key[4]),
-            splat(key[5]),
-            splat(key[6]),
-            splat(key[7]),
-            // SAFETY: reads 8 u32 from an array of 8 u32.
-            unsafe { _mm256_loadu_si256(lo.as_ptr().cast()) },
-            unsafe { _mm256_loadu_si256(hi.as_ptr().cast()) },
-            splat(stream as u32),
-            splat((stream >> 32) as u32),
-        ];
+        let state = initial_state::<LANES>(key, stream, counter);
+        // SAFETY: each row is an array of 8 u32.
+        let init: [__m256i; BLOCK_WORDS] =
+            std::array::from_fn(|k| unsafe { _mm256_loadu_si256(state[k].as_ptr().cast()) });
         let mut x = init;
         for _ in 0..DOUBLE_ROUNDS {
             quarter_round(&mut x, (0, 4, 8, 12), rot16, rot8);
@@ -326,12 +320,7 @@ mod avx2 {
             // SAFETY: writes 8 u32 into an array of 8 u32.
             unsafe { _mm256_storeu_si256(words[k].as_mut_ptr().cast(), v) };
         }
-        for lane in 0..LANES {
-            for j in 0..BLOCK_WORDS / 2 {
-                out[lane * BLOCK_WORDS / 2 + j] =
-                    u64::from(words[2 * j][lane]) | (u64::from(words[2 * j + 1][lane]) << 32);
-            }
-        }
+        interleave(&words, out);
     }
 }
 
@@ -359,19 +348,7 @@ fn quarter_round(x: &mut [Lanes; BLOCK_WORDS], a: usize, b: usize, c: usize, d: 
 
 #[inline(always)]
 fn blocks_body(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_PER_PASS]) {
-    let splat = |v: u32| -> Lanes { [v; LANES] };
-    let counters: [u64; LANES] = std::array::from_fn(|i| counter.wrapping_add(i as u64));
-    let mut init = [[0u32; LANES]; BLOCK_WORDS];
-    for (k, &c) in SIGMA.iter().enumerate() {
-        init[k] = splat(c);
-    }
-    for (k, &w) in key.iter().enumerate() {
-        init[4 + k] = splat(w);
-    }
-    init[12] = std::array::from_fn(|i| counters[i] as u32);
-    init[13] = std::array::from_fn(|i| (counters[i] >> 32) as u32);
-    init[14] = splat(stream as u32);
-    init[15] = splat((stream >> 32) as u32);
+    let init = initial_state::<LANES>(key, stream, counter);
     let mut x = init;
     for _ in 0..DOUBLE_ROUNDS {
         quarter_round(&mut x, 0, 4, 8, 12);
@@ -386,14 +363,7 @@ fn blocks_body(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_
     for k in 0..BLOCK_WORDS {
         x[k] = add(x[k], init[k]);
     }
-    // Block `lane` holds words x[0][lane] … x[15][lane]; 64-bit word j of a block is
-    // u32 words 2j (low half) and 2j + 1 (high half).
-    for lane in 0..LANES {
-        for j in 0..BLOCK_WORDS / 2 {
-            out[lane * BLOCK_WORDS / 2 + j] =
-                u64::from(x[2 * j][lane]) | (u64::from(x[2 * j + 1][lane]) << 32);
-        }
-    }
+    interleave(&x, out);
 }
 
 #[cfg(test)]

@@ -286,9 +286,33 @@ pub fn open_reader(
     path: &Path,
     batch_rows: usize,
 ) -> Result<ParquetRecordBatchReader, OutputError> {
+    open_projected_reader(path, batch_rows, None)
+}
+
+/// Open a Parquet file for batch-wise reading of the named top-level columns only (all
+/// columns when `None`).
+pub fn open_projected_reader(
+    path: &Path,
+    batch_rows: usize,
+    columns: Option<&[&str]>,
+) -> Result<ParquetRecordBatchReader, OutputError> {
     let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-    ParquetRecordBatchReaderBuilder::try_new(file)
-        .and_then(|b| b.with_batch_size(batch_rows).build())
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .map_err(|e| OutputError::parquet(path, e))?;
+    let builder = match columns {
+        Some(names) => {
+            let schema = builder.parquet_schema();
+            let leaves: Vec<usize> = (0..schema.num_columns())
+                .filter(|&i| names.contains(&schema.column(i).name()))
+                .collect();
+            let mask = parquet::arrow::ProjectionMask::leaves(schema, leaves);
+            builder.with_projection(mask)
+        }
+        None => builder,
+    };
+    builder
+        .with_batch_size(batch_rows)
+        .build()
         .map_err(|e| OutputError::parquet(path, e))
 }
 

@@ -11,13 +11,12 @@
 //! realisations, and any interrupted run ends identical to an uninterrupted one: each
 //! realisation is a pure function of (seed, condition, realisation).
 
-use std::fs::{self, File};
+use std::fs;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
-use parquet::arrow::ProjectionMask;
-use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
 use super::{OutputError, ParquetSink, keys, read_metadata};
 
@@ -150,19 +149,7 @@ fn covered_ranges(path: &Path) -> Result<Vec<(usize, Range<u64>)>, OutputError> 
 }
 
 fn index_reader(path: &Path) -> Result<ParquetRecordBatchReader, OutputError> {
-    let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
-        .map_err(|e| OutputError::parquet(path, e))?;
-    let schema = builder.parquet_schema();
-    let wanted: Vec<usize> = (0..schema.num_columns())
-        .filter(|&i| matches!(schema.column(i).name(), "condition" | "realisation"))
-        .collect();
-    let mask = ProjectionMask::leaves(schema, wanted);
-    builder
-        .with_projection(mask)
-        .with_batch_size(READ_ROWS)
-        .build()
-        .map_err(|e| OutputError::parquet(path, e))
+    super::open_projected_reader(path, READ_ROWS, Some(&["condition", "realisation"]))
 }
 
 fn arrow_err(path: &Path, source: arrow::error::ArrowError) -> OutputError {

@@ -51,10 +51,13 @@ impl TerrainSpec {
 
     /// The grade table of this profile at terrain scale `scale`.
     pub fn grade_table(&self, scale: f64) -> GradeTable {
-        let grade_rad = (0..self.length_m)
-            .map(|i| {
-                let x = i as f64 * GRID_STEP_M;
-                let rise = self.elevation_m(x + GRID_STEP_M) - self.elevation_m(x);
+        let elevation: Vec<f64> = (0..=self.length_m)
+            .map(|i| self.elevation_m(i as f64 * GRID_STEP_M))
+            .collect();
+        let grade_rad = elevation
+            .windows(2)
+            .map(|y| {
+                let rise = y[1] - y[0];
                 match self.scale_applies_to {
                     ScaleTarget::Grade => scale * (rise / GRID_STEP_M).atan(),
                     ScaleTarget::Elevation => (scale * rise / GRID_STEP_M).atan(),

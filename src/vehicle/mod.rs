@@ -176,15 +176,17 @@ pub fn simulate(
         accel_m_s2: Vec::with_capacity(n),
     };
     let end_m = terrain.end_m();
-    // dV/dt at (t, x, v), or the error of leaving the table.
-    let accel = |t: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
+    // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
+    // leaving the table.
+    let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
         let grade = terrain
             .grade_at(x)
             .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        Ok(vehicle.acceleration(drive.propulsion_n(vehicle, t), v, grade))
+        Ok(vehicle.acceleration(f, v, grade))
     };
 
     let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
+    let mut f = drive.propulsion_n(vehicle, 0.0);
     for i in 0..n {
         let t = i as f64 * h;
         if !(x.is_finite() && v.is_finite()) {
@@ -200,7 +202,6 @@ pub fn simulate(
         let grade = terrain
             .grade_at(x)
             .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        let f = drive.propulsion_n(vehicle, t);
         cycle.t_s.push(t);
         cycle.x_m.push(x);
         cycle.v_m_s.push(v);
@@ -210,17 +211,21 @@ pub fn simulate(
         if i + 1 == n {
             break;
         }
-        // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V).
+        // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V); the force at the
+        // half step serves two stages and the one at the full step the next sample.
+        let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
+        let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
         let k1x = v;
         let k1v = cycle.accel_m_s2[i];
         let k2x = v + 0.5 * h * k1v;
-        let k2v = accel(t + 0.5 * h, x + 0.5 * h * k1x, k2x)?;
+        let k2v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k1x, k2x)?;
         let k3x = v + 0.5 * h * k2v;
-        let k3v = accel(t + 0.5 * h, x + 0.5 * h * k2x, k3x)?;
+        let k3v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k2x, k3x)?;
         let k4x = v + h * k3v;
-        let k4v = accel(t + h, x + h * k3x, k4x)?;
+        let k4v = accel(t + h, f_end, x + h * k3x, k4x)?;
         x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
         v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        f = f_end;
     }
     Ok(cycle)
 }
