@@ -134,6 +134,8 @@ pub trait DynModel: Sync {
         observer: &dyn Observer,
         sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
     ) -> Result<(), OutputError>;
+    /// Compute realisation `r` of condition `c` into `slots`.
+    fn realise_one(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]);
     /// Write model-specific extra tables (the vehicle's cycles) into `dir`.
     fn extra_files(&self, dir: &Path, meta: &FileMetadata)
     -> Result<Vec<PendingFile>, OutputError>;
@@ -159,6 +161,10 @@ impl<M: Model + ExtraFiles> DynModel for M {
         sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
     ) -> Result<(), OutputError> {
         montecarlo::execute(self, seed, work, chunk, observer, sink)
+    }
+
+    fn realise_one(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
+        Model::realise(self, seed, c, r, slots)
     }
 
     fn extra_files(
@@ -321,7 +327,7 @@ fn run_prepared(
         study_toml: study.to_toml(),
         seed: study.seed,
         realisations: study.realisations,
-        identity: study.identity(),
+        identity: identity(study, model),
         extra: Vec::new(),
     };
     let layout = model.layout().clone();
@@ -363,6 +369,23 @@ fn run_prepared(
         reused,
         computed,
     })
+}
+
+/// What makes realisations of two runs interchangeable: the study without its realisation
+/// count and the engine version ([`Study::identity`]), plus a check of this build's
+/// numbers — a hash of every condition's metrics and of realisation 0 of condition 0 — so
+/// that a rebuilt engine whose arithmetic changed never reuses an older run's parts.
+fn identity(study: &Study, model: &dyn DynModel) -> String {
+    let mut canary = vec![0.0; model.layout().realisation_stride()];
+    model.realise_one(study.seed, 0, 0, &mut canary);
+    let metrics = model.infos().into_iter().flat_map(|i| i.metrics);
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
+    for v in canary.into_iter().chain(metrics) {
+        for byte in v.to_bits().to_le_bytes() {
+            hash = (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    format!("{}# numbers {hash:016x}\n", study.identity())
 }
 
 /// Make every needed realisation exist and merge them, in order, into the realisation
