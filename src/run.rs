@@ -440,6 +440,24 @@ fn realise(
             start = end;
         }
     }
+    let file_meta = match options.shard {
+        Some(shard) => meta.with(keys::SHARD, shard.to_string()),
+        None => meta.clone(),
+    };
+    // A fresh run computes every row in final order: it writes the realisation file as it
+    // goes (beside the parts that make it resumable) instead of merging afterwards.
+    let mut direct = if sources.is_empty() {
+        Some(ParquetSink::create(
+            dir,
+            files::REALISATIONS,
+            schema.clone(),
+            &file_meta,
+            "realisations",
+        )?)
+    } else {
+        None
+    };
+    let mut last_condition = None;
     let mut open: Option<(usize, ParquetSink)> = None; // (piece index, its part file)
     let mut next_piece = 0;
     model.execute(study.seed, &pieces, options.chunk, observer, &mut |chunk| {
@@ -463,6 +481,13 @@ fn realise(
         let batch = output::realisations_batch(&layout, &schema, &infos[chunk.condition], &chunk)
             .map_err(|e| arrow_error(&staging, e))?;
         sink.write(&batch)?;
+        if let Some(file) = direct.as_mut() {
+            if last_condition.is_some_and(|c| c != chunk.condition) {
+                file.flush()?;
+            }
+            last_condition = Some(chunk.condition);
+            file.write(&batch)?;
+        }
         let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
         if chunk.first + rows == pieces[*index].realisations.end {
             let (_, sink) = open.take().expect("a part is open");
@@ -470,6 +495,10 @@ fn realise(
         }
         Ok(())
     })?;
+
+    if let Some(file) = direct {
+        return Ok((file.finish()?, total - computed, computed));
+    }
 
     // 3. Merge every source, in (condition, realisation) order, into the new file.
     let sources = find_sources()?;
@@ -484,10 +513,6 @@ fn realise(
         )
         .into());
     }
-    let file_meta = match options.shard {
-        Some(shard) => meta.with(keys::SHARD, shard.to_string()),
-        None => meta.clone(),
-    };
     let mut sink =
         ParquetSink::create(dir, files::REALISATIONS, schema, &file_meta, "realisations")?;
     store::merge(&sources, &segments, &mut sink)?;
