@@ -298,12 +298,19 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
     })
 }
 
-/// Delete files left under temporary names by killed runs.
+/// Delete what killed runs left under temporary names: files, and the figures' staging
+/// directory.
 fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
     for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
         let entry = entry.map_err(|e| OutputError::io(dir, e))?;
         if store::is_temporary(&entry.file_name().to_string_lossy()) {
-            fs::remove_file(entry.path()).map_err(|e| OutputError::io(&entry.path(), e))?;
+            let path = entry.path();
+            let removed = if path.is_dir() {
+                fs::remove_dir_all(&path)
+            } else {
+                fs::remove_file(&path)
+            };
+            removed.map_err(|e| OutputError::io(&path, e))?;
         }
     }
     Ok(())

@@ -1,5 +1,6 @@
 //! Issue 4 acceptance 4–5, and extension: sharded + summarize == unsharded, a run killed
-//! with SIGKILL and re-run ends identical, and growing R keeps the earlier realisations.
+//! with SIGKILL and re-run ends identical, growing R keeps the earlier realisations, and a
+//! killed run's leftovers do not stop the next one.
 //! Every realisation is a pure function of (seed, condition, realisation) and summaries use
 //! exact sums, so all of these are byte-for-byte comparisons, not tolerances.
 
@@ -162,4 +163,24 @@ fn a_run_killed_midway_resumes_to_identical_output() {
         );
     }
     assert!(!staging.exists(), "staging is removed after a complete run");
+}
+
+#[test]
+fn leftovers_of_a_killed_run_are_cleared_not_fatal() {
+    // A killed run can leave a temporary Parquet file and the figures' staging directory
+    // (both named `.NAME.tmp-PID`); the next run into the same directory removes them.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join(".summary.parquet.tmp-4194304");
+    let figures = dir.path().join(".figures.tmp-4194304");
+    std::fs::write(&file, b"PAR1 torn").unwrap();
+    std::fs::create_dir(&figures).unwrap();
+    std::fs::write(figures.join("se_inv_mass.svg"), b"<svg").unwrap();
+    run_study(
+        &study("thesis.toml", 20),
+        &RunOptions::new(dir.path()),
+        &Silent,
+    )
+    .unwrap();
+    assert!(!file.exists() && !figures.exists(), "leftovers are removed");
+    assert!(dir.path().join("summary.parquet").exists());
 }
