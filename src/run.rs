@@ -395,7 +395,7 @@ fn identity(study: &Study, model: &dyn DynModel) -> String {
     format!("{}# numbers {hash:016x}\n", study.identity())
 }
 
-/// Make every needed realisation exist and merge them, in order, into the realisation
+/// Make every needed realisation exist and assemble them, in order, into the realisation
 /// file (still under its temporary name). Returns it with the counts reused and computed.
 fn realise(
     study: &Study,
@@ -406,23 +406,20 @@ fn realise(
     meta: &FileMetadata,
 ) -> Result<(PendingFile, u64, u64), RunError> {
     let staging = dir.join(STAGING);
-    let identity = &meta.identity;
-    let layout = model.layout().clone();
+    let layout = model.layout();
     let infos = model.infos();
-    let schema = output::realisation_schema(&layout);
+    let schema = output::realisation_schema(layout);
     let range = options
         .shard
         .map_or(0..study.realisations, |s| s.range(study.realisations));
-    let needed = vec![range.clone(); infos.len()];
-    let target = dir.join(files::REALISATIONS);
+    let needed = vec![range; infos.len()];
     // 1. What exists already: completed parts of an interrupted run, and the realisation
     //    file of an earlier run of the same study (e.g. with a smaller R).
-    let find_sources = || -> Result<Vec<store::Source>, OutputError> {
-        let mut sources = store::scan_parts(&staging, identity)?;
-        sources.extend(store::existing_file(&target, identity)?);
-        Ok(sources)
-    };
-    let sources = find_sources()?;
+    let mut sources = store::scan_parts(&staging, &meta.identity)?;
+    sources.extend(store::existing_file(
+        &dir.join(files::REALISATIONS),
+        &meta.identity,
+    )?);
     let segments = store::plan(&needed, &sources);
     let length = |s: &store::Segment| s.range.end - s.range.start;
     let total: u64 = segments.iter().map(length).sum();
@@ -433,8 +430,9 @@ fn realise(
         .sum();
     observer.planned(total, total - computed);
 
-    // 2. Compute what is missing into staged parts, each renamed into place when complete.
-    //    One pass over every part keeps the executor's compute/write pipeline full.
+    // 2. Compute what is missing into staged parts, each renamed into place when complete
+    //    (so a killed run resumes), and assemble the final file as the rows arrive. One
+    //    pass over every part keeps the executor's compute/write pipeline full.
     let mut pieces = Vec::new();
     for seg in segments.iter().filter(|s| s.source.is_none()) {
         let mut start = seg.range.start;
@@ -451,81 +449,44 @@ fn realise(
         Some(shard) => meta.with(keys::SHARD, shard.to_string()),
         None => meta.clone(),
     };
-    // A fresh run computes every row in final order: it writes the realisation file as it
-    // goes (beside the parts that make it resumable) instead of merging afterwards.
-    let mut direct = if sources.is_empty() {
-        Some(ParquetSink::create(
-            dir,
-            files::REALISATIONS,
-            schema.clone(),
-            &file_meta,
-            "realisations",
-        )?)
-    } else {
-        None
-    };
-    let mut last_condition = None;
-    let mut open: Option<(usize, ParquetSink)> = None; // (piece index, its part file)
+    let file = ParquetSink::create(
+        dir,
+        files::REALISATIONS,
+        schema.clone(),
+        &file_meta,
+        "realisations",
+    )?;
+    let mut assembler = store::Assembler::new(&sources, &segments, file);
+    let mut part: Option<ParquetSink> = None; // the part of `pieces[next_piece - 1]`
     let mut next_piece = 0;
     model.execute(study.seed, &pieces, options.chunk, observer, &mut |chunk| {
-        if open.is_none() {
+        if part.is_none() {
             let piece = &pieces[next_piece];
             let part_meta = meta.with(
                 keys::PART,
                 store::part_value(piece.condition, &piece.realisations),
             );
-            let sink = ParquetSink::create(
+            part = Some(ParquetSink::create(
                 &staging,
                 &store::part_name(piece.condition, piece.realisations.start),
                 schema.clone(),
                 &part_meta,
                 "realisations",
-            )?;
-            open = Some((next_piece, sink));
+            )?);
             next_piece += 1;
         }
-        let (index, sink) = open.as_mut().expect("a part is open");
-        let batch = output::realisations_batch(&layout, &schema, &infos[chunk.condition], &chunk)
+        let batch = output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
             .map_err(|e| arrow_error(&staging, e))?;
-        sink.write(&batch)?;
-        if let Some(file) = direct.as_mut() {
-            if last_condition.is_some_and(|c| c != chunk.condition) {
-                file.flush()?;
-            }
-            last_condition = Some(chunk.condition);
-            file.write(&batch)?;
-        }
+        part.as_mut().expect("a part is open").write(&batch)?;
+        assembler.computed(chunk.condition, chunk.first, &batch)?;
         let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
-        if chunk.first + rows == pieces[*index].realisations.end {
-            let (_, sink) = open.take().expect("a part is open");
-            sink.finish()?.commit()?;
+        if chunk.first + rows == pieces[next_piece - 1].realisations.end {
+            part.take().expect("a part is open").finish()?.commit()?;
         }
         Ok(())
     })?;
 
-    if let Some(file) = direct {
-        return Ok((file.finish()?, total - computed, computed));
-    }
-
-    // 3. Merge every source, in (condition, realisation) order, into the new file.
-    let sources = find_sources()?;
-    let segments = store::plan(&needed, &sources);
-    if let Some(gap) = segments.iter().find(|s| s.source.is_none()) {
-        return Err(OutputError::format(
-            &staging,
-            format!(
-                "realisations {:?} of condition {} are missing after computing them",
-                gap.range, gap.condition
-            ),
-        )
-        .into());
-    }
-    let mut sink =
-        ParquetSink::create(dir, files::REALISATIONS, schema, &file_meta, "realisations")?;
-    store::merge(&sources, &segments, &mut sink)?;
-    let realisations = sink.finish()?;
-
-    Ok((realisations, total - computed, computed))
+    Ok((assembler.finish()?, total - computed, computed))
 }
 
 fn write_summary(

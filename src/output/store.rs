@@ -5,9 +5,9 @@
 //! most [`PART_REALISATIONS`] realisations of one condition, each written under a temporary
 //! name and renamed when complete. If the run is killed, completed parts survive and a
 //! torn part (a temporary file, or one whose footer does not parse) is deleted and redone.
-//! When every needed realisation exists — in parts, or in the realisation file of an
-//! earlier run of the same study — the sources are merged in (condition, realisation) order
-//! into the final file. Re-running with a larger R therefore computes only the new
+//! The final file is assembled in (condition, realisation) order as the run goes: rows
+//! that already exist — in parts, or in the realisation file of an earlier run of the same
+//! study — are copied, computed rows are written as they arrive. Re-running with a larger R therefore computes only the new
 //! realisations, and any interrupted run ends identical to an uninterrupted one: each
 //! realisation is a pure function of (seed, condition, realisation).
 
@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
-use super::{OutputError, ParquetSink, keys, read_metadata};
+use super::{OutputError, ParquetSink, PendingFile, keys, read_metadata};
 
 /// Realisations per staged part (bounds the work lost when a run is killed).
 pub const PART_REALISATIONS: u64 = 8192;
@@ -299,39 +299,91 @@ impl Cursor {
     }
 }
 
-/// Write the rows of `segments` (all with sources) from `sources`, in order, to `out`,
-/// ending a row group at every change of condition.
-pub fn merge(
-    sources: &[Source],
-    segments: &[Segment],
-    out: &mut ParquetSink,
-) -> Result<(), OutputError> {
-    let mut cursors: Vec<Option<Cursor>> = sources.iter().map(|_| None).collect();
-    // A source's reader (and the row group it buffers) is dropped after its last segment,
-    // so memory stays bounded however many parts there are.
-    let mut last_use = vec![0; sources.len()];
-    for (k, seg) in segments.iter().enumerate() {
-        if let Some(i) = seg.source {
-            last_use[i] = k;
+/// Writes the realisation file in plan order: the rows of segments with a source are
+/// copied from it, computed rows are written as they arrive (in plan order too). A row
+/// group ends at every change of condition, so the file's bytes do not depend on which rows
+/// were copied and which computed.
+pub struct Assembler<'a> {
+    sources: &'a [Source],
+    segments: &'a [Segment],
+    cursors: Vec<Option<Cursor>>,
+    /// Per source, the index of the last segment it serves: its reader (and the row group
+    /// it buffers) is dropped after it, so memory stays bounded however many parts there are.
+    last_use: Vec<usize>,
+    /// The first segment not yet written or passed.
+    next: usize,
+    last_condition: Option<usize>,
+    out: ParquetSink,
+}
+
+impl<'a> Assembler<'a> {
+    /// Assemble `segments` (from [`plan`] over `sources`) into `out`.
+    pub fn new(sources: &'a [Source], segments: &'a [Segment], out: ParquetSink) -> Self {
+        let mut last_use = vec![0; sources.len()];
+        for (k, seg) in segments.iter().enumerate() {
+            if let Some(i) = seg.source {
+                last_use[i] = k;
+            }
+        }
+        Assembler {
+            sources,
+            segments,
+            cursors: sources.iter().map(|_| None).collect(),
+            last_use,
+            next: 0,
+            last_condition: None,
+            out,
         }
     }
-    let mut last_condition = None;
-    for (k, seg) in segments.iter().enumerate() {
-        let i = seg
-            .source
-            .expect("every segment has a source before merging");
-        if last_condition.is_some_and(|c| c != seg.condition) {
-            out.flush()?;
-        }
-        last_condition = Some(seg.condition);
-        if cursors[i].is_none() {
-            cursors[i] = Some(Cursor::open(&sources[i].path)?);
-        }
-        let cursor = cursors[i].as_mut().expect("opened above");
-        cursor.copy(seg.condition, &seg.range, &mut |batch| out.write(batch))?;
-        if last_use[i] == k {
-            cursors[i] = None;
-        }
+
+    /// Write computed rows of `condition`, the first of them of realisation `first`, after
+    /// copying every sourced segment that precedes them.
+    pub fn computed(
+        &mut self,
+        condition: usize,
+        first: u64,
+        batch: &RecordBatch,
+    ) -> Result<(), OutputError> {
+        self.copy_before((condition, first))?;
+        self.enter(condition)?;
+        self.out.write(batch)
     }
-    Ok(())
+
+    /// Copy the remaining sourced segments and write the footer.
+    pub fn finish(mut self) -> Result<PendingFile, OutputError> {
+        self.copy_before((usize::MAX, u64::MAX))?;
+        self.out.finish()
+    }
+
+    /// Copy the sourced segments that start before `key` (condition, realisation), and
+    /// pass over the computed ones.
+    fn copy_before(&mut self, key: (usize, u64)) -> Result<(), OutputError> {
+        while let Some(seg) = self.segments.get(self.next)
+            && (seg.condition, seg.range.start) < key
+        {
+            let k = self.next;
+            self.next += 1;
+            let Some(i) = seg.source else { continue };
+            self.enter(seg.condition)?;
+            let cursor = match &mut self.cursors[i] {
+                Some(cursor) => cursor,
+                slot => slot.insert(Cursor::open(&self.sources[i].path)?),
+            };
+            let out = &mut self.out;
+            cursor.copy(seg.condition, &seg.range, &mut |batch| out.write(batch))?;
+            if self.last_use[i] == k {
+                self.cursors[i] = None;
+            }
+        }
+        Ok(())
+    }
+
+    /// End the row group when the condition changes.
+    fn enter(&mut self, condition: usize) -> Result<(), OutputError> {
+        if self.last_condition.is_some_and(|c| c != condition) {
+            self.out.flush()?;
+        }
+        self.last_condition = Some(condition);
+        Ok(())
+    }
 }
