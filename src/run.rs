@@ -624,13 +624,15 @@ pub fn summarise_files(
     paths: &[&Path],
 ) -> Result<Vec<SummaryRow>, RunError> {
     let mut summarizer = Summarizer::new(layout, infos, realisations, Z_95);
+    let columns = RealisationBatches::columns(layout);
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     for pass in 0..2 {
         for path in paths {
             let summary_error = |source| RunError::Summary {
                 path: path.to_path_buf(),
                 source,
             };
-            for batch in output::open_reader(path, READ_BATCH_ROWS)? {
+            for batch in output::open_projected_reader(path, READ_BATCH_ROWS, Some(&columns))? {
                 let batch = batch.map_err(|e| arrow_error(path, e))?;
                 let rows = RealisationBatches::decode(layout, &batch, path)?;
                 for record in rows.records() {

@@ -132,6 +132,29 @@ pub struct RealisationBatches {
 }
 
 impl RealisationBatches {
+    /// The columns [`RealisationBatches::decode`] reads (the others — axes, extras — need
+    /// not be read at all).
+    pub fn columns(layout: &Layout) -> Vec<String> {
+        let mut names: Vec<String> = ["condition", "realisation", "estimator", "status"]
+            .map(String::from)
+            .into();
+        names.extend(
+            layout
+                .parameters
+                .iter()
+                .map(|p| format!("theta_{}", p.name)),
+        );
+        for b in &layout.bounds {
+            names.extend(
+                layout
+                    .parameters
+                    .iter()
+                    .map(|p| format!("{}_{}", b.name, p.name)),
+            );
+        }
+        names
+    }
+
     /// Decode `batch` (a realisation table read back from `path`).
     pub fn decode(layout: &Layout, batch: &RecordBatch, path: &Path) -> Result<Self, OutputError> {
         let column = |name: &str| {
