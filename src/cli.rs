@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::anyhow;
+use chassis_mc::figures::{self, FigureError};
 use chassis_mc::montecarlo::Observer;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
 use chassis_mc::study::Study;
@@ -61,7 +62,7 @@ enum Command {
         /// Run only shard K of N (0-based): realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every
         /// condition, written to DIR/shard=K/realisations.parquet. Combine the shards with
         /// `chassis-mc summarize DIR`.
-        #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+        #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
         shard: Option<Shard>,
         /// Do not draw DIR/figures/*.svg.
         #[arg(long)]
@@ -108,10 +109,6 @@ enum Command {
     },
 }
 
-fn parse_shard(text: &str) -> Result<Shard, String> {
-    Shard::parse(text)
-}
-
 /// A failure with the exit code it maps to.
 pub struct Failure {
     pub error: anyhow::Error,
@@ -122,6 +119,19 @@ impl From<RunError> for Failure {
     fn from(e: RunError) -> Self {
         let code = match e {
             RunError::Study(_) => EXIT_BAD_INPUT,
+            _ => EXIT_FAILURE,
+        };
+        Failure {
+            error: anyhow!(e),
+            code,
+        }
+    }
+}
+
+impl From<FigureError> for Failure {
+    fn from(e: FigureError) -> Self {
+        let code = match e {
+            FigureError::Study(_) => EXIT_BAD_INPUT,
             _ => EXIT_FAILURE,
         };
         Failure {
@@ -193,7 +203,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             let mut report = run_study(&study, &options, &Progress(bar.clone()))?;
             bar.finish_and_clear();
             if shard.is_none() && !no_figures {
-                report.files.extend(draw_figures(&options.out_dir)?);
+                report.files.extend(figures::draw(&options.out_dir)?);
             }
             if let (Some(shard), false) = (shard, quiet) {
                 println!(
@@ -234,7 +244,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             };
             let mut report = summarize(&inputs, &out)?;
             if !no_figures {
-                report.files.extend(draw_figures(&out)?);
+                report.files.extend(figures::draw(&out)?);
             }
             if !quiet {
                 print!(
@@ -248,23 +258,10 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Figures { dir } => {
-            for f in draw_figures(&dir)? {
+            for f in figures::draw(&dir)? {
                 println!("{}", f.display());
             }
             Ok(())
         }
     }
-}
-
-fn draw_figures(dir: &std::path::Path) -> Result<Vec<PathBuf>, Failure> {
-    chassis_mc::figures::draw(dir).map_err(|e| {
-        let code = match e {
-            chassis_mc::figures::FigureError::Study(_) => EXIT_BAD_INPUT,
-            _ => EXIT_FAILURE,
-        };
-        Failure {
-            error: anyhow!(e),
-            code,
-        }
-    })
 }

@@ -187,7 +187,7 @@ impl ExtraFiles for VehicleModel {
         let mut sink =
             ParquetSink::create(dir, files::CYCLES, output::cycles_schema(), meta, "cycles")?;
         for (c, cycle) in self.cycles().iter().enumerate() {
-            let batch = output::cycles_batch(c, cycle).map_err(|e| arrow_error(dir, e))?;
+            let batch = output::cycles_batch(c, cycle).map_err(|e| OutputError::arrow(dir, e))?;
             sink.write(&batch)?;
         }
         Ok(vec![sink.finish()?])
@@ -197,13 +197,6 @@ impl ExtraFiles for VehicleModel {
 impl ExtraFiles for LineFitModel {
     fn write(&self, _dir: &Path, _meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError> {
         Ok(Vec::new())
-    }
-}
-
-fn arrow_error(path: &Path, source: arrow::error::ArrowError) -> OutputError {
-    OutputError::Arrow {
-        path: path.to_path_buf(),
-        source,
     }
 }
 
@@ -476,7 +469,7 @@ fn realise(
             next_piece += 1;
         }
         let batch = output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
-            .map_err(|e| arrow_error(&staging, e))?;
+            .map_err(|e| OutputError::arrow(&staging, e))?;
         part.as_mut().expect("a part is open").write(&batch)?;
         assembler.computed(chunk.condition, chunk.first, &batch)?;
         let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
@@ -503,7 +496,8 @@ fn write_summary(
         meta,
         "summary",
     )?;
-    let batch = output::summary_batch(layout, infos, summary).map_err(|e| arrow_error(dir, e))?;
+    let batch =
+        output::summary_batch(layout, infos, summary).map_err(|e| OutputError::arrow(dir, e))?;
     sink.write(&batch)?;
     Ok(vec![sink.finish()?])
 }
@@ -555,8 +549,8 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunErr
         })
     })?;
     let footer = |path: &Path| -> Result<(String, String, u64), RunError> {
-        let kv = output::read_metadata(path)?;
-        let get = |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.clone());
+        let footer = output::read_metadata(path)?;
+        let get = |k: &str| footer.get(k).map(str::to_string);
         let missing = || {
             OutputError::format(
                 path,
@@ -613,9 +607,6 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunErr
     })
 }
 
-/// Rows per batch when reading realisation files back.
-const READ_BATCH_ROWS: usize = 65_536;
-
 /// Summarise the realisation rows stored in `paths` (any split of one study's rows).
 pub fn summarise_files(
     layout: &Layout,
@@ -632,8 +623,8 @@ pub fn summarise_files(
                 path: path.to_path_buf(),
                 source,
             };
-            for batch in output::open_projected_reader(path, READ_BATCH_ROWS, Some(&columns))? {
-                let batch = batch.map_err(|e| arrow_error(path, e))?;
+            for batch in output::open_projected_reader(path, output::READ_ROWS, Some(&columns))? {
+                let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
                 let rows = RealisationBatches::decode(layout, &batch, path)?;
                 for record in rows.records() {
                     if pass == 0 {

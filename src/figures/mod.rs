@@ -29,6 +29,7 @@ use thiserror::Error;
 
 use crate::model::{AxisKind, Layout};
 use crate::output::{self, OutputError, keys};
+use crate::run::files;
 use crate::study::{Study, StudyError};
 
 /// Directory of the figures inside an output directory.
@@ -86,11 +87,8 @@ impl Table {
     /// Read only the named columns (all when `None`).
     fn read_columns(path: &Path, columns: Option<&[&str]>) -> Result<Table, OutputError> {
         let mut t = Table::default();
-        for batch in output::open_projected_reader(path, 65_536, columns)? {
-            let batch = batch.map_err(|source| OutputError::Arrow {
-                path: path.to_path_buf(),
-                source,
-            })?;
+        for batch in output::open_projected_reader(path, output::READ_ROWS, columns)? {
+            let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
             t.append(&batch);
         }
         Ok(t)
@@ -481,17 +479,15 @@ fn unit_suffix(unit: &str) -> String {
 /// Draw every figure of the run in `dir` into `dir/figures/` (replacing earlier ones only
 /// when all are drawn). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
-    let summary_path = dir.join("summary.parquet");
-    let metadata = output::read_metadata(&summary_path)?;
-    let study_toml = metadata
-        .iter()
-        .find(|(k, _)| k == keys::STUDY)
-        .map(|(_, v)| v.clone())
+    let summary_path = dir.join(files::SUMMARY);
+    let footer = output::read_metadata(&summary_path)?;
+    let study_toml = footer
+        .get(keys::STUDY)
         .ok_or_else(|| OutputError::format(&summary_path, "no study in the footer"))?;
-    let study = Study::from_toml(&study_toml, &format!("{} (footer)", summary_path.display()))?;
+    let study = Study::from_toml(study_toml, &format!("{} (footer)", summary_path.display()))?;
     let layout = crate::run::layout_of(&study);
     let summary = Table::read(&summary_path)?;
-    let cycles_path = dir.join("cycles.parquet");
+    let cycles_path = dir.join(files::CYCLES);
     let cycles = if cycles_path.exists() {
         // Only what the cycles figure draws (the file also holds x, f_prop and accel).
         Some(Table::read_columns(

@@ -30,6 +30,9 @@ pub use tables::{
 /// Rows per Parquet row group (bounds the writer's memory).
 pub const ROW_GROUP_ROWS: usize = 65_536;
 
+/// Rows per batch when reading a file back (bounds the reader's memory).
+pub const READ_ROWS: usize = 65_536;
+
 /// zstd level used for every file.
 pub const ZSTD_LEVEL: i32 = 3;
 
@@ -102,6 +105,13 @@ impl OutputError {
 
     pub(crate) fn parquet(path: &Path, source: parquet::errors::ParquetError) -> Self {
         OutputError::Parquet {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    pub(crate) fn arrow(path: &Path, source: arrow::error::ArrowError) -> Self {
+        OutputError::Arrow {
             path: path.to_path_buf(),
             source,
         }
@@ -317,7 +327,21 @@ pub fn open_projected_reader(
 }
 
 /// The footer key-value metadata of a Parquet file.
-pub fn read_metadata(path: &Path) -> Result<Vec<(String, String)>, OutputError> {
+#[derive(Debug, Clone, Default)]
+pub struct Footer(Vec<(String, String)>);
+
+impl Footer {
+    /// The value of `key`, if the footer has it.
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// The footer key-value metadata of a Parquet file.
+pub fn read_metadata(path: &Path) -> Result<Footer, OutputError> {
     let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| OutputError::parquet(path, e))?;
@@ -327,10 +351,11 @@ pub fn read_metadata(path: &Path) -> Result<Vec<(String, String)>, OutputError> 
         .key_value_metadata()
         .cloned()
         .unwrap_or_default();
-    Ok(kv
-        .into_iter()
-        .map(|k| (k.key, k.value.unwrap_or_default()))
-        .collect())
+    Ok(Footer(
+        kv.into_iter()
+            .map(|k| (k.key, k.value.unwrap_or_default()))
+            .collect(),
+    ))
 }
 
 /// Shared pointer to a schema (re-exported for callers building batches).

@@ -18,13 +18,10 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
-use super::{OutputError, ParquetSink, PendingFile, keys, read_metadata};
+use super::{OutputError, ParquetSink, PendingFile, READ_ROWS, keys, read_metadata};
 
 /// Realisations per staged part (bounds the work lost when a run is killed).
 pub const PART_REALISATIONS: u64 = 8192;
-
-/// Rows per batch when reading sources.
-const READ_ROWS: usize = 65_536;
 
 /// A file holding realisation rows, sorted by (condition, realisation).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -87,10 +84,11 @@ pub fn scan_parts(staging: &Path, identity: &str) -> Result<Vec<Source>, OutputE
             .unwrap_or_default();
         let keep = !is_temporary(&name)
             && match read_metadata(&path) {
-                Ok(kv) => {
-                    let get =
-                        |k: &str| kv.iter().find(|(key, _)| key == k).map(|(_, v)| v.as_str());
-                    match (get(keys::IDENTITY), get(keys::PART).and_then(parse_part)) {
+                Ok(footer) => {
+                    match (
+                        footer.get(keys::IDENTITY),
+                        footer.get(keys::PART).and_then(parse_part),
+                    ) {
                         (Some(id), Some((c, range))) if id == identity => {
                             parts.push(Source {
                                 path: path.clone(),
@@ -116,10 +114,10 @@ pub fn existing_file(path: &Path, identity: &str) -> Result<Option<Source>, Outp
     if !path.exists() {
         return Ok(None);
     }
-    let Ok(kv) = read_metadata(path) else {
+    let Ok(footer) = read_metadata(path) else {
         return Ok(None); // unreadable: it will be replaced
     };
-    if !kv.iter().any(|(k, v)| k == keys::IDENTITY && v == identity) {
+    if footer.get(keys::IDENTITY) != Some(identity) {
         return Ok(None);
     }
     Ok(Some(Source {
@@ -134,7 +132,7 @@ fn covered_ranges(path: &Path) -> Result<Vec<(usize, Range<u64>)>, OutputError> 
     let mut out: Vec<(usize, Range<u64>)> = Vec::new();
     let mut reader = index_reader(path)?;
     for batch in &mut reader {
-        let batch = batch.map_err(|e| arrow_err(path, e))?;
+        let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
         let (cond, real) = index_columns(&batch, path)?;
         for i in 0..batch.num_rows() {
             let (c, r) = (cond.value(i) as usize, real.value(i) as u64);
@@ -150,13 +148,6 @@ fn covered_ranges(path: &Path) -> Result<Vec<(usize, Range<u64>)>, OutputError> 
 
 fn index_reader(path: &Path) -> Result<ParquetRecordBatchReader, OutputError> {
     super::open_projected_reader(path, READ_ROWS, Some(&["condition", "realisation"]))
-}
-
-fn arrow_err(path: &Path, source: arrow::error::ArrowError) -> OutputError {
-    OutputError::Arrow {
-        path: path.to_path_buf(),
-        source,
-    }
 }
 
 fn index_columns<'a>(
@@ -254,7 +245,7 @@ impl Cursor {
             }
             match self.reader.next() {
                 Some(batch) => {
-                    self.batch = Some(batch.map_err(|e| arrow_err(&self.path, e))?);
+                    self.batch = Some(batch.map_err(|e| OutputError::arrow(&self.path, e))?);
                     self.row = 0;
                 }
                 None => return Ok(None),
