@@ -12,17 +12,21 @@ independently of the engine's summary, so the two can be checked against each ot
 import argparse
 import pathlib
 
-import duckdb
 import pandas as pd
 
-from common import PARAMETERS, parquet, study_of, truth
+from common import per_parameter
 
 BOUNDS = ["thesis_bound", "crlb_output", "eiv_sandwich", "eiv_crlb_linearized"]
 
+# The columns of realisations.parquet the query uses; {p} stands for each parameter.
+COLUMNS = ["condition", "scale", "velocity_sd", "estimator", "theta_{p}"] + [b + "_{p}" for b in BOUNDS]
+
+# Runs once per parameter on the table `realisations` (see common.per_parameter); r is NOT
+# MATERIALIZED because a second scan of that in-memory table is cheaper than a copy of it.
 SQL = """
-WITH r AS (
+WITH r AS NOT MATERIALIZED (
     SELECT condition, scale, velocity_sd, estimator, theta_{p} - $truth AS d, {bound_cols}
-    FROM read_parquet($file) WHERE status = 'ok'
+    FROM realisations
 ), m AS (
     SELECT condition, estimator, fsum(d) / count(*) AS bias FROM r GROUP BY ALL
 ), s AS (
@@ -41,19 +45,12 @@ FROM s ORDER BY condition, estimator
 
 def report(run_dir):
     """One row per condition × estimator × parameter."""
-    theta = truth(study_of(run_dir))
-    frames = []
-    for p in PARAMETERS:
-        sql = (
-            SQL.replace("{p}", p)
-            .replace("{bound_cols}", ", ".join(f"{b}_{p} AS {b}" for b in BOUNDS))
-            .replace("{bound_aggs}", ", ".join(f"sqrt(fsum({b} * {b}) / count({b})) AS {b}_se" for b in BOUNDS))
-            .replace("{ratios}", ", ".join(f"emp_se / {b}_se AS emp_over_{b}" for b in BOUNDS))
-        )
-        df = duckdb.execute(sql, {"truth": theta[p], "file": parquet(run_dir, "realisations.parquet")}).df()
-        df.insert(4, "parameter", p)
-        frames.append(df)
-    return pd.concat(frames, ignore_index=True)
+    sql = (
+        SQL.replace("{bound_cols}", ", ".join(f"{b}_{{p}} AS {b}" for b in BOUNDS))
+        .replace("{bound_aggs}", ", ".join(f"sqrt(fsum({b} * {b}) / count({b})) AS {b}_se" for b in BOUNDS))
+        .replace("{ratios}", ", ".join(f"emp_se / {b}_se AS emp_over_{b}" for b in BOUNDS))
+    )
+    return per_parameter(run_dir, COLUMNS, sql, after="estimator")
 
 
 def main():

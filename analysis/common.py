@@ -1,10 +1,13 @@
 """Shared helpers of the analysis scripts: the study in a run's footer, the true parameters,
-and the terrain metric, each computed here independently of the engine."""
+the terrain metric, each computed here independently of the engine, and the loop that runs
+a script's SQL once per parameter over the realisations."""
 
 import pathlib
 import tomllib
 
+import duckdb
 import numpy as np
+import pandas as pd
 import pyarrow.parquet as pq
 
 PARAMETERS = ["inv_mass", "drag_over_mass", "rolling_resistance"]
@@ -43,3 +46,33 @@ def terrain_metric(study, scale):
 def parquet(run_dir, name):
     """Path of one of a run's Parquet files, as a string for DuckDB."""
     return str(pathlib.Path(run_dir) / name)
+
+
+def per_parameter(run_dir, columns, sql, after):
+    """Run `sql` once per parameter and stack the results, one row per result row × parameter.
+
+    realisations.parquet, which can be large, is read once: its rows with status 'ok' and the
+    `columns` listed (`{p}` in a name stands for each parameter in turn) go into a temporary
+    table `realisations`, in file order. `sql` then runs on that table for every parameter,
+    with `{p}` replaced by the parameter's name and `$truth` bound to its true value; a
+    `parameter` column is inserted after the column `after` of each result.
+
+    The queries run on one thread: fsum's compensated sum depends (in the last bits) on the
+    order of its terms, and one thread adds each group's terms in file order, so the numbers
+    do not depend on the number of cores or on how DuckDB splits the table among them.
+    """
+    theta = truth(study_of(run_dir))
+    names = list(dict.fromkeys(c.replace("{p}", p) for c in columns for p in PARAMETERS))
+    with duckdb.connect() as con:
+        con.execute(
+            f"CREATE TEMP TABLE realisations AS SELECT {', '.join(names)} "
+            "FROM read_parquet($file) WHERE status = 'ok'",
+            {"file": parquet(run_dir, "realisations.parquet")},
+        )
+        con.execute("SET threads = 1")
+        frames = []
+        for p in PARAMETERS:
+            df = con.execute(sql.replace("{p}", p), {"truth": theta[p]}).df()
+            df.insert(df.columns.get_loc(after) + 1, "parameter", p)
+            frames.append(df)
+    return pd.concat(frames, ignore_index=True)

@@ -14,14 +14,13 @@ thesis bound against ς as the thesis did, next to the real spread of the estima
 import argparse
 import pathlib
 
-import duckdb
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from common import PARAMETERS, SYMBOL, UNIT, parquet, study_of, terrain_metric, truth  # noqa: E402
+from common import PARAMETERS, SYMBOL, UNIT, per_parameter, study_of, terrain_metric  # noqa: E402
 
 # Table 3 of the thesis (§6.2): one realisation per scale, σ_v = 1 m/s.
 TABLE3 = pd.DataFrame(
@@ -39,13 +38,18 @@ TABLE3 = pd.DataFrame(
     }
 )
 
+# The columns of realisations.parquet the query uses; {p} stands for each parameter.
+COLUMNS = ["condition", "scale", "velocity_sd", "estimator", "theta_{p}", "thesis_bound_{p}"]
+
+# Runs once per parameter on the table `realisations` (see common.per_parameter); r is NOT
+# MATERIALIZED because a second scan of that in-memory table is cheaper than a copy of it.
 # Centred sums (fsum: Kahan summation) so that neither a mean nor a variance is the small
 # difference of two large numbers.
 SQL = """
-WITH r AS (
+WITH r AS NOT MATERIALIZED (
     SELECT condition, scale, velocity_sd, estimator,
            theta_{p} - $truth AS d, thesis_bound_{p} AS b
-    FROM read_parquet($file) WHERE status = 'ok'
+    FROM realisations
 ), m AS (
     SELECT condition, estimator, fsum(d) / count(*) AS mean_d FROM r GROUP BY ALL
 )
@@ -62,17 +66,8 @@ ORDER BY r.condition, r.estimator
 
 def aggregate(run_dir):
     """One row per condition × estimator × parameter: n, mean, emp_se, thesis_bound_se, ς."""
+    out = per_parameter(run_dir, COLUMNS, SQL, after="velocity_sd")
     study = study_of(run_dir)
-    theta = truth(study)
-    frames = []
-    for p in PARAMETERS:
-        df = duckdb.execute(
-            SQL.replace("{p}", p),
-            {"truth": theta[p], "file": parquet(run_dir, "realisations.parquet")},
-        ).df()
-        df.insert(3, "parameter", p)
-        frames.append(df)
-    out = pd.concat(frames, ignore_index=True)
     metric = {s: terrain_metric(study, s) for s in out.scale.unique()}
     out.insert(2, "terrain_ms_grid", out.scale.map(metric))
     out["mean_mcse"] = out.emp_se / out.n**0.5
