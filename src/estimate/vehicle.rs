@@ -25,6 +25,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::linalg::{SolveError, inverse_spd, solve_spd};
+use crate::noise::BLOCK;
 pub use crate::noise::NoiseLevels;
 use crate::stats::sum::{ExactSum, exact_sum};
 use crate::vehicle::{DriveCycle, VehicleParams};
@@ -60,6 +61,10 @@ pub struct Regression {
     pub sum_c: f64,
     /// Σ y.
     pub sum_y: f64,
+    /// Σw, ΣwF, Σwc, Σw², Σwy with w = V², summed per block of [`BLOCK`] samples and then
+    /// over blocks, exactly as a realisation without speed noise would sum them: such a
+    /// realisation starts from these instead of recomputing them.
+    speed_sums_noise_free: [f64; 5],
 }
 
 impl Regression {
@@ -90,7 +95,22 @@ impl Regression {
             xty[i] = dot(cols[i], &y);
         }
         let sum = |a: &[f64]| exact_sum(a.iter().copied());
+        let mut speed_sums_noise_free = [0.0; 5];
+        for start in (0..v.len()).step_by(BLOCK) {
+            let range = start..(start + BLOCK).min(v.len());
+            let cols = Columns {
+                v: &v[range.clone()],
+                f: &f[range.clone()],
+                c: &c[range.clone()],
+                y: &y[range.clone()],
+            };
+            let block = speed_sums(&cols, &ZEROS[..range.len()], 0.0);
+            for (total, b) in speed_sums_noise_free.iter_mut().zip(block) {
+                *total += b;
+            }
+        }
         Regression {
+            speed_sums_noise_free,
             sum_f: sum(&f),
             sum_c: sum(&c),
             sum_y: sum(&y),
@@ -309,11 +329,15 @@ pub struct MomentAccumulator<'r> {
 impl<'r> MomentAccumulator<'r> {
     /// Start a realisation of `reg` with noise levels `noise`.
     pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
+        let mut fast = SpeedOutputSums::default();
+        if noise.velocity_sd == 0.0 {
+            [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = reg.speed_sums_noise_free;
+        }
         MomentAccumulator {
             reg,
             noise,
             use_fast_path: noise.grade_sd == 0.0 && noise.force_sd == 0.0,
-            fast: SpeedOutputSums::default(),
+            fast,
             general: Moments::default(),
         }
     }
@@ -348,16 +372,18 @@ impl<'r> MomentAccumulator<'r> {
             c: &reg.c[range.clone()],
             y: &reg.y[range],
         };
-        // Speed noise off: Ṽ = V + 0·0 = V exactly.
-        let e = draws.velocity.unwrap_or(&ZEROS[..len]);
         let sd_v = self.noise.velocity_sd;
-        let [s_w, s_wf, s_wc, s_ww, s_wy] = speed_sums(&cols, e, sd_v);
         let s = &mut self.fast;
-        s.s_w += s_w;
-        s.s_wf += s_wf;
-        s.s_wc += s_wc;
-        s.s_ww += s_ww;
-        s.s_wy += s_wy;
+        let e = draws.velocity.unwrap_or(&ZEROS[..len]);
+        // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
+        if sd_v != 0.0 {
+            let [s_w, s_wf, s_wc, s_ww, s_wy] = speed_sums(&cols, e, sd_v);
+            s.s_w += s_w;
+            s.s_wf += s_wf;
+            s.s_wc += s_wc;
+            s.s_ww += s_ww;
+            s.s_wy += s_wy;
+        }
         if let Some(eta) = draws.output {
             let [s_eta, s_f_eta, s_c_eta, s_w_eta] = output_sums(&cols, e, sd_v, eta);
             s.s_eta += s_eta;
@@ -448,7 +474,7 @@ impl<'r> MomentAccumulator<'r> {
 }
 
 /// Zero draws for a channel that is off.
-const ZEROS: [f64; crate::noise::BLOCK] = [0.0; crate::noise::BLOCK];
+const ZEROS: [f64; BLOCK] = [0.0; BLOCK];
 
 /// Independent partial sums per accumulator: four lanes break the add-latency chain and let
 /// the compiler use vector registers; lanes are combined as (l0 + l1) + (l2 + l3).
@@ -487,7 +513,7 @@ mod simd {
 
     use std::arch::x86_64::*;
 
-    use super::{Columns, LANES, reduce, speed_sums_tail};
+    use super::{Columns, LANES, output_sums_tail, reduce, speed_sums_tail};
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -526,6 +552,28 @@ mod simd {
         }
         let mut acc = acc.map(|a| lanes(a));
         speed_sums_tail(cols, e, sd_v, whole, &mut acc);
+        acc.map(reduce)
+    }
+
+    #[target_feature(enable = "avx2")]
+    pub(super) fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
+        let n = cols.v.len();
+        assert!(cols.f.len() == n && cols.c.len() == n && e.len() >= n && eta.len() >= n);
+        let whole = n - n % LANES;
+        let sd = _mm256_set1_pd(sd_v);
+        let mut acc = [_mm256_setzero_pd(); 4];
+        let mut i = 0;
+        while i < whole {
+            let vt = _mm256_add_pd(load(cols.v, i), _mm256_mul_pd(sd, load(e, i)));
+            let eta_i = load(eta, i);
+            acc[0] = _mm256_add_pd(acc[0], eta_i);
+            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(load(cols.f, i), eta_i));
+            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(load(cols.c, i), eta_i));
+            acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(_mm256_mul_pd(vt, vt), eta_i));
+            i += LANES;
+        }
+        let mut acc = acc.map(|a| lanes(a));
+        output_sums_tail(cols, e, sd_v, eta, whole, &mut acc);
         acc.map(reduce)
     }
 }
@@ -578,11 +626,54 @@ fn speed_sums_tail(
     }
 }
 
-/// Ση, ΣFη, Σcη, Σwη over a block (output noise is not on the thesis's hot path).
+/// Ση, ΣFη, Σcη, Σwη over a block, w = (V + σ_v e)²; sample i goes to lane i mod 4. Like
+/// [`speed_sums`], the AVX2 path is bit-identical to the portable code.
 fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { simd::output_sums(cols, e, sd_v, eta) };
+        }
+    }
+    output_sums_body(cols, e, sd_v, eta)
+}
+
+#[inline(always)]
+fn output_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
     let mut acc = [[0.0; LANES]; 4];
     let n = cols.v.len();
-    for i in 0..n {
+    let whole = n - n % LANES;
+    let lanes = cols.v[..whole]
+        .chunks_exact(LANES)
+        .zip(cols.f[..whole].chunks_exact(LANES))
+        .zip(cols.c[..whole].chunks_exact(LANES))
+        .zip(e[..whole].chunks_exact(LANES))
+        .zip(eta[..whole].chunks_exact(LANES));
+    for ((((v, f), c), e), eta) in lanes {
+        for l in 0..LANES {
+            let vt = v[l] + sd_v * e[l];
+            acc[0][l] += eta[l];
+            acc[1][l] += f[l] * eta[l];
+            acc[2][l] += c[l] * eta[l];
+            acc[3][l] += vt * vt * eta[l];
+        }
+    }
+    output_sums_tail(cols, e, sd_v, eta, whole, &mut acc);
+    acc.map(reduce)
+}
+
+/// The samples after the last whole group of lanes, each into lane i mod 4.
+#[inline(always)]
+fn output_sums_tail(
+    cols: &Columns<'_>,
+    e: &[f64],
+    sd_v: f64,
+    eta: &[f64],
+    whole: usize,
+    acc: &mut [[f64; LANES]; 4],
+) {
+    for i in whole..cols.v.len() {
         let l = i % LANES;
         let vt = cols.v[i] + sd_v * e[i];
         acc[0][l] += eta[i];
@@ -590,7 +681,6 @@ fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4
         acc[2][l] += cols.c[i] * eta[i];
         acc[3][l] += vt * vt * eta[i];
     }
-    acc.map(reduce)
 }
 
 /// Solve a normal-equation system (OLS or BCLS).
@@ -638,7 +728,7 @@ pub fn thesis_error_conversions(theta: &Vector3<f64>, bound: &[f64; 3]) -> (f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::noise::{BLOCK, Channel, NormalStream};
+    use crate::noise::{Channel, NormalStream};
     use crate::terrain::GradeTable;
     use crate::vehicle::{DriveParams, simulate};
 
@@ -735,6 +825,8 @@ mod tests {
         let reg = regression();
         let mut e = [0.0; BLOCK];
         NormalStream::for_realisation(5, 0, Channel::Velocity, 1).fill(&mut e);
+        let mut eta = [0.0; BLOCK];
+        NormalStream::for_realisation(5, 0, Channel::Output, 1).fill(&mut eta);
         for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
             let cols = Columns {
                 v: &reg.v[start..start + len],
@@ -744,6 +836,9 @@ mod tests {
             };
             let portable = speed_sums_body(&cols, &e[..len], 0.8);
             let dispatched = speed_sums(&cols, &e[..len], 0.8);
+            assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));
+            let portable = output_sums_body(&cols, &e[..len], 0.8, &eta[..len]);
+            let dispatched = output_sums(&cols, &e[..len], 0.8, &eta[..len]);
             assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));
         }
     }
