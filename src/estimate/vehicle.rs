@@ -243,6 +243,23 @@ pub struct Moments {
 }
 
 impl Moments {
+    /// Add the sums of `b` (not its N), each with one addition.
+    fn add(&mut self, b: &Moments) {
+        self.s_11 += b.s_11;
+        self.s_13 += b.s_13;
+        self.s_33 += b.s_33;
+        self.s_1y += b.s_1y;
+        self.s_3y += b.s_3y;
+        self.s_1w += b.s_1w;
+        self.s_3w += b.s_3w;
+        self.s_ww += b.s_ww;
+        self.s_wy += b.s_wy;
+        self.s_w += b.s_w;
+        self.s_1 += b.s_1;
+        self.s_3 += b.s_3;
+        self.s_y += b.s_y;
+    }
+
     /// OLS normal equations X̃ᵀX̃ θ = X̃ᵀỹ (thesis eq. 20).
     pub fn ols_system(&self, k: f64) -> (Matrix3<f64>, Vector3<f64>) {
         self.system(k, self.s_1w, self.s_3w, self.s_ww, self.s_wy)
@@ -343,7 +360,8 @@ impl<'r> MomentAccumulator<'r> {
     }
 
     /// Like [`new`](Self::new) but always on the general path (for cross-checks).
-    pub fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
+    #[cfg(test)]
+    fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
         MomentAccumulator {
             use_fast_path: false,
             ..Self::new(reg, noise)
@@ -397,15 +415,20 @@ impl<'r> MomentAccumulator<'r> {
         let reg = self.reg;
         let nz = self.noise;
         let mut b = Moments::default();
-        let at = |d: Option<&[f64]>, i: usize| d.map_or(0.0, |d| d[i]);
+        // A channel that is off draws zeros.
+        let zeros = &ZEROS[..len];
+        let force = draws.force.unwrap_or(zeros);
+        let velocity = draws.velocity.unwrap_or(zeros);
+        let grade = draws.grade.unwrap_or(zeros);
+        let output = draws.output.unwrap_or(zeros);
         for j in 0..len {
             let i = start + j;
-            let x1 = reg.f[i] + nz.force_sd * at(draws.force, j);
-            let vt = reg.v[i] + nz.velocity_sd * at(draws.velocity, j);
+            let x1 = reg.f[i] + nz.force_sd * force[j];
+            let vt = reg.v[i] + nz.velocity_sd * velocity[j];
             let w = vt * vt;
             let (sin_t, cos_t) = if nz.grade_sd > 0.0 {
                 // sin/cos of θ + δ from those of θ and δ (angle addition)
-                let (sd, cd) = (nz.grade_sd * at(draws.grade, j)).sin_cos();
+                let (sd, cd) = (nz.grade_sd * grade[j]).sin_cos();
                 (
                     reg.sin_grade[i] * cd + reg.cos_grade[i] * sd,
                     reg.cos_grade[i] * cd - reg.sin_grade[i] * sd,
@@ -414,7 +437,7 @@ impl<'r> MomentAccumulator<'r> {
                 (reg.sin_grade[i], reg.cos_grade[i])
             };
             let x3 = -reg.g * cos_t;
-            let y = reg.accel[i] + reg.g * sin_t + nz.output_sd * at(draws.output, j);
+            let y = reg.accel[i] + reg.g * sin_t + nz.output_sd * output[j];
             b.s_11 += x1 * x1;
             b.s_13 += x1 * x3;
             b.s_33 += x3 * x3;
@@ -429,20 +452,7 @@ impl<'r> MomentAccumulator<'r> {
             b.s_3 += x3;
             b.s_y += y;
         }
-        let g = &mut self.general;
-        g.s_11 += b.s_11;
-        g.s_13 += b.s_13;
-        g.s_33 += b.s_33;
-        g.s_1y += b.s_1y;
-        g.s_3y += b.s_3y;
-        g.s_1w += b.s_1w;
-        g.s_3w += b.s_3w;
-        g.s_ww += b.s_ww;
-        g.s_wy += b.s_wy;
-        g.s_w += b.s_w;
-        g.s_1 += b.s_1;
-        g.s_3 += b.s_3;
-        g.s_y += b.s_y;
+        self.general.add(&b);
     }
 
     /// The realisation's moments.
@@ -733,16 +743,7 @@ mod tests {
     use crate::vehicle::{DriveParams, simulate};
 
     fn regression() -> Regression {
-        let vehicle = VehicleParams {
-            mass_kg: 1800.0,
-            drag_coefficient: 0.35,
-            rolling_resistance: 0.0125,
-            frontal_area_m2: 5.5,
-            air_density_kg_m3: 1.2,
-            gravity_m_s2: 9.81,
-            final_drive_ratio: 2.7,
-            wheel_radius_m: 0.3,
-        };
+        let vehicle = VehicleParams::thesis();
         let drive = DriveParams {
             duration_s: 60.0,
             time_step_s: 0.01,

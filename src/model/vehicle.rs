@@ -144,11 +144,6 @@ impl VehicleModel {
         })
     }
 
-    /// The noise-free drive cycle of condition `c`.
-    pub fn cycle(&self, c: usize) -> &DriveCycle {
-        &self.cycles[self.conditions[c].scale_index]
-    }
-
     /// Every condition's drive cycle (conditions with the same terrain scale share one).
     pub fn cycles(&self) -> Vec<Arc<DriveCycle>> {
         self.conditions

@@ -71,8 +71,8 @@ impl ChaCha8Words {
     }
 
     /// Start at block `counter` instead of 0 (for tests of the counter's carry).
-    #[doc(hidden)]
-    pub fn at_block(mut self, counter: u64) -> Self {
+    #[cfg(test)]
+    fn at_block(mut self, counter: u64) -> Self {
         self.counter = counter;
         self.pos = WORDS_PER_CALL;
         self
@@ -82,9 +82,7 @@ impl ChaCha8Words {
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
         if self.pos == WORDS_PER_CALL {
-            blocks(&self.key, self.stream, self.counter, &mut self.buffer);
-            self.counter = self.counter.wrapping_add(BLOCKS_PER_CALL as u64);
-            self.pos = 0;
+            self.refill();
         }
         let w = self.buffer[self.pos];
         self.pos += 1;
@@ -106,9 +104,7 @@ impl ChaCha8Words {
                     i += WORDS_PER_CALL;
                     continue;
                 }
-                blocks(&self.key, self.stream, self.counter, &mut self.buffer);
-                self.counter = self.counter.wrapping_add(BLOCKS_PER_CALL as u64);
-                self.pos = 0;
+                self.refill();
             }
             let take = (WORDS_PER_CALL - self.pos).min(out.len() - i);
             out[i..i + take].copy_from_slice(&self.buffer[self.pos..self.pos + take]);
@@ -122,6 +118,14 @@ impl ChaCha8Words {
     fn generate(&mut self, out: &mut [u64; WORDS_PER_CALL]) {
         blocks(&self.key, self.stream, self.counter, out);
         self.counter = self.counter.wrapping_add(BLOCKS_PER_CALL as u64);
+    }
+
+    /// The next call's words into the buffer.
+    #[inline]
+    fn refill(&mut self) {
+        blocks(&self.key, self.stream, self.counter, &mut self.buffer);
+        self.counter = self.counter.wrapping_add(BLOCKS_PER_CALL as u64);
+        self.pos = 0;
     }
 }
 

@@ -212,7 +212,9 @@ pub fn simulate(
             break;
         }
         // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V); the force at the
-        // half step serves two stages and the one at the full step the next sample.
+        // half step serves two stages and the one at the full step the next sample. The
+        // full step's force is taken at the next sample's time t_{i+1} = (i+1)·Δt (the
+        // time the cycle records), which can differ from t + Δt in the last bit.
         let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
         let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
         let k1x = v;
@@ -231,10 +233,9 @@ pub fn simulate(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn thesis_vehicle() -> VehicleParams {
+impl VehicleParams {
+    /// The thesis vehicle (SPEC §1 defaults), for unit tests.
+    pub(crate) fn thesis() -> Self {
         VehicleParams {
             mass_kg: 1800.0,
             drag_coefficient: 0.35,
@@ -246,6 +247,11 @@ mod tests {
             wheel_radius_m: 0.3,
         }
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
 
     fn drive(duration_s: f64) -> DriveParams {
         DriveParams {
@@ -263,7 +269,7 @@ mod tests {
     fn flat_road_constant_force_matches_the_closed_form() {
         // With constant F, no grade: M dV/dt = F' − kCd V², F' = F − Cr M g, whose solution
         // from rest is V(t) = V∞ tanh(t F' / (M V∞)), V∞ = sqrt(F'/(k Cd)).
-        let veh = thesis_vehicle();
+        let veh = VehicleParams::thesis();
         let d = drive(60.0);
         let flat = GradeTable::from_grades(vec![0.0; 5000]);
         let cycle = simulate(&veh, &d, &flat).unwrap();
@@ -284,7 +290,7 @@ mod tests {
 
     #[test]
     fn a_wall_stalls_the_vehicle_with_a_named_error() {
-        let veh = thesis_vehicle();
+        let veh = VehicleParams::thesis();
         let mut grades = vec![0.0; 200];
         grades.extend(vec![0.5; 4800]); // a 0.5 rad climb: M g sin θ ≫ F_prop
         let err = simulate(&veh, &drive(100.0), &GradeTable::from_grades(grades)).unwrap_err();
@@ -293,7 +299,7 @@ mod tests {
 
     #[test]
     fn a_short_road_is_run_off() {
-        let veh = thesis_vehicle();
+        let veh = VehicleParams::thesis();
         let err =
             simulate(&veh, &drive(100.0), &GradeTable::from_grades(vec![0.0; 50])).unwrap_err();
         assert!(
