@@ -269,12 +269,11 @@ where
     DB: DrawingBackend + 'a,
     Y: Ranged<ValueType = f64>,
 {
-    for (k, r) in references.iter().enumerate() {
+    for r in references {
         let style = ShapeStyle::from(&BLACK.mix(0.6)).stroke_width(1);
         let y = r.y;
         c.draw_series(DashedLineSeries::new([(x_lo, y), (x_hi, y)], 6, 4, style))
             .map_err(|e| draw_error(path, e))?;
-        let _ = k;
     }
     for s in series {
         let color = s.color;
@@ -389,17 +388,24 @@ struct XAxis {
     replaces: Option<&'static str>,
 }
 
+/// True when a column holds more than one value.
+fn varies<T: PartialEq>(v: &[T]) -> bool {
+    v.iter().any(|x| *x != v[0])
+}
+
 fn x_axis(layout: &Layout, t: &Table) -> XAxis {
-    if let Some(ms) = t.number("terrain_ms_grid") {
+    if let Some(fx) = &layout.figure_x
+        && let Some(values) = t.number(fx.metric)
+    {
         return XAxis {
-            values: ms.to_vec(),
-            label: "terrain variability ς = mean θ² over the terrain table [rad²]".into(),
-            replaces: Some("scale"),
+            values: values.to_vec(),
+            label: fx.label.into(),
+            replaces: Some(fx.replaces),
         };
     }
     for axis in layout.axes.iter().filter(|a| a.kind == AxisKind::Number) {
         if let Some(v) = t.number(axis.name)
-            && v.iter().any(|x| *x != v[0])
+            && varies(v)
         {
             let unit = if axis.unit.is_empty() {
                 String::new()
@@ -433,7 +439,7 @@ fn group_labels(layout: &Layout, t: &Table, x: &XAxis) -> Vec<String> {
         match axis.kind {
             AxisKind::Number => {
                 if let Some(v) = t.number(axis.name)
-                    && v.iter().any(|x| *x != v[0])
+                    && varies(v)
                 {
                     for (i, p) in parts.iter_mut().enumerate() {
                         p.push(format!("{} {}", axis.name, v[i]));
@@ -442,7 +448,7 @@ fn group_labels(layout: &Layout, t: &Table, x: &XAxis) -> Vec<String> {
             }
             AxisKind::Text => {
                 if let Some(v) = t.text(axis.name)
-                    && v.iter().any(|x| *x != v[0])
+                    && varies(v)
                 {
                     for (i, p) in parts.iter_mut().enumerate() {
                         p.push(v[i].clone());
@@ -581,23 +587,23 @@ fn draw_parameter(
         }
     };
 
+    // The points (x, y, error bar) of one estimator and group where y is finite.
+    let points = |e: &String, g: &String, y: &[f64], err: Option<&[f64]>| -> Vec<(f64, f64, f64)> {
+        rows.iter()
+            .filter(|&&i| &estimator[i] == e && &groups[i] == g && y[i].is_finite())
+            .map(|&i| (x.values[i], y[i], err.map_or(f64::NAN, |err| err[i])))
+            .collect()
+    };
+
     // (a) EmpSE with MCSE and every bound, against x.
     let emp_se = get("emp_se")?;
     let emp_se_mcse = get("emp_se_mcse")?;
     let mut series = Vec::new();
     for (k, (e, g)) in keys_seen.iter().enumerate() {
-        let idx: Vec<usize> = rows
-            .iter()
-            .copied()
-            .filter(|&i| &estimator[i] == e && &groups[i] == g)
-            .collect();
         series.push(Series {
             label: join_label(&["EmpSE ± MCSE", &est_label(e), g]),
             color: color(k),
-            points: idx
-                .iter()
-                .map(|&i| (x.values[i], emp_se[i], emp_se_mcse[i]))
-                .collect(),
+            points: points(e, g, emp_se, Some(emp_se_mcse)),
             markers: true,
         });
     }
@@ -610,22 +616,15 @@ fn draw_parameter(
             if seen_groups.contains(&g) {
                 continue;
             }
-            let idx: Vec<usize> = rows
-                .iter()
-                .copied()
-                .filter(|&i| &estimator[i] == e && &groups[i] == g && se[i].is_finite())
-                .collect();
-            if idx.is_empty() {
+            let points = points(e, g, se, None);
+            if points.is_empty() {
                 continue;
             }
             seen_groups.push(g);
             series.push(Series {
                 label: join_label(&[b.name, g]),
                 color: color(c),
-                points: idx
-                    .iter()
-                    .map(|&i| (x.values[i], se[i], f64::NAN))
-                    .collect(),
+                points,
                 markers: false,
             });
             c += 1;
@@ -654,11 +653,7 @@ fn draw_parameter(
         .map(|(k, (e, g))| Series {
             label: join_label(&[&est_label(e), g, "bias ± MCSE"]),
             color: color(k),
-            points: rows
-                .iter()
-                .filter(|&&i| &estimator[i] == e && &groups[i] == g)
-                .map(|&i| (x.values[i], bias[i], bias_mcse[i]))
-                .collect(),
+            points: points(e, g, bias, Some(bias_mcse)),
             markers: true,
         })
         .collect();
@@ -680,11 +675,10 @@ fn draw_parameter(
     names.push(name);
 
     // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
-    for (figure, column, mcse_suffix, log_y, reference, title, y_label) in [
+    for (figure, prefix, log_y, reference, title, y_label) in [
         (
             "ratio",
-            "emp_over_{b}",
-            "_mcse",
+            "emp_over_",
             true,
             Reference {
                 y: 1.0,
@@ -695,8 +689,7 @@ fn draw_parameter(
         ),
         (
             "coverage",
-            "coverage_{b}",
-            "_mcse",
+            "coverage_",
             false,
             Reference {
                 y: NOMINAL,
@@ -709,15 +702,11 @@ fn draw_parameter(
         let mut series = Vec::new();
         let mut c = 0;
         for b in &layout.bounds {
-            let col = column.replace("{b}", b.name);
+            let col = format!("{prefix}{}", b.name);
             let value = get(&col)?;
-            let mcse = get(&format!("{col}{mcse_suffix}"))?;
+            let mcse = get(&format!("{col}_mcse"))?;
             for (e, g) in &keys_seen {
-                let points: Vec<(f64, f64, f64)> = rows
-                    .iter()
-                    .filter(|&&i| &estimator[i] == e && &groups[i] == g && value[i].is_finite())
-                    .map(|&i| (x.values[i], value[i], mcse[i]))
-                    .collect();
+                let points = points(e, g, value, Some(mcse));
                 if points.is_empty() {
                     continue;
                 }
@@ -779,20 +768,22 @@ fn draw_cycles(
         .map_err(|e| draw_error(&path, e))?;
     let (top, bottom) = root.split_vertically((SIZE.1 + 200) / 2 - 20);
     let t_max = tt.iter().copied().fold(0.0, f64::max);
+    // The rows of each picked condition (one pass over the table), decimated.
+    let mut samples: Vec<Vec<usize>> = vec![Vec::new(); picks.len()];
+    for (i, c) in cc.iter().enumerate() {
+        if let Some(k) = picks.iter().position(|p| p.1 == *c) {
+            samples[k].push(i);
+        }
+    }
+    for idx in &mut samples {
+        let stride = idx.len().div_ceil(MAX_CYCLE_POINTS).max(1);
+        *idx = idx.iter().copied().step_by(stride).collect();
+    }
     for (area, values, y_label) in [(&top, vv, "speed V [m/s]"), (&bottom, gg, "grade θ [rad]")] {
         let lines: Vec<(f64, Vec<(f64, f64)>)> = picks
             .iter()
-            .map(|&(s, c)| {
-                let idx: Vec<usize> = (0..cc.len()).filter(|&i| cc[i] == c).collect();
-                let stride = idx.len().div_ceil(MAX_CYCLE_POINTS).max(1);
-                (
-                    s,
-                    idx.iter()
-                        .step_by(stride)
-                        .map(|&i| (tt[i], values[i]))
-                        .collect(),
-                )
-            })
+            .zip(&samples)
+            .map(|(&(s, _), idx)| (s, idx.iter().map(|&i| (tt[i], values[i])).collect()))
             .collect();
         let (lo, hi) = padded(lines.iter().flat_map(|l| l.1.iter().map(|p| p.1)), false);
         let mut c = ChartBuilder::on(area)

@@ -87,6 +87,7 @@ pub fn layout() -> Layout {
     Layout {
         axes: vec![Axis::text("noise"), Axis::number("noise_sd", "")],
         condition_metrics: vec![],
+        figure_x: None,
         parameters: vec![
             ParameterInfo {
                 name: "intercept",

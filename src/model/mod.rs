@@ -126,6 +126,20 @@ pub struct Layout {
     pub extras: Vec<ExtraInfo>,
     /// Bounds, each with one value per parameter.
     pub bounds: Vec<BoundInfo>,
+    /// What figures plot against instead of the first axis that varies, if anything.
+    pub figure_x: Option<FigureX>,
+}
+
+/// A condition metric that figures use as their x axis in place of a condition axis (e.g.
+/// the terrain metric ς for `scale`, as the thesis plots).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FigureX {
+    /// The metric column (one of [`Layout::condition_metrics`]).
+    pub metric: &'static str,
+    /// Axis label, with unit.
+    pub label: &'static str,
+    /// The condition axis it stands for (not repeated in series labels).
+    pub replaces: &'static str,
 }
 
 impl Layout {

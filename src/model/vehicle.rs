@@ -8,7 +8,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::{
-    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, Layout, Model, ParameterInfo, Status,
+    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, FigureX, Layout, Model, ParameterInfo,
+    Status,
 };
 use crate::estimate::linalg::condition_number;
 use crate::estimate::vehicle::{
@@ -213,6 +214,11 @@ pub fn layout(estimators: &[EstimatorKind]) -> Layout {
             Axis::number("force_sd", "N"),
         ],
         condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
+        figure_x: Some(FigureX {
+            metric: "terrain_ms_grid",
+            label: "terrain variability ς = mean θ² over the terrain table [rad²]",
+            replaces: "scale",
+        }),
         parameters: vec![
             ParameterInfo {
                 name: PARAMETERS[0],

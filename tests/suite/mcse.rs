@@ -147,6 +147,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
     use chassis_mc::stats::summary::{Record, Summarizer};
 
     let layout = Layout {
+        figure_x: None,
         axes: vec![],
         condition_metrics: vec![],
         parameters: vec![ParameterInfo {
