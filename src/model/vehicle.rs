@@ -13,8 +13,8 @@ use super::{
 };
 use crate::estimate::linalg::condition_number;
 use crate::estimate::vehicle::{
-    BlockNoise, MomentAccumulator, NoiseLevels, Regression, mass_and_drag, scaled_inverse_sd,
-    solve, thesis_error_conversions,
+    BlockNoise, MomentAccumulator, Moments, NoiseLevels, Regression, mass_and_drag,
+    scaled_inverse_sd, solve, thesis_error_conversions,
 };
 use crate::noise::{BLOCK, Channel, NormalStream};
 use crate::study::{EstimatorKind, Study, StudyError, VehicleStudy};
@@ -160,7 +160,7 @@ impl VehicleModel {
 
     /// The moments of realisation `r` of condition `c`: the kernel. Draws each active
     /// channel's normals block by block and accumulates the normal-equation sums.
-    pub fn moments(&self, seed: u64, c: usize, r: u64) -> crate::estimate::vehicle::Moments {
+    pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
         let cond = &self.conditions[c];
         let reg = &*cond.regression;
         let noise = cond.noise;
@@ -177,30 +177,25 @@ impl VehicleModel {
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
             let [bv, bo, bg, bf] = &mut buffers;
-            let draw = |s: &mut Option<NormalStream>, buf: &mut [f64; BLOCK]| {
-                s.as_mut().map(|s| {
-                    s.fill_block(&mut buf[..len]);
-                })
-            };
-            let has = [
-                draw(&mut speed, bv).is_some(),
-                draw(&mut output, bo).is_some(),
-                draw(&mut grade, bg).is_some(),
-                draw(&mut force, bf).is_some(),
-            ];
             acc.add_block(
                 start,
                 len,
                 BlockNoise {
-                    velocity: has[0].then_some(&bv[..len]),
-                    output: has[1].then_some(&bo[..len]),
-                    grade: has[2].then_some(&bg[..len]),
-                    force: has[3].then_some(&bf[..len]),
+                    velocity: draw(&mut speed, &mut bv[..len]),
+                    output: draw(&mut output, &mut bo[..len]),
+                    grade: draw(&mut grade, &mut bg[..len]),
+                    force: draw(&mut force, &mut bf[..len]),
                 },
             );
         }
         acc.finish()
     }
+}
+
+/// The next block of a channel's draws into `buf`, or `None` when the channel is off.
+fn draw<'b>(stream: &mut Option<NormalStream>, buf: &'b mut [f64]) -> Option<&'b [f64]> {
+    stream.as_mut()?.fill_block(buf);
+    Some(buf)
 }
 
 /// The row layout of the vehicle model running `estimators`.
@@ -309,6 +304,8 @@ impl Model for VehicleModel {
         } else {
             None
         };
+        let mut bounds = cond.constant_bounds;
+        bounds[Bound::Thesis as usize] = thesis_bound.unwrap_or([f64::NAN; 3]);
         let layout = &self.layout;
         for (ei, est) in self.study.estimators.iter().enumerate() {
             let estimate = match est {
@@ -322,8 +319,6 @@ impl Model for VehicleModel {
             };
             let theta = estimate.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             slots[layout.status_at(ei)] = status as u8 as f64;
-            let mut bounds = cond.constant_bounds;
-            bounds[Bound::Thesis as usize] = thesis_bound.unwrap_or([f64::NAN; 3]);
             for p in 0..3 {
                 slots[layout.theta_at(ei, p)] = theta[p];
                 for (b, values) in bounds.iter().enumerate() {
