@@ -296,7 +296,7 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
 fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
     for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
         let entry = entry.map_err(|e| OutputError::io(dir, e))?;
-        if store::is_temporary(&entry.file_name().to_string_lossy()) {
+        if output::is_temporary(&entry.file_name().to_string_lossy()) {
             let path = entry.path();
             let removed = if path.is_dir() {
                 fs::remove_dir_all(&path)
@@ -323,20 +323,20 @@ fn run_prepared(
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     remove_temporaries(&dir)?;
+    let layout = model.layout().clone();
+    let infos = model.infos();
     let meta = FileMetadata {
         study_toml: study.to_toml(),
         seed: study.seed,
         realisations: study.realisations,
-        identity: identity(study, model),
+        identity: identity(study, model, &infos),
         extra: Vec::new(),
     };
-    let layout = model.layout().clone();
-    let infos = model.infos();
 
     // The model's extra tables (the cycles) do not depend on the realisations: they are
     // written while the realisations are computed.
     let (realised, extra) = rayon::join(
-        || realise(study, model, options, observer, &dir, &meta),
+        || realise(study, model, &infos, options, observer, &dir, &meta),
         || match options.shard {
             None => model.extra_files(out_dir, &meta),
             Some(_) => Ok(Vec::new()),
@@ -375,10 +375,10 @@ fn run_prepared(
 /// count and the engine version ([`Study::identity`]), plus a check of this build's
 /// numbers — a hash of every condition's metrics and of realisation 0 of condition 0 — so
 /// that a rebuilt engine whose arithmetic changed never reuses an older run's parts.
-fn identity(study: &Study, model: &dyn DynModel) -> String {
+fn identity(study: &Study, model: &dyn DynModel, infos: &[ConditionInfo]) -> String {
     let mut canary = vec![0.0; model.layout().realisation_stride()];
     model.realise_one(study.seed, 0, 0, &mut canary);
-    let metrics = model.infos().into_iter().flat_map(|i| i.metrics);
+    let metrics = infos.iter().flat_map(|i| i.metrics.iter().copied());
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
     for v in canary.into_iter().chain(metrics) {
         for byte in v.to_bits().to_le_bytes() {
@@ -393,6 +393,7 @@ fn identity(study: &Study, model: &dyn DynModel) -> String {
 fn realise(
     study: &Study,
     model: &dyn DynModel,
+    infos: &[ConditionInfo],
     options: &RunOptions,
     observer: &dyn Observer,
     dir: &Path,
@@ -400,7 +401,6 @@ fn realise(
 ) -> Result<(PendingFile, u64, u64), RunError> {
     let staging = dir.join(STAGING);
     let layout = model.layout();
-    let infos = model.infos();
     let schema = output::realisation_schema(layout);
     let range = options
         .shard

@@ -504,7 +504,7 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
         None
     };
 
-    let staging = dir.join(format!(".{FIGURES}.tmp-{}", std::process::id()));
+    let staging = dir.join(output::temporary_name(FIGURES));
     let _ = fs::remove_dir_all(&staging);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     let drawn = draw_into(&staging, &layout, &summary, cycles.as_ref());

@@ -36,6 +36,17 @@ pub const READ_ROWS: usize = 65_536;
 /// zstd level used for every file.
 pub const ZSTD_LEVEL: i32 = 3;
 
+/// The name `name` is written under until complete: `.name.tmp-<pid>`.
+pub fn temporary_name(name: &str) -> String {
+    format!(".{name}.tmp-{}", std::process::id())
+}
+
+/// True for names of files (or directories) still being written, by any process: see
+/// [`temporary_name`].
+pub fn is_temporary(name: &str) -> bool {
+    name.starts_with('.') && name.contains(".tmp-")
+}
+
 /// Footer metadata keys.
 pub mod keys {
     /// The study TOML as run (overrides applied); `chassis-mc` can reload it.
@@ -211,7 +222,7 @@ impl ParquetSink {
         table: &str,
     ) -> Result<Self, OutputError> {
         let final_path = dir.join(name);
-        let tmp_path = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+        let tmp_path = dir.join(temporary_name(name));
         let file = File::create(&tmp_path).map_err(|e| OutputError::io(&tmp_path, e))?;
         let pending = PendingFile {
             tmp_path,

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
-use super::{OutputError, ParquetSink, PendingFile, READ_ROWS, keys, read_metadata};
+use super::{OutputError, ParquetSink, PendingFile, READ_ROWS, is_temporary, keys, read_metadata};
 
 /// Realisations per staged part (bounds the work lost when a run is killed).
 pub const PART_REALISATIONS: u64 = 8192;
@@ -57,11 +57,6 @@ fn parse_part(value: &str) -> Option<(usize, Range<u64>)> {
 /// File name of the part of `condition` starting at realisation `start`.
 pub fn part_name(condition: usize, start: u64) -> String {
     format!("part-c{condition:06}-r{start:015}.parquet")
-}
-
-/// True for names chassis-mc uses for files being written (`.name.tmp-<pid>`).
-pub fn is_temporary(name: &str) -> bool {
-    name.starts_with('.') && name.contains(".tmp-")
 }
 
 /// The staged parts in `staging` that belong to the study `identity`. Temporary files,
