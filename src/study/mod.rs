@@ -140,6 +140,13 @@ pub enum NoiseShape {
 }
 
 impl NoiseShape {
+    /// All noise shapes.
+    pub const ALL: [NoiseShape; 2] = [NoiseShape::Uniform, NoiseShape::Gaussian];
+
+    fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
     /// The name used in study files and output columns.
     pub fn name(self) -> &'static str {
         match self {
@@ -661,16 +668,16 @@ fn validate_line_fit(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, St
     }
     let mut noise = Vec::new();
     for (i, name) in l.noise.iter().enumerate() {
-        let shape = match name.as_str() {
-            "uniform" => NoiseShape::Uniform,
-            "gaussian" => NoiseShape::Gaussian,
-            other => {
-                return Err(c.fail(
-                    &format!("line_fit.noise[{i}]"),
-                    format!("unknown noise \"{other}\"; expected \"uniform\" or \"gaussian\""),
-                ));
-            }
-        };
+        let shape = NoiseShape::parse(name).ok_or_else(|| {
+            let names: Vec<String> = NoiseShape::ALL
+                .iter()
+                .map(|s| format!("\"{}\"", s.name()))
+                .collect();
+            c.fail(
+                &format!("line_fit.noise[{i}]"),
+                format!("unknown noise \"{name}\"; expected {}", names.join(" or ")),
+            )
+        })?;
         noise.push(shape);
     }
     Ok(LineFitStudy {
