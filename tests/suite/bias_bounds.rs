@@ -8,9 +8,7 @@ use arrow::array::RecordBatch;
 use chassis_mc::study::Study;
 
 fn summary_of(text: &str, name: &str) -> RecordBatch {
-    let study = Study::from_toml(text, name).unwrap();
-    let (dir, _) = run(&study, None);
-    read_table(&dir.path().join("summary.parquet"))
+    run_summary(&Study::from_toml(text, name).unwrap())
 }
 
 fn rows<'a>(s: &'a RecordBatch, estimator: &'a str) -> impl Iterator<Item = usize> + 'a {

@@ -62,6 +62,12 @@ pub fn run(study: &Study, threads: Option<usize>) -> (tempfile::TempDir, RunRepo
     (dir, report)
 }
 
+/// Run `study` (figures too, as every run draws them) and read its summary.parquet.
+pub fn run_summary(study: &Study) -> RecordBatch {
+    let (dir, _) = run(study, None);
+    read_table(&dir.path().join("summary.parquet"))
+}
+
 /// All record batches of a Parquet file.
 pub fn read_batches(path: &Path) -> Vec<RecordBatch> {
     let file = File::open(path).unwrap();

@@ -9,9 +9,7 @@ use super::common::*;
 
 #[test]
 fn slope_spread_matches_the_closed_form_and_the_wrong_sigma_shows() {
-    let study = study("line_fit.toml", 20_000);
-    let (dir, _) = run(&study, None);
-    let s = read_table(&dir.path().join("summary.parquet"));
+    let s = run_summary(&study("line_fit.toml", 20_000));
     let sigma_true = 18.0 / 12f64.sqrt();
     let closed = sigma_true * (21.0 / 4042.5f64).sqrt();
     let noise = str_col(&s, "noise");

@@ -8,9 +8,7 @@ use super::common::*;
 
 #[test]
 fn crlb_is_tight_and_ols_unbiased_under_output_noise() {
-    let study = study("output_noise.toml", 400);
-    let (dir, _) = run(&study, None);
-    let s = read_table(&dir.path().join("summary.parquet"));
+    let s = run_summary(&study("output_noise.toml", 400));
     assert_eq!(s.num_rows(), 33);
     let ratio = f64_col(&s, "emp_over_crlb_output");
     let ratio_mcse = f64_col(&s, "emp_over_crlb_output_mcse");

@@ -25,9 +25,7 @@ const TABLE3: [(f64, f64, f64, f64); 11] = [
 
 #[test]
 fn table3_lies_within_tolerance_of_the_monte_carlo_means() {
-    let study = study("thesis.toml", 500);
-    let (dir, _) = run(&study, None);
-    let s = read_table(&dir.path().join("summary.parquet"));
+    let s = run_summary(&study("thesis.toml", 500));
     let scale = f64_col(&s, "scale");
     let mean = f64_col(&s, "mean");
     let param = str_col(&s, "parameter");
