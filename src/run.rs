@@ -345,7 +345,7 @@ fn run_prepared(
     let (realisations, reused, computed) = realised?;
     let extra = extra?;
 
-    // The summary, from the merged file itself (two passes), so `run` and `summarize`
+    // The summary, from the assembled file itself (two passes), so `run` and `summarize`
     // agree by construction; a shard's summary comes from `summarize` over all shards.
     let mut pending = vec![realisations];
     let mut summary = Vec::new();

@@ -1,4 +1,4 @@
-//! Durable realisation storage: staged parts, resuming and extending, and merging sources
+//! Durable realisation storage: staged parts, resuming and extending, and assembling sources
 //! into one sorted file.
 //!
 //! A run computes its realisations into *parts* in a staging directory: Parquet files of at
