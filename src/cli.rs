@@ -165,6 +165,10 @@ impl Observer for Progress {
     fn realisations_done(&self, count: u64) {
         self.0.inc(count);
     }
+
+    fn notice(&self, message: &str) {
+        self.0.suspend(|| eprintln!("{message}"));
+    }
 }
 
 /// Execute a parsed command.

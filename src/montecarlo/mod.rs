@@ -44,6 +44,10 @@ pub trait Observer: Sync {
 
     /// `count` more realisations are done.
     fn realisations_done(&self, _count: u64) {}
+
+    /// Something the user should know that is not an error (e.g. a corrupted part that is
+    /// being recomputed). A command-line observer prints it on stderr.
+    fn notice(&self, _message: &str) {}
 }
 
 /// An observer that does nothing.
