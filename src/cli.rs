@@ -6,6 +6,7 @@ use std::time::Instant;
 use anyhow::anyhow;
 use chassis_mc::figures::{self, FigureError};
 use chassis_mc::montecarlo::Observer;
+use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
@@ -118,7 +119,9 @@ pub struct Failure {
 impl From<RunError> for Failure {
     fn from(e: RunError) -> Self {
         let code = match e {
-            RunError::Study(_) => EXIT_BAD_INPUT,
+            RunError::Study(_) | RunError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+            RunError::Figures(FigureError::Study(_)) => EXIT_BAD_INPUT,
+            RunError::Figures(FigureError::Output(OutputError::Locked { .. })) => EXIT_BAD_INPUT,
             _ => EXIT_FAILURE,
         };
         Failure {
@@ -131,7 +134,9 @@ impl From<RunError> for Failure {
 impl From<FigureError> for Failure {
     fn from(e: FigureError) -> Self {
         let code = match e {
-            FigureError::Study(_) => EXIT_BAD_INPUT,
+            FigureError::Study(_) | FigureError::Output(OutputError::Locked { .. }) => {
+                EXIT_BAD_INPUT
+            }
             _ => EXIT_FAILURE,
         };
         Failure {
@@ -190,6 +195,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             let mut options = RunOptions::new(out);
             options.threads = threads.map(usize::from);
             options.shard = shard;
+            options.figures = !no_figures;
             let conditions = study.condition_count();
             let total = conditions as u64 * study.realisations;
             let bar = if quiet {
@@ -204,11 +210,8 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 .expect("valid progress template"),
             );
             let started = Instant::now();
-            let mut report = run_study(&study, &options, &Progress(bar.clone()))?;
+            let report = run_study(&study, &options, &Progress(bar.clone()))?;
             bar.finish_and_clear();
-            if shard.is_none() && !no_figures {
-                report.files.extend(figures::draw(&options.out_dir)?);
-            }
             if let (Some(shard), false) = (shard, quiet) {
                 println!(
                     "shard {shard}: {} realisations computed, {} kept; wrote {}",
@@ -246,10 +249,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             } else {
                 out
             };
-            let mut report = summarize(&inputs, &out)?;
-            if !no_figures {
-                report.files.extend(figures::draw(&out)?);
-            }
+            let report = summarize(&inputs, &out, !no_figures)?;
             if !quiet {
                 print!(
                     "{}",

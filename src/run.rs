@@ -1,21 +1,25 @@
 //! Running a study end to end: prepare the model, execute the realisations, summarise,
-//! write the three Parquet files and commit them together.
+//! write the Parquet files and the figures, and commit them together as one set.
 //!
 //! Nothing in the output directory changes until every file is complete: each is written
-//! under a temporary name and all are renamed at the end. A bad study is rejected before
-//! the directory is touched.
+//! under a temporary name, and the whole set replaces the previous one through a journal
+//! ([`output::set`]), so a reader sees the old set or the new one, never a mix. The
+//! directory is locked while a run writes it ([`output::lock`]). A bad study is rejected
+//! before the directory is touched.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::figures::{self, FigureError};
 use crate::model::line_fit::LineFitModel;
 use crate::model::vehicle::VehicleModel;
 use crate::model::{ConditionInfo, Layout, Model};
 use crate::montecarlo::{self, DEFAULT_CHUNK, Observer, Work};
+use crate::output::lock::DirLock;
 use crate::output::{
-    self, FileMetadata, OutputError, ParquetSink, PendingFile, RealisationBatches, keys, store,
+    self, FileMetadata, OutputError, ParquetSink, PendingFile, RealisationBatches, keys, set, store,
 };
 use crate::stats::measures::Z_95;
 use crate::stats::summary::{Summarizer, SummaryError, SummaryRow};
@@ -49,6 +53,9 @@ pub enum RunError {
         /// What is inconsistent.
         source: SummaryError,
     },
+    /// Drawing the figures failed.
+    #[error(transparent)]
+    Figures(#[from] FigureError),
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads {
@@ -70,6 +77,8 @@ pub struct RunOptions {
     pub chunk: u64,
     /// Run only this shard of every condition (written to `out_dir/shard=K/`).
     pub shard: Option<Shard>,
+    /// Draw the figures into `out_dir/figures/` (not for a shard).
+    pub figures: bool,
 }
 
 impl RunOptions {
@@ -80,6 +89,7 @@ impl RunOptions {
             threads: None,
             chunk: DEFAULT_CHUNK,
             shard: None,
+            figures: true,
         }
     }
 }
@@ -129,7 +139,7 @@ pub trait DynModel: Sync {
     fn execute(
         &self,
         seed: u64,
-        work: &[Work],
+        work: &mut dyn Iterator<Item = Work>,
         chunk: u64,
         observer: &dyn Observer,
         sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
@@ -155,7 +165,7 @@ impl<M: Model + ExtraFiles> DynModel for M {
     fn execute(
         &self,
         seed: u64,
-        work: &[Work],
+        work: &mut dyn Iterator<Item = Work>,
         chunk: u64,
         observer: &dyn Observer,
         sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
@@ -320,9 +330,17 @@ fn run_prepared(
         Some(shard) => out_dir.join(shard.dir_name()),
         None => out_dir.clone(),
     };
+    let _lock = lock(&dir, observer)?;
+    if set::recover(&dir)? {
+        observer.notice(&format!(
+            "{}: completed the replacement of the output files that an interrupted run had \
+             begun",
+            dir.display()
+        ));
+    }
+    remove_temporaries(&dir)?;
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    remove_temporaries(&dir)?;
     let layout = model.layout().clone();
     let infos = model.infos();
     let meta = FileMetadata {
@@ -358,9 +376,15 @@ fn run_prepared(
         )?;
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
         pending.extend(extra);
+        if options.figures {
+            let figures = draw_figures(out_dir, &pending)?;
+            pending.extend(figures);
+        }
     }
-    let files = output::commit_all(pending)?;
+    let files = set::commit(&dir, pending, &|_| true)?;
+    output::failpoint("committed");
     fs::remove_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    remove_temporaries(&dir)?; // the figures' emptied staging directory
     Ok(RunReport {
         layout,
         infos,
@@ -369,6 +393,32 @@ fn run_prepared(
         reused,
         computed,
     })
+}
+
+/// Lock `dir` for this process (creating it), telling `observer` when the lock of a killed
+/// process is taken over.
+fn lock(dir: &Path, observer: &dyn Observer) -> Result<DirLock, OutputError> {
+    let lock = DirLock::acquire(dir)?;
+    if let Some(pid) = lock.taken_over_from {
+        observer.notice(&format!(
+            "{}: taking over the lock of process {pid}, which ended without releasing it",
+            dir.display()
+        ));
+    }
+    Ok(lock)
+}
+
+/// Draw the figures of the summary and cycles among `pending` (still under temporary
+/// names), to be committed with them.
+fn draw_figures(out_dir: &Path, pending: &[PendingFile]) -> Result<Vec<PendingFile>, RunError> {
+    let find = |name: &str| {
+        pending
+            .iter()
+            .find(|p| p.final_path().file_name() == Some(name.as_ref()))
+            .map(|p| p.tmp_path())
+    };
+    let summary = find(files::SUMMARY).expect("the summary is written before the figures");
+    Ok(figures::draw_staged(out_dir, summary, find(files::CYCLES))?)
 }
 
 /// What makes realisations of two runs interchangeable: the study without its realisation
@@ -408,10 +458,12 @@ fn realise(
     let needed = vec![range; infos.len()];
     // 1. What exists already: completed parts of an interrupted run, and the realisation
     //    file of an earlier run of the same study (e.g. with a smaller R).
-    let mut sources = store::scan_parts(&staging, &meta.identity)?;
+    let notice = |message: &str| observer.notice(message);
+    let mut sources = store::scan_parts(&staging, &meta.identity, &notice)?;
     sources.extend(store::existing_file(
         &dir.join(files::REALISATIONS),
         &meta.identity,
+        &notice,
     )?);
     let segments = store::plan(&needed, &sources);
     let length = |s: &store::Segment| s.range.end - s.range.start;
@@ -425,19 +477,21 @@ fn realise(
 
     // 2. Compute what is missing into staged parts, each renamed into place when complete
     //    (so a killed run resumes), and assemble the final file as the rows arrive. One
-    //    pass over every part keeps the executor's compute/write pipeline full.
-    let mut pieces = Vec::new();
-    for seg in segments.iter().filter(|s| s.source.is_none()) {
-        let mut start = seg.range.start;
-        while start < seg.range.end {
-            let end = (start + store::PART_REALISATIONS).min(seg.range.end);
-            pieces.push(Work {
-                condition: seg.condition,
-                realisations: start..end,
-            });
-            start = end;
-        }
-    }
+    //    pass over every part keeps the executor's compute/write pipeline full; the parts
+    //    are planned lazily, so the plan's memory does not grow with R.
+    let mut pieces = segments
+        .iter()
+        .filter(|s| s.source.is_none())
+        .flat_map(|seg| {
+            let (condition, range) = (seg.condition, seg.range.clone());
+            let step = usize::try_from(store::PART_REALISATIONS).unwrap_or(usize::MAX);
+            (range.start..range.end)
+                .step_by(step)
+                .map(move |start| Work {
+                    condition,
+                    realisations: start..(start + store::PART_REALISATIONS).min(range.end),
+                })
+        });
     let file_meta = match options.shard {
         Some(shard) => meta.with(keys::SHARD, shard.to_string()),
         None => meta.clone(),
@@ -450,34 +504,38 @@ fn realise(
         "realisations",
     )?;
     let mut assembler = store::Assembler::new(&sources, &segments, file);
-    let mut part: Option<ParquetSink> = None; // the part of `pieces[next_piece - 1]`
-    let mut next_piece = 0;
-    model.execute(study.seed, &pieces, options.chunk, observer, &mut |chunk| {
-        if part.is_none() {
-            let piece = &pieces[next_piece];
-            let part_meta = meta.with(
-                keys::PART,
-                store::part_value(piece.condition, &piece.realisations),
-            );
-            part = Some(ParquetSink::create(
-                &staging,
-                &store::part_name(piece.condition, piece.realisations.start),
-                schema.clone(),
-                &part_meta,
-                "realisations",
-            )?);
-            next_piece += 1;
-        }
-        let batch = output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
-            .map_err(|e| OutputError::arrow(&staging, e))?;
-        part.as_mut().expect("a part is open").write(&batch)?;
-        assembler.computed(chunk.condition, chunk.first, &batch)?;
-        let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
-        if chunk.first + rows == pieces[next_piece - 1].realisations.end {
-            part.take().expect("a part is open").finish()?.commit()?;
-        }
-        Ok(())
-    })?;
+    let mut part: Option<ParquetSink> = None; // the part of the current work item
+    model.execute(
+        study.seed,
+        &mut pieces,
+        options.chunk,
+        observer,
+        &mut |chunk| {
+            if chunk.first == chunk.item.start {
+                let part_meta =
+                    meta.with(keys::PART, store::part_value(chunk.condition, &chunk.item));
+                part = Some(ParquetSink::create(
+                    &staging,
+                    &store::part_name(chunk.condition, chunk.item.start, 0),
+                    schema.clone(),
+                    &part_meta,
+                    "realisations",
+                )?);
+            }
+            let batch =
+                output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
+                    .map_err(|e| OutputError::arrow(&staging, e))?;
+            part.as_mut().expect("a part is open").write(&batch)?;
+            assembler.computed(chunk.condition, chunk.first, &batch)?;
+            let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
+            if chunk.first + rows == chunk.item.end {
+                let done = part.take().expect("a part is open").finish()?;
+                store::commit_part(done, chunk.condition, chunk.item.start)?;
+                output::failpoint("part-committed");
+            }
+            Ok(())
+        },
+    )?;
 
     Ok((assembler.finish()?, total - computed, computed))
 }
@@ -503,8 +561,30 @@ fn write_summary(
 }
 
 /// The realisation files in `input`: the file itself, or in a directory its
-/// `realisations.parquet` and every `shard=*/realisations.parquet`.
+/// `realisations.parquet` and every `shard=*/realisations.parquet`. A directory whose output
+/// set is incomplete (an interrupted commit) or whose realisation file does not match the
+/// checksum recorded for it is an error.
 pub fn realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    let found = find_realisation_files(input)?;
+    for path in &found {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        set::ensure_complete(dir)?;
+        let manifest = set::Manifest::read(dir)?;
+        if let Some(entry) = manifest.as_ref().and_then(|m| m.get(files::REALISATIONS))
+            && path.file_name() == Some(files::REALISATIONS.as_ref())
+            && set::checksum(path)? != entry.checksum
+        {
+            return Err(OutputError::format(
+                path,
+                "damaged: its bytes do not match the checksum recorded when it was written; \
+                 run its study (or shard) again",
+            ));
+        }
+    }
+    Ok(found)
+}
+
+fn find_realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
     if input.is_file() {
         return Ok(vec![input.to_path_buf()]);
     }
@@ -528,10 +608,12 @@ pub fn realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
     Ok(found)
 }
 
-/// Rebuild `summary.parquet` (and the model's extra tables) in `out_dir` from realisation
-/// files of one study: any split into shards, in any order. The study is read from the
-/// files' footers; every realisation of every condition must be present exactly once.
-pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunError> {
+/// Rebuild `summary.parquet` (and the model's extra tables, and the figures if `figures`)
+/// in `out_dir` from realisation files of one study: any split into shards, in any order.
+/// The study is read from the files' footers; every realisation of every condition must be
+/// present exactly once. The new files replace the summary, tables and figures of
+/// `out_dir`'s output set together; a realisation file there stays.
+pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<RunReport, RunError> {
     let mut paths = Vec::new();
     for input in inputs {
         paths.extend(realisation_files(input)?);
@@ -586,7 +668,9 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunErr
     let infos = model.infos();
     let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
     let summary = summarise_files(&layout, &infos, realisations, &refs)?;
-    fs::create_dir_all(out_dir).map_err(|e| OutputError::io(out_dir, e))?;
+    let _lock = DirLock::acquire(out_dir)?;
+    set::ensure_complete(out_dir)?;
+    remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),
         seed: study.seed,
@@ -596,7 +680,12 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path) -> Result<RunReport, RunErr
     };
     let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
     pending.extend(model.extra_files(out_dir, &meta)?);
-    let files = output::commit_all(pending)?;
+    if figures {
+        let figures = draw_figures(out_dir, &pending)?;
+        pending.extend(figures);
+    }
+    let files = set::commit(out_dir, pending, &|path| path != files::REALISATIONS)?;
+    remove_temporaries(out_dir)?;
     Ok(RunReport {
         layout,
         infos,

@@ -28,7 +28,8 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::model::{AxisKind, Layout};
-use crate::output::{self, OutputError, keys};
+use crate::output::lock::DirLock;
+use crate::output::{self, OutputError, PendingFile, keys, set};
 use crate::run::files;
 use crate::study::{Study, StudyError};
 
@@ -482,45 +483,62 @@ fn unit_suffix(unit: &str) -> String {
     }
 }
 
-/// Draw every figure of the run in `dir` into `dir/figures/` (replacing earlier ones only
-/// when all are drawn). Returns the files written.
+/// Redraw the figures of the output directory `dir` from its summary and cycles into
+/// `dir/figures/`, replacing the figures of its output set together (a user's own files
+/// there stay). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
-    let summary_path = dir.join(files::SUMMARY);
-    let footer = output::read_metadata(&summary_path)?;
+    let _lock = DirLock::acquire(dir)?;
+    set::ensure_complete(dir)?;
+    let cycles = dir.join(files::CYCLES);
+    let pending = draw_staged(
+        dir,
+        &dir.join(files::SUMMARY),
+        cycles.exists().then_some(cycles.as_path()),
+    )?;
+    let written = set::commit(dir, pending, &|path| {
+        path.starts_with(&format!("{FIGURES}/"))
+    })?;
+    let _ = fs::remove_dir(dir.join(output::temporary_name(FIGURES)));
+    Ok(written)
+}
+
+/// Draw every figure of the summary at `summary_path` (and the cycles at `cycles_path`)
+/// into a staging directory inside `dir`. Returns the figures as files to be committed to
+/// `dir/figures/` with the rest of the output set.
+pub fn draw_staged(
+    dir: &Path,
+    summary_path: &Path,
+    cycles_path: Option<&Path>,
+) -> Result<Vec<PendingFile>, FigureError> {
+    let footer = output::read_metadata(summary_path)?;
     let study_toml = footer
         .get(keys::STUDY)
-        .ok_or_else(|| OutputError::format(&summary_path, "no study in the footer"))?;
+        .ok_or_else(|| OutputError::format(summary_path, "no study in the footer"))?;
     let study = Study::from_toml(study_toml, &format!("{} (footer)", summary_path.display()))?;
     let layout = crate::run::layout_of(&study);
-    let summary = Table::read(&summary_path)?;
-    let cycles_path = dir.join(files::CYCLES);
-    let cycles = if cycles_path.exists() {
+    let summary = Table::read(summary_path)?;
+    let cycles = match cycles_path {
         // Only what the cycles figure draws (the file also holds x, f_prop and accel).
-        Some(Table::read_columns(
-            &cycles_path,
+        Some(path) => Some(Table::read_columns(
+            path,
             Some(&["condition", "t", "v", "grade"]),
-        )?)
-    } else {
-        None
+        )?),
+        None => None,
     };
 
     let staging = dir.join(output::temporary_name(FIGURES));
     let _ = fs::remove_dir_all(&staging);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    let drawn = draw_into(&staging, &layout, &summary, cycles.as_ref());
-    let names = match drawn {
-        Ok(names) => names,
-        Err(e) => {
-            let _ = fs::remove_dir_all(&staging);
-            return Err(e);
-        }
-    };
+    let names = draw_into(&staging, &layout, &summary, cycles.as_ref());
     let target = dir.join(FIGURES);
-    if target.exists() {
-        fs::remove_dir_all(&target).map_err(|e| OutputError::io(&target, e))?;
-    }
-    fs::rename(&staging, &target).map_err(|e| OutputError::io(&target, e))?;
-    Ok(names.into_iter().map(|n| target.join(n)).collect())
+    // Each drawn figure is removed again if it is never committed.
+    let names = names.inspect_err(|_| {
+        let _ = fs::remove_dir_all(&staging);
+    })?;
+    Ok(names
+        .into_iter()
+        .map(|n| PendingFile::new(staging.join(&n), target.join(&n)))
+        .collect())
 }
 
 fn draw_into(
@@ -732,6 +750,7 @@ fn draw_parameter(
             &[reference],
         )?;
         names.push(name);
+        output::failpoint("figure-drawn");
     }
 
     Ok(names)

@@ -32,6 +32,8 @@ pub struct Chunk<'a> {
     pub condition: usize,
     /// Index of the first realisation in the chunk.
     pub first: u64,
+    /// The realisations of the [`Work`] item the chunk belongs to.
+    pub item: Range<u64>,
     /// The slots of every realisation, `Layout::realisation_stride` each.
     pub slots: &'a [f64],
 }
@@ -58,33 +60,38 @@ impl Observer for Silent {}
 
 /// Run every item of `work` in order, chunk by chunk, and pass each chunk to `sink`.
 ///
+/// `work` is consumed lazily, one chunk ahead of the sink, so the plan of a run never
+/// occupies memory in proportion to its realisations.
 /// Parallelism comes from the ambient rayon pool (use `ThreadPool::install` to choose it).
 /// While a chunk is computed, the previous one is handed to the sink on another task, so
 /// writing overlaps computing; the sink still sees every chunk, in order.
 pub fn execute<M, E>(
     model: &M,
     seed: u64,
-    work: &[Work],
+    work: impl Iterator<Item = Work>,
     chunk: u64,
     observer: &dyn Observer,
     mut sink: impl FnMut(Chunk<'_>) -> Result<(), E> + Send,
 ) -> Result<(), E>
 where
-    M: Model,
+    M: Model + ?Sized,
     E: Send,
 {
     let stride = model.layout().realisation_stride();
     let chunk = chunk.max(1);
-    // (condition, first realisation, count) of every chunk, in order
-    let mut plan = Vec::new();
-    for item in work {
-        let mut first = item.realisations.start;
-        while first < item.realisations.end {
-            let len = chunk.min(item.realisations.end - first);
-            plan.push((item.condition, first, len));
-            first += len;
-        }
-    }
+    // (condition, first realisation, count, the item's realisations) of every chunk, in order
+    let plan = work.flat_map(|item| {
+        let Work {
+            condition,
+            realisations,
+        } = item;
+        (realisations.start..realisations.end)
+            .step_by(usize::try_from(chunk).unwrap_or(usize::MAX))
+            .map(move |first| {
+                let len = chunk.min(realisations.end - first);
+                (condition, first, len, realisations.clone())
+            })
+    });
     let compute = |(condition, first, len): (usize, u64, u64), buffer: &mut Vec<f64>| {
         buffer.clear();
         buffer.resize(len as usize * stride, f64::NAN);
@@ -96,25 +103,28 @@ where
     };
     let mut current: Vec<f64> = Vec::new();
     let mut previous: Vec<f64> = Vec::new();
-    let mut done: Option<(usize, u64)> = None; // the computed chunk waiting in `previous`
-    for &step in &plan {
-        let waiting = done.map(|(condition, first)| Chunk {
+    // the computed chunk waiting in `previous`: (condition, first, item)
+    let mut done: Option<(usize, u64, Range<u64>)> = None;
+    for (condition, first, len, item) in plan {
+        let waiting = done.take().map(|(condition, first, item)| Chunk {
             condition,
             first,
+            item,
             slots: &previous,
         });
         let (_, written) = rayon::join(
-            || compute(step, &mut current),
+            || compute((condition, first, len), &mut current),
             || waiting.map_or(Ok(()), &mut sink),
         );
         written?;
         std::mem::swap(&mut current, &mut previous);
-        done = Some((step.0, step.1));
+        done = Some((condition, first, item));
     }
-    if let Some((condition, first)) = done {
+    if let Some((condition, first, item)) = done {
         sink(Chunk {
             condition,
             first,
+            item,
             slots: &previous,
         })?;
     }

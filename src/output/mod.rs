@@ -6,6 +6,8 @@
 //! failed run leaves the previous results untouched. Compression is zstd, row groups are
 //! bounded, and the footer carries the study as run, the engine version and the seed.
 
+pub mod lock;
+pub mod set;
 pub mod store;
 mod tables;
 
@@ -103,6 +105,28 @@ pub enum OutputError {
         path: PathBuf,
         /// What is wrong.
         reason: String,
+    },
+    /// Another process is writing the output directory.
+    #[error(
+        "{dir}: another chassis-mc process{} is writing this directory; wait for it to \
+         finish or choose another --out",
+        pid.map(|p| format!(" (pid {p})")).unwrap_or_default()
+    )]
+    Locked {
+        /// The directory.
+        dir: PathBuf,
+        /// The pid of the process holding the lock, if it could be read.
+        pid: Option<u32>,
+    },
+    /// A run was interrupted while replacing the directory's output files, so they may
+    /// come from two runs.
+    #[error(
+        "{dir}: incomplete output: a run was interrupted while replacing its files, so they \
+         may mix two runs; run `chassis-mc run` into this directory again to complete it"
+    )]
+    Incomplete {
+        /// The directory.
+        dir: PathBuf,
     },
 }
 
@@ -287,6 +311,49 @@ impl PendingFile {
         self.committed = true;
         Ok(self.final_path.clone())
     }
+
+    /// The same file, to be renamed to `name` in the same directory instead.
+    pub fn renamed(mut self, name: &str) -> Self {
+        self.final_path.set_file_name(name);
+        self
+    }
+
+    /// A file whose move into place is now someone else's job (a written journal): it is
+    /// no longer removed on drop.
+    pub fn disarm(mut self) {
+        self.committed = true;
+    }
+
+    /// A complete file at `tmp_path`, to be moved to `final_path`.
+    pub fn new(tmp_path: PathBuf, final_path: PathBuf) -> Self {
+        PendingFile {
+            tmp_path,
+            final_path,
+            committed: false,
+        }
+    }
+}
+
+/// A testing hook: abort the process (as a SIGKILL would stop it: no destructor runs) the
+/// N-th time the point `name` is reached, when the environment variable
+/// `CHASSIS_MC_FAILPOINT` is `name` or `name:N` (N = 1 by default). The crash tests use it
+/// to stop a run at exact instants of writing its output.
+pub fn failpoint(name: &str) {
+    use std::sync::OnceLock;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static TARGET: OnceLock<Option<(String, u64)>> = OnceLock::new();
+    static HITS: AtomicU64 = AtomicU64::new(0);
+    let target = TARGET.get_or_init(|| {
+        let value = std::env::var("CHASSIS_MC_FAILPOINT").ok()?;
+        let (point, n) = value.split_once(':').unwrap_or((&value, "1"));
+        Some((point.to_string(), n.parse().unwrap_or(1)))
+    });
+    if let Some((point, n)) = target
+        && point == name
+        && HITS.fetch_add(1, Ordering::SeqCst) + 1 == *n
+    {
+        std::process::abort();
+    }
 }
 
 impl Drop for PendingFile {
@@ -295,11 +362,6 @@ impl Drop for PendingFile {
             let _ = fs::remove_file(&self.tmp_path);
         }
     }
-}
-
-/// Commit several files; all are complete before the first rename.
-pub fn commit_all(files: Vec<PendingFile>) -> Result<Vec<PathBuf>, OutputError> {
-    files.into_iter().map(PendingFile::commit).collect()
 }
 
 /// Open a Parquet file for batch-wise reading.

@@ -3,8 +3,11 @@
 //!
 //! A run computes its realisations into *parts* in a staging directory: Parquet files of at
 //! most [`PART_REALISATIONS`] realisations of one condition, each written under a temporary
-//! name and renamed when complete. If the run is killed, completed parts survive and a
-//! torn part (a temporary file, or one whose footer does not parse) is deleted and redone.
+//! name and renamed when complete to a name that records the checksum of its bytes. If the
+//! run is killed, completed parts survive; a torn or corrupted part (a temporary file, or
+//! one whose bytes do not match its checksum) is deleted and redone. A finished realisation
+//! file is reused only if its bytes match the checksum of the directory's manifest
+//! ([`super::set`]).
 //! The final file is assembled in (condition, realisation) order as the run goes: rows
 //! that already exist — in parts, or in the realisation file of an earlier run of the same
 //! study — are copied, computed rows are written as they arrive. Re-running with a larger R therefore computes only the new
@@ -18,7 +21,9 @@ use std::path::{Path, PathBuf};
 use arrow::array::{Array, Int32Array, Int64Array, RecordBatch};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReader;
 
-use super::{OutputError, ParquetSink, PendingFile, READ_ROWS, is_temporary, keys, read_metadata};
+use super::{
+    OutputError, ParquetSink, PendingFile, READ_ROWS, is_temporary, keys, read_metadata, set,
+};
 
 /// Realisations per staged part (bounds the work lost when a run is killed).
 pub const PART_REALISATIONS: u64 = 8192;
@@ -54,14 +59,40 @@ fn parse_part(value: &str) -> Option<(usize, Range<u64>)> {
     (s < e).then_some((c as usize, s..e))
 }
 
-/// File name of the part of `condition` starting at realisation `start`.
-pub fn part_name(condition: usize, start: u64) -> String {
-    format!("part-c{condition:06}-r{start:015}.parquet")
+/// File name of the part of `condition` starting at realisation `start`, whose bytes have
+/// the XXH64 checksum `hash`: the name records the checksum in the same rename that makes
+/// the part complete.
+pub fn part_name(condition: usize, start: u64, hash: u64) -> String {
+    format!("part-c{condition:06}-r{start:015}-h{hash:016x}.parquet")
+}
+
+/// The checksum a part's name records.
+fn named_checksum(name: &str) -> Option<u64> {
+    let hex = name.strip_prefix("part-")?.strip_suffix(".parquet")?;
+    let (_, hex) = hex.rsplit_once("-h")?;
+    (hex.len() == 16).then(|| u64::from_str_radix(hex, 16).ok())?
+}
+
+/// Commit a complete part (still under its temporary name) under the name that records
+/// its checksum.
+pub fn commit_part(
+    file: PendingFile,
+    condition: usize,
+    start: u64,
+) -> Result<PathBuf, OutputError> {
+    let hash = set::checksum(file.tmp_path())?.hash;
+    file.renamed(&part_name(condition, start, hash)).commit()
 }
 
 /// The staged parts in `staging` that belong to the study `identity`. Temporary files,
-/// files whose footer does not parse (torn) and parts of another study are deleted.
-pub fn scan_parts(staging: &Path, identity: &str) -> Result<Vec<Source>, OutputError> {
+/// parts whose bytes do not match the checksum in their name (torn or corrupted), files
+/// whose footer does not parse and parts of another study are deleted; `notice` is told
+/// of each part that has to be redone because it was damaged.
+pub fn scan_parts(
+    staging: &Path,
+    identity: &str,
+    notice: &dyn Fn(&str),
+) -> Result<Vec<Source>, OutputError> {
     let mut parts = Vec::new();
     let entries = match fs::read_dir(staging) {
         Ok(e) => e,
@@ -77,25 +108,33 @@ pub fn scan_parts(staging: &Path, identity: &str) -> Result<Vec<Source>, OutputE
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let keep = !is_temporary(&name)
-            && match read_metadata(&path) {
-                Ok(footer) => {
-                    match (
-                        footer.get(keys::IDENTITY),
-                        footer.get(keys::PART).and_then(parse_part),
-                    ) {
-                        (Some(id), Some((c, range))) if id == identity => {
-                            parts.push(Source {
-                                path: path.clone(),
-                                covers: vec![(c, range)],
-                            });
-                            true
-                        }
-                        _ => false,
+        let keep = if is_temporary(&name) {
+            false
+        } else if named_checksum(&name) != Some(set::checksum(&path)?.hash) {
+            notice(&format!(
+                "{}: damaged (its bytes do not match the checksum in its name); its \
+                 realisations are computed again",
+                path.display()
+            ));
+            false
+        } else {
+            match read_metadata(&path) {
+                Ok(footer) => match (
+                    footer.get(keys::IDENTITY),
+                    footer.get(keys::PART).and_then(parse_part),
+                ) {
+                    (Some(id), Some((c, range))) if id == identity => {
+                        parts.push(Source {
+                            path: path.clone(),
+                            covers: vec![(c, range)],
+                        });
+                        true
                     }
-                }
-                Err(_) => false, // torn: no readable footer
-            };
+                    _ => false, // another study's part
+                },
+                Err(_) => false, // no readable footer
+            }
+        };
         if !keep {
             fs::remove_file(&path).map_err(|e| OutputError::io(&path, e))?;
         }
@@ -103,16 +142,38 @@ pub fn scan_parts(staging: &Path, identity: &str) -> Result<Vec<Source>, OutputE
     Ok(parts)
 }
 
-/// The realisation file of an earlier run at `path`, if it exists and belongs to the study
-/// `identity`, with the realisation ranges it holds.
-pub fn existing_file(path: &Path, identity: &str) -> Result<Option<Source>, OutputError> {
+/// The realisation file of an earlier run at `path`, if it exists, belongs to the study
+/// `identity` and its bytes match the checksum recorded when it was committed, with the
+/// realisation ranges it holds. `notice` is told why a file of the study is not reused.
+pub fn existing_file(
+    path: &Path,
+    identity: &str,
+    notice: &dyn Fn(&str),
+) -> Result<Option<Source>, OutputError> {
     if !path.exists() {
         return Ok(None);
     }
     let Ok(footer) = read_metadata(path) else {
-        return Ok(None); // unreadable: it will be replaced
+        notice(&format!(
+            "{}: unreadable; its realisations are computed again",
+            path.display()
+        ));
+        return Ok(None);
     };
     if footer.get(keys::IDENTITY) != Some(identity) {
+        return Ok(None);
+    }
+    let (dir, name) = (
+        path.parent().unwrap_or(Path::new(".")),
+        path.file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default(),
+    );
+    if let Some(why) = set::verify_file(dir, &name)? {
+        notice(&format!(
+            "{}: not reused because {why}; its realisations are computed again",
+            path.display()
+        ));
         return Ok(None);
     }
     Ok(Some(Source {

@@ -8,6 +8,7 @@ mod line_fit;
 mod mcse;
 mod noise;
 mod noise_free;
+mod output_integrity;
 mod output_noise;
 mod shards_resume;
 mod terrain_metric;

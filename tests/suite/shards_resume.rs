@@ -28,7 +28,7 @@ fn four_shards_and_summarize_equal_the_unsharded_run() {
         let report = run_study(&study, &options, &Silent).unwrap();
         assert!(report.summary.is_empty());
     }
-    let report = summarize(&[sharded.path().to_path_buf()], sharded.path()).unwrap();
+    let report = summarize(&[sharded.path().to_path_buf()], sharded.path(), false).unwrap();
     assert_eq!(report.summary.len(), 33);
     for name in ["summary.parquet", "cycles.parquet"] {
         assert!(
@@ -68,7 +68,7 @@ fn four_shards_and_summarize_equal_the_unsharded_run() {
     }
     // A shard missing is an error, not a silently smaller summary.
     std::fs::remove_dir_all(sharded.path().join("shard=1")).unwrap();
-    let err = summarize(&[sharded.path().to_path_buf()], sharded.path()).unwrap_err();
+    let err = summarize(&[sharded.path().to_path_buf()], sharded.path(), false).unwrap_err();
     assert!(err.to_string().contains("realisations"), "{err}");
 }
 

@@ -1,0 +1,402 @@
+//! The output set of a directory: which files the engine wrote, and how a new set replaces
+//! the old one as a unit.
+//!
+//! A run's output — the Parquet files and the figures — is one set: a reader must never see
+//! the realisations of one run next to the summary or figures of another. Three hidden
+//! files in the output directory make that true:
+//!
+//! - the **manifest** ([`MANIFEST`]) lists every file of the current set with its length
+//!   and an XXH64 checksum of its bytes. Only files it lists are ever replaced or deleted
+//!   by the engine; a user's own files in the directory (also under `figures/`) are left
+//!   alone. The checksum is verified before a file is reused (e.g. when extending R).
+//! - the **journal** ([`JOURNAL`]) makes the replacement atomic. Every new file is first
+//!   written completely under a temporary name and synced; then the journal — the list of
+//!   renames and deletions that turn the old set into the new one, the new manifest last —
+//!   is written and renamed into place, and only then are the operations carried out. A
+//!   process killed at any instant leaves either the complete old set (no journal yet),
+//!   the complete new set (journal removed), or a journal: [`ensure_complete`] then reports
+//!   the set as incomplete to every reader, and [`recover`] (which `run` calls first)
+//!   carries the journal out to the end, which is idempotent.
+//! - the **lock** ([`super::lock`]) keeps two processes from writing one directory.
+
+use std::collections::BTreeSet;
+use std::fs::{self, File};
+use std::hash::Hasher;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use twox_hash::XxHash64;
+
+use super::{OutputError, PendingFile, failpoint, temporary_name};
+
+/// File name of the manifest inside an output directory.
+pub const MANIFEST: &str = ".chassis-mc-manifest";
+
+/// File name of the journal inside an output directory (present only while a set is being
+/// replaced, or after a process was killed doing so).
+pub const JOURNAL: &str = ".chassis-mc-journal";
+
+const MANIFEST_HEADER: &str = "chassis-mc manifest 1";
+const JOURNAL_HEADER: &str = "chassis-mc journal 1";
+
+/// Files an engine without a manifest (before checksums were recorded) wrote at the top of
+/// an output directory: the set they form is replaced as a whole.
+const LEGACY_SET: [&str; 3] = ["realisations.parquet", "summary.parquet", "cycles.parquet"];
+
+/// Length and XXH64 checksum (seed 0) of a file's bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Checksum {
+    /// Length in bytes.
+    pub len: u64,
+    /// XXH64 of the bytes.
+    pub hash: u64,
+}
+
+impl std::fmt::Display for Checksum {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:016x}", self.hash)
+    }
+}
+
+/// The checksum of the file at `path` (read in 1 MiB blocks).
+pub fn checksum(path: &Path) -> Result<Checksum, OutputError> {
+    let mut file = File::open(path).map_err(|e| OutputError::io(path, e))?;
+    let mut hasher = XxHash64::with_seed(0);
+    let mut buffer = vec![0u8; 1 << 20];
+    let mut len = 0u64;
+    loop {
+        let n = file
+            .read(&mut buffer)
+            .map_err(|e| OutputError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        hasher.write(&buffer[..n]);
+        len += n as u64;
+    }
+    Ok(Checksum {
+        len,
+        hash: hasher.finish(),
+    })
+}
+
+/// One file of an output set.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Entry {
+    /// Path relative to the output directory, `/`-separated (e.g. `figures/cycles.svg`).
+    pub path: String,
+    /// Its length and checksum when it was committed.
+    pub checksum: Checksum,
+}
+
+/// The files of an output directory's current set.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Manifest {
+    /// The files, sorted by path.
+    pub entries: Vec<Entry>,
+}
+
+impl Manifest {
+    /// The manifest of `dir`, or `None` if it has none (a directory no engine run has
+    /// committed into, or one written by an engine without manifests).
+    pub fn read(dir: &Path) -> Result<Option<Manifest>, OutputError> {
+        let path = dir.join(MANIFEST);
+        let text = match fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(OutputError::io(&path, e)),
+        };
+        Manifest::parse(&text, &path).map(Some)
+    }
+
+    fn parse(text: &str, path: &Path) -> Result<Manifest, OutputError> {
+        let mut lines = text.lines();
+        if lines.next() != Some(MANIFEST_HEADER) {
+            return Err(OutputError::format(path, "not a chassis-mc manifest"));
+        }
+        let mut entries = Vec::new();
+        for (i, line) in lines.enumerate() {
+            let bad = || OutputError::format(path, format!("line {}: malformed entry", i + 2));
+            let mut fields = line.splitn(3, '\t');
+            let (Some(hash), Some(len), Some(file)) = (fields.next(), fields.next(), fields.next())
+            else {
+                return Err(bad());
+            };
+            entries.push(Entry {
+                path: file.to_string(),
+                checksum: Checksum {
+                    len: len.parse().map_err(|_| bad())?,
+                    hash: u64::from_str_radix(hash, 16).map_err(|_| bad())?,
+                },
+            });
+        }
+        Ok(Manifest { entries })
+    }
+
+    fn render(&self) -> String {
+        let mut text = format!("{MANIFEST_HEADER}\n");
+        for e in &self.entries {
+            text += &format!("{}\t{}\t{}\n", e.checksum, e.checksum.len, e.path);
+        }
+        text
+    }
+
+    /// The entry of `path` (relative to the directory), if the set holds it.
+    pub fn get(&self, path: &str) -> Option<&Entry> {
+        self.entries.iter().find(|e| e.path == path)
+    }
+}
+
+/// Whether the file `name` in `dir` is the one the manifest recorded: `Ok(None)` if it is,
+/// otherwise why it cannot be trusted.
+pub fn verify_file(dir: &Path, name: &str) -> Result<Option<String>, OutputError> {
+    let Some(manifest) = Manifest::read(dir)? else {
+        return Ok(Some("no checksum was recorded for it".into()));
+    };
+    let Some(entry) = manifest.get(name) else {
+        return Ok(Some("it is not part of the directory's output set".into()));
+    };
+    let found = checksum(&dir.join(name))?;
+    Ok((found != entry.checksum).then(|| {
+        format!(
+            "its content does not match the checksum recorded when it was written \
+             ({} bytes, xxh64 {} recorded; {} bytes, xxh64 {} found)",
+            entry.checksum.len, entry.checksum, found.len, found
+        )
+    }))
+}
+
+/// Fail if a replacement of `dir`'s output set was interrupted (a journal is present):
+/// what is there may mix two runs.
+pub fn ensure_complete(dir: &Path) -> Result<(), OutputError> {
+    if dir.join(JOURNAL).exists() {
+        return Err(OutputError::Incomplete {
+            dir: dir.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// One step of a journal.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Op {
+    /// Move a complete temporary file (relative path) to its final relative path.
+    Rename(String, String),
+    /// Delete a file of the old set that the new set does not have.
+    Delete(String),
+}
+
+/// Replace the output set of `dir` by `files` (each complete under its temporary name).
+///
+/// `replaced(path)` says which entries of the old set the new files take the place of:
+/// those are deleted unless a new file has the same path; the others stay in the set
+/// (e.g. `summarize` keeps a run's realisation file, `figures` everything but the
+/// figures). Returns the final paths of `files`.
+pub fn commit(
+    dir: &Path,
+    files: Vec<PendingFile>,
+    replaced: &dyn Fn(&str) -> bool,
+) -> Result<Vec<PathBuf>, OutputError> {
+    let old = match Manifest::read(dir)? {
+        Some(m) => m,
+        None => legacy_set(dir)?,
+    };
+    let relative = |path: &Path| -> Result<String, OutputError> {
+        let rel = path
+            .strip_prefix(dir)
+            .map_err(|_| OutputError::format(path, "is not inside the output directory"))?;
+        Ok(rel
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy())
+            .collect::<Vec<_>>()
+            .join("/"))
+    };
+    let mut ops = Vec::new();
+    let mut entries = Vec::new();
+    let mut finals = Vec::new();
+    for file in &files {
+        let path = relative(file.final_path())?;
+        entries.push(Entry {
+            path: path.clone(),
+            checksum: checksum(file.tmp_path())?,
+        });
+        ops.push(Op::Rename(relative(file.tmp_path())?, path));
+        finals.push(file.final_path().to_path_buf());
+    }
+    let new_paths: BTreeSet<String> = entries.iter().map(|e| e.path.clone()).collect();
+    for e in &old.entries {
+        if new_paths.contains(&e.path) {
+            continue;
+        }
+        if replaced(&e.path) {
+            ops.push(Op::Delete(e.path.clone()));
+        } else {
+            entries.push(e.clone());
+        }
+    }
+    entries.sort_by(|a, b| a.path.cmp(&b.path));
+    let manifest = Manifest { entries };
+    let manifest_tmp = temporary_name(MANIFEST);
+    write_synced(&dir.join(&manifest_tmp), manifest.render().as_bytes())?;
+    ops.push(Op::Rename(manifest_tmp, MANIFEST.to_string()));
+
+    let mut journal = format!("{JOURNAL_HEADER}\n");
+    for op in &ops {
+        journal += &match op {
+            Op::Rename(from, to) => format!("rename\t{from}\t{to}\n"),
+            Op::Delete(path) => format!("delete\t{path}\n"),
+        };
+    }
+    let journal_tmp = dir.join(temporary_name(JOURNAL));
+    write_synced(&journal_tmp, journal.as_bytes())?;
+    failpoint("before-journal");
+    fs::rename(&journal_tmp, dir.join(JOURNAL)).map_err(|e| OutputError::io(dir, e))?;
+    sync_dir(dir)?;
+    // From here on the journal finishes the job even if this process dies.
+    for file in files {
+        file.disarm();
+    }
+    failpoint("journal-written");
+    apply(dir, &ops)?;
+    Ok(finals)
+}
+
+/// Carry out an interrupted replacement of `dir`'s output set, if there is one. Returns
+/// whether there was.
+pub fn recover(dir: &Path) -> Result<bool, OutputError> {
+    let path = dir.join(JOURNAL);
+    let text = match fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(OutputError::io(&path, e)),
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(JOURNAL_HEADER) {
+        return Err(OutputError::format(&path, "not a chassis-mc journal"));
+    }
+    let mut ops = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let fields: Vec<&str> = line.split('\t').collect();
+        ops.push(match fields.as_slice() {
+            ["rename", from, to] => Op::Rename(from.to_string(), to.to_string()),
+            ["delete", file] => Op::Delete(file.to_string()),
+            _ => {
+                return Err(OutputError::format(
+                    &path,
+                    format!("line {}: malformed step", i + 2),
+                ));
+            }
+        });
+    }
+    apply(dir, &ops)?;
+    Ok(true)
+}
+
+/// Carry out `ops` (each step idempotent), then remove the journal.
+fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
+    let mut touched = BTreeSet::new();
+    for op in ops {
+        match op {
+            Op::Rename(from, to) => {
+                let (from, to) = (dir.join(from), dir.join(to));
+                if let Some(parent) = to.parent() {
+                    fs::create_dir_all(parent).map_err(|e| OutputError::io(parent, e))?;
+                    touched.insert(parent.to_path_buf());
+                }
+                match fs::rename(&from, &to) {
+                    Ok(()) => {}
+                    // Done before the process that wrote the journal died.
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound && to.exists() => {}
+                    Err(e) => return Err(OutputError::io(&from, e)),
+                }
+                failpoint("commit-rename");
+            }
+            Op::Delete(file) => {
+                let path = dir.join(file);
+                match fs::remove_file(&path) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(OutputError::io(&path, e)),
+                }
+                if let Some(parent) = path.parent() {
+                    touched.insert(parent.to_path_buf());
+                }
+            }
+        }
+    }
+    for d in &touched {
+        sync_dir(d)?;
+    }
+    let journal = dir.join(JOURNAL);
+    fs::remove_file(&journal).map_err(|e| OutputError::io(&journal, e))?;
+    sync_dir(dir)?;
+    // A directory of figures emptied by the deletions goes too (a user's file keeps it).
+    for d in touched {
+        if d != dir && d.starts_with(dir) {
+            let _ = fs::remove_dir(&d);
+        }
+    }
+    Ok(())
+}
+
+/// The set of a directory written before manifests existed: its top-level tables.
+fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
+    let mut entries = Vec::new();
+    for name in LEGACY_SET {
+        if dir.join(name).is_file() {
+            entries.push(Entry {
+                path: name.to_string(),
+                checksum: checksum(&dir.join(name))?,
+            });
+        }
+    }
+    Ok(Manifest { entries })
+}
+
+fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let mut file = File::create(path).map_err(|e| OutputError::io(path, e))?;
+    file.write_all(bytes)
+        .and_then(|()| file.sync_all())
+        .map_err(|e| OutputError::io(path, e))
+}
+
+/// Make renames and deletions in `dir` durable.
+fn sync_dir(dir: &Path) -> Result<(), OutputError> {
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(|e| OutputError::io(dir, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_manifest_reads_back_what_was_written() {
+        let m = Manifest {
+            entries: vec![
+                Entry {
+                    path: "figures/se_inv_mass.svg".into(),
+                    checksum: Checksum { len: 12, hash: 7 },
+                },
+                Entry {
+                    path: "summary.parquet".into(),
+                    checksum: Checksum {
+                        len: 0,
+                        hash: u64::MAX,
+                    },
+                },
+            ],
+        };
+        assert_eq!(Manifest::parse(&m.render(), Path::new("m")).unwrap(), m);
+    }
+
+    #[test]
+    fn the_checksum_is_xxh64_of_the_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f");
+        fs::write(&path, b"").unwrap();
+        // XXH64 of the empty input with seed 0 (the reference value of the xxHash spec).
+        assert_eq!(checksum(&path).unwrap().hash, 0xef46_db37_51d8_e999);
+    }
+}
