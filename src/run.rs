@@ -684,7 +684,10 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         let figures = draw_figures(out_dir, &pending)?;
         pending.extend(figures);
     }
-    let files = set::commit(out_dir, pending, &|path| path != files::REALISATIONS)?;
+    // The summary's set keeps the realisation files it summarised.
+    let files = set::commit(out_dir, pending, &|path| {
+        path != files::REALISATIONS && !path.starts_with("shard=")
+    })?;
     remove_temporaries(out_dir)?;
     Ok(RunReport {
         layout,
