@@ -487,14 +487,18 @@ fn unit_suffix(unit: &str) -> String {
 /// `dir/figures/`, replacing the figures of its output set together (a user's own files
 /// there stay). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
+    let summary = dir.join(files::SUMMARY);
+    if !summary.is_file() {
+        return Err(OutputError::format(
+            &summary,
+            "not found: `figures` needs the output directory of a run or of `summarize`",
+        )
+        .into());
+    }
     let _lock = DirLock::acquire(dir)?;
     set::ensure_complete(dir)?;
     let cycles = dir.join(files::CYCLES);
-    let pending = draw_staged(
-        dir,
-        &dir.join(files::SUMMARY),
-        cycles.exists().then_some(cycles.as_path()),
-    )?;
+    let pending = draw_staged(dir, &summary, cycles.exists().then_some(cycles.as_path()))?;
     let written = set::commit(dir, pending, &|path| {
         path.starts_with(&format!("{FIGURES}/"))
     })?;
