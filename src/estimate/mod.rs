@@ -1,7 +1,19 @@
-//! Estimation: normal equations, estimators and bounds.
+//! Estimation: the vehicle regression, its per-realisation sums, its estimators and bounds.
 //!
-//! `linalg` solves the small normal-equation systems stably; `vehicle` builds them for the
-//! longitudinal model from per-realisation sums and computes its bounds.
+//! - [`regression`]: the noise-free columns of one drive cycle and their constant sums;
+//! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
+//!   (the kernel), with the block sums of [`kernels`];
+//! - [`estimators`]: OLS and BCLS normal equations from the moments;
+//! - [`bounds`]: the bounds and predicted spreads;
+//! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
+//! - [`linalg`]: stable solution of the small normal-equation systems.
+//!
+//! The equations are in docs/model.md.
 
+pub mod bounds;
+pub mod conversions;
+pub mod estimators;
+mod kernels;
 pub mod linalg;
-pub mod vehicle;
+pub mod moments;
+pub mod regression;

@@ -11,12 +11,13 @@ use super::{
     Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, FigureX, Layout, Model, ParameterInfo,
     Status,
 };
+use crate::estimate::bounds::scaled_inverse_sd;
+use crate::estimate::conversions::{mass_and_drag, thesis_error_conversions};
+use crate::estimate::estimators::solve;
 use crate::estimate::linalg::condition_number;
-use crate::estimate::vehicle::{
-    BlockNoise, MomentAccumulator, Moments, NoiseLevels, Regression, mass_and_drag,
-    scaled_inverse_sd, solve, thesis_error_conversions,
-};
-use crate::noise::{BLOCK, Channel, NormalStream};
+use crate::estimate::moments::{BlockNoise, MomentAccumulator, Moments};
+use crate::estimate::regression::Regression;
+use crate::noise::{BLOCK, Channel, NoiseLevels, NormalStream};
 use crate::study::{EstimatorKind, Study, StudyError, VehicleStudy};
 use crate::vehicle::{DriveCycle, simulate};
 

@@ -1,0 +1,86 @@
+//! The bounds and predicted spreads of the vehicle regression: `crlb_output` and
+//! `thesis_bound` (σ² A⁻¹), `eiv_sandwich` and `eiv_crlb_linearized` from the first-order
+//! equation-error variance Ω (see docs/model.md#bounds-and-predicted-spreads).
+
+use nalgebra::Matrix3;
+
+use super::linalg::{SolveError, inverse_spd};
+use super::regression::Regression;
+use crate::noise::NoiseLevels;
+use crate::stats::sum::ExactSum;
+
+impl Regression {
+    /// First-order variance Ω_i of the equation error u_i = ỹ_i − x̃_iᵀθ at each sample:
+    /// `θ₂²k²(4V²σ_v² + 2σ_v⁴) + θ₁²σ_F² + g²(cos θ − θ₃ sin θ)²σ_θ² + σ_y²`.
+    ///
+    /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
+    /// Force: (F̃ − F)θ₁. Grade: d/dθ [g sin θ + θ₃ g cos θ] = g (cos θ − θ₃ sin θ).
+    pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
+        let (sv2, sv4) = (noise.velocity_sd.powi(2), noise.velocity_sd.powi(4));
+        let speed = (theta[1] * self.k).powi(2);
+        let force = (theta[0] * noise.force_sd).powi(2);
+        let grade = (self.g * noise.grade_sd).powi(2);
+        let output = noise.output_sd.powi(2);
+        (0..self.len())
+            .map(|i| {
+                let v2 = self.v[i] * self.v[i];
+                let slope = self.cos_grade[i] - theta[2] * self.sin_grade[i];
+                speed * (4.0 * v2 * sv2 + 2.0 * sv4) + force + grade * slope * slope + output
+            })
+            .collect()
+    }
+
+    /// Σ wᵢ xᵢ xᵢᵀ over the noise-free rows, with exactly rounded entries.
+    pub(crate) fn weighted_gram(&self, weight: &[f64]) -> Matrix3<f64> {
+        let mut sums: [ExactSum; 6] = Default::default();
+        for (i, &w) in weight.iter().enumerate() {
+            let x = [self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]];
+            sums[0].add(w * x[0] * x[0]);
+            sums[1].add(w * x[0] * x[1]);
+            sums[2].add(w * x[0] * x[2]);
+            sums[3].add(w * x[1] * x[1]);
+            sums[4].add(w * x[1] * x[2]);
+            sums[5].add(w * x[2] * x[2]);
+        }
+        let s: Vec<f64> = sums.iter().map(ExactSum::value).collect();
+        Matrix3::new(s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5])
+    }
+
+    /// `eiv_sandwich`: the first-order covariance of OLS (and BCLS) under regressor noise,
+    /// (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ with the noise-free X; returns the standard errors.
+    pub fn sandwich_se(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Result<[f64; 3], SolveError> {
+        let omega = self.equation_error_variance(theta, noise);
+        let bread = inverse_spd(&self.xtx)?;
+        let meat = self.weighted_gram(&omega);
+        let cov = bread * meat * bread;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
+    /// equation-error model with independent Gaussian errors of variance Ω_i (the best a
+    /// weighted, unbiased estimator could do); returns the standard errors.
+    pub fn linearized_crlb_se(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Result<[f64; 3], SolveError> {
+        let inv_omega: Vec<f64> = self
+            .equation_error_variance(theta, noise)
+            .iter()
+            .map(|o| 1.0 / o)
+            .collect();
+        let info = self.weighted_gram(&inv_omega);
+        let cov = inverse_spd(&info)?;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+}
+
+/// sqrt(diag(σ² A⁻¹)) for a normal matrix `a`: the standard errors of a covariance σ² A⁻¹.
+pub fn scaled_inverse_sd(a: &Matrix3<f64>, sd: f64) -> Result<[f64; 3], SolveError> {
+    let inv = inverse_spd(a)?;
+    Ok([0, 1, 2].map(|i| sd * inv[(i, i)].sqrt()))
+}

@@ -1,0 +1,35 @@
+//! Post-processing of an estimate: M̂ and Ĉd, and the thesis's conversions of its bound into
+//! errors of M and Cd (see docs/model.md#post-processing).
+
+use nalgebra::Vector3;
+
+/// M̂ = 1/θ̂₁ [kg] and Ĉd = M̂ θ̂₂ [-] (thesis eqs. 38–39).
+pub fn mass_and_drag(theta: &Vector3<f64>) -> (f64, f64) {
+    let m = 1.0 / theta[0];
+    (m, m * theta[1])
+}
+
+/// The thesis's error conversions of the 1/M and Cd/M bounds σ₁, σ₂ into errors of M [kg]
+/// and Cd [-] (thesis eqs. 41–42):
+///
+/// ```text
+/// σ_M  = 1 / (θ̂₁ − σ₁) − M̂                      (41)
+/// σ_Cd = (θ̂₂ + σ₂) (θ̂₁ + σ₁)⁻¹ − Ĉd             (42)
+/// ```
+///
+/// How the garbled equations were read: the extracted eq. 41 is a fraction `1 / (θ̂(1) −
+/// σ_{1/M})` followed by `− M̂`, unambiguous. Eq. 42 prints as `(θ̂(2) + σ_{Cd/M})
+/// (θ̂(1) + σ_{1/M}) − Ĉd` with the subscripts `M` of σ_{Cd/M} and σ_{1/M} on the line
+/// below. Taken literally it multiplies two quantities in 1/kg and subtracts a
+/// dimensionless Ĉd, so the exponent −1 on the second factor was lost in extraction:
+/// Ĉd = θ̂₂/θ̂₁ (eq. 39), and the perturbed value (θ̂₂ + σ₂)/(θ̂₁ + σ₁) is dimensionless. The
+/// signs are kept as printed (+σ₁ in eq. 42, −σ₁ in eq. 41), although they make the two
+/// conversions lean in different directions. These are the thesis's heuristics, reported
+/// for fidelity, not propagated standard errors (the delta method would give
+/// σ_M ≈ σ₁/θ̂₁²).
+pub fn thesis_error_conversions(theta: &Vector3<f64>, bound: &[f64; 3]) -> (f64, f64) {
+    let (m, cd) = mass_and_drag(theta);
+    let sigma_m = 1.0 / (theta[0] - bound[0]) - m;
+    let sigma_cd = (theta[1] + bound[1]) / (theta[0] + bound[0]) - cd;
+    (sigma_m, sigma_cd)
+}

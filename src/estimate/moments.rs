@@ -1,0 +1,340 @@
+//! The per-realisation sums of the vehicle regression ([`Moments`]) and the accumulator that
+//! builds them block by block from the noise draws (the kernel).
+//!
+//! A realisation is summarised by the [`Moments`] of its noisy columns: with w = Ṽ² the
+//! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
+//! kernel never forms the N×3 matrix.
+
+use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
+use super::regression::Regression;
+use crate::noise::NoiseLevels;
+
+/// The sums of one realisation from which every estimator's normal equations are built.
+///
+/// With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output (column 2 is −k w).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Moments {
+    /// Σ x̃₁².
+    pub s_11: f64,
+    /// Σ x̃₁ x̃₃.
+    pub s_13: f64,
+    /// Σ x̃₃².
+    pub s_33: f64,
+    /// Σ x̃₁ ỹ.
+    pub s_1y: f64,
+    /// Σ x̃₃ ỹ.
+    pub s_3y: f64,
+    /// Σ x̃₁ w.
+    pub s_1w: f64,
+    /// Σ x̃₃ w.
+    pub s_3w: f64,
+    /// Σ w².
+    pub s_ww: f64,
+    /// Σ w ỹ.
+    pub s_wy: f64,
+    /// Σ w.
+    pub s_w: f64,
+    /// Σ x̃₁.
+    pub s_1: f64,
+    /// Σ x̃₃.
+    pub s_3: f64,
+    /// Σ ỹ.
+    pub s_y: f64,
+    /// N.
+    pub n: f64,
+}
+
+impl Moments {
+    /// Add the sums of `b` (not its N), each with one addition.
+    fn add(&mut self, b: &Moments) {
+        self.s_11 += b.s_11;
+        self.s_13 += b.s_13;
+        self.s_33 += b.s_33;
+        self.s_1y += b.s_1y;
+        self.s_3y += b.s_3y;
+        self.s_1w += b.s_1w;
+        self.s_3w += b.s_3w;
+        self.s_ww += b.s_ww;
+        self.s_wy += b.s_wy;
+        self.s_w += b.s_w;
+        self.s_1 += b.s_1;
+        self.s_3 += b.s_3;
+        self.s_y += b.s_y;
+    }
+}
+
+/// Partial sums of the fast path (speed and output noise only): everything that the noise
+/// touches, accumulated per block.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct SpeedOutputSums {
+    s_w: f64,
+    s_wf: f64,
+    s_wc: f64,
+    s_ww: f64,
+    s_wy: f64,
+    s_eta: f64,
+    s_f_eta: f64,
+    s_c_eta: f64,
+    s_w_eta: f64,
+}
+
+/// Standard-normal draws of one block, per channel (`None` when the channel is off).
+#[derive(Debug, Clone, Copy)]
+pub struct BlockNoise<'a> {
+    /// Speed noise draws.
+    pub velocity: Option<&'a [f64]>,
+    /// Output noise draws.
+    pub output: Option<&'a [f64]>,
+    /// Grade noise draws.
+    pub grade: Option<&'a [f64]>,
+    /// Force noise draws.
+    pub force: Option<&'a [f64]>,
+}
+
+/// Accumulates one realisation's [`Moments`] block by block.
+#[derive(Debug, Clone)]
+pub struct MomentAccumulator<'r> {
+    reg: &'r Regression,
+    noise: NoiseLevels,
+    /// Only speed and output noise: the constant columns stay noise-free and five sums per
+    /// sample suffice.
+    use_fast_path: bool,
+    fast: SpeedOutputSums,
+    general: Moments,
+}
+
+impl<'r> MomentAccumulator<'r> {
+    /// Start a realisation of `reg` with noise levels `noise`.
+    pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
+        let mut fast = SpeedOutputSums::default();
+        if noise.velocity_sd == 0.0 {
+            [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = reg.speed_sums_noise_free;
+        }
+        MomentAccumulator {
+            reg,
+            noise,
+            use_fast_path: noise.grade_sd == 0.0 && noise.force_sd == 0.0,
+            fast,
+            general: Moments::default(),
+        }
+    }
+
+    /// Like [`new`](Self::new) but always on the general path (for cross-checks).
+    #[cfg(test)]
+    fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
+        MomentAccumulator {
+            use_fast_path: false,
+            ..Self::new(reg, noise)
+        }
+    }
+
+    /// Add samples `start .. start + len` with the block's standard-normal draws. Each
+    /// block is summed separately and then added, so rounding grows like the number of
+    /// blocks, not of samples.
+    #[inline]
+    pub fn add_block(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        if self.use_fast_path {
+            self.add_fast(start, len, draws);
+        } else {
+            self.add_general(start, len, draws);
+        }
+    }
+
+    #[inline]
+    fn add_fast(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        let reg = self.reg;
+        let range = start..start + len;
+        let cols = Columns {
+            v: &reg.v[range.clone()],
+            f: &reg.f[range.clone()],
+            c: &reg.c[range.clone()],
+            y: &reg.y[range],
+        };
+        let sd_v = self.noise.velocity_sd;
+        let s = &mut self.fast;
+        let e = draws.velocity.unwrap_or(&ZEROS[..len]);
+        // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
+        if sd_v != 0.0 {
+            let [s_w, s_wf, s_wc, s_ww, s_wy] = speed_sums(&cols, e, sd_v);
+            s.s_w += s_w;
+            s.s_wf += s_wf;
+            s.s_wc += s_wc;
+            s.s_ww += s_ww;
+            s.s_wy += s_wy;
+        }
+        if let Some(eta) = draws.output {
+            let [s_eta, s_f_eta, s_c_eta, s_w_eta] = output_sums(&cols, e, sd_v, eta);
+            s.s_eta += s_eta;
+            s.s_f_eta += s_f_eta;
+            s.s_c_eta += s_c_eta;
+            s.s_w_eta += s_w_eta;
+        }
+    }
+
+    fn add_general(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+        let reg = self.reg;
+        let nz = self.noise;
+        let mut b = Moments::default();
+        // A channel that is off draws zeros.
+        let zeros = &ZEROS[..len];
+        let force = draws.force.unwrap_or(zeros);
+        let velocity = draws.velocity.unwrap_or(zeros);
+        let grade = draws.grade.unwrap_or(zeros);
+        let output = draws.output.unwrap_or(zeros);
+        for j in 0..len {
+            let i = start + j;
+            let x1 = reg.f[i] + nz.force_sd * force[j];
+            let vt = reg.v[i] + nz.velocity_sd * velocity[j];
+            let w = vt * vt;
+            let (sin_t, cos_t) = if nz.grade_sd > 0.0 {
+                // sin/cos of θ + δ from those of θ and δ (angle addition)
+                let (sd, cd) = (nz.grade_sd * grade[j]).sin_cos();
+                (
+                    reg.sin_grade[i] * cd + reg.cos_grade[i] * sd,
+                    reg.cos_grade[i] * cd - reg.sin_grade[i] * sd,
+                )
+            } else {
+                (reg.sin_grade[i], reg.cos_grade[i])
+            };
+            let x3 = -reg.g * cos_t;
+            let y = reg.accel[i] + reg.g * sin_t + nz.output_sd * output[j];
+            b.s_11 += x1 * x1;
+            b.s_13 += x1 * x3;
+            b.s_33 += x3 * x3;
+            b.s_1y += x1 * y;
+            b.s_3y += x3 * y;
+            b.s_1w += x1 * w;
+            b.s_3w += x3 * w;
+            b.s_ww += w * w;
+            b.s_wy += w * y;
+            b.s_w += w;
+            b.s_1 += x1;
+            b.s_3 += x3;
+            b.s_y += y;
+        }
+        self.general.add(&b);
+    }
+
+    /// The realisation's moments.
+    pub fn finish(&self) -> Moments {
+        let reg = self.reg;
+        let n = reg.len() as f64;
+        if !self.use_fast_path {
+            return Moments { n, ..self.general };
+        }
+        let s = &self.fast;
+        let sd_y = self.noise.output_sd;
+        Moments {
+            s_11: reg.xtx[(0, 0)],
+            s_13: reg.xtx[(0, 2)],
+            s_33: reg.xtx[(2, 2)],
+            s_1y: reg.xty[0] + sd_y * s.s_f_eta,
+            s_3y: reg.xty[2] + sd_y * s.s_c_eta,
+            s_1w: s.s_wf,
+            s_3w: s.s_wc,
+            s_ww: s.s_ww,
+            s_wy: s.s_wy + sd_y * s.s_w_eta,
+            s_w: s.s_w,
+            s_1: reg.sum_f,
+            s_3: reg.sum_c,
+            s_y: reg.sum_y + sd_y * s.s_eta,
+            n,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::regression::test_regression as regression;
+    use crate::noise::{BLOCK, Channel, NormalStream};
+
+    fn moments(reg: &Regression, noise: NoiseLevels, general: bool) -> Moments {
+        let mut acc = if general {
+            MomentAccumulator::new_general(reg, noise)
+        } else {
+            MomentAccumulator::new(reg, noise)
+        };
+        let mut speed = NormalStream::for_realisation(1, 0, Channel::Velocity, 0);
+        let mut output = NormalStream::for_realisation(1, 0, Channel::Output, 0);
+        let (mut e, mut eta) = ([0.0; BLOCK], [0.0; BLOCK]);
+        for start in (0..reg.len()).step_by(BLOCK) {
+            let len = BLOCK.min(reg.len() - start);
+            speed.fill_block(&mut e[..len]);
+            output.fill_block(&mut eta[..len]);
+            acc.add_block(
+                start,
+                len,
+                BlockNoise {
+                    velocity: Some(&e[..len]),
+                    output: Some(&eta[..len]),
+                    grade: None,
+                    force: None,
+                },
+            );
+        }
+        acc.finish()
+    }
+
+    #[test]
+    fn fast_and_general_paths_build_the_same_moments() {
+        let reg = regression();
+        let noise = NoiseLevels {
+            velocity_sd: 0.7,
+            output_sd: 0.3,
+            ..NoiseLevels::default()
+        };
+        let a = moments(&reg, noise, false);
+        let b = moments(&reg, noise, true);
+        // Same products summed in a different grouping: agreement to rounding (1e-12
+        // relative is ~10^4 ulps of headroom for 6001 terms).
+        let pairs = [
+            (a.s_11, b.s_11),
+            (a.s_13, b.s_13),
+            (a.s_33, b.s_33),
+            (a.s_1y, b.s_1y),
+            (a.s_3y, b.s_3y),
+            (a.s_1w, b.s_1w),
+            (a.s_3w, b.s_3w),
+            (a.s_ww, b.s_ww),
+            (a.s_wy, b.s_wy),
+            (a.s_w, b.s_w),
+            (a.s_1, b.s_1),
+            (a.s_3, b.s_3),
+            (a.s_y, b.s_y),
+        ];
+        for (i, (x, y)) in pairs.iter().enumerate() {
+            assert!(
+                (x - y).abs() <= 1e-12 * x.abs().max(y.abs()),
+                "moment {i}: {x} vs {y}"
+            );
+        }
+        assert_eq!(a.n, b.n);
+    }
+
+    #[test]
+    fn without_noise_the_moments_are_the_noise_free_normal_equations() {
+        let reg = regression();
+        let m = MomentAccumulator::new(&reg, NoiseLevels::default());
+        let mut acc = m;
+        for start in (0..reg.len()).step_by(BLOCK) {
+            let len = BLOCK.min(reg.len() - start);
+            let none = BlockNoise {
+                velocity: None,
+                output: None,
+                grade: None,
+                force: None,
+            };
+            acc.add_block(start, len, none);
+        }
+        let (a, b) = acc.finish().ols_system(reg.k);
+        for i in 0..3 {
+            assert!((b[i] - reg.xty[i]).abs() <= 1e-12 * reg.xty[i].abs());
+            for j in 0..3 {
+                assert!((a[(i, j)] - reg.xtx[(i, j)]).abs() <= 1e-12 * reg.xtx[(i, j)].abs());
+            }
+        }
+        // BCLS with σ_v = 0 is OLS.
+        assert_eq!(acc.finish().bcls_system(reg.k, 0.0), (a, b));
+    }
+}

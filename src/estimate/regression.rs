@@ -1,0 +1,157 @@
+//! The vehicle regression (thesis eqs. 32–37) of one drive cycle: its noise-free columns and
+//! the sums that do not depend on the noise (see docs/model.md#measurement-and-regression).
+//!
+//! One row per sample i:
+//!
+//! ```text
+//! y_i = dV/dt_i + g sin θ_i
+//! x_i = [ F_prop,i , −k V_i² , −g cos θ_i ],   k = ½ ρ A
+//! θ   = [ 1/M , Cd/M , Cr ]                     y = X θ
+//! ```
+//!
+//! Noise channels and what they do to OLS (each a condition axis, σ = 0 means off):
+//!
+//! Noise channels and what they do to OLS (each a condition axis, σ = 0 means off):
+//!
+//! | channel | enters | effect on OLS | bounds that apply |
+//! |---|---|---|---|
+//! | speed, σ_v [m/s] | Ṽ² in column 2 | errors-in-variables: Cd/M biased low (attenuation), Cr biased high (the lost drag is absorbed by the constant-like column 3) | `thesis_bound` (not a real bound), `eiv_sandwich`, `eiv_crlb_linearized` |
+//! | output, σ_y [m/s²] | y | none: OLS unbiased and efficient | `crlb_output` (when alone) |
+//! | grade, σ_θ [rad] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
+//! | force, σ_F [N] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::kernels::{Columns, ZEROS, speed_sums};
+use crate::noise::BLOCK;
+use crate::stats::sum::exact_sum;
+use crate::vehicle::{DriveCycle, VehicleParams};
+
+/// The noise-free regression of one drive cycle and its constant sums.
+#[derive(Debug, Clone)]
+pub struct Regression {
+    /// Column 1: F_prop [N].
+    pub f: Vec<f64>,
+    /// Column 3: c = −g cos θ [m/s²].
+    pub c: Vec<f64>,
+    /// Speed V [m/s] (column 2 is −k V²).
+    pub v: Vec<f64>,
+    /// Output y = dV/dt + g sin θ [m/s²].
+    pub y: Vec<f64>,
+    /// Model acceleration dV/dt [m/s²] (y without the grade term).
+    pub accel: Vec<f64>,
+    /// sin θ of each sample.
+    pub sin_grade: Vec<f64>,
+    /// cos θ of each sample.
+    pub cos_grade: Vec<f64>,
+    /// k = ½ ρ A [kg/m].
+    pub k: f64,
+    /// g [m/s²].
+    pub g: f64,
+    /// Noise-free XᵀX.
+    pub xtx: Matrix3<f64>,
+    /// Noise-free Xᵀy.
+    pub xty: Vector3<f64>,
+    /// Σ F.
+    pub sum_f: f64,
+    /// Σ c.
+    pub sum_c: f64,
+    /// Σ y.
+    pub sum_y: f64,
+    /// Σw, ΣwF, Σwc, Σw², Σwy with w = V², summed per block of [`BLOCK`] samples and then
+    /// over blocks, exactly as a realisation without speed noise would sum them: such a
+    /// realisation starts from these instead of recomputing them.
+    pub(crate) speed_sums_noise_free: [f64; 5],
+}
+
+impl Regression {
+    /// The regression of `cycle` for `vehicle`; constant sums are exactly rounded.
+    pub fn new(cycle: &DriveCycle, vehicle: &VehicleParams) -> Self {
+        let g = vehicle.gravity_m_s2;
+        let k = vehicle.drag_factor_kg_m();
+        let sin_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.sin()).collect();
+        let cos_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.cos()).collect();
+        let f = cycle.f_prop_n.clone();
+        let c: Vec<f64> = cos_grade.iter().map(|cs| -g * cs).collect();
+        let v = cycle.v_m_s.clone();
+        let y: Vec<f64> = cycle
+            .accel_m_s2
+            .iter()
+            .zip(&sin_grade)
+            .map(|(a, s)| a + g * s)
+            .collect();
+        let dot = |a: &[f64], b: &[f64]| exact_sum(a.iter().zip(b).map(|(p, q)| p * q));
+        let x2: Vec<f64> = v.iter().map(|v| -k * v * v).collect();
+        let cols = [&f, &x2, &c];
+        let mut xtx = Matrix3::zeros();
+        let mut xty = Vector3::zeros();
+        for i in 0..3 {
+            for j in 0..3 {
+                xtx[(i, j)] = dot(cols[i], cols[j]);
+            }
+            xty[i] = dot(cols[i], &y);
+        }
+        let sum = |a: &[f64]| exact_sum(a.iter().copied());
+        let mut speed_sums_noise_free = [0.0; 5];
+        for start in (0..v.len()).step_by(BLOCK) {
+            let range = start..(start + BLOCK).min(v.len());
+            let cols = Columns {
+                v: &v[range.clone()],
+                f: &f[range.clone()],
+                c: &c[range.clone()],
+                y: &y[range.clone()],
+            };
+            let block = speed_sums(&cols, &ZEROS[..range.len()], 0.0);
+            for (total, b) in speed_sums_noise_free.iter_mut().zip(block) {
+                *total += b;
+            }
+        }
+        Regression {
+            speed_sums_noise_free,
+            sum_f: sum(&f),
+            sum_c: sum(&c),
+            sum_y: sum(&y),
+            accel: cycle.accel_m_s2.clone(),
+            sin_grade,
+            cos_grade,
+            f,
+            c,
+            v,
+            y,
+            k,
+            g,
+            xtx,
+            xty,
+        }
+    }
+
+    /// Number of samples N.
+    pub fn len(&self) -> usize {
+        self.f.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.f.is_empty()
+    }
+}
+
+/// A short thesis-like cycle (60 s over a sinusoidal grade) for unit tests.
+#[cfg(test)]
+pub(crate) fn test_regression() -> Regression {
+    use crate::terrain::GradeTable;
+    use crate::vehicle::{DriveParams, simulate};
+    let vehicle = VehicleParams::thesis();
+    let drive = DriveParams {
+        duration_s: 60.0,
+        time_step_s: 0.01,
+        steps: 6000,
+        initial_speed_m_s: 0.0,
+        torque_mean_n_m: 225.0,
+        torque_amplitude: 0.1,
+        torque_frequency_rad_s: 0.1,
+    };
+    let grades = (0..3000).map(|i| 0.08 * (i as f64 / 150.0).sin()).collect();
+    let cycle = simulate(&vehicle, &drive, &GradeTable::from_grades(grades)).unwrap();
+    Regression::new(&cycle, &vehicle)
+}
