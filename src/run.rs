@@ -13,27 +13,16 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::figures::{self, FigureError};
-use crate::model::line_fit::LineFitModel;
-use crate::model::vehicle::VehicleModel;
-use crate::model::{ConditionInfo, Layout, Model};
+use crate::model::{self, ConditionInfo, Layout, Model};
 use crate::montecarlo::{self, DEFAULT_CHUNK, Observer, Work};
+pub use crate::output::files;
 use crate::output::lock::DirLock;
 use crate::output::{
     self, FileMetadata, OutputError, ParquetSink, PendingFile, RealisationBatches, keys, set, store,
 };
 use crate::stats::measures::Z_95;
 use crate::stats::summary::{Summarizer, SummaryError, SummaryRow};
-use crate::study::{ModelSpec, Study, StudyError};
-
-/// File names inside the output directory.
-pub mod files {
-    /// One row per realisation × estimator.
-    pub const REALISATIONS: &str = "realisations.parquet";
-    /// One row per condition × estimator × parameter.
-    pub const SUMMARY: &str = "summary.parquet";
-    /// Noise-free drive cycles.
-    pub const CYCLES: &str = "cycles.parquet";
-}
+use crate::study::{Study, StudyError};
 
 /// Why a run failed.
 #[derive(Debug, Error)]
@@ -94,120 +83,22 @@ impl RunOptions {
     }
 }
 
-/// A model ready to run, whichever kind the study asked for.
-#[derive(Debug)]
-pub enum PreparedModel {
-    /// The vehicle model.
-    Vehicle(VehicleModel),
-    /// The line-fit example.
-    LineFit(LineFitModel),
-}
-
-impl PreparedModel {
-    /// Prepare the study's model (simulates drive cycles; a stall is a [`StudyError`]).
-    pub fn new(study: &Study) -> Result<Self, StudyError> {
-        match &study.model {
-            ModelSpec::Vehicle(_) => Ok(PreparedModel::Vehicle(VehicleModel::new(study)?)),
-            ModelSpec::LineFit(_) => Ok(PreparedModel::LineFit(LineFitModel::new(study)?)),
-        }
-    }
-
-    /// The model as a trait object.
-    pub fn model(&self) -> &dyn DynModel {
-        match self {
-            PreparedModel::Vehicle(m) => m,
-            PreparedModel::LineFit(m) => m,
-        }
-    }
-}
-
-/// The row layout a study's model will have, without preparing it (no simulation).
-pub fn layout_of(study: &Study) -> Layout {
-    match &study.model {
-        ModelSpec::Vehicle(v) => crate::model::vehicle::layout(&v.estimators),
-        ModelSpec::LineFit(_) => crate::model::line_fit::layout(),
-    }
-}
-
-/// Object-safe view of a [`Model`] (the trait itself is used generically in the executor).
-pub trait DynModel: Sync {
-    /// Layout of the rows.
-    fn layout(&self) -> &Layout;
-    /// All condition infos.
-    fn infos(&self) -> Vec<ConditionInfo>;
-    /// Execute `work`, passing chunks to the sink.
-    fn execute(
-        &self,
-        seed: u64,
-        work: &mut dyn Iterator<Item = Work>,
-        chunk: u64,
-        observer: &dyn Observer,
-        sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
-    ) -> Result<(), OutputError>;
-    /// Compute realisation `r` of condition `c` into `slots`.
-    fn realise_one(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]);
-    /// Write model-specific extra tables (the vehicle's cycles) into `dir`.
-    fn extra_files(&self, dir: &Path, meta: &FileMetadata)
-    -> Result<Vec<PendingFile>, OutputError>;
-}
-
-impl<M: Model + ExtraFiles> DynModel for M {
-    fn layout(&self) -> &Layout {
-        Model::layout(self)
-    }
-
-    fn infos(&self) -> Vec<ConditionInfo> {
-        (0..self.condition_count())
-            .map(|c| self.condition_info(c).clone())
-            .collect()
-    }
-
-    fn execute(
-        &self,
-        seed: u64,
-        work: &mut dyn Iterator<Item = Work>,
-        chunk: u64,
-        observer: &dyn Observer,
-        sink: &mut (dyn FnMut(montecarlo::Chunk<'_>) -> Result<(), OutputError> + Send),
-    ) -> Result<(), OutputError> {
-        montecarlo::execute(self, seed, work, chunk, observer, sink)
-    }
-
-    fn realise_one(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
-        Model::realise(self, seed, c, r, slots)
-    }
-
-    fn extra_files(
-        &self,
-        dir: &Path,
-        meta: &FileMetadata,
-    ) -> Result<Vec<PendingFile>, OutputError> {
-        ExtraFiles::write(self, dir, meta)
-    }
-}
-
-/// Tables a model writes besides realisations and summary.
-pub trait ExtraFiles {
-    /// Write them under temporary names in `dir`.
-    fn write(&self, dir: &Path, meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError>;
-}
-
-impl ExtraFiles for VehicleModel {
-    fn write(&self, dir: &Path, meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError> {
+/// Write the model's extra tables (the vehicle's cycles) under temporary names in `dir`.
+fn write_extra_tables(
+    model: &dyn Model,
+    dir: &Path,
+    meta: &FileMetadata,
+) -> Result<Vec<PendingFile>, OutputError> {
+    let mut written = Vec::new();
+    for (t, table) in model.extra_tables().iter().enumerate() {
         let mut sink =
-            ParquetSink::create(dir, files::CYCLES, output::cycles_schema(), meta, "cycles")?;
-        for (c, cycle) in self.cycles().iter().enumerate() {
-            let batch = output::cycles_batch(c, cycle).map_err(|e| OutputError::arrow(dir, e))?;
-            sink.write(&batch)?;
+            ParquetSink::create(dir, table.file, table.schema.clone(), meta, table.table)?;
+        for batch in (0..).map_while(|i| model.extra_batch(t, i)) {
+            sink.write(&batch.map_err(|e| OutputError::arrow(dir, e))?)?;
         }
-        Ok(vec![sink.finish()?])
+        written.push(sink.finish()?);
     }
-}
-
-impl ExtraFiles for LineFitModel {
-    fn write(&self, _dir: &Path, _meta: &FileMetadata) -> Result<Vec<PendingFile>, OutputError> {
-        Ok(Vec::new())
-    }
+    Ok(written)
 }
 
 /// What a finished run produced.
@@ -285,8 +176,8 @@ pub fn run_study(
 ) -> Result<RunReport, RunError> {
     let pool = thread_pool(options.threads)?;
     pool.install(|| {
-        let prepared = PreparedModel::new(study)?;
-        run_prepared(study, prepared.model(), options, observer)
+        let model = model::prepare(study)?;
+        run_prepared(study, &*model, options, observer)
     })
 }
 
@@ -321,7 +212,7 @@ fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
 
 fn run_prepared(
     study: &Study,
-    model: &dyn DynModel,
+    model: &dyn Model,
     options: &RunOptions,
     observer: &dyn Observer,
 ) -> Result<RunReport, RunError> {
@@ -356,7 +247,7 @@ fn run_prepared(
     let (realised, extra) = rayon::join(
         || realise(study, model, &infos, options, observer, &dir, &meta),
         || match options.shard {
-            None => model.extra_files(out_dir, &meta),
+            None => write_extra_tables(model, out_dir, &meta),
             Some(_) => Ok(Vec::new()),
         },
     );
@@ -425,9 +316,9 @@ fn draw_figures(out_dir: &Path, pending: &[PendingFile]) -> Result<Vec<PendingFi
 /// count and the engine version ([`Study::identity`]), plus a check of this build's
 /// numbers — a hash of every condition's metrics and of realisation 0 of condition 0 — so
 /// that a rebuilt engine whose arithmetic changed never reuses an older run's parts.
-fn identity(study: &Study, model: &dyn DynModel, infos: &[ConditionInfo]) -> String {
+fn identity(study: &Study, model: &dyn Model, infos: &[ConditionInfo]) -> String {
     let mut canary = vec![0.0; model.layout().realisation_stride()];
-    model.realise_one(study.seed, 0, 0, &mut canary);
+    model.realise(study.seed, 0, 0, &mut canary);
     let metrics = infos.iter().flat_map(|i| i.metrics.iter().copied());
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
     for v in canary.into_iter().chain(metrics) {
@@ -442,7 +333,7 @@ fn identity(study: &Study, model: &dyn DynModel, infos: &[ConditionInfo]) -> Str
 /// file (still under its temporary name). Returns it with the counts reused and computed.
 fn realise(
     study: &Study,
-    model: &dyn DynModel,
+    model: &dyn Model,
     infos: &[ConditionInfo],
     options: &RunOptions,
     observer: &dyn Observer,
@@ -505,12 +396,13 @@ fn realise(
     )?;
     let mut assembler = store::Assembler::new(&sources, &segments, file);
     let mut part: Option<ParquetSink> = None; // the part of the current work item
-    model.execute(
+    montecarlo::execute(
+        model,
         study.seed,
         &mut pieces,
         options.chunk,
         observer,
-        &mut |chunk| {
+        |chunk| {
             if chunk.first == chunk.item.start {
                 let part_meta =
                     meta.with(keys::PART, store::part_value(chunk.condition, &chunk.item));
@@ -533,7 +425,7 @@ fn realise(
                 store::commit_part(done, chunk.condition, chunk.item.start)?;
                 output::failpoint("part-committed");
             }
-            Ok(())
+            Ok::<(), OutputError>(())
         },
     )?;
 
@@ -662,8 +554,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     }
     let origin = format!("{} (footer)", first.display());
     let study = Study::from_toml(&study_toml, &origin)?;
-    let prepared = PreparedModel::new(&study)?;
-    let model = prepared.model();
+    let model = model::prepare(&study)?;
     let layout = model.layout().clone();
     let infos = model.infos();
     let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
@@ -679,7 +570,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         extra: Vec::new(),
     };
     let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
-    pending.extend(model.extra_files(out_dir, &meta)?);
+    pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
     if figures {
         let figures = draw_figures(out_dir, &pending)?;
         pending.extend(figures);

@@ -29,8 +29,7 @@ use thiserror::Error;
 
 use crate::model::{AxisKind, Layout};
 use crate::output::lock::DirLock;
-use crate::output::{self, OutputError, PendingFile, keys, set};
-use crate::run::files;
+use crate::output::{self, OutputError, PendingFile, files, keys, set};
 use crate::study::{Study, StudyError};
 
 /// Directory of the figures inside an output directory.
@@ -519,7 +518,7 @@ pub fn draw_staged(
         .get(keys::STUDY)
         .ok_or_else(|| OutputError::format(summary_path, "no study in the footer"))?;
     let study = Study::from_toml(study_toml, &format!("{} (footer)", summary_path.display()))?;
-    let layout = crate::run::layout_of(&study);
+    let layout = crate::model::layout_of(&study);
     let summary = Table::read(summary_path)?;
     let cycles = match cycles_path {
         // Only what the cycles figure draws (the file also holds x, f_prop and accel).

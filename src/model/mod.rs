@@ -12,6 +12,12 @@ pub mod vehicle;
 
 use std::fmt;
 
+use arrow::array::RecordBatch;
+use arrow::datatypes::SchemaRef;
+use arrow::error::ArrowError;
+
+use crate::study::{ModelSpec, Study, StudyError};
+
 /// The type of a condition axis column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AxisKind {
@@ -245,8 +251,37 @@ pub struct ConditionInfo {
     pub applies: Vec<Vec<bool>>,
 }
 
+/// A table a model writes besides the realisations and the summary (e.g. the vehicle's
+/// drive cycles), produced batch by batch by [`Model::extra_batch`].
+#[derive(Debug, Clone)]
+pub struct ExtraTable {
+    /// File name in the output directory, e.g. `cycles.parquet`.
+    pub file: &'static str,
+    /// What the footer's `chassis_mc.table` key says it holds, e.g. `cycles`.
+    pub table: &'static str,
+    /// Its schema.
+    pub schema: SchemaRef,
+}
+
+/// Prepare the model a study asks for (this simulates the vehicle's drive cycles; a
+/// condition that cannot be simulated is a [`StudyError`]).
+pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
+    Ok(match &study.model {
+        ModelSpec::Vehicle(_) => Box::new(vehicle::VehicleModel::new(study)?),
+        ModelSpec::LineFit(_) => Box::new(line_fit::LineFitModel::new(study)?),
+    })
+}
+
+/// The row layout a study's model will have, without preparing it (no simulation).
+pub fn layout_of(study: &Study) -> Layout {
+    match &study.model {
+        ModelSpec::Vehicle(v) => vehicle::layout(&v.estimators),
+        ModelSpec::LineFit(_) => line_fit::layout(),
+    }
+}
+
 /// A model: prepared conditions and the per-realisation computation.
-pub trait Model: Sync {
+pub trait Model: Sync + fmt::Debug {
     /// Layout of this model's rows.
     fn layout(&self) -> &Layout;
 
@@ -259,4 +294,21 @@ pub trait Model: Sync {
     /// Compute realisation `r` of condition `c` into `slots` (length
     /// [`Layout::realisation_stride`]); a pure function of (seed, c, r).
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]);
+
+    /// Every condition's info, in order.
+    fn infos(&self) -> Vec<ConditionInfo> {
+        (0..self.condition_count())
+            .map(|c| self.condition_info(c).clone())
+            .collect()
+    }
+
+    /// The tables this model writes besides realisations and summary (none by default).
+    fn extra_tables(&self) -> Vec<ExtraTable> {
+        Vec::new()
+    }
+
+    /// Batch `index` of extra table `table`, or `None` after the last.
+    fn extra_batch(&self, _table: usize, _index: usize) -> Option<Result<RecordBatch, ArrowError>> {
+        None
+    }
 }

@@ -7,9 +7,13 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use arrow::array::{ArrayRef, Float64Array, Int32Array, RecordBatch};
+use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use arrow::error::ArrowError;
+
 use super::{
-    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, FigureX, Layout, Model, ParameterInfo,
-    Status,
+    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model,
+    ParameterInfo, Status,
 };
 use crate::estimate::bounds::scaled_inverse_sd;
 use crate::estimate::conversions::{mass_and_drag, thesis_error_conversions};
@@ -281,9 +285,53 @@ pub fn layout(estimators: &[EstimatorKind]) -> Layout {
     }
 }
 
+/// Schema of `cycles.parquet`: the noise-free time series of each condition.
+pub fn cycles_schema() -> SchemaRef {
+    let f64_field = |name| Field::new(name, DataType::Float64, false);
+    Arc::new(Schema::new(vec![
+        Field::new("condition", DataType::Int32, false),
+        f64_field("t"),
+        f64_field("x"),
+        f64_field("v"),
+        f64_field("grade"),
+        f64_field("f_prop"),
+        f64_field("accel"),
+    ]))
+}
+
+/// One condition's drive cycle as a record batch.
+pub fn cycles_batch(condition: usize, cycle: &DriveCycle) -> Result<RecordBatch, ArrowError> {
+    let col = |v: &Vec<f64>| -> ArrayRef { Arc::new(Float64Array::from(v.clone())) };
+    RecordBatch::try_new(
+        cycles_schema(),
+        vec![
+            Arc::new(Int32Array::from(vec![condition as i32; cycle.len()])),
+            col(&cycle.t_s),
+            col(&cycle.x_m),
+            col(&cycle.v_m_s),
+            col(&cycle.grade_rad),
+            col(&cycle.f_prop_n),
+            col(&cycle.accel_m_s2),
+        ],
+    )
+}
+
 impl Model for VehicleModel {
     fn layout(&self) -> &Layout {
         &self.layout
+    }
+
+    fn extra_tables(&self) -> Vec<ExtraTable> {
+        vec![ExtraTable {
+            file: "cycles.parquet",
+            table: "cycles",
+            schema: cycles_schema(),
+        }]
+    }
+
+    fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
+        let condition = self.conditions.get(index).filter(|_| table == 0)?;
+        Some(cycles_batch(index, &self.cycles[condition.scale_index]))
     }
 
     fn condition_count(&self) -> usize {

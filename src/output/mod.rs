@@ -25,9 +25,18 @@ use parquet::file::properties::WriterProperties;
 use thiserror::Error;
 
 pub use tables::{
-    RealisationBatches, cycles_batch, cycles_schema, realisation_schema, realisations_batch,
-    summary_batch, summary_schema,
+    RealisationBatches, realisation_schema, realisations_batch, summary_batch, summary_schema,
 };
+
+/// File names inside an output directory.
+pub mod files {
+    /// One row per realisation × estimator.
+    pub const REALISATIONS: &str = "realisations.parquet";
+    /// One row per condition × estimator × parameter.
+    pub const SUMMARY: &str = "summary.parquet";
+    /// Noise-free drive cycles (the vehicle model's extra table).
+    pub const CYCLES: &str = "cycles.parquet";
+}
 
 /// Rows per Parquet row group (bounds the writer's memory).
 pub const ROW_GROUP_ROWS: usize = 65_536;

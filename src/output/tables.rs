@@ -16,7 +16,6 @@ use crate::model::{Axis, AxisKind, AxisValue, ConditionInfo, Layout, Status};
 use crate::montecarlo::Chunk;
 use crate::stats::measures::Estimate;
 use crate::stats::summary::{Record, SummaryRow};
-use crate::vehicle::DriveCycle;
 
 fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
     Field::new(name, DataType::Float64, nullable)
@@ -407,37 +406,4 @@ pub fn summary_batch(
         columns.push(get(|s| s.chi2_p));
     }
     RecordBatch::try_new(schema, columns)
-}
-
-/// Schema of `cycles.parquet`: the noise-free time series of each condition.
-pub fn cycles_schema() -> SchemaRef {
-    Arc::new(Schema::new(vec![
-        Field::new("condition", DataType::Int32, false),
-        f64_field("t", false),
-        f64_field("x", false),
-        f64_field("v", false),
-        f64_field("grade", false),
-        f64_field("f_prop", false),
-        f64_field("accel", false),
-    ]))
-}
-
-/// One condition's drive cycle as a record batch.
-pub fn cycles_batch(
-    condition: usize,
-    cycle: &DriveCycle,
-) -> Result<RecordBatch, arrow::error::ArrowError> {
-    let col = |v: &Vec<f64>| -> ArrayRef { Arc::new(Float64Array::from(v.clone())) };
-    RecordBatch::try_new(
-        cycles_schema(),
-        vec![
-            Arc::new(Int32Array::from(vec![condition as i32; cycle.len()])),
-            col(&cycle.t_s),
-            col(&cycle.x_m),
-            col(&cycle.v_m_s),
-            col(&cycle.grade_rad),
-            col(&cycle.f_prop_n),
-            col(&cycle.accel_m_s2),
-        ],
-    )
 }

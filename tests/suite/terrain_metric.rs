@@ -33,8 +33,7 @@ fn grid_metric_matches_the_closed_form_at_scale_one() {
     })) / l as f64;
 
     let study = study("thesis.toml", 1);
-    let prepared = chassis_mc::run::PreparedModel::new(&study).unwrap();
-    let infos = prepared.model().infos();
+    let infos = chassis_mc::model::prepare(&study).unwrap().infos();
     let grid = infos[0].metrics[0];
     let rel = ((grid - closed) / closed).abs();
     assert!(
