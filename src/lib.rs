@@ -23,6 +23,7 @@ pub mod figures;
 pub mod model;
 pub mod montecarlo;
 pub mod noise;
+pub mod numeric;
 pub mod output;
 pub mod report;
 pub mod run;

@@ -4,10 +4,10 @@
 
 use nalgebra::Matrix3;
 
-use super::linalg::{SolveError, inverse_spd};
 use super::regression::Regression;
 use crate::noise::NoiseLevels;
-use crate::stats::sum::ExactSum;
+use crate::numeric::linalg::{SolveError, inverse_spd};
+use crate::numeric::sum::ExactSum;
 
 impl Regression {
     /// First-order variance Ω_i of the equation error u_i = ỹ_i − x̃_iᵀθ at each sample:

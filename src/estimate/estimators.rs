@@ -3,8 +3,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::linalg::{SolveError, solve_spd};
 use super::moments::Moments;
+use crate::numeric::linalg::{SolveError, solve_spd};
 
 impl Moments {
     /// OLS normal equations X̃ᵀX̃ θ = X̃ᵀỹ (thesis eq. 20).

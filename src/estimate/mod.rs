@@ -6,7 +6,8 @@
 //! - [`estimators`]: OLS and BCLS normal equations from the moments;
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
-//! - [`linalg`]: stable solution of the small normal-equation systems.
+//!
+//! The small normal-equation systems are solved by [`crate::numeric::linalg`].
 //!
 //! The equations are in docs/model.md.
 
@@ -14,6 +15,5 @@ pub mod bounds;
 pub mod conversions;
 pub mod estimators;
 mod kernels;
-pub mod linalg;
 pub mod moments;
 pub mod regression;

@@ -24,7 +24,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
 use crate::noise::BLOCK;
-use crate::stats::sum::exact_sum;
+use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
 
 /// The noise-free regression of one drive cycle and its constant sums.

@@ -10,8 +10,8 @@
 use nalgebra::{Matrix2, Vector2};
 
 use super::{Axis, AxisValue, BoundInfo, ConditionInfo, Layout, Model, ParameterInfo, Status};
-use crate::estimate::linalg::{inverse_spd, solve_spd};
 use crate::noise::{BLOCK, Channel, NormalStream};
+use crate::numeric::linalg::{inverse_spd, solve_spd};
 use crate::study::{LineFitStudy, NoiseShape, Study, StudyError};
 
 const ASSUMED_SIGMA: usize = 0;

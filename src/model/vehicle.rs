@@ -18,10 +18,10 @@ use super::{
 use crate::estimate::bounds::scaled_inverse_sd;
 use crate::estimate::conversions::{mass_and_drag, thesis_error_conversions};
 use crate::estimate::estimators::solve;
-use crate::estimate::linalg::condition_number;
 use crate::estimate::moments::{BlockNoise, MomentAccumulator, Moments};
 use crate::estimate::regression::Regression;
 use crate::noise::{BLOCK, Channel, NoiseLevels, NormalStream};
+use crate::numeric::linalg::condition_number;
 use crate::study::{EstimatorKind, Study, StudyError, VehicleStudy};
 use crate::vehicle::{DriveCycle, simulate};
 

@@ -1,6 +1,5 @@
-//! Statistics of the realisations: exact sums, performance measures with Monte Carlo
-//! standard errors, and the two-pass summary of a study.
+//! Statistics of the realisations: performance measures with Monte Carlo standard errors,
+//! and the two-pass summary of a study (with the exact sums of [`crate::numeric::sum`]).
 
 pub mod measures;
-pub mod sum;
 pub mod summary;

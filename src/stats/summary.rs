@@ -13,8 +13,8 @@ use super::measures::{
     self, BoundSums, Estimate, EstimateSums, coverage, emp_over_model, model_se,
     model_se_relative_error, relative_precision, variance_ratio_p,
 };
-use super::sum::ExactSum;
 use crate::model::{ConditionInfo, Layout};
+use crate::numeric::sum::ExactSum;
 
 /// One realisation row of one estimator, as read from memory or from Parquet.
 #[derive(Debug, Clone, Copy)]

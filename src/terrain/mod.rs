@@ -5,7 +5,7 @@
 //! (`w1 = w1_1 .* a`). Scaling the elevation instead (`θ_i = atan(a (y_{i+1} − y_i))`) is an
 //! option. Its variability metric ς is the mean of θ² (thesis eq. 43).
 
-use crate::stats::sum::exact_sum;
+use crate::numeric::sum::exact_sum;
 
 /// Grid spacing of the terrain tables [m] (the thesis's `x = (0:50000)'`).
 pub const GRID_STEP_M: f64 = 1.0;

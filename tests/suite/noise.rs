@@ -2,7 +2,7 @@
 //! (a fixed key gives fixed first values, so an upgrade cannot silently change every study).
 
 use chassis_mc::noise::{Channel, NormalStream};
-use chassis_mc::stats::sum::exact_sum;
+use chassis_mc::numeric::sum::exact_sum;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 /// 10⁶ draws over 100 realisation streams of the thesis cycle's length.
