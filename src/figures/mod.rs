@@ -22,14 +22,17 @@ use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use arrow::array::{Array, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray};
+use arrow::array::AsArray;
+use arrow::datatypes::{DataType, Float64Type, Int32Type};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::model::{AxisKind, Layout};
+use crate::model::{AxisKind, AxisValue, ConditionInfo, Layout};
 use crate::output::lock::DirLock;
-use crate::output::{self, OutputError, PendingFile, files, keys, set};
+use crate::output::{self, OutputError, PendingFile, SummaryTable, files, keys, set};
+use crate::stats::columns::{BoundMeasure, Measure};
+use crate::stats::summary::SummaryRow;
 use crate::study::{Study, StudyError};
 
 /// Directory of the figures inside an output directory.
@@ -71,57 +74,46 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
     }
 }
 
-/// A table read whole: numeric columns as f64 (null → NaN), string columns as text.
+/// The numeric columns of a table read whole, as f64 (null → NaN): the drive cycles.
 #[derive(Debug, Default)]
 struct Table {
-    rows: usize,
     numbers: BTreeMap<String, Vec<f64>>,
-    texts: BTreeMap<String, Vec<String>>,
 }
 
 impl Table {
-    fn read(path: &Path) -> Result<Table, OutputError> {
-        Self::read_columns(path, None)
-    }
-
-    /// Read only the named columns (all when `None`).
-    fn read_columns(path: &Path, columns: Option<&[&str]>) -> Result<Table, OutputError> {
+    /// Read the named columns (doubles or int32).
+    fn read_columns(path: &Path, columns: &[&str]) -> Result<Table, OutputError> {
         let mut t = Table::default();
-        for batch in output::open_projected_reader(path, output::READ_ROWS, columns)? {
+        for batch in output::open_projected_reader(path, output::READ_ROWS, Some(columns))? {
             let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
-            t.append(&batch);
+            for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
+                let values: Vec<f64> = match column.data_type() {
+                    DataType::Float64 => {
+                        let a = column.as_primitive::<Float64Type>();
+                        a.iter().map(|v| v.unwrap_or(f64::NAN)).collect()
+                    }
+                    DataType::Int32 => {
+                        let a = column.as_primitive::<Int32Type>();
+                        a.iter().map(|v| v.map_or(f64::NAN, f64::from)).collect()
+                    }
+                    other => {
+                        return Err(OutputError::format(
+                            path,
+                            format!("column `{}` is {other}, not a number", field.name()),
+                        ));
+                    }
+                };
+                t.numbers
+                    .entry(field.name().clone())
+                    .or_default()
+                    .extend(values);
+            }
         }
         Ok(t)
     }
 
-    fn append(&mut self, batch: &RecordBatch) {
-        self.rows += batch.num_rows();
-        for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
-            let any = column.as_any();
-            let name = field.name().clone();
-            let value = |i: usize, v: f64| if column.is_null(i) { f64::NAN } else { v };
-            if let Some(a) = any.downcast_ref::<Float64Array>() {
-                let col = self.numbers.entry(name).or_default();
-                col.extend((0..a.len()).map(|i| value(i, a.value(i))));
-            } else if let Some(a) = any.downcast_ref::<Int32Array>() {
-                let col = self.numbers.entry(name).or_default();
-                col.extend((0..a.len()).map(|i| value(i, f64::from(a.value(i)))));
-            } else if let Some(a) = any.downcast_ref::<Int64Array>() {
-                let col = self.numbers.entry(name).or_default();
-                col.extend((0..a.len()).map(|i| value(i, a.value(i) as f64)));
-            } else if let Some(a) = any.downcast_ref::<StringArray>() {
-                let col = self.texts.entry(name).or_default();
-                col.extend((0..a.len()).map(|i| a.value(i).to_string()));
-            }
-        }
-    }
-
     fn number(&self, name: &str) -> Option<&[f64]> {
         self.numbers.get(name).map(Vec::as_slice)
-    }
-
-    fn text(&self, name: &str) -> Option<&[String]> {
-        self.texts.get(name).map(Vec::as_slice)
     }
 }
 
@@ -393,68 +385,63 @@ fn varies<T: PartialEq>(v: &[T]) -> bool {
     v.iter().any(|x| *x != v[0])
 }
 
-fn x_axis(layout: &Layout, t: &Table) -> XAxis {
+fn x_axis(layout: &Layout, t: &SummaryTable) -> XAxis {
+    let per_row = |value: &dyn Fn(&ConditionInfo) -> f64| -> Vec<f64> {
+        t.rows.iter().map(|r| value(t.info(r))).collect()
+    };
     if let Some(fx) = &layout.figure_x
-        && let Some(values) = t.number(fx.metric)
+        && let Some(m) = layout
+            .condition_metrics
+            .iter()
+            .position(|&m| m == fx.metric)
     {
         return XAxis {
-            values: values.to_vec(),
+            values: per_row(&|info| info.metrics[m]),
             label: fx.label.into(),
             replaces: Some(fx.replaces),
         };
     }
-    for axis in layout.axes.iter().filter(|a| a.kind == AxisKind::Number) {
-        if let Some(v) = t.number(axis.name)
-            && varies(v)
-        {
+    for (a, axis) in layout.axes.iter().enumerate() {
+        if axis.kind != AxisKind::Number {
+            continue;
+        }
+        let v = per_row(&|info| info.axes[a].number());
+        if varies(&v) {
             let unit = if axis.unit.is_empty() {
                 String::new()
             } else {
                 format!(" [{}]", axis.unit)
             };
             return XAxis {
-                values: v.to_vec(),
+                values: v,
                 label: format!("{}{unit}", axis.name),
                 replaces: Some(axis.name),
             };
         }
     }
     XAxis {
-        values: t
-            .number("condition")
-            .map(<[f64]>::to_vec)
-            .unwrap_or_default(),
+        values: t.rows.iter().map(|r| r.condition as f64).collect(),
         label: "condition".into(),
         replaces: None,
     }
 }
 
 /// Label of a row's group: the values of the axes that vary, other than the x axis.
-fn group_labels(layout: &Layout, t: &Table, x: &XAxis) -> Vec<String> {
-    let mut parts: Vec<Vec<String>> = vec![Vec::new(); t.rows];
-    for axis in &layout.axes {
+fn group_labels(layout: &Layout, t: &SummaryTable, x: &XAxis) -> Vec<String> {
+    let mut parts: Vec<Vec<String>> = vec![Vec::new(); t.rows.len()];
+    for (a, axis) in layout.axes.iter().enumerate() {
         if Some(axis.name) == x.replaces {
             continue;
         }
-        match axis.kind {
-            AxisKind::Number => {
-                if let Some(v) = t.number(axis.name)
-                    && varies(v)
-                {
-                    for (i, p) in parts.iter_mut().enumerate() {
-                        p.push(format!("{} {}", axis.name, v[i]));
-                    }
-                }
-            }
-            AxisKind::Text => {
-                if let Some(v) = t.text(axis.name)
-                    && varies(v)
-                {
-                    for (i, p) in parts.iter_mut().enumerate() {
-                        p.push(v[i].clone());
-                    }
-                }
-            }
+        let values: Vec<&AxisValue> = t.rows.iter().map(|r| &t.info(r).axes[a]).collect();
+        if !varies(&values) {
+            continue;
+        }
+        for (p, v) in parts.iter_mut().zip(values) {
+            p.push(match (axis.kind, v) {
+                (AxisKind::Number, v) => format!("{} {v}", axis.name),
+                (AxisKind::Text, v) => v.to_string(),
+            });
         }
     }
     parts.into_iter().map(|p| p.join(", ")).collect()
@@ -519,12 +506,12 @@ pub fn draw_staged(
         .ok_or_else(|| OutputError::format(summary_path, "no study in the footer"))?;
     let study = Study::from_toml(study_toml, &format!("{} (footer)", summary_path.display()))?;
     let layout = crate::model::layout_of(&study);
-    let summary = Table::read(summary_path)?;
+    let summary = output::read_summary(summary_path, &layout)?;
     let cycles = match cycles_path {
         // Only what the cycles figure draws (the file also holds x, f_prop and accel).
         Some(path) => Some(Table::read_columns(
             path,
-            Some(&["condition", "t", "v", "grade"]),
+            &["condition", "t", "v", "grade"],
         )?),
         None => None,
     };
@@ -547,7 +534,7 @@ pub fn draw_staged(
 fn draw_into(
     dir: &Path,
     layout: &Layout,
-    t: &Table,
+    t: &SummaryTable,
     cycles: Option<&Table>,
 ) -> Result<Vec<String>, FigureError> {
     let x = x_axis(layout, t);
@@ -558,11 +545,12 @@ fn draw_into(
             layout
                 .parameters
                 .par_iter()
+                .enumerate()
                 .map(|p| draw_parameter(dir, layout, t, &x, &groups, p))
                 .collect::<Result<Vec<_>, _>>()
         },
-        || match (cycles, t.number("scale")) {
-            (Some(cy), Some(scale)) => draw_cycles(dir, t, cy, scale).map(Some),
+        || match (cycles, layout.axes.iter().position(|a| a.name == "scale")) {
+            (Some(cy), Some(a)) => draw_cycles(dir, t, cy, a).map(Some),
             _ => Ok(None),
         },
     );
@@ -575,21 +563,32 @@ fn draw_into(
 fn draw_parameter(
     dir: &Path,
     layout: &Layout,
-    t: &Table,
+    t: &SummaryTable,
     x: &XAxis,
     groups: &[String],
-    p: &crate::model::ParameterInfo,
+    (pi, p): (usize, &crate::model::ParameterInfo),
 ) -> Result<Vec<String>, FigureError> {
-    let missing = |name: &str| FigureError::Draw {
-        path: dir.to_path_buf(),
-        reason: format!("summary has no column `{name}`"),
+    let estimator: Vec<String> = t
+        .rows
+        .iter()
+        .map(|r| layout.estimators[r.estimator].to_string())
+        .collect();
+    // A measure (or its MCSE) of every row, NaN where undefined.
+    let column =
+        |value: &dyn Fn(&SummaryRow) -> f64| -> Vec<f64> { t.rows.iter().map(value).collect() };
+    let measure = |m: Measure| (column(&|r| m.of(r).value), column(&|r| m.of(r).mcse));
+    let bound = |b: usize, m: BoundMeasure| {
+        let of = |r: &SummaryRow| r.bounds[b].as_ref().map(|s| m.of(s));
+        (
+            column(&|r| of(r).map_or(f64::NAN, |e| e.value)),
+            column(&|r| of(r).map_or(f64::NAN, |e| e.mcse)),
+        )
     };
-    let estimator = t.text("estimator").ok_or_else(|| missing("estimator"))?;
-    let parameter = t.text("parameter").ok_or_else(|| missing("parameter"))?;
-    let get = |name: &str| t.number(name).ok_or_else(|| missing(name));
     let many_estimators = layout.estimators.len() > 1;
     let mut names = Vec::new();
-    let rows: Vec<usize> = (0..t.rows).filter(|&i| parameter[i] == p.name).collect();
+    let rows: Vec<usize> = (0..t.rows.len())
+        .filter(|&i| t.rows[i].parameter == pi)
+        .collect();
     let sym = symbol(p.description);
     let unit = unit_suffix(p.unit);
     // Series keys (estimator, group) in first-seen order.
@@ -617,8 +616,7 @@ fn draw_parameter(
     };
 
     // (a) EmpSE with MCSE and every bound, against x.
-    let emp_se = get("emp_se")?;
-    let emp_se_mcse = get("emp_se_mcse")?;
+    let (emp_se, emp_se_mcse) = &measure(Measure::EmpSe);
     let mut series = Vec::new();
     for (k, (e, g)) in keys_seen.iter().enumerate() {
         series.push(Series {
@@ -629,8 +627,8 @@ fn draw_parameter(
         });
     }
     let mut c = keys_seen.len();
-    for b in &layout.bounds {
-        let se = get(&format!("{}_se", b.name))?;
+    for (bi, b) in layout.bounds.iter().enumerate() {
+        let se = &bound(bi, BoundMeasure::Se).0;
         // A bound's value does not depend on the estimator: draw it once per group.
         let mut seen_groups: Vec<&String> = Vec::new();
         for (e, g) in &keys_seen {
@@ -666,8 +664,7 @@ fn draw_parameter(
     names.push(name);
 
     // (b) bias ± MCSE.
-    let bias = get("bias")?;
-    let bias_mcse = get("bias_mcse")?;
+    let (bias, bias_mcse) = &measure(Measure::Bias);
     let series: Vec<Series> = keys_seen
         .iter()
         .enumerate()
@@ -696,10 +693,10 @@ fn draw_parameter(
     names.push(name);
 
     // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
-    for (figure, prefix, log_y, reference, title, y_label) in [
+    for (figure, which, log_y, reference, title, y_label) in [
         (
             "ratio",
-            "emp_over_",
+            BoundMeasure::EmpOver,
             true,
             Reference {
                 y: 1.0,
@@ -710,7 +707,7 @@ fn draw_parameter(
         ),
         (
             "coverage",
-            "coverage_",
+            BoundMeasure::Coverage,
             false,
             Reference {
                 y: NOMINAL,
@@ -722,10 +719,8 @@ fn draw_parameter(
     ] {
         let mut series = Vec::new();
         let mut c = 0;
-        for b in &layout.bounds {
-            let col = format!("{prefix}{}", b.name);
-            let value = get(&col)?;
-            let mcse = get(&format!("{col}_mcse"))?;
+        for (bi, b) in layout.bounds.iter().enumerate() {
+            let (value, mcse) = &bound(bi, which);
             for (e, g) in &keys_seen {
                 let points = points(e, g, value, Some(mcse));
                 if points.is_empty() {
@@ -762,18 +757,19 @@ fn draw_parameter(
 /// Speed and grade against time, one line per distinct terrain scale.
 fn draw_cycles(
     dir: &Path,
-    summary: &Table,
+    summary: &SummaryTable,
     cycles: &Table,
-    scale: &[f64],
+    scale_axis: usize,
 ) -> Result<String, FigureError> {
     let name = "cycles.svg".to_string();
     let path = dir.join(&name);
-    let condition = summary.number("condition").unwrap_or(&[]);
     // First condition of each distinct scale, in study order.
     let mut picks: Vec<(f64, f64)> = Vec::new(); // (scale, condition)
-    for (i, &s) in scale.iter().enumerate() {
+    for (c, info) in summary.infos.iter().enumerate() {
+        let Some(info) = info else { continue };
+        let s = info.axes[scale_axis].number();
         if !picks.iter().any(|p| p.0 == s) {
-            picks.push((s, condition.get(i).copied().unwrap_or(f64::NAN)));
+            picks.push((s, c as f64));
         }
     }
     let cols = ["condition", "t", "v", "grade"].map(|n| cycles.number(n));

@@ -9,6 +9,7 @@
 pub mod lock;
 pub mod set;
 pub mod store;
+mod summary_table;
 mod tables;
 
 use std::fs::{self, File};
@@ -24,9 +25,8 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use thiserror::Error;
 
-pub use tables::{
-    RealisationBatches, realisation_schema, realisations_batch, summary_batch, summary_schema,
-};
+pub use summary_table::{SummaryTable, read_summary, summary_batch, summary_schema};
+pub use tables::{RealisationBatches, realisation_schema, realisations_batch};
 
 /// File names inside an output directory.
 pub mod files {

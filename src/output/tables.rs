@@ -1,6 +1,6 @@
-//! Arrow schemas of the three tables and the conversions to and from record batches.
+//! The realisation table: its Arrow schema and the conversions to and from record batches.
 //!
-//! The schemas are built from the model's [`Layout`], so every model gets the same column
+//! The schema is built from the model's [`Layout`], so every model gets the same column
 //! conventions: `theta_<parameter>`, `<bound>_<parameter>`, snake_case, SI units.
 
 use std::path::Path;
@@ -14,14 +14,13 @@ use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use super::OutputError;
 use crate::model::{Axis, AxisKind, AxisValue, ConditionInfo, Layout, Status};
 use crate::montecarlo::Chunk;
-use crate::stats::measures::Estimate;
-use crate::stats::summary::{Record, SummaryRow};
+use crate::stats::summary::Record;
 
-fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
+pub(super) fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
     Field::new(name, DataType::Float64, nullable)
 }
 
-fn axis_field(axis: &Axis) -> Field {
+pub(super) fn axis_field(axis: &Axis) -> Field {
     match axis.kind {
         AxisKind::Number => f64_field(axis.name, false),
         AxisKind::Text => Field::new(axis.name, DataType::Utf8, false),
@@ -29,7 +28,10 @@ fn axis_field(axis: &Axis) -> Field {
 }
 
 /// A column holding one condition's value of `axis` on `rows` rows.
-fn axis_column<'a>(axis: &Axis, values: impl Iterator<Item = &'a AxisValue>) -> ArrayRef {
+pub(super) fn axis_column<'a>(
+    axis: &Axis,
+    values: impl Iterator<Item = &'a AxisValue>,
+) -> ArrayRef {
     match axis.kind {
         AxisKind::Number => Arc::new(Float64Array::from_iter_values(
             values.map(AxisValue::number),
@@ -267,143 +269,4 @@ impl RealisationBatches {
             bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
         })
     }
-}
-
-/// Names of the per-bound summary columns of bound `b`, in schema order.
-fn bound_columns(b: &str) -> [String; 11] {
-    [
-        format!("{b}_se"),
-        format!("{b}_se_mcse"),
-        format!("emp_over_{b}"),
-        format!("emp_over_{b}_mcse"),
-        format!("{b}_rel_error"),
-        format!("{b}_rel_error_mcse"),
-        format!("coverage_{b}"),
-        format!("coverage_{b}_mcse"),
-        format!("be_coverage_{b}"),
-        format!("be_coverage_{b}_mcse"),
-        format!("{b}_chi2_p"),
-    ]
-}
-
-/// Measures of every summary row, in schema order after the identifying columns.
-const MEASURES: [&str; 7] = [
-    "mean",
-    "bias",
-    "rel_bias",
-    "emp_se",
-    "mse",
-    "rmse",
-    "rel_precision",
-];
-
-fn measure(row: &SummaryRow, name: &str) -> Estimate {
-    match name {
-        "mean" => row.mean,
-        "bias" => row.bias,
-        "rel_bias" => row.rel_bias,
-        "emp_se" => row.emp_se,
-        "mse" => row.mse,
-        "rmse" => row.rmse,
-        "rel_precision" => row.rel_precision,
-        _ => unreachable!("unknown measure {name}"),
-    }
-}
-
-/// Schema of `summary.parquet`: one row per condition × estimator × parameter.
-pub fn summary_schema(layout: &Layout) -> SchemaRef {
-    let mut fields = vec![Field::new("condition", DataType::Int32, false)];
-    fields.extend(layout.axes.iter().map(axis_field));
-    fields.extend(
-        layout
-            .condition_metrics
-            .iter()
-            .map(|a| f64_field(*a, false)),
-    );
-    fields.push(Field::new("estimator", DataType::Utf8, false));
-    fields.push(Field::new("parameter", DataType::Utf8, false));
-    fields.push(f64_field("truth", false));
-    fields.push(Field::new("n", DataType::Int64, false));
-    fields.push(Field::new("n_failed", DataType::Int64, false));
-    for m in MEASURES {
-        fields.push(f64_field(m, true));
-        fields.push(f64_field(format!("{m}_mcse"), true));
-    }
-    for b in &layout.bounds {
-        for name in bound_columns(b.name) {
-            fields.push(f64_field(name, true));
-        }
-    }
-    Arc::new(Schema::new(fields))
-}
-
-fn finite_or_null(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
-}
-
-/// The summary rows as one record batch.
-pub fn summary_batch(
-    layout: &Layout,
-    infos: &[ConditionInfo],
-    rows: &[SummaryRow],
-) -> Result<RecordBatch, arrow::error::ArrowError> {
-    let schema = summary_schema(layout);
-    let mut columns: Vec<ArrayRef> = Vec::new();
-    columns.push(Arc::new(Int32Array::from_iter_values(
-        rows.iter().map(|r| r.condition as i32),
-    )));
-    for (a, axis) in layout.axes.iter().enumerate() {
-        columns.push(axis_column(
-            axis,
-            rows.iter().map(|r| &infos[r.condition].axes[a]),
-        ));
-    }
-    for m in 0..layout.condition_metrics.len() {
-        columns.push(Arc::new(Float64Array::from_iter_values(
-            rows.iter().map(|r| infos[r.condition].metrics[m]),
-        )));
-    }
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| layout.estimators[r.estimator]),
-    )));
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| layout.parameters[r.parameter].name),
-    )));
-    columns.push(Arc::new(Float64Array::from_iter_values(
-        rows.iter().map(|r| r.truth),
-    )));
-    columns.push(Arc::new(Int64Array::from_iter_values(
-        rows.iter().map(|r| r.n as i64),
-    )));
-    columns.push(Arc::new(Int64Array::from_iter_values(
-        rows.iter().map(|r| r.n_failed as i64),
-    )));
-    for m in MEASURES {
-        columns.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| finite_or_null(measure(r, m).value)),
-        )));
-        columns.push(Arc::new(Float64Array::from_iter(
-            rows.iter().map(|r| finite_or_null(measure(r, m).mcse)),
-        )));
-    }
-    for b in 0..layout.bounds.len() {
-        let get = |f: fn(&crate::stats::summary::BoundSummary) -> f64| -> ArrayRef {
-            Arc::new(Float64Array::from_iter(
-                rows.iter()
-                    .map(|r| r.bounds[b].as_ref().map(f).and_then(finite_or_null)),
-            ))
-        };
-        columns.push(get(|s| s.se.value));
-        columns.push(get(|s| s.se.mcse));
-        columns.push(get(|s| s.emp_over.value));
-        columns.push(get(|s| s.emp_over.mcse));
-        columns.push(get(|s| s.rel_error.value));
-        columns.push(get(|s| s.rel_error.mcse));
-        columns.push(get(|s| s.coverage.value));
-        columns.push(get(|s| s.coverage.mcse));
-        columns.push(get(|s| s.be_coverage.value));
-        columns.push(get(|s| s.be_coverage.mcse));
-        columns.push(get(|s| s.chi2_p));
-    }
-    RecordBatch::try_new(schema, columns)
 }

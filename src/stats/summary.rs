@@ -90,6 +90,21 @@ pub struct BoundSummary {
     pub chi2_p: f64,
 }
 
+impl BoundSummary {
+    /// Every measure undefined (NaN), as before any value is known.
+    pub fn undefined() -> Self {
+        BoundSummary {
+            n: 0,
+            se: Estimate::undefined(),
+            emp_over: Estimate::undefined(),
+            rel_error: Estimate::undefined(),
+            coverage: Estimate::undefined(),
+            be_coverage: Estimate::undefined(),
+            chi2_p: f64::NAN,
+        }
+    }
+}
+
 /// One summary row: condition × estimator × parameter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SummaryRow {

@@ -109,3 +109,47 @@ fn refactors_keep_the_realisations_bit_for_bit() {
         ]
     );
 }
+
+#[test]
+fn summary_rows_read_back_equal_the_rows_written() {
+    use chassis_mc::stats::columns::SummaryColumn;
+    // The typed decoder is the writer's inverse: every measure of every row, to the bit
+    // (NaN where a measure is undefined or a bound does not apply).
+    let (dir, report) = run(&study("bias_compensation.toml", 30), None);
+    let table =
+        chassis_mc::output::read_summary(&dir.path().join("summary.parquet"), &report.layout)
+            .unwrap();
+    assert_eq!(table.rows.len(), report.summary.len());
+    let columns = SummaryColumn::all(&report.layout);
+    for (read, written) in table.rows.iter().zip(&report.summary) {
+        assert_eq!(
+            (
+                read.condition,
+                read.estimator,
+                read.parameter,
+                read.n,
+                read.n_failed
+            ),
+            (
+                written.condition,
+                written.estimator,
+                written.parameter,
+                written.n,
+                written.n_failed
+            )
+        );
+        assert_eq!(read.truth.to_bits(), written.truth.to_bits());
+        for c in &columns {
+            let bits = |row| c.measure_value(row).map(f64::to_bits);
+            let (a, b) = (bits(read), bits(written));
+            // Non-finite values are written as nulls and read back as NaN.
+            let finite = c.measure_value(written).is_none_or(f64::is_finite);
+            assert!(
+                a == b || !finite,
+                "{}: {a:?} vs {b:?}",
+                c.name(&report.layout)
+            );
+        }
+        assert_eq!(table.info(read).axes, report.infos[read.condition].axes);
+    }
+}

@@ -1,0 +1,288 @@
+//! The columns of `summary.parquet`, named once.
+//!
+//! [`SummaryColumn::all`] is the one definition of the summary table: the Parquet writer
+//! builds its schema and arrays from it, the typed decoder reads rows back through it, and
+//! the figures and the printed table get every measure from a [`SummaryRow`] through
+//! [`Measure`] and [`BoundMeasure`] — no column name is spelled anywhere else, so renaming
+//! one is a compile-time change here.
+
+use super::measures::Estimate;
+use super::summary::{BoundSummary, SummaryRow};
+use crate::model::Layout;
+
+/// A measure of every summary row, each with its MCSE column `<name>_mcse`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Measure {
+    /// Mean of θ̂.
+    Mean,
+    /// Bias: mean − truth.
+    Bias,
+    /// Relative bias: bias / truth.
+    RelBias,
+    /// Empirical SE: the SD of θ̂ over realisations.
+    EmpSe,
+    /// Mean squared error.
+    Mse,
+    /// Root mean squared error.
+    Rmse,
+    /// Precision relative to the reference estimator [%].
+    RelPrecision,
+}
+
+impl Measure {
+    /// Every measure, in column order.
+    pub const ALL: [Measure; 7] = [
+        Measure::Mean,
+        Measure::Bias,
+        Measure::RelBias,
+        Measure::EmpSe,
+        Measure::Mse,
+        Measure::Rmse,
+        Measure::RelPrecision,
+    ];
+
+    /// Column name of the value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Measure::Mean => "mean",
+            Measure::Bias => "bias",
+            Measure::RelBias => "rel_bias",
+            Measure::EmpSe => "emp_se",
+            Measure::Mse => "mse",
+            Measure::Rmse => "rmse",
+            Measure::RelPrecision => "rel_precision",
+        }
+    }
+
+    /// Its value and MCSE in `row`.
+    pub fn of(self, row: &SummaryRow) -> Estimate {
+        match self {
+            Measure::Mean => row.mean,
+            Measure::Bias => row.bias,
+            Measure::RelBias => row.rel_bias,
+            Measure::EmpSe => row.emp_se,
+            Measure::Mse => row.mse,
+            Measure::Rmse => row.rmse,
+            Measure::RelPrecision => row.rel_precision,
+        }
+    }
+
+    fn of_mut(self, row: &mut SummaryRow) -> &mut Estimate {
+        match self {
+            Measure::Mean => &mut row.mean,
+            Measure::Bias => &mut row.bias,
+            Measure::RelBias => &mut row.rel_bias,
+            Measure::EmpSe => &mut row.emp_se,
+            Measure::Mse => &mut row.mse,
+            Measure::Rmse => &mut row.rmse,
+            Measure::RelPrecision => &mut row.rel_precision,
+        }
+    }
+}
+
+/// A measure of one bound B in a summary row.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoundMeasure {
+    /// `B_se`: √ of the mean per-realisation variance.
+    Se,
+    /// `emp_over_B`: EmpSE / B_se.
+    EmpOver,
+    /// `B_rel_error`: 100 (B_se / EmpSE − 1) [%].
+    RelError,
+    /// `coverage_B`: of the truth by θ̂ ± z·B.
+    Coverage,
+    /// `be_coverage_B`: of the mean θ̄ by θ̂ ± z·B.
+    BeCoverage,
+    /// `B_chi2_p`: p-value of the variance-ratio test (no MCSE).
+    Chi2P,
+}
+
+impl BoundMeasure {
+    /// Every bound measure, in column order.
+    pub const ALL: [BoundMeasure; 6] = [
+        BoundMeasure::Se,
+        BoundMeasure::EmpOver,
+        BoundMeasure::RelError,
+        BoundMeasure::Coverage,
+        BoundMeasure::BeCoverage,
+        BoundMeasure::Chi2P,
+    ];
+
+    /// Column name of the value for bound `bound`.
+    pub fn column(self, bound: &str) -> String {
+        match self {
+            BoundMeasure::Se => format!("{bound}_se"),
+            BoundMeasure::EmpOver => format!("emp_over_{bound}"),
+            BoundMeasure::RelError => format!("{bound}_rel_error"),
+            BoundMeasure::Coverage => format!("coverage_{bound}"),
+            BoundMeasure::BeCoverage => format!("be_coverage_{bound}"),
+            BoundMeasure::Chi2P => format!("{bound}_chi2_p"),
+        }
+    }
+
+    /// Whether it has an MCSE column.
+    pub fn has_mcse(self) -> bool {
+        self != BoundMeasure::Chi2P
+    }
+
+    /// Its value and MCSE (NaN where it has none).
+    pub fn of(self, s: &BoundSummary) -> Estimate {
+        match self {
+            BoundMeasure::Se => s.se,
+            BoundMeasure::EmpOver => s.emp_over,
+            BoundMeasure::RelError => s.rel_error,
+            BoundMeasure::Coverage => s.coverage,
+            BoundMeasure::BeCoverage => s.be_coverage,
+            BoundMeasure::Chi2P => Estimate::new(s.chi2_p, f64::NAN),
+        }
+    }
+
+    fn set(self, s: &mut BoundSummary, part: Part, v: f64) {
+        let target = match self {
+            BoundMeasure::Se => &mut s.se,
+            BoundMeasure::EmpOver => &mut s.emp_over,
+            BoundMeasure::RelError => &mut s.rel_error,
+            BoundMeasure::Coverage => &mut s.coverage,
+            BoundMeasure::BeCoverage => &mut s.be_coverage,
+            BoundMeasure::Chi2P => {
+                s.chi2_p = v;
+                return;
+            }
+        };
+        part.set(target, v);
+    }
+}
+
+/// The value of a measure, or its Monte Carlo standard error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    /// The measure.
+    Value,
+    /// Its MCSE (column name `<measure>_mcse`).
+    Mcse,
+}
+
+impl Part {
+    fn get(self, e: Estimate) -> f64 {
+        match self {
+            Part::Value => e.value,
+            Part::Mcse => e.mcse,
+        }
+    }
+
+    fn set(self, e: &mut Estimate, v: f64) {
+        match self {
+            Part::Value => e.value = v,
+            Part::Mcse => e.mcse = v,
+        }
+    }
+
+    fn suffix(self) -> &'static str {
+        match self {
+            Part::Value => "",
+            Part::Mcse => "_mcse",
+        }
+    }
+}
+
+/// One column of `summary.parquet`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SummaryColumn {
+    /// `condition` (int32).
+    Condition,
+    /// Condition axis `i` of the layout (its own name and type).
+    Axis(usize),
+    /// Condition metric `i` of the layout (f64).
+    Metric(usize),
+    /// `estimator` (text).
+    Estimator,
+    /// `parameter` (text).
+    Parameter,
+    /// `truth` (f64).
+    Truth,
+    /// `n`: realisations with a valid estimate (int64).
+    N,
+    /// `n_failed`: realisations where the estimator failed (int64).
+    NFailed,
+    /// A measure or its MCSE (f64, null where undefined).
+    Measure(Measure, Part),
+    /// A measure of bound `b` of the layout, or its MCSE (f64, null where the bound does
+    /// not apply).
+    Bound(usize, BoundMeasure, Part),
+}
+
+impl SummaryColumn {
+    /// Every column of the summary of a model with `layout`, in table order.
+    pub fn all(layout: &Layout) -> Vec<SummaryColumn> {
+        let mut out = vec![SummaryColumn::Condition];
+        out.extend((0..layout.axes.len()).map(SummaryColumn::Axis));
+        out.extend((0..layout.condition_metrics.len()).map(SummaryColumn::Metric));
+        out.extend([
+            SummaryColumn::Estimator,
+            SummaryColumn::Parameter,
+            SummaryColumn::Truth,
+            SummaryColumn::N,
+            SummaryColumn::NFailed,
+        ]);
+        for m in Measure::ALL {
+            out.push(SummaryColumn::Measure(m, Part::Value));
+            out.push(SummaryColumn::Measure(m, Part::Mcse));
+        }
+        for b in 0..layout.bounds.len() {
+            for m in BoundMeasure::ALL {
+                out.push(SummaryColumn::Bound(b, m, Part::Value));
+                if m.has_mcse() {
+                    out.push(SummaryColumn::Bound(b, m, Part::Mcse));
+                }
+            }
+        }
+        out
+    }
+
+    /// The column's name.
+    pub fn name(self, layout: &Layout) -> String {
+        match self {
+            SummaryColumn::Condition => "condition".into(),
+            SummaryColumn::Axis(i) => layout.axes[i].name.into(),
+            SummaryColumn::Metric(i) => layout.condition_metrics[i].into(),
+            SummaryColumn::Estimator => "estimator".into(),
+            SummaryColumn::Parameter => "parameter".into(),
+            SummaryColumn::Truth => "truth".into(),
+            SummaryColumn::N => "n".into(),
+            SummaryColumn::NFailed => "n_failed".into(),
+            SummaryColumn::Measure(m, part) => format!("{}{}", m.name(), part.suffix()),
+            SummaryColumn::Bound(b, m, part) => {
+                format!("{}{}", m.column(layout.bounds[b].name), part.suffix())
+            }
+        }
+    }
+
+    /// The value of a measure column in `row` (NaN where undefined or absent); `None` for
+    /// the identifying and count columns.
+    pub fn measure_value(self, row: &SummaryRow) -> Option<f64> {
+        match self {
+            SummaryColumn::Measure(m, part) => Some(part.get(m.of(row))),
+            SummaryColumn::Bound(b, m, part) => Some(
+                row.bounds[b]
+                    .as_ref()
+                    .map_or(f64::NAN, |s| part.get(m.of(s))),
+            ),
+            _ => None,
+        }
+    }
+
+    /// Store the value of a measure column in `row` (a bound's summary is created on its
+    /// first non-null value). Other columns are ignored.
+    pub fn set_measure(self, row: &mut SummaryRow, v: Option<f64>) {
+        match self {
+            SummaryColumn::Measure(m, part) => part.set(m.of_mut(row), v.unwrap_or(f64::NAN)),
+            SummaryColumn::Bound(b, m, part) => {
+                if let Some(v) = v {
+                    let s = row.bounds[b].get_or_insert_with(BoundSummary::undefined);
+                    m.set(s, part, v);
+                }
+            }
+            _ => {}
+        }
+    }
+}
