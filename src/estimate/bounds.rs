@@ -84,3 +84,64 @@ pub fn scaled_inverse_sd(a: &Matrix3<f64>, sd: f64) -> Result<[f64; 3], SolveErr
     let inv = inverse_spd(a)?;
     Ok([0, 1, 2].map(|i| sd * inv[(i, i)].sqrt()))
 }
+
+/// The thesis's bound sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) from a realisation's noisy X̃ᵀX̃ (`None`
+/// without speed noise, or when X̃ᵀX̃ is singular).
+pub fn thesis_bound(noisy_xtx: &Matrix3<f64>, noise: &NoiseLevels) -> Option<[f64; 3]> {
+    if noise.velocity_sd > 0.0 {
+        scaled_inverse_sd(noisy_xtx, noise.velocity_sd).ok()
+    } else {
+        None
+    }
+}
+
+/// How a bound's standard errors are obtained.
+#[derive(Debug, Clone, Copy)]
+pub enum BoundValue {
+    /// The same in every realisation of a condition: from the noise-free regression, the
+    /// truth θ and the noise levels.
+    Constant(fn(&Regression, &[f64; 3], &NoiseLevels) -> Option<[f64; 3]>),
+    /// Per realisation, from the noisy X̃ᵀX̃ of the realisation and the noise levels.
+    PerRealisation(fn(&Matrix3<f64>, &NoiseLevels) -> Option<[f64; 3]>),
+}
+
+/// A bound or predicted standard error of the vehicle regression: one entry of [`BOUNDS`].
+#[derive(Debug, Clone, Copy)]
+pub struct Bound {
+    /// Column prefix, e.g. `thesis_bound`.
+    pub name: &'static str,
+    /// What it is and when it is valid.
+    pub description: &'static str,
+    /// Whether it applies (and is reported) under these noise levels.
+    pub applies: fn(&NoiseLevels) -> bool,
+    /// How its standard errors are computed.
+    pub value: BoundValue,
+}
+
+/// Every bound of the vehicle model, in column order (see docs/model.md#bounds).
+pub static BOUNDS: [Bound; 4] = [
+    Bound {
+        name: "thesis_bound",
+        description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
+        applies: |n| n.velocity_sd > 0.0,
+        value: BoundValue::PerRealisation(thesis_bound),
+    },
+    Bound {
+        name: "crlb_output",
+        description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
+        applies: NoiseLevels::output_only,
+        value: BoundValue::Constant(|reg, _, n| scaled_inverse_sd(&reg.xtx, n.output_sd).ok()),
+    },
+    Bound {
+        name: "eiv_sandwich",
+        description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance",
+        applies: NoiseLevels::in_regressors,
+        value: BoundValue::Constant(|reg, theta, n| reg.sandwich_se(theta, n).ok()),
+    },
+    Bound {
+        name: "eiv_crlb_linearized",
+        description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach)",
+        applies: NoiseLevels::in_regressors,
+        value: BoundValue::Constant(|reg, theta, n| reg.linearized_crlb_se(theta, n).ok()),
+    },
+];

@@ -1,10 +1,99 @@
 //! The estimators of the vehicle regression: each builds its normal equations from a
 //! realisation's [`Moments`] (see docs/model.md#estimators).
+//!
+//! An estimator is one [`Estimator`] impl listed in [`ESTIMATORS`]: the study file names it,
+//! the model runs every listed one on the same draws, the output and the summary take its
+//! name from the layout. Nothing else matches on it.
+
+use std::fmt;
+use std::ops::Deref;
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::moments::Moments;
+use crate::noise::NoiseLevels;
 use crate::numeric::linalg::{SolveError, solve_spd};
+
+/// An estimator of θ from one realisation's sums.
+pub trait Estimator: Sync + Send + fmt::Debug {
+    /// Name in study files and in the `estimator` column.
+    fn name(&self) -> &'static str;
+
+    /// One line on what it is.
+    fn description(&self) -> &'static str;
+
+    /// Its normal equations A θ = b from the realisation's moments; `k` = ½ρA [kg/m].
+    fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>);
+}
+
+/// Ordinary least squares on the noisy regressors (the thesis).
+#[derive(Debug, Clone, Copy)]
+pub struct Ols;
+
+impl Estimator for Ols {
+    fn name(&self) -> &'static str {
+        "ols"
+    }
+
+    fn description(&self) -> &'static str {
+        "ordinary least squares on the measured regressors (the thesis)"
+    }
+
+    fn system(&self, m: &Moments, k: f64, _noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>) {
+        m.ols_system(k)
+    }
+}
+
+/// Bias-compensated least squares for speed noise of known σ_v.
+#[derive(Debug, Clone, Copy)]
+pub struct Bcls;
+
+impl Estimator for Bcls {
+    fn name(&self) -> &'static str {
+        "bcls"
+    }
+
+    fn description(&self) -> &'static str {
+        "bias-compensated least squares: unbiased replacements of V² and V⁴ for speed noise of known σ_v"
+    }
+
+    fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>) {
+        m.bcls_system(k, noise.velocity_sd)
+    }
+}
+
+/// Every estimator a study can name, in the order they are listed in messages.
+pub static ESTIMATORS: [&dyn Estimator; 2] = [&Ols, &Bcls];
+
+/// A registered estimator, compared by name.
+#[derive(Debug, Clone, Copy)]
+pub struct EstimatorRef(pub &'static dyn Estimator);
+
+impl EstimatorRef {
+    /// The registered estimator called `name`.
+    pub fn find(name: &str) -> Option<EstimatorRef> {
+        ESTIMATORS
+            .iter()
+            .find(|e| e.name() == name)
+            .map(|&e| EstimatorRef(e))
+    }
+}
+
+impl Deref for EstimatorRef {
+    type Target = dyn Estimator;
+
+    fn deref(&self) -> &Self::Target {
+        self.0
+    }
+}
+
+impl PartialEq for EstimatorRef {
+    fn eq(&self, other: &Self) -> bool {
+        self.name() == other.name()
+    }
+}
+
+impl Eq for EstimatorRef {}
 
 impl Moments {
     /// OLS normal equations X̃ᵀX̃ θ = X̃ᵀỹ (thesis eq. 20).

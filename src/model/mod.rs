@@ -16,6 +16,7 @@ use arrow::array::RecordBatch;
 use arrow::datatypes::SchemaRef;
 use arrow::error::ArrowError;
 
+use crate::estimate::estimators::{Estimator, Ols};
 use crate::study::{ModelSpec, Study, StudyError};
 
 /// The type of a condition axis column.
@@ -189,10 +190,10 @@ impl Layout {
         self.estimators.iter().position(|e| *e == name)
     }
 
-    /// The estimator others are compared with (relative precision): `ols` when present,
+    /// The estimator others are compared with (relative precision): OLS when present,
     /// else the first listed.
     pub fn reference_estimator(&self) -> usize {
-        self.estimator_index("ols").unwrap_or(0)
+        self.estimator_index(Ols.name()).unwrap_or(0)
     }
 }
 

@@ -15,34 +15,19 @@ use super::{
     Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model,
     ParameterInfo, Status,
 };
-use crate::estimate::bounds::scaled_inverse_sd;
-use crate::estimate::conversions::{mass_and_drag, thesis_error_conversions};
+use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
+use crate::estimate::conversions::{EXTRAS, ExtraInputs};
+use crate::estimate::estimators::EstimatorRef;
 use crate::estimate::estimators::solve;
 use crate::estimate::moments::{BlockNoise, MomentAccumulator, Moments};
 use crate::estimate::regression::Regression;
 use crate::noise::{BLOCK, Channel, NoiseLevels, NormalStream};
 use crate::numeric::linalg::condition_number;
-use crate::study::{EstimatorKind, Study, StudyError, VehicleStudy};
+use crate::study::{Study, StudyError, VehicleStudy};
 use crate::vehicle::{DriveCycle, simulate};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
-
-/// Bounds, in layout order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Bound {
-    Thesis = 0,
-    CrlbOutput = 1,
-    EivSandwich = 2,
-    EivCrlbLinearized = 3,
-}
-
-/// Extras, in layout order.
-const MASS_HAT: usize = 0;
-const CD_HAT: usize = 1;
-const FISHER_CONDITION: usize = 2;
-const MASS_SD_THESIS: usize = 3;
-const CD_SD_THESIS: usize = 4;
 
 /// One prepared condition: its noise and the regression of its drive cycle.
 #[derive(Debug)]
@@ -51,8 +36,9 @@ struct Condition {
     scale_index: usize,
     noise: NoiseLevels,
     regression: Arc<Regression>,
-    /// Standard errors of the bounds that are constant over realisations (NaN when absent).
-    constant_bounds: [[f64; 3]; 4],
+    /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
+    /// realisations and the bound applies (NaN otherwise).
+    constant_bounds: Vec<[f64; 3]>,
 }
 
 /// The vehicle model with all its conditions prepared (drive cycles simulated).
@@ -101,24 +87,19 @@ impl VehicleModel {
             .map(|&(scale_index, noise)| {
                 let (metrics, regression, _) = &prepared[scale_index];
                 let regression = regression.clone();
-                let nan = [f64::NAN; 3];
-                let mut constant_bounds = [nan; 4];
-                if noise.output_only() {
-                    constant_bounds[Bound::CrlbOutput as usize] =
-                        scaled_inverse_sd(&regression.xtx, noise.output_sd).unwrap_or(nan);
-                }
-                if noise.in_regressors() {
-                    constant_bounds[Bound::EivSandwich as usize] =
-                        regression.sandwich_se(&truth, &noise).unwrap_or(nan);
-                    constant_bounds[Bound::EivCrlbLinearized as usize] =
-                        regression.linearized_crlb_se(&truth, &noise).unwrap_or(nan);
-                }
-                let applies_row = vec![
-                    noise.velocity_sd > 0.0,
-                    noise.output_only(),
-                    noise.in_regressors(),
-                    noise.in_regressors(),
-                ];
+                let constant_bounds = BOUNDS
+                    .iter()
+                    .map(|bound| {
+                        match bound.value {
+                            BoundValue::Constant(se) if (bound.applies)(&noise) => {
+                                se(&regression, &truth, &noise)
+                            }
+                            _ => None,
+                        }
+                        .unwrap_or([f64::NAN; 3])
+                    })
+                    .collect();
+                let applies_row: Vec<bool> = BOUNDS.iter().map(|b| (b.applies)(&noise)).collect();
                 Condition {
                     info: ConditionInfo {
                         axes: [
@@ -204,7 +185,7 @@ fn draw<'b>(stream: &mut Option<NormalStream>, buf: &'b mut [f64]) -> Option<&'b
 }
 
 /// The row layout of the vehicle model running `estimators`.
-pub fn layout(estimators: &[EstimatorKind]) -> Layout {
+pub fn layout(estimators: &[EstimatorRef]) -> Layout {
     Layout {
         axes: vec![
             Axis::number("scale", ""),
@@ -237,51 +218,21 @@ pub fn layout(estimators: &[EstimatorKind]) -> Layout {
             },
         ],
         estimators: estimators.iter().map(|e| e.name()).collect(),
-        extras: vec![
-            ExtraInfo {
-                name: "mass_hat",
-                unit: "kg",
-                description: "M̂ = 1/θ̂₁ (thesis eq. 38)",
-            },
-            ExtraInfo {
-                name: "cd_hat",
-                unit: "1",
-                description: "Ĉd = M̂ θ̂₂ (thesis eq. 39)",
-            },
-            ExtraInfo {
-                name: "fisher_condition",
-                unit: "1",
-                description: "2-norm condition number of the noisy X̃ᵀX̃ (the thesis's cond(FI))",
-            },
-            ExtraInfo {
-                name: "mass_sd_thesis",
-                unit: "kg",
-                description: "σ_M = 1/(θ̂₁ − σ₁) − M̂ from the thesis bound (thesis eq. 41)",
-            },
-            ExtraInfo {
-                name: "cd_sd_thesis",
-                unit: "1",
-                description: "σ_Cd = (θ̂₂ + σ₂)/(θ̂₁ + σ₁) − Ĉd from the thesis bound (thesis eq. 42)",
-            },
-        ],
-        bounds: vec![
-            BoundInfo {
-                name: "thesis_bound",
-                description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
-            },
-            BoundInfo {
-                name: "crlb_output",
-                description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
-            },
-            BoundInfo {
-                name: "eiv_sandwich",
-                description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance",
-            },
-            BoundInfo {
-                name: "eiv_crlb_linearized",
-                description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach)",
-            },
-        ],
+        extras: EXTRAS
+            .iter()
+            .map(|x| ExtraInfo {
+                name: x.name,
+                unit: x.unit,
+                description: x.description,
+            })
+            .collect(),
+        bounds: BOUNDS
+            .iter()
+            .map(|b| BoundInfo {
+                name: b.name,
+                description: b.description,
+            })
+            .collect(),
     }
 }
 
@@ -346,21 +297,23 @@ impl Model for VehicleModel {
         let cond = &self.conditions[c];
         let k = cond.regression.k;
         let moments = self.moments(seed, c, r);
-        let ols_system = moments.ols_system(k);
-        let fisher_condition = condition_number(&ols_system.0);
-        let thesis_bound = if cond.noise.velocity_sd > 0.0 {
-            scaled_inverse_sd(&ols_system.0, cond.noise.velocity_sd).ok()
-        } else {
-            None
-        };
-        let mut bounds = cond.constant_bounds;
-        bounds[Bound::Thesis as usize] = thesis_bound.unwrap_or([f64::NAN; 3]);
+        let noisy_xtx = moments.ols_system(k).0;
+        let fisher_condition = condition_number(&noisy_xtx);
+        let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise);
+        // Every bound's standard errors in this realisation (the same for every estimator).
+        let bounds: Vec<[f64; 3]> = BOUNDS
+            .iter()
+            .zip(&cond.constant_bounds)
+            .map(|(bound, constant)| match bound.value {
+                BoundValue::PerRealisation(se) if (bound.applies)(&cond.noise) => {
+                    se(&noisy_xtx, &cond.noise).unwrap_or([f64::NAN; 3])
+                }
+                _ => *constant,
+            })
+            .collect();
         let layout = &self.layout;
         for (ei, est) in self.study.estimators.iter().enumerate() {
-            let estimate = match est {
-                EstimatorKind::Ols => solve(&ols_system),
-                EstimatorKind::Bcls => solve(&moments.bcls_system(k, cond.noise.velocity_sd)),
-            };
+            let estimate = solve(&est.system(&moments, k, &cond.noise));
             let status = if estimate.is_ok() {
                 Status::Ok
             } else {
@@ -374,15 +327,14 @@ impl Model for VehicleModel {
                     slots[layout.bound_at(ei, b, p)] = values[p];
                 }
             }
-            let (mass, cd) = mass_and_drag(&theta);
-            let (mass_sd, cd_sd) = thesis_bound.map_or((f64::NAN, f64::NAN), |b| {
-                thesis_error_conversions(&theta, &b)
-            });
-            slots[layout.extra_at(ei, MASS_HAT)] = mass;
-            slots[layout.extra_at(ei, CD_HAT)] = cd;
-            slots[layout.extra_at(ei, FISHER_CONDITION)] = fisher_condition;
-            slots[layout.extra_at(ei, MASS_SD_THESIS)] = mass_sd;
-            slots[layout.extra_at(ei, CD_SD_THESIS)] = cd_sd;
+            let inputs = ExtraInputs {
+                theta: &theta,
+                fisher_condition,
+                thesis_bound: thesis_bound.as_ref(),
+            };
+            for (x, extra) in EXTRAS.iter().enumerate() {
+                slots[layout.extra_at(ei, x)] = (extra.value)(&inputs);
+            }
         }
     }
 }

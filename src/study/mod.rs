@@ -14,6 +14,7 @@ use std::path::Path;
 use raw::RawStudy;
 pub use spans::KeySpans;
 
+use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, Ols};
 use crate::noise::NoiseLevels;
 use crate::terrain::{ScaleTarget, TerrainSpec};
 use crate::vehicle::{DriveParams, VehicleParams};
@@ -87,32 +88,6 @@ impl NoiseAxes {
     }
 }
 
-/// An estimator the study asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum EstimatorKind {
-    /// Ordinary least squares on the noisy regressors (the thesis).
-    Ols,
-    /// Bias-compensated least squares for speed noise of known σ_v (SPEC §3).
-    Bcls,
-}
-
-impl EstimatorKind {
-    /// All estimators.
-    pub const ALL: [EstimatorKind; 2] = [EstimatorKind::Ols, EstimatorKind::Bcls];
-
-    /// The name used in study files and output columns.
-    pub fn name(self) -> &'static str {
-        match self {
-            EstimatorKind::Ols => "ols",
-            EstimatorKind::Bcls => "bcls",
-        }
-    }
-
-    fn parse(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|e| e.name() == name)
-    }
-}
-
 /// The validated description of a vehicle study (SPEC §1–§3, §10).
 #[derive(Debug, Clone, PartialEq)]
 pub struct VehicleStudy {
@@ -127,7 +102,7 @@ pub struct VehicleStudy {
     /// Noise condition axes.
     pub noise: NoiseAxes,
     /// Estimators run on every realisation (common random numbers).
-    pub estimators: Vec<EstimatorKind>,
+    pub estimators: Vec<EstimatorRef>,
 }
 
 /// Shape of the measurement noise of the line-fit example.
@@ -596,7 +571,8 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         grade_sd: c.list("noise.grade_sd", &n.grade_sd, Checker::non_negative)?,
         force_sd: c.list("noise.force_sd", &n.force_sd, Checker::non_negative)?,
     };
-    let estimators = validate_estimators(&e.estimators, &EstimatorKind::ALL, c)?;
+    let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
+    let estimators = validate_estimators(&e.estimators, &all, c)?;
 
     Ok(VehicleStudy {
         vehicle,
@@ -610,16 +586,16 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
 
 fn validate_estimators(
     names: &[String],
-    allowed: &[EstimatorKind],
+    allowed: &[EstimatorRef],
     c: &Checker<'_>,
-) -> Result<Vec<EstimatorKind>, StudyError> {
+) -> Result<Vec<EstimatorRef>, StudyError> {
     if names.is_empty() {
         return Err(c.fail("estimation.estimators", "must list at least one estimator"));
     }
     let mut estimators = Vec::new();
     for (i, name) in names.iter().enumerate() {
         let key = format!("estimation.estimators[{i}]");
-        let kind = EstimatorKind::parse(name)
+        let kind = EstimatorRef::find(name)
             .filter(|k| allowed.contains(k))
             .ok_or_else(|| {
                 let known: Vec<_> = allowed.iter().map(|e| e.name()).collect();
@@ -642,7 +618,7 @@ fn validate_line_fit(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, St
         .as_ref()
         .ok_or_else(|| c.missing_table("line_fit"))?;
     if let Some(e) = &raw.estimation {
-        validate_estimators(&e.estimators, &[EstimatorKind::Ols], c)?;
+        validate_estimators(&e.estimators, &[EstimatorRef(&Ols)], c)?;
     }
     let t_start = c.finite("line_fit.t_start", l.t_start)?;
     let t_step = c.positive("line_fit.t_step", l.t_step)?;
