@@ -1,6 +1,6 @@
 //! The bounds and predicted spreads of the vehicle regression: `crlb_output` and
 //! `thesis_bound` (σ² A⁻¹), `eiv_sandwich` and `eiv_crlb_linearized` from the first-order
-//! equation-error variance Ω (see docs/model.md#bounds-and-predicted-spreads).
+//! equation-error variance Ω (see docs/model.md#bounds).
 
 use nalgebra::Matrix3;
 

@@ -4,14 +4,14 @@
 
 use nalgebra::Vector3;
 
-/// M̂ = 1/θ̂₁ [kg] and Ĉd = M̂ θ̂₂ [-] (thesis eqs. 38–39).
+/// M̂ = 1/θ̂₁ \[kg\] and Ĉd = M̂ θ̂₂ \[-\] (thesis eqs. 38–39).
 pub fn mass_and_drag(theta: &Vector3<f64>) -> (f64, f64) {
     let m = 1.0 / theta[0];
     (m, m * theta[1])
 }
 
-/// The thesis's error conversions of the 1/M and Cd/M bounds σ₁, σ₂ into errors of M [kg]
-/// and Cd [-] (thesis eqs. 41–42):
+/// The thesis's error conversions of the 1/M and Cd/M bounds σ₁, σ₂ into errors of M \[kg\]
+/// and Cd \[-\] (thesis eqs. 41–42):
 ///
 /// ```text
 /// σ_M  = 1 / (θ̂₁ − σ₁) − M̂                      (41)

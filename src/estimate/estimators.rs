@@ -22,7 +22,7 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// One line on what it is.
     fn description(&self) -> &'static str;
 
-    /// Its normal equations A θ = b from the realisation's moments; `k` = ½ρA [kg/m].
+    /// Its normal equations A θ = b from the realisation's moments; `k` = ½ρA \[kg/m\].
     fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>);
 }
 
@@ -103,7 +103,7 @@ impl Moments {
 
     /// BCLS normal equations for speed noise of known σ_v: each noisy power of speed is
     /// replaced by its unbiased estimate, `V² → Ṽ² − σ²`, `V⁴ → Ṽ⁴ − 6σ²Ṽ² + 3σ⁴`, in
-    /// Σ F V², Σ c V², Σ V⁴ and Σ y V² (E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6V²σ² + 3σ⁴).
+    /// Σ F V², Σ c V², Σ V⁴ and Σ y V² (E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6V²σ² + 3σ⁴).
     pub fn bcls_system(&self, k: f64, velocity_sd: f64) -> (Matrix3<f64>, Vector3<f64>) {
         let s2 = velocity_sd * velocity_sd;
         self.system(

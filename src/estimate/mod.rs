@@ -2,7 +2,7 @@
 //!
 //! - [`regression`]: the noise-free columns of one drive cycle and their constant sums;
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
-//!   (the kernel), with the block sums of [`kernels`];
+//!   (the kernel), with the block sums of `kernels`;
 //! - [`estimators`]: OLS and BCLS normal equations from the moments;
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;

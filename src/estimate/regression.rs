@@ -1,5 +1,5 @@
 //! The vehicle regression (thesis eqs. 32–37) of one drive cycle: its noise-free columns and
-//! the sums that do not depend on the noise (see docs/model.md#measurement-and-regression).
+//! the sums that do not depend on the noise (see docs/model.md#regression).
 //!
 //! One row per sample i:
 //!
@@ -15,10 +15,10 @@
 //!
 //! | channel | enters | effect on OLS | bounds that apply |
 //! |---|---|---|---|
-//! | speed, σ_v [m/s] | Ṽ² in column 2 | errors-in-variables: Cd/M biased low (attenuation), Cr biased high (the lost drag is absorbed by the constant-like column 3) | `thesis_bound` (not a real bound), `eiv_sandwich`, `eiv_crlb_linearized` |
-//! | output, σ_y [m/s²] | y | none: OLS unbiased and efficient | `crlb_output` (when alone) |
-//! | grade, σ_θ [rad] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
-//! | force, σ_F [N] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
+//! | speed, σ_v \[m/s\] | Ṽ² in column 2 | errors-in-variables: Cd/M biased low (attenuation), Cr biased high (the lost drag is absorbed by the constant-like column 3) | `thesis_bound` (not a real bound), `eiv_sandwich`, `eiv_crlb_linearized` |
+//! | output, σ_y \[m/s²\] | y | none: OLS unbiased and efficient | `crlb_output` (when alone) |
+//! | grade, σ_θ \[rad\] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
+//! | force, σ_F \[N\] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -30,23 +30,23 @@ use crate::vehicle::{DriveCycle, VehicleParams};
 /// The noise-free regression of one drive cycle and its constant sums.
 #[derive(Debug, Clone)]
 pub struct Regression {
-    /// Column 1: F_prop [N].
+    /// Column 1: F_prop \[N\].
     pub f: Vec<f64>,
-    /// Column 3: c = −g cos θ [m/s²].
+    /// Column 3: c = −g cos θ \[m/s²\].
     pub c: Vec<f64>,
-    /// Speed V [m/s] (column 2 is −k V²).
+    /// Speed V \[m/s\] (column 2 is −k V²).
     pub v: Vec<f64>,
-    /// Output y = dV/dt + g sin θ [m/s²].
+    /// Output y = dV/dt + g sin θ \[m/s²\].
     pub y: Vec<f64>,
-    /// Model acceleration dV/dt [m/s²] (y without the grade term).
+    /// Model acceleration dV/dt \[m/s²\] (y without the grade term).
     pub accel: Vec<f64>,
     /// sin θ of each sample.
     pub sin_grade: Vec<f64>,
     /// cos θ of each sample.
     pub cos_grade: Vec<f64>,
-    /// k = ½ ρ A [kg/m].
+    /// k = ½ ρ A \[kg/m\].
     pub k: f64,
-    /// g [m/s²].
+    /// g \[m/s²\].
     pub g: f64,
     /// Noise-free XᵀX.
     pub xtx: Matrix3<f64>,

@@ -2,7 +2,7 @@
 //!
 //! Every realisation draws its noise from its own `ChaCha8Rng`, keyed by
 //! (study seed, condition index, noise channel) with the realisation index as the ChaCha
-//! stream (SPEC §5). A realisation's numbers therefore depend on nothing but those four
+//! stream (docs/model.md#streams). A realisation's numbers therefore depend on nothing but those four
 //! integers: not on the thread count, chunking, shard split or order of execution, and a
 //! study extended from R to 2R keeps its first R realisations bit for bit.
 //!
@@ -44,13 +44,13 @@ pub enum Channel {
 /// Noise levels of one condition (standard deviations; 0 = off).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct NoiseLevels {
-    /// Speed-measurement noise σ_v [m/s].
+    /// Speed-measurement noise σ_v \[m/s\].
     pub velocity_sd: f64,
-    /// Additive output noise σ_y [m/s²].
+    /// Additive output noise σ_y \[m/s²\].
     pub output_sd: f64,
-    /// Grade-measurement noise σ_θ [rad].
+    /// Grade-measurement noise σ_θ \[rad\].
     pub grade_sd: f64,
-    /// Propulsion-force measurement noise σ_F [N].
+    /// Propulsion-force measurement noise σ_F \[N\].
     pub force_sd: f64,
 }
 
@@ -197,7 +197,7 @@ impl NormalStream {
 
 /// The ziggurat candidate of a word: layer from the low 8 bits, a signed uniform
 /// u ∈ [−1, 1) from the top 52 bits (built as a double in [1, 2) from its bit pattern, so
-/// no integer-to-float conversion is needed), x = u·X[layer]; `inside` when |x| lies in
+/// no integer-to-float conversion is needed), x = u·X\[layer\]; `inside` when |x| lies in
 /// the layer's rectangle core.
 #[inline(always)]
 fn candidate(word: u64) -> (f64, bool) {
@@ -211,7 +211,7 @@ fn candidate(word: u64) -> (f64, bool) {
 /// Bit pattern of 1.0.
 const ONE_BITS: u64 = 0x3ff0_0000_0000_0000;
 
-/// The candidate pass, portable version: `out[j]` gets every candidate and bit j of
+/// The candidate pass, portable version: `out\[j\]` gets every candidate and bit j of
 /// `outside` is set when candidate j fell outside its layer's core.
 fn candidates_body(words: &[u64], out: &mut [f64], outside: &mut [u64; BLOCK / 64]) {
     for (j, (o, &w)) in out.iter_mut().zip(words).enumerate() {

@@ -1,4 +1,4 @@
-//! Parquet output (SPEC §7): the realisation, summary and cycle tables, their schemas, and
+//! Parquet output (the data contract is in the README's "Output files"): the realisation, summary and cycle tables, their schemas, and
 //! files that appear only when complete.
 //!
 //! Every file is written under a temporary name in the destination directory and renamed

@@ -1,4 +1,4 @@
-//! The summary of a study: every measure of SPEC §6 per condition × estimator × parameter,
+//! The summary of a study: every measure of docs/model.md#measures per condition × estimator × parameter,
 //! from two passes over the realisation rows.
 //!
 //! Pass one gives counts, means and coverage of the truth; pass two, knowing the means,

@@ -88,7 +88,7 @@ impl NoiseAxes {
     }
 }
 
-/// The validated description of a vehicle study (SPEC §1–§3, §10).
+/// The validated description of a vehicle study (docs/model.md, and the README's study keys).
 #[derive(Debug, Clone, PartialEq)]
 pub struct VehicleStudy {
     /// Vehicle parameters (the truth the estimators try to recover).

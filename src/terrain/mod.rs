@@ -161,7 +161,7 @@ mod tests {
 
     #[test]
     fn thesis_terrain_metric_is_about_0_00346() {
-        // SPEC §2: "At a = 1 they are about 0.00346 and 0.00340 rad²".
+        // docs/model.md#terrain: at a = 1 they are about 0.00346 and 0.00340 rad².
         let ms = thesis_terrain().grade_table(1.0).mean_square();
         assert!((ms - 0.00346).abs() < 0.000005, "{ms}");
     }

@@ -1,4 +1,4 @@
-//! The longitudinal vehicle model and the RK4 drive-cycle simulation (SPEC §1).
+//! The longitudinal vehicle model and the RK4 drive-cycle simulation (docs/model.md#vehicle).
 //!
 //! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`, brake force zero,
 //! `F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel`. The cycle is integrated by classical
@@ -12,21 +12,21 @@ use crate::terrain::GradeTable;
 /// The vehicle's physical parameters (the truth the estimators try to recover).
 #[derive(Debug, Clone, PartialEq)]
 pub struct VehicleParams {
-    /// Mass M [kg].
+    /// Mass M \[kg\].
     pub mass_kg: f64,
-    /// Aerodynamic drag coefficient Cd [-].
+    /// Aerodynamic drag coefficient Cd \[-\].
     pub drag_coefficient: f64,
-    /// Rolling-resistance coefficient Cr [-].
+    /// Rolling-resistance coefficient Cr \[-\].
     pub rolling_resistance: f64,
-    /// Frontal area A [m²].
+    /// Frontal area A \[m²\].
     pub frontal_area_m2: f64,
-    /// Air density ρ [kg/m³].
+    /// Air density ρ \[kg/m³\].
     pub air_density_kg_m3: f64,
-    /// Gravitational acceleration g [m/s²].
+    /// Gravitational acceleration g \[m/s²\].
     pub gravity_m_s2: f64,
-    /// Final-drive gear ratio R_fd [-].
+    /// Final-drive gear ratio R_fd \[-\].
     pub final_drive_ratio: f64,
-    /// Wheel radius r_wheel [m].
+    /// Wheel radius r_wheel \[m\].
     pub wheel_radius_m: f64,
 }
 
@@ -36,7 +36,7 @@ impl VehicleParams {
         0.5 * self.air_density_kg_m3 * self.frontal_area_m2
     }
 
-    /// The regression parameters θ = [1/M, Cd/M, Cr] (thesis eq. 34).
+    /// The regression parameters θ = \[1/M, Cd/M, Cr\] (thesis eq. 34).
     pub fn theta(&self) -> [f64; 3] {
         [
             1.0 / self.mass_kg,
@@ -45,7 +45,7 @@ impl VehicleParams {
         ]
     }
 
-    /// dV/dt [m/s²] at speed `v` [m/s] on grade `grade` [rad] under force `f_prop` [N].
+    /// dV/dt \[m/s²\] at speed `v` \[m/s\] on grade `grade` \[rad\] under force `f_prop` \[N\].
     #[inline]
     pub fn acceleration(&self, f_prop_n: f64, v_m_s: f64, grade_rad: f64) -> f64 {
         let m = self.mass_kg;
@@ -57,27 +57,27 @@ impl VehicleParams {
     }
 }
 
-/// Drive-cycle settings (SPEC §1, `[drive]`).
+/// Drive-cycle settings (`\[drive\]`; docs/model.md#vehicle).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriveParams {
-    /// Length of the cycle [s].
+    /// Length of the cycle \[s\].
     pub duration_s: f64,
-    /// Sample and integration step [s].
+    /// Sample and integration step \[s\].
     pub time_step_s: f64,
     /// Number of steps, duration / time_step; the cycle has `steps + 1` samples.
     pub steps: usize,
-    /// Speed at t = 0 [m/s].
+    /// Speed at t = 0 \[m/s\].
     pub initial_speed_m_s: f64,
-    /// Mean final-drive torque τ0 [N·m].
+    /// Mean final-drive torque τ0 \[N·m\].
     pub torque_mean_n_m: f64,
-    /// Relative torque amplitude a_τ [-].
+    /// Relative torque amplitude a_τ \[-\].
     pub torque_amplitude: f64,
-    /// Torque oscillation frequency ω_τ [rad/s].
+    /// Torque oscillation frequency ω_τ \[rad/s\].
     pub torque_frequency_rad_s: f64,
 }
 
 impl DriveParams {
-    /// Propulsion force F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel [N] (thesis eq. 30).
+    /// Propulsion force F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel \[N\] (thesis eq. 30).
     #[inline]
     pub fn propulsion_n(&self, vehicle: &VehicleParams, t_s: f64) -> f64 {
         let torque = self.torque_mean_n_m
@@ -100,11 +100,11 @@ pub enum SimulationError {
         "the vehicle stalls: its speed falls to {speed_m_s:.3} m/s at t = {time_s:.2} s, x = {position_m:.1} m (the grade is too steep for the propulsion force)"
     )]
     Stalled {
-        /// Time of the first sample with V ≤ 0 [s].
+        /// Time of the first sample with V ≤ 0 \[s\].
         time_s: f64,
-        /// Position there [m].
+        /// Position there \[m\].
         position_m: f64,
-        /// The speed there [m/s].
+        /// The speed there \[m/s\].
         speed_m_s: f64,
     },
     /// The vehicle passed the last point of the grade table.
@@ -112,15 +112,15 @@ pub enum SimulationError {
         "the vehicle runs off the end of the terrain (x > {end_m} m) at t = {time_s:.2} s; make terrain.length longer or drive.duration shorter"
     )]
     RanOffTerrain {
-        /// Time of the step that left the table [s].
+        /// Time of the step that left the table \[s\].
         time_s: f64,
-        /// Last grid point of the table [m].
+        /// Last grid point of the table \[m\].
         end_m: f64,
     },
     /// The state became NaN or infinite.
     #[error("the simulation diverged (non-finite state) at t = {time_s:.2} s")]
     NonFinite {
-        /// Time at which it happened [s].
+        /// Time at which it happened \[s\].
         time_s: f64,
     },
 }
@@ -128,17 +128,17 @@ pub enum SimulationError {
 /// The noise-free time series of a drive cycle, one entry per sample (SI units).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DriveCycle {
-    /// Time t_i = i · Δt [s].
+    /// Time t_i = i · Δt \[s\].
     pub t_s: Vec<f64>,
-    /// Position X [m].
+    /// Position X \[m\].
     pub x_m: Vec<f64>,
-    /// Speed V [m/s].
+    /// Speed V \[m/s\].
     pub v_m_s: Vec<f64>,
-    /// Grade θ(X) [rad].
+    /// Grade θ(X) \[rad\].
     pub grade_rad: Vec<f64>,
-    /// Propulsion force F_prop(t) [N].
+    /// Propulsion force F_prop(t) \[N\].
     pub f_prop_n: Vec<f64>,
-    /// Model acceleration dV/dt at the sample's state [m/s²].
+    /// Model acceleration dV/dt at the sample's state \[m/s²\].
     pub accel_m_s2: Vec<f64>,
 }
 
@@ -153,7 +153,7 @@ impl DriveCycle {
         self.t_s.is_empty()
     }
 
-    /// Terrain variability over the cycle's samples, mean of θ(X_i)² [rad²] (thesis eq. 43).
+    /// Terrain variability over the cycle's samples, mean of θ(X_i)² \[rad²\] (thesis eq. 43).
     pub fn terrain_mean_square(&self) -> f64 {
         crate::terrain::mean_square(&self.grade_rad)
     }
@@ -234,7 +234,7 @@ pub fn simulate(
 
 #[cfg(test)]
 impl VehicleParams {
-    /// The thesis vehicle (SPEC §1 defaults), for unit tests.
+    /// The thesis vehicle (the defaults of docs/model.md#vehicle), for unit tests.
     pub(crate) fn thesis() -> Self {
         VehicleParams {
             mass_kg: 1800.0,
