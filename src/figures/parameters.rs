@@ -1,0 +1,303 @@
+//! The four figures of each parameter: SE and bounds, bias, EmpSE / bound and coverage,
+//! against the terrain metric (or whichever condition axis varies).
+
+use std::path::Path;
+
+use super::chart::{Axes, Reference, Series, chart, color};
+use super::{FigureError, NOMINAL};
+use crate::model::{AxisKind, AxisValue, ConditionInfo, Layout};
+use crate::output::{self, SummaryTable};
+use crate::stats::columns::{BoundMeasure, Measure};
+use crate::stats::summary::SummaryRow;
+
+/// The x axis of the per-condition charts.
+pub(super) struct XAxis {
+    pub(super) values: Vec<f64>,
+    pub(super) label: String,
+    /// The axis column it replaces in series labels (e.g. `scale`), if any.
+    pub(super) replaces: Option<&'static str>,
+}
+
+/// True when a column holds more than one value.
+pub(super) fn varies<T: PartialEq>(v: &[T]) -> bool {
+    v.iter().any(|x| *x != v[0])
+}
+
+pub(super) fn x_axis(layout: &Layout, t: &SummaryTable) -> XAxis {
+    let per_row = |value: &dyn Fn(&ConditionInfo) -> f64| -> Vec<f64> {
+        t.rows.iter().map(|r| value(t.info(r))).collect()
+    };
+    if let Some(fx) = &layout.figure_x
+        && let Some(m) = layout
+            .condition_metrics
+            .iter()
+            .position(|&m| m == fx.metric)
+    {
+        return XAxis {
+            values: per_row(&|info| info.metrics[m]),
+            label: fx.label.into(),
+            replaces: Some(fx.replaces),
+        };
+    }
+    for (a, axis) in layout.axes.iter().enumerate() {
+        if axis.kind != AxisKind::Number {
+            continue;
+        }
+        let v = per_row(&|info| info.axes[a].number());
+        if varies(&v) {
+            let unit = if axis.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" [{}]", axis.unit)
+            };
+            return XAxis {
+                values: v,
+                label: format!("{}{unit}", axis.name),
+                replaces: Some(axis.name),
+            };
+        }
+    }
+    XAxis {
+        values: t.rows.iter().map(|r| r.condition as f64).collect(),
+        label: "condition".into(),
+        replaces: None,
+    }
+}
+
+/// Label of a row's group: the values of the axes that vary, other than the x axis.
+pub(super) fn group_labels(layout: &Layout, t: &SummaryTable, x: &XAxis) -> Vec<String> {
+    let mut parts: Vec<Vec<String>> = vec![Vec::new(); t.rows.len()];
+    for (a, axis) in layout.axes.iter().enumerate() {
+        if Some(axis.name) == x.replaces {
+            continue;
+        }
+        let values: Vec<&AxisValue> = t.rows.iter().map(|r| &t.info(r).axes[a]).collect();
+        if !varies(&values) {
+            continue;
+        }
+        for (p, v) in parts.iter_mut().zip(values) {
+            p.push(match (axis.kind, v) {
+                (AxisKind::Number, v) => format!("{} {v}", axis.name),
+                (AxisKind::Text, v) => v.to_string(),
+            });
+        }
+    }
+    parts.into_iter().map(|p| p.join(", ")).collect()
+}
+
+fn join_label(parts: &[&str]) -> String {
+    parts
+        .iter()
+        .filter(|p| !p.is_empty())
+        .copied()
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Short symbol of a parameter ("1/M" from "1/M, inverse vehicle mass").
+fn symbol(description: &str) -> &str {
+    description.split(',').next().unwrap_or(description).trim()
+}
+
+fn unit_suffix(unit: &str) -> String {
+    if unit.is_empty() || unit == "1" {
+        " [-]".into()
+    } else {
+        format!(" [{unit}]")
+    }
+}
+
+/// The four figures of parameter `p`.
+pub(super) fn draw_parameter(
+    dir: &Path,
+    layout: &Layout,
+    t: &SummaryTable,
+    x: &XAxis,
+    groups: &[String],
+    (pi, p): (usize, &crate::model::ParameterInfo),
+) -> Result<Vec<String>, FigureError> {
+    let estimator: Vec<String> = t
+        .rows
+        .iter()
+        .map(|r| layout.estimators[r.estimator].to_string())
+        .collect();
+    // A measure (or its MCSE) of every row, NaN where undefined.
+    let column =
+        |value: &dyn Fn(&SummaryRow) -> f64| -> Vec<f64> { t.rows.iter().map(value).collect() };
+    let measure = |m: Measure| (column(&|r| m.of(r).value), column(&|r| m.of(r).mcse));
+    let bound = |b: usize, m: BoundMeasure| {
+        let of = |r: &SummaryRow| r.bounds[b].as_ref().map(|s| m.of(s));
+        (
+            column(&|r| of(r).map_or(f64::NAN, |e| e.value)),
+            column(&|r| of(r).map_or(f64::NAN, |e| e.mcse)),
+        )
+    };
+    let many_estimators = layout.estimators.len() > 1;
+    let mut names = Vec::new();
+    let rows: Vec<usize> = (0..t.rows.len())
+        .filter(|&i| t.rows[i].parameter == pi)
+        .collect();
+    let sym = symbol(p.description);
+    let unit = unit_suffix(p.unit);
+    // Series keys (estimator, group) in first-seen order.
+    let mut keys_seen: Vec<(String, String)> = Vec::new();
+    for &i in &rows {
+        let k = (estimator[i].clone(), groups[i].clone());
+        if !keys_seen.contains(&k) {
+            keys_seen.push(k);
+        }
+    }
+    let est_label = |e: &str| {
+        if many_estimators {
+            e.to_string()
+        } else {
+            String::new()
+        }
+    };
+
+    // The points (x, y, error bar) of one estimator and group where y is finite.
+    let points = |e: &String, g: &String, y: &[f64], err: Option<&[f64]>| -> Vec<(f64, f64, f64)> {
+        rows.iter()
+            .filter(|&&i| &estimator[i] == e && &groups[i] == g && y[i].is_finite())
+            .map(|&i| (x.values[i], y[i], err.map_or(f64::NAN, |err| err[i])))
+            .collect()
+    };
+
+    // (a) EmpSE with MCSE and every bound, against x.
+    let (emp_se, emp_se_mcse) = &measure(Measure::EmpSe);
+    let mut series = Vec::new();
+    for (k, (e, g)) in keys_seen.iter().enumerate() {
+        series.push(Series {
+            label: join_label(&["EmpSE ± MCSE", &est_label(e), g]),
+            color: color(k),
+            points: points(e, g, emp_se, Some(emp_se_mcse)),
+            markers: true,
+        });
+    }
+    let mut c = keys_seen.len();
+    for (bi, b) in layout.bounds.iter().enumerate() {
+        let se = &bound(bi, BoundMeasure::Se).0;
+        // A bound's value does not depend on the estimator: draw it once per group.
+        let mut seen_groups: Vec<&String> = Vec::new();
+        for (e, g) in &keys_seen {
+            if seen_groups.contains(&g) {
+                continue;
+            }
+            let points = points(e, g, se, None);
+            if points.is_empty() {
+                continue;
+            }
+            seen_groups.push(g);
+            series.push(Series {
+                label: join_label(&[b.name, g]),
+                color: color(c),
+                points,
+                markers: false,
+            });
+            c += 1;
+        }
+    }
+    let name = format!("se_{}.svg", p.name);
+    chart(
+        &dir.join(&name),
+        &Axes {
+            title: &format!("{sym}: empirical SE and bounds"),
+            x_label: &x.label,
+            y_label: &format!("standard error of {sym}{unit}"),
+            log_y: true,
+        },
+        &series,
+        &[],
+    )?;
+    names.push(name);
+
+    // (b) bias ± MCSE.
+    let (bias, bias_mcse) = &measure(Measure::Bias);
+    let series: Vec<Series> = keys_seen
+        .iter()
+        .enumerate()
+        .map(|(k, (e, g))| Series {
+            label: join_label(&[&est_label(e), g, "bias ± MCSE"]),
+            color: color(k),
+            points: points(e, g, bias, Some(bias_mcse)),
+            markers: true,
+        })
+        .collect();
+    let name = format!("bias_{}.svg", p.name);
+    chart(
+        &dir.join(&name),
+        &Axes {
+            title: &format!("{sym}: bias of the estimates"),
+            x_label: &x.label,
+            y_label: &format!("bias of {sym}{unit}"),
+            log_y: false,
+        },
+        &series,
+        &[Reference {
+            y: 0.0,
+            label: "no bias".into(),
+        }],
+    )?;
+    names.push(name);
+
+    // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
+    for (figure, which, log_y, reference, title, y_label) in [
+        (
+            "ratio",
+            BoundMeasure::EmpOver,
+            true,
+            Reference {
+                y: 1.0,
+                label: "EmpSE = bound".into(),
+            },
+            format!("{sym}: EmpSE / bound"),
+            "EmpSE / bound [-]".to_string(),
+        ),
+        (
+            "coverage",
+            BoundMeasure::Coverage,
+            false,
+            Reference {
+                y: NOMINAL,
+                label: "nominal 95 %".into(),
+            },
+            format!("{sym}: coverage of θ̂ ± 1.96·bound"),
+            "coverage [-]".to_string(),
+        ),
+    ] {
+        let mut series = Vec::new();
+        let mut c = 0;
+        for (bi, b) in layout.bounds.iter().enumerate() {
+            let (value, mcse) = &bound(bi, which);
+            for (e, g) in &keys_seen {
+                let points = points(e, g, value, Some(mcse));
+                if points.is_empty() {
+                    continue;
+                }
+                series.push(Series {
+                    label: join_label(&[b.name, &est_label(e), g]),
+                    color: color(c),
+                    points,
+                    markers: true,
+                });
+                c += 1;
+            }
+        }
+        let name = format!("{figure}_{}.svg", p.name);
+        chart(
+            &dir.join(&name),
+            &Axes {
+                title: &title,
+                x_label: &x.label,
+                y_label: &y_label,
+                log_y,
+            },
+            &series,
+            &[reference],
+        )?;
+        names.push(name);
+        output::failpoint("figure-drawn");
+    }
+
+    Ok(names)
+}
