@@ -9,12 +9,44 @@
 //! metric) with thousands of seeded noise realisations per condition, and reports each
 //! estimator's bias, spread and every bound with Monte Carlo standard errors, as Parquet.
 //!
-//! The pipeline, one module per stage:
+//! The equations, estimators, bounds and measures are in `docs/model.md`; the study keys,
+//! the output columns and the commands in the README.
 //!
-//! study file → [`study`] → [`terrain`] + [`vehicle`] (drive cycle) → [`noise`] →
-//! [`estimate`] (estimates and bounds) → [`montecarlo`] (executor over a [`model`]) →
-//! [`stats`] (measures and MCSEs) → [`output`] (Parquet) → [`figures`] (SVG). [`run`] ties
-//! them together.
+//! # The pipeline
+//!
+//! One module per stage, each using only the stages before it (a test checks this):
+//!
+//! | layer | module | holds |
+//! |---|---|---|
+//! | foundation | [`numeric`] | exact order-independent sums, the small SPD solver |
+//! | foundation | [`noise`] | ChaCha8 streams keyed by (seed, condition, channel), the ziggurat |
+//! | world | [`terrain`] | elevation profiles, grade tables, the terrain metric ς |
+//! | world | [`vehicle`] | vehicle parameters, the RK4 drive-cycle simulation |
+//! | estimation | [`estimate`] | the regression, per-realisation moments (the kernel), estimators, bounds |
+//! | input | [`study`] | TOML study files → a validated [`Study`]; errors name file, key and line |
+//! | model | [`model`] | what one realisation computes and the [`model::Layout`] of its rows |
+//! | execution | [`montecarlo`] | the rayon executor over a `&dyn Model`, observers |
+//! | statistics | [`stats`] | performance measures with MCSEs, the two-pass summary, the summary columns |
+//! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
+//! | output | [`figures`] | SVG figures from the summary and cycles |
+//! | top | [`report`], [`run`] | the printed table; run, shard and summarize |
+//!
+//! # Where to add
+//!
+//! - **an estimator**: one [`estimate::estimators::Estimator`] impl, listed in
+//!   [`estimate::estimators::ESTIMATORS`]; study files can then name it, every realisation
+//!   runs it on the same draws, and its rows, summary and figures follow.
+//! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
+//!   applies, how its standard errors are computed).
+//! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
+//! - **a summary measure**: a variant of [`stats::columns::Measure`] or
+//!   [`stats::columns::BoundMeasure`] (the writer, the decoder and the figures take it from
+//!   there) and its computation in [`stats::summary`].
+//! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
+//!   statistics, output and figures work from its [`model::Layout`].
+//! - **a noise channel, a terrain profile, a drive-cycle source, a condition axis**: today
+//!   these still touch the study, the model and the moment accumulator; see
+//!   [`noise::NoiseLevels`], [`terrain`] and [`model::vehicle`].
 
 #![deny(missing_docs)]
 

@@ -4,6 +4,7 @@ mod bias_bounds;
 mod cli_errors;
 mod determinism;
 mod figures;
+mod layering;
 mod line_fit;
 mod mcse;
 mod noise;
