@@ -1,16 +1,16 @@
 //! Flags → validated configuration → library calls. `anyhow` lives only here.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
 use chassis_mc::figures::{self, FigureError};
-use chassis_mc::montecarlo::Observer;
 use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::progress::{Progress, human_duration};
 
 /// Exit status for a bad study file or bad arguments.
 pub const EXIT_BAD_INPUT: u8 = 2;
@@ -54,7 +54,8 @@ enum Command {
         /// Realisations per condition, overriding the study's `realisations`.
         #[arg(long, value_name = "N")]
         realisations: Option<u64>,
-        /// Master seed, overriding the study's `seed`.
+        /// Master seed, overriding the study's `seed`: a whole number from 0 to
+        /// 9223372036854775807 (2^63 − 1), as in a study file.
         #[arg(long, value_name = "S")]
         seed: Option<u64>,
         /// Worker threads (default: all cores). Results do not depend on it.
@@ -68,9 +69,32 @@ enum Command {
         /// Do not draw DIR/figures/*.svg.
         #[arg(long)]
         no_figures: bool,
-        /// Print no table and no progress bar.
+        /// Print no table and no progress (notices such as a recomputed damaged part are
+        /// still printed on stderr).
         #[arg(long)]
         quiet: bool,
+    },
+    /// Check a study without running it: its conditions, the run time and the output size.
+    #[command(long_about = "Check a study without running it.\n\n\
+        Validates the study file (the same errors and exit status 2 as `run`), prepares the \
+        model (simulates the drive cycles), and prints the conditions, the realisations, an \
+        estimate of the run time on this machine (a few realisations of every condition timed \
+        on one thread, scaled to the realisations and divided by the threads) and of the \
+        size of the output files (a sample of rows encoded as `run` writes them). Writes \
+        nothing.\n\n\
+        Example: chassis-mc check studies/thesis.toml --realisations 100000")]
+    Check {
+        /// The study file (TOML).
+        study: PathBuf,
+        /// Realisations per condition, overriding the study's `realisations`.
+        #[arg(long, value_name = "N")]
+        realisations: Option<u64>,
+        /// Master seed, overriding the study's `seed` (0 to 2^63 − 1).
+        #[arg(long, value_name = "S")]
+        seed: Option<u64>,
+        /// Worker threads the estimate assumes (default: all cores).
+        #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
+        threads: Option<u16>,
     },
     /// Rebuild summary.parquet (and cycles.parquet) from realisation files: the shards of a
     /// sharded run, or any run's realisations.parquet.
@@ -151,29 +175,23 @@ pub fn parse() -> Cli {
     Cli::parse()
 }
 
-struct Progress(ProgressBar);
-
-impl Observer for Progress {
-    fn planned(&self, total: u64, done: u64) {
-        self.0.set_length(total);
-        self.0.set_position(done);
-        if done > 0 {
-            self.0.suspend(|| {
-                eprintln!(
-                    "resuming: {done} of {total} realisations kept from an earlier run; computing {}",
-                    total - done
-                )
-            });
-        }
+/// A bad argument: exit status 2 with `message`.
+fn bad_argument(message: String) -> Failure {
+    Failure {
+        error: anyhow!(message),
+        code: EXIT_BAD_INPUT,
     }
+}
 
-    fn realisations_done(&self, count: u64) {
-        self.0.inc(count);
+/// `--out` (or a command's directory) must be a directory or not exist yet.
+fn output_directory(flag: &str, dir: &Path) -> Result<(), Failure> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad_argument(format!(
+            "{flag} {}: is a file, not a directory",
+            dir.display()
+        )));
     }
-
-    fn notice(&self, message: &str) {
-        self.0.suspend(|| eprintln!("{message}"));
-    }
+    Ok(())
 }
 
 /// Execute a parsed command.
@@ -189,29 +207,28 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             no_figures,
             quiet,
         } => {
+            output_directory("--out", &out)?;
             let study = Study::load(&study)
                 .and_then(|s| s.with_overrides(realisations, seed))
                 .map_err(RunError::from)?;
+            if let Some(shard) = shard
+                && shard.range(study.realisations).is_empty()
+            {
+                return Err(bad_argument(format!(
+                    "--shard {shard}: holds none of the {} realisations per condition; with R \
+                     realisations use at most R shards (--shard K/N with N <= {})",
+                    study.realisations, study.realisations
+                )));
+            }
             let mut options = RunOptions::new(out);
             options.threads = threads.map(usize::from);
             options.shard = shard;
             options.figures = !no_figures;
             let conditions = study.condition_count();
-            let total = conditions as u64 * study.realisations;
-            let bar = if quiet {
-                ProgressBar::hidden()
-            } else {
-                ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr())
-            };
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {wide_bar} {human_pos}/{human_len} realisations ({per_sec}, eta {eta})",
-                )
-                .expect("valid progress template"),
-            );
             let started = Instant::now();
-            let report = run_study(&study, &options, &Progress(bar.clone()))?;
-            bar.finish_and_clear();
+            let progress = Progress::new(quiet);
+            let report = run_study(&study, &options, &progress)?;
+            progress.finish();
             if let (Some(shard), false) = (shard, quiet) {
                 println!(
                     "shard {shard}: {} realisations computed, {} kept; wrote {}",
@@ -243,6 +260,9 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             no_figures,
             quiet,
         } => {
+            if let Some(out) = &out {
+                output_directory("--out", out)?;
+            }
             let out = out.unwrap_or_else(|| inputs[0].clone());
             let out = if out.is_file() {
                 out.parent().map(PathBuf::from).unwrap_or_default()
@@ -261,11 +281,88 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
+        Command::Check {
+            study,
+            realisations,
+            seed,
+            threads,
+        } => {
+            let study = Study::load(&study)
+                .and_then(|s| s.with_overrides(realisations, seed))
+                .map_err(RunError::from)?;
+            let found = chassis_mc::check::check(&study, threads.map(usize::from))?;
+            print!("{}", check_report(&study, &found));
+            Ok(())
+        }
         Command::Figures { dir } => {
+            if !dir.is_dir() {
+                return Err(bad_argument(format!(
+                    "{}: not a directory (figures needs the output directory of a run)",
+                    dir.display()
+                )));
+            }
             for f in figures::draw(&dir)? {
                 println!("{}", f.display());
             }
             Ok(())
         }
+    }
+}
+
+/// What `check` prints.
+fn check_report(study: &Study, c: &chassis_mc::check::StudyCheck) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: study \"{}\", seed {}",
+        study.origin, study.name, study.seed
+    );
+    let mut header = format!("{:>4}", "cond");
+    for axis in &c.layout.axes {
+        let _ = write!(header, " {:>12}", axis.name);
+    }
+    let _ = write!(header, " {:>14}", "ms/realisation");
+    let _ = writeln!(out, "{header}");
+    for (i, (info, t)) in c.infos.iter().zip(&c.per_realisation).enumerate() {
+        let mut line = format!("{i:>4}");
+        for v in &info.axes {
+            let _ = write!(line, " {:>12}", v.to_string());
+        }
+        let _ = writeln!(line, " {:>14.3}", t.as_secs_f64() * 1e3);
+        out.push_str(&line);
+    }
+    let total = c.realisations * c.infos.len() as u64;
+    let _ = writeln!(
+        out,
+        "{} conditions × {} realisations = {total} realisations",
+        c.infos.len(),
+        c.realisations
+    );
+    let _ = writeln!(
+        out,
+        "estimated run time on {} threads: about {} (drive cycles {:.2} s; a lower bound when \
+         the cores are shared; figures and summary add a little)",
+        c.threads,
+        human_duration(c.estimated_run_time()),
+        c.prepare.as_secs_f64()
+    );
+    let _ = writeln!(
+        out,
+        "estimated output: realisations.parquet about {}, other tables about {}",
+        human_bytes(c.realisation_bytes),
+        human_bytes(c.extra_bytes)
+    );
+    out
+}
+
+/// Bytes for people: `3.4 MB`, `1.2 GB`.
+fn human_bytes(b: f64) -> String {
+    match b {
+        b if b >= 1e12 => format!("{:.1} TB", b / 1e12),
+        b if b >= 1e9 => format!("{:.1} GB", b / 1e9),
+        b if b >= 1e6 => format!("{:.1} MB", b / 1e6),
+        b if b >= 1e3 => format!("{:.0} kB", b / 1e3),
+        b => format!("{b:.0} B"),
     }
 }

@@ -29,7 +29,7 @@
 //! | statistics | [`stats`] | performance measures with MCSEs, the two-pass summary, the summary columns |
 //! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
 //! | output | [`figures`] | SVG figures from the summary and cycles |
-//! | top | [`report`], [`run`] | the printed table; run, shard and summarize |
+//! | top | [`report`], [`run`], [`check`] | the printed table; run, shard and summarize; a study checked without running |
 //!
 //! # Where to add
 //!
@@ -50,6 +50,7 @@
 
 #![deny(missing_docs)]
 
+pub mod check;
 pub mod estimate;
 pub mod figures;
 pub mod model;

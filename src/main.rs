@@ -2,6 +2,7 @@
 //! (0 success, 1 failure while running, 2 bad study file or arguments).
 
 mod cli;
+mod progress;
 
 use std::process::ExitCode;
 

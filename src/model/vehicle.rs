@@ -24,6 +24,7 @@ use crate::estimate::regression::Regression;
 use crate::noise::{BLOCK, Channel, NoiseLevels, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
+use crate::terrain::MAX_GRADE_RAD;
 use crate::vehicle::{DriveCycle, simulate};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
@@ -67,6 +68,17 @@ impl VehicleModel {
             .enumerate()
             .map(|(i, &scale)| {
                 let table = vs.terrain.grade_table(scale);
+                if let Some((grade, x)) = table.steepest_beyond_limit() {
+                    return Err(study.error_at(
+                        &format!("terrain.scales[{i}]"),
+                        format!(
+                            "at scale {scale} the steepest grade of the terrain is {grade:.3} rad at x = {x} m; \
+                             grades must stay below {MAX_GRADE_RAD} rad in magnitude (scaling applies \
+                             to the {})",
+                            vs.terrain.scale_applies_to.name()
+                        ),
+                    ));
+                }
                 let cycle = simulate(&vs.vehicle, &vs.drive, &table).map_err(|e| {
                     study.error_at(
                         &format!("terrain.scales[{i}]"),

@@ -7,8 +7,13 @@
 
 use crate::numeric::sum::exact_sum;
 
-/// Grid spacing of the terrain tables [m] (the thesis's `x = (0:50000)'`).
+/// Grid spacing of the terrain tables \[m\] (the thesis's `x = (0:50000)'`).
 pub const GRID_STEP_M: f64 = 1.0;
+
+/// Largest grade magnitude a terrain table may have \[rad\] (≈ 29°, a 55 % slope, far
+/// beyond any road): a larger one means a scale or profile typo, and grades of tens of
+/// radians would wrap through sin and cos into plausible-looking nonsense.
+pub const MAX_GRADE_RAD: f64 = 0.5;
 
 /// What a terrain scale factor multiplies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,6 +111,22 @@ impl GradeTable {
         let i = (u.floor() as usize).min(last - 1);
         let f = u - i as f64;
         Some(self.grade_rad[i] + f * (self.grade_rad[i + 1] - self.grade_rad[i]))
+    }
+
+    /// The grade of largest magnitude and its position \[m\], if it reaches
+    /// [`MAX_GRADE_RAD`] (or is not a number).
+    pub fn steepest_beyond_limit(&self) -> Option<(f64, f64)> {
+        let mut steepest = 0;
+        for (i, g) in self.grade_rad.iter().enumerate() {
+            if g.is_nan() {
+                return Some((*g, i as f64 * GRID_STEP_M));
+            }
+            if g.abs() > self.grade_rad[steepest].abs() {
+                steepest = i;
+            }
+        }
+        let g = self.grade_rad[steepest];
+        (g.abs() >= MAX_GRADE_RAD).then_some((g, steepest as f64 * GRID_STEP_M))
     }
 
     /// Terrain variability over the table, ς = mean of θ² over all grid points [rad²]

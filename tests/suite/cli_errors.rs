@@ -106,8 +106,9 @@ fn cases() -> Vec<Case> {
             reason: "must be a finite number",
         },
         Case {
+            // With 60 N·m instead of 225, the hills of scale 2 are too steep to climb.
             name: "a scale at which the vehicle stalls",
-            study: set("scales", "[1.0, 8.0]"),
+            study: set_key(&set("scales", "[1.0, 2.0]"), "torque_mean", "60.0"),
             key: "terrain.scales[1]",
             line: Some(line_of(&t, "scales =")),
             reason: "the vehicle stalls",
@@ -229,6 +230,7 @@ fn bad_arguments_exit_2() {
         &["--realisations", "0"][..],
         &["--threads", "0"],
         &["--seed", "-1"],
+        &["--seed", "9223372036854775808"],
         &["--bogus"],
     ] {
         let (code, _, stderr) = run_cli(&study_path("thesis.toml"), &out, extra);
@@ -287,5 +289,154 @@ fn an_interrupted_run_leaves_existing_results_untouched() {
     assert_eq!(
         after, before,
         "committed files changed by an interrupted run"
+    );
+}
+
+/// Run the binary with `args` in a fresh working directory; (exit code, stdout, stderr).
+fn cli(args: &[&std::ffi::OsStr], cwd: &Path) -> (i32, String, String) {
+    let output = Command::new(bin())
+        .args(args)
+        .current_dir(cwd)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    (
+        output.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_non_physical_grade_is_accepted() {
+    // Scaled by 1000, the grade reaches ±83 rad, which sin and cos wrap into plausible
+    // numbers; scaled geometrically by 9, the steepest grade is atan(9 × 0.083) = 0.64 rad.
+    let tmp = tempfile::tempdir().unwrap();
+    let t = study_text("thesis.toml");
+    for (name, text) in [
+        ("grade", set_key(&t, "scales", "[1.0, 1000.0]")),
+        (
+            "elevation",
+            set_key(
+                &set_key(&t, "scales", "[1.0, 9.0]"),
+                "scale_applies_to",
+                "\"elevation\"",
+            ),
+        ),
+    ] {
+        let file = tmp.path().join(format!("{name}.toml"));
+        std::fs::write(&file, &text).unwrap();
+        let out = tmp.path().join(format!("out-{name}"));
+        let (code, _, stderr) = run_cli(&file, &out, &[]);
+        assert_eq!(code, 2, "{name}: {stderr}");
+        assert!(
+            stderr.contains("`terrain.scales[1]`")
+                && stderr.contains(&format!("line {}", line_of(&t, "scales =")))
+                && stderr.contains("below 0.5 rad"),
+            "{name}: {stderr}"
+        );
+        assert!(!out.exists(), "{name}: nothing is written");
+    }
+}
+
+#[test]
+fn out_naming_a_file_exits_1_with_the_message_twice() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("results.txt");
+    std::fs::write(&file, b"mine").unwrap();
+    let study = study_path("thesis.toml");
+    for args in [
+        vec![
+            "run".as_ref(),
+            study.as_os_str(),
+            "--out".as_ref(),
+            file.as_os_str(),
+        ],
+        vec![
+            "summarize".as_ref(),
+            tmp.path().as_os_str(),
+            "--out".as_ref(),
+            file.as_os_str(),
+        ],
+        vec!["figures".as_ref(), file.as_os_str()],
+    ] {
+        let (code, _, stderr) = cli(&args, tmp.path());
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert_eq!(
+            stderr.trim().lines().count(),
+            1,
+            "{args:?}: one message: {stderr}"
+        );
+        assert!(stderr.contains("results.txt"), "{stderr}");
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"mine");
+}
+
+#[test]
+fn an_empty_shard_is_accepted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    // ⌊2·100/200⌋ = ⌊3·100/200⌋ = 1: shard 2 of 200 holds no realisation.
+    let (code, _, stderr) = run_cli(
+        &study_path("thesis.toml"),
+        &out,
+        &["--realisations", "100", "--shard", "2/200"],
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("2/200") && stderr.contains("N <= 100"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn check_lists_the_conditions_and_estimates_without_writing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let study = study_path("thesis.toml");
+    let (code, stdout, stderr) = cli(
+        &[
+            "check".as_ref(),
+            study.as_os_str(),
+            "--realisations".as_ref(),
+            "5000".as_ref(),
+        ],
+        tmp.path(),
+    );
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("11 conditions × 5000 realisations = 55000"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("estimated run time") && stdout.contains("estimated output"));
+    assert_eq!(
+        std::fs::read_dir(tmp.path()).unwrap().count(),
+        0,
+        "check writes nothing"
+    );
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, set_key(&study_text("thesis.toml"), "mass", "-1.0")).unwrap();
+    let (code, _, stderr) = cli(&["check".as_ref(), bad.as_os_str()], tmp.path());
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("`vehicle.mass`"), "{stderr}");
+}
+
+#[test]
+fn progress_reaches_a_log_file_when_stderr_is_not_a_terminal() {
+    // stderr is a pipe here, as under SLURM or nohup: a plain line, not a bar that only
+    // appears at the end.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let output = Command::new(bin())
+        .args(["run", "--no-figures", "--realisations", "50", "--out"])
+        .arg(&out)
+        .arg(study_path("thesis.toml"))
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("progress: 550/550 realisations (100.0 %)") && !stderr.contains('\r'),
+        "{stderr}"
     );
 }

@@ -51,9 +51,9 @@ fn no_module_imports_one_above_it() {
             .to_string_lossy();
         let module = first.trim_end_matches(".rs");
         let Some(rank) = LAYERS.iter().position(|l| *l == module) else {
-            // lib.rs, main.rs and cli.rs sit above every layer.
+            // lib.rs and the binary's modules sit above every layer.
             assert!(
-                ["lib", "main", "cli"].contains(&module),
+                ["lib", "main", "cli", "progress"].contains(&module),
                 "{}: module `{module}` is in no layer; add it to LAYERS",
                 rel.display()
             );
