@@ -1,8 +1,11 @@
-"""Shared helpers of the analysis scripts: the study in a run's footer, the true parameters,
-the terrain metric, each computed here independently of the engine, and the loop that runs
-a script's SQL once per parameter over the realisations."""
+"""Shared helpers of the analysis scripts: the check that a run's output set is complete and
+from one run, the study in a run's footer, the true parameters, the terrain metric, each
+computed here independently of the engine, and the loop that runs a script's SQL once per
+parameter over the realisations (of an unsharded run, or of every shard of a sharded one)."""
 
 import pathlib
+import re
+import sys
 import tomllib
 
 import duckdb
@@ -15,8 +18,63 @@ SYMBOL = {"inv_mass": "1/M", "drag_over_mass": "Cd/M", "rolling_resistance": "Cr
 UNIT = {"inv_mass": "1/kg", "drag_over_mass": "1/kg", "rolling_resistance": "-"}
 
 
+# While a run replaces its output files this journal exists; after a kill it stays until
+# the next `chassis-mc run` completes the replacement (see the README, "Nothing half-written").
+JOURNAL = ".chassis-mc-journal"
+
+
+def fail(message):
+    """Stop the script with `message` on stderr (exit status 2)."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def realisation_files(run_dir):
+    """The realisation files of a run: its realisations.parquet, or else the
+    shard=K/realisations.parquet of a sharded run, in shard order."""
+    run_dir = pathlib.Path(run_dir)
+    direct = run_dir / "realisations.parquet"
+    if direct.is_file():
+        return [direct]
+    shards = sorted(
+        run_dir.glob("shard=*/realisations.parquet"),
+        key=lambda p: int(re.fullmatch(r"shard=(\d+)", p.parent.name).group(1)),
+    )
+    if not shards:
+        fail(f"{run_dir}: no realisations.parquet and no shard=*/realisations.parquet")
+    return shards
+
+
+def check_output_set(run_dir):
+    """Refuse an incomplete or mixed output set: a journal left by an interrupted run, or
+    files whose footers name different studies, seeds or realisation counts."""
+    run_dir = pathlib.Path(run_dir)
+    files = [run_dir / "summary.parquet", *realisation_files(run_dir)]
+    if (run_dir / "cycles.parquet").is_file():
+        files.append(run_dir / "cycles.parquet")
+    for d in {f.parent for f in files}:
+        if (d / JOURNAL).exists():
+            fail(f"{d}: incomplete output: a run was interrupted while replacing its files, "
+                 "so they may mix two runs; run `chassis-mc run` into it again to complete it")
+    first = None
+    for f in files:
+        if not f.is_file():
+            fail(f"{f}: missing (run `chassis-mc run`, or `chassis-mc summarize` for shards)")
+        meta = pq.read_metadata(f).metadata or {}
+        key = (meta.get(b"chassis_mc.identity"), meta.get(b"chassis_mc.realisations"))
+        if None in key:
+            fail(f"{f}: not a chassis-mc output file (no identity in its footer)")
+        if first is None:
+            first = (f, key)
+        elif key != first[1]:
+            fail(f"{f} and {first[0]} come from different runs (study, seed or realisations "
+                 "differ): the output set is mixed; run the study again into this directory")
+
+
 def study_of(run_dir):
-    """The study TOML a run used, from the footer of its summary.parquet."""
+    """The study TOML a run used, from the footer of its summary.parquet, after checking
+    that the run's output set is complete and from one run."""
+    check_output_set(run_dir)
     meta = pq.read_metadata(pathlib.Path(run_dir) / "summary.parquet").metadata
     return tomllib.loads(meta[b"chassis_mc.study"].decode())
 
@@ -43,15 +101,11 @@ def terrain_metric(study, scale):
     return float(np.mean(grade**2))
 
 
-def parquet(run_dir, name):
-    """Path of one of a run's Parquet files, as a string for DuckDB."""
-    return str(pathlib.Path(run_dir) / name)
-
-
 def per_parameter(run_dir, columns, sql, after):
     """Run `sql` once per parameter and stack the results, one row per result row × parameter.
 
-    realisations.parquet, which can be large, is read once: its rows with status 'ok' and the
+    The realisations (realisations.parquet, or every shard's), which can be large, are read
+    once: their rows with status 'ok' and the
     `columns` listed (`{p}` in a name stands for each parameter in turn) go into a temporary
     table `realisations`, in file order. `sql` then runs on that table for every parameter,
     with `{p}` replaced by the parameter's name and `$truth` bound to its true value; a
@@ -66,8 +120,8 @@ def per_parameter(run_dir, columns, sql, after):
     with duckdb.connect() as con:
         con.execute(
             f"CREATE TEMP TABLE realisations AS SELECT {', '.join(names)} "
-            "FROM read_parquet($file) WHERE status = 'ok'",
-            {"file": parquet(run_dir, "realisations.parquet")},
+            "FROM read_parquet($files) WHERE status = 'ok'",
+            {"files": [str(f) for f in realisation_files(run_dir)]},
         )
         con.execute("SET threads = 1")
         frames = []

@@ -17,7 +17,9 @@ on which they are ever read. ς is recomputed by NumPy from the cos² profile (p
     cargo build --release && python analysis/test_analysis.py
 """
 
+import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -27,7 +29,9 @@ import pyarrow.parquet as pq
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
-BINARY = ROOT / "target" / "release" / "chassis-mc"
+# Where cargo put the binary: $CARGO_TARGET_DIR when set (relative to the repository, as
+# cargo reads it), else target/.
+BINARY = ROOT / os.environ.get("CARGO_TARGET_DIR", "target") / "release" / "chassis-mc"
 TOL = 1e-12
 
 
@@ -64,6 +68,34 @@ def compare(name, engine, script, columns, relative_to=None):
     return worst
 
 
+def run_scripts(run, tmp, engine, label):
+    """Run both scripts on the output directory `run`; compare with the engine's summary."""
+    scripts = {
+        "thesis_figures": (["mean", "emp_se", "thesis_bound_se", "terrain_ms_grid",
+                            "mean_mcse", "emp_se_mcse"], None),
+        "bias_report": (["bias", "bias_mcse", "emp_se", "emp_over_thesis_bound",
+                         "emp_over_crlb_output", "emp_over_eiv_sandwich",
+                         "emp_over_eiv_crlb_linearized"], {"bias": "bias_mcse"}),
+    }
+    print(label)
+    for script, (columns, relative_to) in scripts.items():
+        csv = tmp / f"{label}-{script}.csv"
+        subprocess.run([sys.executable, HERE / f"{script}.py", run, "--csv", csv],
+                       check=True, stdout=subprocess.DEVNULL)
+        numbers = pd.read_csv(csv)
+        compare(script, engine, numbers, columns, relative_to)
+
+
+def refuses(run, what):
+    """Each script must refuse `run` (exit 2, a message naming the problem)."""
+    for script in ["thesis_figures", "bias_report"]:
+        done = subprocess.run([sys.executable, HERE / f"{script}.py", run],
+                              capture_output=True, text=True)
+        assert done.returncode == 2, f"{script} read {what}: exit {done.returncode}"
+        assert what in done.stderr, f"{script}: {done.stderr!r} does not say {what!r}"
+    print(f"  both scripts refuse a directory with {what}")
+
+
 def main():
     if not BINARY.exists():
         sys.exit(f"{BINARY} not found: run `cargo build --release` first")
@@ -75,22 +107,29 @@ def main():
         subprocess.run([BINARY, "run", study, "--out", run, "--realisations", "100", "--quiet",
                         "--no-figures"], check=True)
         engine = pq.read_table(run / "summary.parquet").to_pandas()
-
-        scripts = {
-            "thesis_figures": (["mean", "emp_se", "thesis_bound_se", "terrain_ms_grid",
-                                "mean_mcse", "emp_se_mcse"], None),
-            "bias_report": (["bias", "bias_mcse", "emp_se", "emp_over_thesis_bound",
-                             "emp_over_crlb_output", "emp_over_eiv_sandwich",
-                             "emp_over_eiv_crlb_linearized"], {"bias": "bias_mcse"}),
-        }
-        for script, (columns, relative_to) in scripts.items():
-            csv = tmp / f"{script}.csv"
-            subprocess.run([sys.executable, HERE / f"{script}.py", run, "--csv", csv],
-                           check=True, stdout=subprocess.DEVNULL)
-            numbers = pd.read_csv(csv)
-            compare(script, engine, numbers, columns, relative_to)
+        run_scripts(run, tmp, engine, "unsharded")
         figures = list((run / "analysis").glob("figure*_*.png"))
         assert len(figures) == 3, f"thesis_figures drew {len(figures)} figures, expected 3"
+
+        # The same study in 3 shards, then summarized: no realisations.parquet at the top.
+        sharded = tmp / "sharded"
+        for k in range(3):
+            subprocess.run([BINARY, "run", study, "--out", sharded, "--realisations", "100",
+                            "--quiet", "--shard", f"{k}/3"], check=True)
+        subprocess.run([BINARY, "summarize", sharded, "--quiet", "--no-figures"], check=True)
+        assert not (sharded / "realisations.parquet").exists()
+        run_scripts(sharded, tmp, engine, "sharded, then summarized")
+
+        # A mixed set (another seed's summary) and an interrupted commit are refused.
+        other = tmp / "other"
+        subprocess.run([BINARY, "run", study, "--out", other, "--realisations", "100",
+                        "--seed", "7", "--quiet", "--no-figures"], check=True)
+        mixed = tmp / "mixed"
+        shutil.copytree(run, mixed)
+        shutil.copy(other / "summary.parquet", mixed / "summary.parquet")
+        refuses(mixed, "different runs")
+        (run / ".chassis-mc-journal").write_text("chassis-mc journal 1\n")
+        refuses(run, "incomplete output")
     print("analysis scripts agree with the engine's summary within 1e-12 relative")
 
 

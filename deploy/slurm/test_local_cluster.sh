@@ -22,12 +22,28 @@ if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null; then
 fi
 
 work=$(mktemp -d)
+# Daemons are started with pid files under $work and stopped by those pids only: this
+# script never signals a process it did not start (the machine may be shared, and a
+# munged that was already running is left alone).
+run_dir="$work/run"
+mkdir -p "$run_dir"
+started=()   # pid files of the daemons this script started
+stop_pidfile() {
+    local file=$1 pid
+    [ -s "$file" ] || return 0
+    pid=$(cat "$file")
+    kill "$pid" 2>/dev/null || return 0
+    for _ in $(seq 50); do
+        kill -0 "$pid" 2>/dev/null || return 0
+        sleep 0.2
+    done
+    kill -9 "$pid" 2>/dev/null || true
+}
 cleanup() {
-    scontrol shutdown >/dev/null 2>&1 || true
-    sleep 1
-    pkill -x slurmd 2>/dev/null || true
-    pkill -x slurmctld 2>/dev/null || true
-    pkill -x munged 2>/dev/null || true
+    local i
+    for ((i = ${#started[@]} - 1; i >= 0; i--)); do
+        stop_pidfile "${started[$i]}"
+    done
     rm -rf "$work"
 }
 trap cleanup EXIT
@@ -37,7 +53,11 @@ mkdir -p /etc/munge /var/lib/munge /var/log/munge /run/munge
 [ -s /etc/munge/munge.key ] || dd if=/dev/urandom of=/etc/munge/munge.key bs=1024 count=1 status=none
 chown -R munge:munge /etc/munge /var/lib/munge /var/log/munge /run/munge
 chmod 0700 /etc/munge && chmod 0400 /etc/munge/munge.key
-pgrep -x munged >/dev/null || su -s /bin/sh munge -c munged
+if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
+    munge_pid=/run/munge/chassis-mc-test-munged.pid
+    su -s /bin/sh munge -c "munged --pid-file=$munge_pid"
+    started+=("$munge_pid")
+fi
 munge -n | unmunge >/dev/null
 
 echo "== slurm (one node, 2 CPUs)"
@@ -52,8 +72,8 @@ AuthType=auth/munge
 CredType=cred/munge
 StateSaveLocation=/var/spool/slurmctld
 SlurmdSpoolDir=/var/spool/slurmd
-SlurmctldPidFile=/run/slurmctld.pid
-SlurmdPidFile=/run/slurmd.pid
+SlurmctldPidFile=$run_dir/slurmctld.pid
+SlurmdPidFile=$run_dir/slurmd.pid
 SlurmctldLogFile=/var/log/slurm/slurmctld.log
 SlurmdLogFile=/var/log/slurm/slurmd.log
 ProctrackType=proctrack/linuxproc
@@ -68,11 +88,10 @@ MpiDefault=none
 NodeName=localnode NodeAddr=127.0.0.1 NodeHostname=localhost CPUs=2 RealMemory=$memory State=UNKNOWN
 PartitionName=local Nodes=localnode Default=YES MaxTime=INFINITE State=UP
 EOF
-pkill -x slurmd 2>/dev/null || true
-pkill -x slurmctld 2>/dev/null || true
-sleep 1
 slurmctld -c
+started+=("$run_dir/slurmctld.pid")
 slurmd -N localnode
+started+=("$run_dir/slurmd.pid")
 for _ in $(seq 60); do
     sinfo -h -o %t 2>/dev/null | grep -qE '^idle' && break
     sleep 1

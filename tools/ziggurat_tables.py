@@ -1,6 +1,6 @@
 """Generate the 256-layer ziggurat tables for the standard normal used by chassis-mc.
 
-The tables in src/montecarlo/normal.rs were produced by this script (mpmath, 60 digits),
+The tables in src/noise/tables.rs were produced by this script (mpmath, 60 digits),
 then rounded to the nearest f64 by Python's repr. Layout (Marsaglia & Tsang 2000):
 
   f(x) = exp(-x^2/2) (unnormalised), V = r f(r) + int_r^inf f(x) dx (area of each layer),
@@ -8,7 +8,8 @@ then rounded to the nearest f64 by Python's repr. Layout (Marsaglia & Tsang 2000
   F[i] = f(X[i]).
 
 r solves X[256] = 0, i.e. the top layer closes exactly at the mode.
-Run: python3 analysis/ziggurat_tables.py
+Run (a development tool; needs mpmath, see tools/requirements.txt):
+  python3 tools/ziggurat_tables.py   # prints the ZIG_X and ZIG_F arrays of src/noise/tables.rs
 """
 import mpmath as mp
 
