@@ -7,7 +7,7 @@
 use std::path::Path;
 
 /// Bottom to top. A module may use those before it in this list (and itself).
-const LAYERS: [&str; 13] = [
+const LAYERS: [&str; 14] = [
     "numeric",
     "noise",
     "terrain",
@@ -21,6 +21,7 @@ const LAYERS: [&str; 13] = [
     "figures",
     "report",
     "run",
+    "check",
 ];
 
 fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
