@@ -211,7 +211,7 @@ fn candidate(word: u64) -> (f64, bool) {
 /// Bit pattern of 1.0.
 const ONE_BITS: u64 = 0x3ff0_0000_0000_0000;
 
-/// The candidate pass, portable version: `out\[j\]` gets every candidate and bit j of
+/// The candidate pass, portable version: `out[j]` gets every candidate and bit j of
 /// `outside` is set when candidate j fell outside its layer's core.
 fn candidates_body(words: &[u64], out: &mut [f64], outside: &mut [u64; BLOCK / 64]) {
     for (j, (o, &w)) in out.iter_mut().zip(words).enumerate() {

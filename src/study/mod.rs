@@ -1,7 +1,7 @@
 //! Study files: TOML in, a validated [`Study`] out.
 //!
 //! This is the one place where user input becomes trusted configuration. serde structs with
-//! `deny_unknown_fields` catch unknown keys, missing keys and wrong types; [`validate`] then
+//! `deny_unknown_fields` catch unknown keys, missing keys and wrong types; `validate` then
 //! checks every value. Every failure is a [`StudyError`] that names the file, the dotted key,
 //! its line and the reason, so a user can fix the file without reading code.
 
@@ -56,13 +56,13 @@ impl std::error::Error for StudyError {}
 /// Which noise enters the measurements of the vehicle study, one condition axis each.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NoiseAxes {
-    /// Standard deviations of the speed-measurement noise [m/s].
+    /// Standard deviations of the speed-measurement noise \[m/s\].
     pub velocity_sd: Vec<f64>,
-    /// Standard deviations of the additive output (acceleration) noise [m/s²].
+    /// Standard deviations of the additive output (acceleration) noise \[m/s²\].
     pub output_sd: Vec<f64>,
-    /// Standard deviations of the grade-measurement noise [rad] (default `[0.0]`).
+    /// Standard deviations of the grade-measurement noise \[rad\] (default `[0.0]`).
     pub grade_sd: Vec<f64>,
-    /// Standard deviations of the propulsion-force measurement noise [N] (default `[0.0]`).
+    /// Standard deviations of the propulsion-force measurement noise \[N\] (default `[0.0]`).
     pub force_sd: Vec<f64>,
 }
 
@@ -108,7 +108,7 @@ pub struct VehicleStudy {
 /// Shape of the measurement noise of the line-fit example.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NoiseShape {
-    /// Uniform on [−√3 σ, √3 σ] (the thesis's `18*(rand − 0.5)` has σ = 18/√12 = 5.196).
+    /// Uniform on \[−√3 σ, √3 σ\] (the thesis's `18*(rand − 0.5)` has σ = 18/√12 = 5.196).
     Uniform,
     /// Normal N(0, σ²).
     Gaussian,

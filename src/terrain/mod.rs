@@ -37,18 +37,18 @@ impl ScaleTarget {
 /// The `cos2` road profile `y(x) = height · cos²(x / period)` on a 1 m grid `x = 0 … length`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TerrainSpec {
-    /// Peak-to-trough height h [m].
+    /// Peak-to-trough height h \[m\].
     pub height_m: f64,
-    /// Period parameter P [m] (the elevation repeats every π P).
+    /// Period parameter P \[m\] (the elevation repeats every π P).
     pub period_m: f64,
-    /// Length L of the road [m]; the grade table has L entries.
+    /// Length L of the road \[m\]; the grade table has L entries.
     pub length_m: usize,
     /// What the scale factor multiplies.
     pub scale_applies_to: ScaleTarget,
 }
 
 impl TerrainSpec {
-    /// Elevation y(x) [m] of the unscaled profile.
+    /// Elevation y(x) \[m\] of the unscaled profile.
     pub fn elevation_m(&self, x_m: f64) -> f64 {
         let c = (x_m / self.period_m).cos();
         self.height_m * c * c
@@ -73,30 +73,30 @@ impl TerrainSpec {
     }
 }
 
-/// Road grade θ_i [rad] at grid points x_i = i m, i = 0 … L−1.
+/// Road grade θ_i \[rad\] at grid points x_i = i m, i = 0 … L−1.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GradeTable {
     grade_rad: Vec<f64>,
 }
 
 impl GradeTable {
-    /// A table from explicit grades [rad] at x = 0, 1, … m (at least two points).
+    /// A table from explicit grades \[rad\] at x = 0, 1, … m (at least two points).
     pub fn from_grades(grade_rad: Vec<f64>) -> Self {
         assert!(grade_rad.len() >= 2, "a grade table needs two points");
         GradeTable { grade_rad }
     }
 
-    /// The grades [rad], one per grid point.
+    /// The grades \[rad\], one per grid point.
     pub fn grades(&self) -> &[f64] {
         &self.grade_rad
     }
 
-    /// Position of the last grid point [m]; beyond it the vehicle has run off the table.
+    /// Position of the last grid point \[m\]; beyond it the vehicle has run off the table.
     pub fn end_m(&self) -> f64 {
         (self.grade_rad.len() - 1) as f64 * GRID_STEP_M
     }
 
-    /// Grade [rad] at position `x_m` by linear interpolation, clamped below x = 0;
+    /// Grade \[rad\] at position `x_m` by linear interpolation, clamped below x = 0;
     /// `None` beyond the end of the table.
     #[inline]
     pub fn grade_at(&self, x_m: f64) -> Option<f64> {
@@ -129,14 +129,14 @@ impl GradeTable {
         (g.abs() >= MAX_GRADE_RAD).then_some((g, steepest as f64 * GRID_STEP_M))
     }
 
-    /// Terrain variability over the table, ς = mean of θ² over all grid points [rad²]
+    /// Terrain variability over the table, ς = mean of θ² over all grid points \[rad²\]
     /// (the thesis code's `rgm = mean(w1.^2)`), from an exactly rounded sum.
     pub fn mean_square(&self) -> f64 {
         mean_square(&self.grade_rad)
     }
 }
 
-/// Mean of squares of `values` (ς of thesis eq. 43 when the values are grades) [rad²].
+/// Mean of squares of `values` (ς of thesis eq. 43 when the values are grades) \[rad²\].
 pub fn mean_square(values: &[f64]) -> f64 {
     exact_sum(values.iter().map(|v| v * v)) / values.len() as f64
 }

@@ -57,7 +57,7 @@ impl VehicleParams {
     }
 }
 
-/// Drive-cycle settings (`\[drive\]`; docs/model.md#vehicle).
+/// Drive-cycle settings (`[drive]`; docs/model.md#vehicle).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriveParams {
     /// Length of the cycle \[s\].
