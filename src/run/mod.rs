@@ -1,0 +1,294 @@
+//! Running a study end to end: prepare the model, execute the realisations, summarise,
+//! write the Parquet files and the figures, and commit them together as one set.
+//!
+//! Nothing in the output directory changes until every file is complete: each is written
+//! under a temporary name, and the whole set replaces the previous one through a journal
+//! ([`output::set`]), so a reader sees the old set or the new one, never a mix. The
+//! directory is locked while a run writes it ([`output::lock`]). A bad study is rejected
+//! before the directory is touched.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::figures::{self, FigureError};
+use crate::model::{self, ConditionInfo, Layout, Model};
+use crate::montecarlo::{DEFAULT_CHUNK, Observer};
+pub use crate::output::files;
+pub use shard::Shard;
+pub use summarize::{realisation_files, summarise_files, summarize};
+
+mod realise;
+mod shard;
+mod summarize;
+
+use crate::output::lock::DirLock;
+use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, set};
+use crate::stats::summary::{SummaryError, SummaryRow};
+use crate::study::{Study, StudyError};
+use realise::{identity, realise};
+
+/// Why a run failed.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum RunError {
+    /// The study cannot be run (bad value, or a condition the model cannot simulate).
+    #[error(transparent)]
+    Study(#[from] StudyError),
+    /// Writing or reading output failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The realisation rows do not add up (e.g. a truncated file).
+    #[error("{path}: {source}")]
+    Summary {
+        /// The realisation file summarised.
+        path: PathBuf,
+        /// What is inconsistent.
+        source: SummaryError,
+    },
+    /// Drawing the figures failed.
+    #[error(transparent)]
+    Figures(#[from] FigureError),
+    /// The thread pool could not be built.
+    #[error("cannot start {threads} worker threads: {reason}")]
+    Threads {
+        /// Threads requested.
+        threads: usize,
+        /// The reason.
+        reason: String,
+    },
+}
+
+/// How to run a study.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Output directory (created if missing).
+    pub out_dir: PathBuf,
+    /// Worker threads; `None` uses every core.
+    pub threads: Option<usize>,
+    /// Realisations per computed chunk.
+    pub chunk: u64,
+    /// Run only this shard of every condition (written to `out_dir/shard=K/`).
+    pub shard: Option<Shard>,
+    /// Draw the figures into `out_dir/figures/` (not for a shard).
+    pub figures: bool,
+}
+
+impl RunOptions {
+    /// Defaults: all cores, [`DEFAULT_CHUNK`] realisations per chunk.
+    pub fn new(out_dir: impl Into<PathBuf>) -> Self {
+        RunOptions {
+            out_dir: out_dir.into(),
+            threads: None,
+            chunk: DEFAULT_CHUNK,
+            shard: None,
+            figures: true,
+        }
+    }
+}
+
+/// Write the model's extra tables (the vehicle's cycles) under temporary names in `dir`.
+pub(super) fn write_extra_tables(
+    model: &dyn Model,
+    dir: &Path,
+    meta: &FileMetadata,
+) -> Result<Vec<PendingFile>, OutputError> {
+    let mut written = Vec::new();
+    for (t, table) in model.extra_tables().iter().enumerate() {
+        let mut sink =
+            ParquetSink::create(dir, table.file, table.schema.clone(), meta, table.table)?;
+        for batch in (0..).map_while(|i| model.extra_batch(t, i)) {
+            sink.write(&batch.map_err(|e| OutputError::arrow(dir, e))?)?;
+        }
+        written.push(sink.finish()?);
+    }
+    Ok(written)
+}
+
+/// What a finished run produced.
+#[derive(Debug)]
+pub struct RunReport {
+    /// Layout of the model's rows.
+    pub layout: Layout,
+    /// The conditions.
+    pub infos: Vec<ConditionInfo>,
+    /// The summary rows (also in summary.parquet); empty for a shard.
+    pub summary: Vec<SummaryRow>,
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// Realisations (per condition, summed) kept from earlier, interrupted or smaller runs.
+    pub reused: u64,
+    /// Realisations computed by this run.
+    pub computed: u64,
+}
+
+/// Staging directory for parts, inside the directory of the realisation file.
+pub const STAGING: &str = ".chassis-mc-parts";
+
+/// Run `study` into `options.out_dir`.
+pub fn run_study(
+    study: &Study,
+    options: &RunOptions,
+    observer: &dyn Observer,
+) -> Result<RunReport, RunError> {
+    let pool = thread_pool(options.threads)?;
+    pool.install(|| {
+        let model = model::prepare(study)?;
+        run_prepared(study, &*model, options, observer)
+    })
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        builder = builder.num_threads(t);
+    }
+    builder.build().map_err(|e| RunError::Threads {
+        threads: threads.unwrap_or(0),
+        reason: e.to_string(),
+    })
+}
+
+/// Delete what killed runs left under temporary names: files, and the figures' staging
+/// directory.
+pub(super) fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
+    for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
+        let entry = entry.map_err(|e| OutputError::io(dir, e))?;
+        if output::is_temporary(&entry.file_name().to_string_lossy()) {
+            let path = entry.path();
+            let removed = if path.is_dir() {
+                fs::remove_dir_all(&path)
+            } else {
+                fs::remove_file(&path)
+            };
+            removed.map_err(|e| OutputError::io(&path, e))?;
+        }
+    }
+    Ok(())
+}
+
+fn run_prepared(
+    study: &Study,
+    model: &dyn Model,
+    options: &RunOptions,
+    observer: &dyn Observer,
+) -> Result<RunReport, RunError> {
+    let out_dir = &options.out_dir;
+    let dir = match options.shard {
+        Some(shard) => out_dir.join(shard.dir_name()),
+        None => out_dir.clone(),
+    };
+    let _lock = lock(&dir, observer)?;
+    if set::recover(&dir)? {
+        observer.notice(&format!(
+            "{}: completed the replacement of the output files that an interrupted run had \
+             begun",
+            dir.display()
+        ));
+    }
+    remove_temporaries(&dir)?;
+    let staging = dir.join(STAGING);
+    fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    let layout = model.layout().clone();
+    let infos = model.infos();
+    let meta = FileMetadata {
+        study_toml: study.to_toml(),
+        seed: study.seed,
+        realisations: study.realisations,
+        identity: identity(study, model, &infos),
+        extra: Vec::new(),
+    };
+
+    // The model's extra tables (the cycles) do not depend on the realisations: they are
+    // written while the realisations are computed.
+    let (realised, extra) = rayon::join(
+        || realise(study, model, &infos, options, observer, &dir, &meta),
+        || match options.shard {
+            None => write_extra_tables(model, out_dir, &meta),
+            Some(_) => Ok(Vec::new()),
+        },
+    );
+    let (realisations, reused, computed) = realised?;
+    let extra = extra?;
+
+    // The summary, from the assembled file itself (two passes), so `run` and `summarize`
+    // agree by construction; a shard's summary comes from `summarize` over all shards.
+    let mut pending = vec![realisations];
+    let mut summary = Vec::new();
+    if options.shard.is_none() {
+        summary = summarise_files(
+            &layout,
+            &infos,
+            study.realisations,
+            &[pending[0].tmp_path()],
+        )?;
+        pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
+        pending.extend(extra);
+        if options.figures {
+            let figures = draw_figures(out_dir, &pending)?;
+            pending.extend(figures);
+        }
+    }
+    let files = set::commit(&dir, pending, &|_| true)?;
+    output::failpoint("committed");
+    fs::remove_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
+    remove_temporaries(&dir)?; // the figures' emptied staging directory
+    Ok(RunReport {
+        layout,
+        infos,
+        summary,
+        files,
+        reused,
+        computed,
+    })
+}
+
+/// Lock `dir` for this process (creating it), telling `observer` when the lock of a killed
+/// process is taken over.
+fn lock(dir: &Path, observer: &dyn Observer) -> Result<DirLock, OutputError> {
+    let lock = DirLock::acquire(dir)?;
+    if let Some(pid) = lock.taken_over_from {
+        observer.notice(&format!(
+            "{}: taking over the lock of process {pid}, which ended without releasing it",
+            dir.display()
+        ));
+    }
+    Ok(lock)
+}
+
+/// Draw the figures of the summary and cycles among `pending` (still under temporary
+/// names), to be committed with them.
+pub(super) fn draw_figures(
+    out_dir: &Path,
+    pending: &[PendingFile],
+) -> Result<Vec<PendingFile>, RunError> {
+    let find = |name: &str| {
+        pending
+            .iter()
+            .find(|p| p.final_path().file_name() == Some(name.as_ref()))
+            .map(|p| p.tmp_path())
+    };
+    let summary = find(files::SUMMARY).expect("the summary is written before the figures");
+    Ok(figures::draw_staged(out_dir, summary, find(files::CYCLES))?)
+}
+
+pub(super) fn write_summary(
+    dir: &Path,
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    summary: &[SummaryRow],
+    meta: &FileMetadata,
+) -> Result<Vec<PendingFile>, OutputError> {
+    let mut sink = ParquetSink::create(
+        dir,
+        files::SUMMARY,
+        output::summary_schema(layout),
+        meta,
+        "summary",
+    )?;
+    let batch =
+        output::summary_batch(layout, infos, summary).map_err(|e| OutputError::arrow(dir, e))?;
+    sink.write(&batch)?;
+    Ok(vec![sink.finish()?])
+}

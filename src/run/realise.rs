@@ -1,0 +1,130 @@
+//! Computing the realisations a run needs (reusing what earlier runs left) and assembling
+//! them, in order, into the realisation file.
+
+use std::path::Path;
+
+use super::{RunError, RunOptions, STAGING, files};
+use crate::model::{ConditionInfo, Model};
+use crate::montecarlo::{self, Observer, Work};
+use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, keys, store};
+use crate::study::Study;
+
+/// What makes realisations of two runs interchangeable: the study without its realisation
+/// count and the engine version ([`Study::identity`]), plus a check of this build's
+/// numbers — a hash of every condition's metrics and of realisation 0 of condition 0 — so
+/// that a rebuilt engine whose arithmetic changed never reuses an older run's parts.
+pub(super) fn identity(study: &Study, model: &dyn Model, infos: &[ConditionInfo]) -> String {
+    let mut canary = vec![0.0; model.layout().realisation_stride()];
+    model.realise(study.seed, 0, 0, &mut canary);
+    let metrics = infos.iter().flat_map(|i| i.metrics.iter().copied());
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
+    for v in canary.into_iter().chain(metrics) {
+        for byte in v.to_bits().to_le_bytes() {
+            hash = (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    format!("{}# numbers {hash:016x}\n", study.identity())
+}
+
+/// Make every needed realisation exist and assemble them, in order, into the realisation
+/// file (still under its temporary name). Returns it with the counts reused and computed.
+pub(super) fn realise(
+    study: &Study,
+    model: &dyn Model,
+    infos: &[ConditionInfo],
+    options: &RunOptions,
+    observer: &dyn Observer,
+    dir: &Path,
+    meta: &FileMetadata,
+) -> Result<(PendingFile, u64, u64), RunError> {
+    let staging = dir.join(STAGING);
+    let layout = model.layout();
+    let schema = output::realisation_schema(layout);
+    let range = options
+        .shard
+        .map_or(0..study.realisations, |s| s.range(study.realisations));
+    let needed = vec![range; infos.len()];
+    // 1. What exists already: completed parts of an interrupted run, and the realisation
+    //    file of an earlier run of the same study (e.g. with a smaller R).
+    let notice = |message: &str| observer.notice(message);
+    let mut sources = store::scan_parts(&staging, &meta.identity, &notice)?;
+    sources.extend(store::existing_file(
+        &dir.join(files::REALISATIONS),
+        &meta.identity,
+        &notice,
+    )?);
+    let segments = store::plan(&needed, &sources);
+    let length = |s: &store::Segment| s.range.end - s.range.start;
+    let total: u64 = segments.iter().map(length).sum();
+    let computed: u64 = segments
+        .iter()
+        .filter(|s| s.source.is_none())
+        .map(length)
+        .sum();
+    observer.planned(total, total - computed);
+
+    // 2. Compute what is missing into staged parts, each renamed into place when complete
+    //    (so a killed run resumes), and assemble the final file as the rows arrive. One
+    //    pass over every part keeps the executor's compute/write pipeline full; the parts
+    //    are planned lazily, so the plan's memory does not grow with R.
+    let mut pieces = segments
+        .iter()
+        .filter(|s| s.source.is_none())
+        .flat_map(|seg| {
+            let (condition, range) = (seg.condition, seg.range.clone());
+            let step = usize::try_from(store::PART_REALISATIONS).unwrap_or(usize::MAX);
+            (range.start..range.end)
+                .step_by(step)
+                .map(move |start| Work {
+                    condition,
+                    realisations: start..(start + store::PART_REALISATIONS).min(range.end),
+                })
+        });
+    let file_meta = match options.shard {
+        Some(shard) => meta.with(keys::SHARD, shard.to_string()),
+        None => meta.clone(),
+    };
+    let file = ParquetSink::create(
+        dir,
+        files::REALISATIONS,
+        schema.clone(),
+        &file_meta,
+        "realisations",
+    )?;
+    let mut assembler = store::Assembler::new(&sources, &segments, file);
+    let mut part: Option<ParquetSink> = None; // the part of the current work item
+    montecarlo::execute(
+        model,
+        study.seed,
+        &mut pieces,
+        options.chunk,
+        observer,
+        |chunk| {
+            if chunk.first == chunk.item.start {
+                let part_meta =
+                    meta.with(keys::PART, store::part_value(chunk.condition, &chunk.item));
+                part = Some(ParquetSink::create(
+                    &staging,
+                    &store::part_name(chunk.condition, chunk.item.start, 0),
+                    schema.clone(),
+                    &part_meta,
+                    "realisations",
+                )?);
+            }
+            let batch =
+                output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
+                    .map_err(|e| OutputError::arrow(&staging, e))?;
+            part.as_mut().expect("a part is open").write(&batch)?;
+            assembler.computed(chunk.condition, chunk.first, &batch)?;
+            let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
+            if chunk.first + rows == chunk.item.end {
+                let done = part.take().expect("a part is open").finish()?;
+                store::commit_part(done, chunk.condition, chunk.item.start)?;
+                output::failpoint("part-committed");
+            }
+            Ok::<(), OutputError>(())
+        },
+    )?;
+
+    Ok((assembler.finish()?, total - computed, computed))
+}

@@ -1,0 +1,192 @@
+//! Summaries from realisation files: of a run, or of every shard of a sharded run.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use super::{
+    RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_summary,
+};
+use crate::model::{self, ConditionInfo, Layout};
+use crate::output::lock::DirLock;
+use crate::output::{self, FileMetadata, OutputError, RealisationBatches, keys, set};
+use crate::stats::measures::Z_95;
+use crate::stats::summary::{Summarizer, SummaryRow};
+use crate::study::{Study, StudyError};
+
+/// The realisation files in `input`: the file itself, or in a directory its
+/// `realisations.parquet` and every `shard=*/realisations.parquet`. A directory whose output
+/// set is incomplete (an interrupted commit) or whose realisation file does not match the
+/// checksum recorded for it is an error.
+pub fn realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    let found = find_realisation_files(input)?;
+    for path in &found {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        set::ensure_complete(dir)?;
+        let manifest = set::Manifest::read(dir)?;
+        if let Some(entry) = manifest.as_ref().and_then(|m| m.get(files::REALISATIONS))
+            && path.file_name() == Some(files::REALISATIONS.as_ref())
+            && set::checksum(path)? != entry.checksum
+        {
+            return Err(OutputError::format(
+                path,
+                "damaged: its bytes do not match the checksum recorded when it was written; \
+                 run its study (or shard) again",
+            ));
+        }
+    }
+    Ok(found)
+}
+
+fn find_realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
+    if input.is_file() {
+        return Ok(vec![input.to_path_buf()]);
+    }
+    let mut found = Vec::new();
+    let direct = input.join(files::REALISATIONS);
+    if direct.is_file() {
+        found.push(direct);
+    }
+    let entries = fs::read_dir(input).map_err(|e| OutputError::io(input, e))?;
+    let mut shards = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| OutputError::io(input, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let file = entry.path().join(files::REALISATIONS);
+        if name.starts_with("shard=") && file.is_file() {
+            shards.push(file);
+        }
+    }
+    shards.sort();
+    found.extend(shards);
+    Ok(found)
+}
+
+/// Rebuild `summary.parquet` (and the model's extra tables, and the figures if `figures`)
+/// in `out_dir` from realisation files of one study: any split into shards, in any order.
+/// The study is read from the files' footers; every realisation of every condition must be
+/// present exactly once. The new files replace the summary, tables and figures of
+/// `out_dir`'s output set together; a realisation file there stays.
+pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<RunReport, RunError> {
+    let mut paths = Vec::new();
+    for input in inputs {
+        paths.extend(realisation_files(input)?);
+    }
+    let first = paths.first().ok_or_else(|| {
+        RunError::Study(StudyError {
+            file: inputs
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            key: None,
+            line: None,
+            reason: "no realisation files found (expected realisations.parquet or shard=*/realisations.parquet)".into(),
+        })
+    })?;
+    let footer = |path: &Path| -> Result<(String, String, u64), RunError> {
+        let footer = output::read_metadata(path)?;
+        let get = |k: &str| footer.get(k).map(str::to_string);
+        let missing = || {
+            OutputError::format(
+                path,
+                "not a chassis-mc realisation file (footer metadata missing)",
+            )
+        };
+        let study = get(keys::STUDY).ok_or_else(missing)?;
+        let identity = get(keys::IDENTITY).ok_or_else(missing)?;
+        let r = get(keys::REALISATIONS)
+            .and_then(|v| v.parse().ok())
+            .ok_or_else(missing)?;
+        Ok((study, identity, r))
+    };
+    let (study_toml, identity, realisations) = footer(first)?;
+    for path in &paths[1..] {
+        let (_, other, r) = footer(path)?;
+        if other != identity || r != realisations {
+            return Err(OutputError::format(
+                path,
+                format!(
+                    "belongs to a different study or R than {} (realisations {r} vs {realisations})",
+                    first.display()
+                ),
+            )
+            .into());
+        }
+    }
+    let origin = format!("{} (footer)", first.display());
+    let study = Study::from_toml(&study_toml, &origin)?;
+    let model = model::prepare(&study)?;
+    let layout = model.layout().clone();
+    let infos = model.infos();
+    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let summary = summarise_files(&layout, &infos, realisations, &refs)?;
+    let _lock = DirLock::acquire(out_dir)?;
+    set::ensure_complete(out_dir)?;
+    remove_temporaries(out_dir)?;
+    let meta = FileMetadata {
+        study_toml: study.to_toml(),
+        seed: study.seed,
+        realisations,
+        identity,
+        extra: Vec::new(),
+    };
+    let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
+    pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
+    if figures {
+        let figures = draw_figures(out_dir, &pending)?;
+        pending.extend(figures);
+    }
+    // The summary's set keeps the realisation files it summarised.
+    let files = set::commit(out_dir, pending, &|path| {
+        path != files::REALISATIONS && !path.starts_with("shard=")
+    })?;
+    remove_temporaries(out_dir)?;
+    Ok(RunReport {
+        layout,
+        infos,
+        summary,
+        files,
+        reused: 0,
+        computed: 0,
+    })
+}
+
+/// Summarise the realisation rows stored in `paths` (any split of one study's rows).
+pub fn summarise_files(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    realisations: u64,
+    paths: &[&Path],
+) -> Result<Vec<SummaryRow>, RunError> {
+    let mut summarizer = Summarizer::new(layout, infos, realisations, Z_95);
+    let columns = RealisationBatches::columns(layout);
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+    for pass in 0..2 {
+        for path in paths {
+            let summary_error = |source| RunError::Summary {
+                path: path.to_path_buf(),
+                source,
+            };
+            for batch in output::open_projected_reader(path, output::READ_ROWS, Some(&columns))? {
+                let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
+                let rows = RealisationBatches::decode(layout, &batch, path)?;
+                for record in rows.records() {
+                    if pass == 0 {
+                        summarizer.first_pass(&record).map_err(summary_error)?;
+                    } else {
+                        summarizer.second_pass(&record).map_err(summary_error)?;
+                    }
+                }
+            }
+        }
+        if pass == 0 {
+            summarizer
+                .end_first_pass()
+                .map_err(|source| RunError::Summary {
+                    path: paths.first().map(|p| p.to_path_buf()).unwrap_or_default(),
+                    source,
+                })?;
+        }
+    }
+    Ok(summarizer.finish())
+}
