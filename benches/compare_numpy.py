@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """chassis-mc against an independent NumPy reference of the same Monte Carlo, in one run.
 
-The reference re-implements the thesis study from SPEC §1-§3 with NumPy only: the cos²
+The reference re-implements the thesis study from docs/model.md (vehicle, terrain, regression) with NumPy only: the cos²
 terrain and forward-Euler grade, RK4 drive cycles (all scales integrated together), speed
 noise from NumPy's own generator (PCG64), OLS through the 3×3 normal equations, and the
 thesis bound. It shares no code and no random numbers with chassis-mc, so the two agree

@@ -3,7 +3,7 @@
 //! vectorised ChaCha8, the same stream), the ziggurat normal generator, rand_distr's StandardNormal, the
 //! moment kernel (draw + accumulate) and a whole realisation (kernel + solves + bounds).
 //!
-//! Run: `cargo bench --bench kernel`. Issue 4's targets are ratios measured in one run:
+//! Run: `cargo bench --bench kernel`. The targets are ratios measured in one run:
 //! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation.
 
 use std::hint::black_box;

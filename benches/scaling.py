@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Thread scaling, wall time and peak memory of `chassis-mc run studies/thesis.toml`.
 
-Measured in one run on this machine (issue 4, acceptance 2-3):
+Measured in one run on this machine:
   - two threads against one on the thesis study (R = 2000; ratio of best wall times),
   - R = 10 000 on all cores: wall time and peak RSS,
   - R = 100 000 on all cores: peak RSS, as a ratio to R = 10 000 (memory must not grow

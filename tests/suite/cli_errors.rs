@@ -1,4 +1,4 @@
-//! Acceptance 6 (issue 2): a bad study file exits with status 2 and one message that names
+//! A bad study file exits with status 2 and one message that names
 //! the file, the key (and line) and the reason; no output file is created or changed. And
 //! an existing output directory survives an interrupted run untouched.
 

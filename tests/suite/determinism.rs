@@ -1,6 +1,6 @@
-//! Acceptance 2 (issue 2): the realisations do not depend on the thread count, and a study
+//! The realisations do not depend on the thread count, and a study
 //! extended from R = 200 to R = 400 with the same seed keeps its first 200 rows per
-//! condition bit for bit (SPEC §5: one ChaCha8 stream per (seed, condition, realisation)).
+//! condition bit for bit (docs/model.md#streams: one ChaCha8 stream per (seed, condition, realisation)).
 
 use super::common::*;
 

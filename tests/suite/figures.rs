@@ -1,4 +1,4 @@
-//! Issue 5 acceptance 1: every run writes the figures unless `--no-figures`; each SVG parses
+//! Every run writes the figures unless `--no-figures`; each SVG parses
 //! as XML, carries its axis labels, and holds a data marker for every condition plotted.
 //!
 //! Markers: every estimate (EmpSE, bias, EmpSE/bound, coverage) of a condition × estimator

@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 4: the line fit of thesis §3.2–3.3.
+//! The line fit of thesis §3.2–3.3.
 //!
 //! Closed form for t = 0, 0.5, …, 10 (n = 21): Σt = 105, Σt² = 717.5, det(XᵀX) = 21·717.5
 //! − 105² = 4042.5, so [(XᵀX)⁻¹]₂₂ = 21/4042.5 and the OLS slope has SD

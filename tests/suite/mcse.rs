@@ -1,4 +1,4 @@
-//! Acceptance 5 (issue 3): every Monte Carlo standard error formula against a direct
+//! Every Monte Carlo standard error formula against a direct
 //! repeated-experiment estimate.
 //!
 //! K = 1000 independent "studies", each of n = 200 realisations of known distributions,

@@ -1,4 +1,4 @@
-//! Acceptance 1 (issue 2): with all noise off, OLS recovers θ to ≤ 1e-9 relative error at
+//! With all noise off, OLS recovers θ to ≤ 1e-9 relative error at
 //! every scale of the thesis sweep. The thesis reports errors of order 1e-11 (its §6.2);
 //! the noise-free regression satisfies y = Xθ exactly in real arithmetic, so what remains
 //! is rounding in the sums and the 3×3 solve.

@@ -1,4 +1,4 @@
-//! Acceptance 3 (issue 2): under output noise OLS is unbiased and efficient, so for every
+//! Under output noise OLS is unbiased and efficient, so for every
 //! parameter and scale |EmpSE/CRLB − 1| and |bias| are each within 4 MCSE.
 //!
 //! 33 comparisons at once: a 4-MCSE band has two-sided normal tail probability 6.3e-5 per
@@ -31,7 +31,7 @@ fn crlb_is_tight_and_ols_unbiased_under_output_noise() {
             bias_mcse[i]
         );
     }
-    // Issue 3 acceptance 3: coverage of θ̂ ± 1.96·CRLB within 4 MCSE of 0.95 (MCSE at the
+    // Coverage of θ̂ ± 1.96·CRLB within 4 MCSE of 0.95 (MCSE at the
     // nominal p: √(0.95·0.05/400) = 0.0109), and the χ² variance-ratio test's p-values are
     // not systematically small: none below 1e-4 (P(any of 33 < 1e-4) = 0.0033 under H₀).
     let coverage = f64_col(&s, "coverage_crlb_output");

@@ -1,4 +1,4 @@
-//! Issue 4 acceptance 4–5, and extension: sharded + summarize == unsharded, a run killed
+//! Shards, resume and extension: sharded + summarize == unsharded, a run killed
 //! with SIGKILL and re-run ends identical, growing R keeps the earlier realisations, and a
 //! killed run's leftovers do not stop the next one.
 //! Every realisation is a pure function of (seed, condition, realisation) and summaries use

@@ -1,4 +1,4 @@
-//! Acceptance 5 (issue 2): terrain_ms_grid at scale 1 equals the closed-form mean of
+//! terrain_ms_grid at scale 1 equals the closed-form mean of
 //! (atan Δy)² to 1e-12 relative.
 //!
 //! Closed form of the forward difference of y = h cos²(x/P) on the 1 m grid:
@@ -40,7 +40,7 @@ fn grid_metric_matches_the_closed_form_at_scale_one() {
         rel <= 1e-12,
         "terrain_ms_grid {grid} vs closed form {closed}: {rel:e}"
     );
-    // SPEC §2: "At a = 1 they are about 0.00346 and 0.00340 rad²".
+    // docs/model.md#terrain: at a = 1 they are about 0.00346 and 0.00340 rad².
     assert!((grid - 0.00346).abs() < 5e-6, "{grid}");
     let cycle = infos[0].metrics[1];
     assert!((cycle - 0.00340).abs() < 5e-6, "{cycle}");
