@@ -1,6 +1,6 @@
 """Shared helpers of the analysis scripts: the check that a run's output set is complete and
-from one run, the study in a run's footer, the true parameters, the terrain metric, each
-computed here independently of the engine, and the loop that runs a script's SQL once per
+from one run, the study in a run's footer, the true parameters, the terrain metric over the
+drive cycle (from cycles.parquet), and the loop that runs a script's SQL once per
 parameter over the realisations (of an unsharded run, or of every shard of a sharded one)."""
 
 import pathlib
@@ -9,7 +9,6 @@ import sys
 import tomllib
 
 import duckdb
-import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
@@ -89,16 +88,24 @@ def truth(study):
     }
 
 
-def terrain_metric(study, scale):
-    """ς = mean θ² over the terrain table (the thesis code's `rgm`), from the cos² profile."""
-    t = study["terrain"]
-    x = np.arange(t["length"] + 1, dtype=float)
-    rise = np.diff(t["height"] * np.cos(x / t["period"]) ** 2)
-    if t["scale_applies_to"] == "grade":
-        grade = scale * np.arctan(rise)
-    else:
-        grade = np.arctan(scale * rise)
-    return float(np.mean(grade**2))
+def terrain_metrics(run_dir):
+    """Per condition: ς over the terrain table (`terrain_ms_grid`, from summary.parquet; the
+    table itself is not in the output) and ς over the drive cycle (`terrain_ms_cycle`, the
+    mean of θ² over the cycle's samples, thesis eq. 43), computed here from the grades in
+    cycles.parquet with a compensated sum."""
+    run_dir = pathlib.Path(run_dir)
+    with duckdb.connect() as con:
+        con.execute("SET threads = 1")
+        return con.execute(
+            "SELECT s.condition, any_value(s.terrain_ms_grid) AS terrain_ms_grid, "
+            "any_value(c.ms) AS terrain_ms_cycle "
+            "FROM read_parquet($summary) s JOIN ("
+            "  SELECT condition, fsum(grade * grade) / count(*) AS ms "
+            "  FROM read_parquet($cycles) GROUP BY condition) c USING (condition) "
+            "GROUP BY s.condition ORDER BY s.condition",
+            {"summary": str(run_dir / "summary.parquet"),
+             "cycles": str(run_dir / "cycles.parquet")},
+        ).df()
 
 
 def per_parameter(run_dir, columns, sql, after):

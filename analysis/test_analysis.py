@@ -11,8 +11,8 @@ exactly rounded and DuckDB's fsum is Kahan-compensated, so each differs from the
 at most ~2 ulp of Σ|terms|. Relative to the result that is ~1e-16 · Σ|x|/|Σx|, ≤ 1e-13 for
 every quantity here except a bias that happens to lie within ~1e-3 MCSE of zero, where
 Σ|d|/|Σd| is huge. Biases are therefore compared relative to max(|bias|, MCSE), the scale
-on which they are ever read. ς is recomputed by NumPy from the cos² profile (pairwise sum of
-50 000 squares, error ~1e-16 · log n).
+on which they are ever read. ς over the cycle is recomputed by DuckDB from the grades in
+cycles.parquet (a compensated sum of 60 001 squares).
 
     cargo build --release && python analysis/test_analysis.py
 """
@@ -71,7 +71,7 @@ def compare(name, engine, script, columns, relative_to=None):
 def run_scripts(run, tmp, engine, label):
     """Run both scripts on the output directory `run`; compare with the engine's summary."""
     scripts = {
-        "thesis_figures": (["mean", "emp_se", "thesis_bound_se", "terrain_ms_grid",
+        "thesis_figures": (["mean", "emp_se", "thesis_bound_se", "terrain_ms_cycle",
                             "mean_mcse", "emp_se_mcse"], None),
         "bias_report": (["bias", "bias_mcse", "emp_se", "emp_over_thesis_bound",
                          "emp_over_crlb_output", "emp_over_eiv_sandwich",

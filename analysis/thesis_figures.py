@@ -4,7 +4,9 @@ behind every number.
 
 The aggregation is DuckDB SQL over realisations.parquet (per terrain scale: the mean of each
 estimate, its empirical SE and the thesis bound's SE √mean(b²)); the table is pandas. The
-terrain metric ς is recomputed here from the study's cos² profile. Figures 4-6 plot the
+terrain metric ς over the terrain table (what the thesis plotted against) comes from the
+summary, and ς over the drive cycle (the thesis's eq. 43) is computed here from the grades
+in cycles.parquet. Figures 4-6 plot the
 thesis bound against ς as the thesis did, next to the real spread of the estimates (EmpSE
 ± MCSE); Table 3 puts the thesis's single-realisation values next to the Monte Carlo means.
 
@@ -20,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from common import PARAMETERS, SYMBOL, UNIT, per_parameter, study_of, terrain_metric  # noqa: E402
+from common import PARAMETERS, SYMBOL, UNIT, per_parameter, terrain_metrics  # noqa: E402
 
 # Table 3 of the thesis (§6.2): one realisation per scale, σ_v = 1 m/s.
 TABLE3 = pd.DataFrame(
@@ -65,11 +67,11 @@ ORDER BY r.condition, r.estimator
 
 
 def aggregate(run_dir):
-    """One row per condition × estimator × parameter: n, mean, emp_se, thesis_bound_se, ς."""
+    """One row per condition × estimator × parameter: n, mean, emp_se, thesis_bound_se, and
+    ς over the terrain table and over the cycle."""
     out = per_parameter(run_dir, COLUMNS, SQL, after="velocity_sd")
-    study = study_of(run_dir)
-    metric = {s: terrain_metric(study, s) for s in out.scale.unique()}
-    out.insert(2, "terrain_ms_grid", out.scale.map(metric))
+    metrics = terrain_metrics(run_dir)
+    out = out.merge(metrics, on="condition", how="left", validate="many_to_one")
     out["mean_mcse"] = out.emp_se / out.n**0.5
     out["emp_se_mcse"] = out.emp_se / (2 * (out.n - 1)) ** 0.5
     return out

@@ -183,13 +183,18 @@ fn bad_argument(message: String) -> Failure {
     }
 }
 
-/// `--out` (or a command's directory) must be a directory or not exist yet.
+/// `--out` (or a command's directory) must be a directory or not exist yet, under a
+/// directory (not under a file).
 fn output_directory(flag: &str, dir: &Path) -> Result<(), Failure> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(bad_argument(format!(
-            "{flag} {}: is a file, not a directory",
-            dir.display()
-        )));
+    if let Some(existing) = dir.ancestors().find(|a| a.exists())
+        && !existing.is_dir()
+    {
+        let what = if existing == dir {
+            "is a file, not a directory".to_string()
+        } else {
+            format!("{} is a file, not a directory", existing.display())
+        };
+        return Err(bad_argument(format!("{flag} {}: {what}", dir.display())));
     }
     Ok(())
 }

@@ -11,7 +11,9 @@ fn main() -> ExitCode {
     match cli::run(command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            eprintln!("error: {:#}", failure.error);
+            // Every error of the library says its cause in its own message, so the chain is not
+            // printed again (it would repeat the operating system's message).
+            eprintln!("error: {}", failure.error);
             ExitCode::from(failure.code)
         }
     }

@@ -359,6 +359,12 @@ fn out_naming_a_file_exits_1_with_the_message_twice() {
             file.as_os_str(),
         ],
         vec!["figures".as_ref(), file.as_os_str()],
+        vec![
+            "run".as_ref(),
+            study.as_os_str(),
+            "--out".as_ref(),
+            file.join("sub").into_os_string().leak(),
+        ],
     ] {
         let (code, _, stderr) = cli(&args, tmp.path());
         assert_eq!(code, 2, "{args:?}: {stderr}");
