@@ -10,7 +10,7 @@
 #   cargo build --release && bash deploy/slurm/test_local_cluster.sh
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
-bin="$root/target/release/chassis-mc"
+bin="${CARGO_TARGET_DIR:-$root/target}/release/chassis-mc"
 [ -x "$bin" ] || { echo "build first: cargo build --release" >&2; exit 2; }
 [ "$(id -u)" = 0 ] || { echo "needs root (installs packages, writes /etc/slurm)" >&2; exit 2; }
 
@@ -27,11 +27,13 @@ work=$(mktemp -d)
 # munged that was already running is left alone).
 run_dir="$work/run"
 mkdir -p "$run_dir"
-started=()   # pid files of the daemons this script started
+started=()   # "pidfile name" of each daemon this script started
 stop_pidfile() {
-    local file=$1 pid
+    local file=$1 name=$2 pid
     [ -s "$file" ] || return 0
     pid=$(cat "$file")
+    # The pid must still be the daemon we started (not a reused pid).
+    [ "$(cat "/proc/$pid/comm" 2>/dev/null)" = "$name" ] || return 0
     kill "$pid" 2>/dev/null || return 0
     for _ in $(seq 50); do
         kill -0 "$pid" 2>/dev/null || return 0
@@ -42,11 +44,12 @@ stop_pidfile() {
 cleanup() {
     local i
     for ((i = ${#started[@]} - 1; i >= 0; i--)); do
-        stop_pidfile "${started[$i]}"
+        stop_pidfile ${started[$i]}
     done
     rm -rf "$work"
 }
 trap cleanup EXIT
+trap "exit 143" INT TERM
 
 echo "== munge"
 mkdir -p /etc/munge /var/lib/munge /var/log/munge /run/munge
@@ -56,7 +59,7 @@ chmod 0700 /etc/munge && chmod 0400 /etc/munge/munge.key
 if ! munge -n 2>/dev/null | unmunge >/dev/null 2>&1; then
     munge_pid=/run/munge/chassis-mc-test-munged.pid
     su -s /bin/sh munge -c "munged --pid-file=$munge_pid"
-    started+=("$munge_pid")
+    started+=("$munge_pid munged")
 fi
 munge -n | unmunge >/dev/null
 
@@ -89,9 +92,9 @@ NodeName=localnode NodeAddr=127.0.0.1 NodeHostname=localhost CPUs=2 RealMemory=$
 PartitionName=local Nodes=localnode Default=YES MaxTime=INFINITE State=UP
 EOF
 slurmctld -c
-started+=("$run_dir/slurmctld.pid")
+started+=("$run_dir/slurmctld.pid slurmctld")
 slurmd -N localnode
-started+=("$run_dir/slurmd.pid")
+started+=("$run_dir/slurmd.pid slurmd")
 for _ in $(seq 60); do
     sinfo -h -o %t 2>/dev/null | grep -qE '^idle' && break
     sleep 1

@@ -7,6 +7,8 @@
 //! [`ExactSum`]s, so the summary is bit-identical whatever the order in which rows arrive:
 //! one file or many shards, one thread or many.
 
+use std::collections::BTreeMap;
+
 use thiserror::Error;
 
 use super::measures::{
@@ -164,28 +166,38 @@ struct ParamAcc {
     mse: f64,
 }
 
-/// Per condition: which realisations have been seen, for completeness checks.
-#[derive(Debug, Clone)]
+/// Per condition: which realisations have been seen, for completeness checks, as disjoint
+/// ranges. Rows arrive sorted within each file, so the ranges number about as many as the
+/// files (shards), and memory does not grow with R.
+#[derive(Debug, Clone, Default)]
 struct Seen {
-    bits: Vec<u64>,
+    /// start → end (exclusive) of each range of realisations seen.
+    ranges: BTreeMap<u64, u64>,
 }
 
 impl Seen {
-    fn new(n: u64) -> Self {
-        Seen {
-            bits: vec![0; n.div_ceil(64) as usize],
-        }
-    }
-
     /// Mark `r`; false if it was already marked.
     fn mark(&mut self, r: u64) -> bool {
-        let (w, b) = ((r / 64) as usize, r % 64);
-        if w >= self.bits.len() {
-            self.bits.resize(w + 1, 0);
+        let before = self.ranges.range(..=r).next_back().map(|(&s, &e)| (s, e));
+        if let Some((_, end)) = before
+            && r < end
+        {
+            return false;
         }
-        let was = self.bits[w] >> b & 1 == 1;
-        self.bits[w] |= 1 << b;
-        !was
+        let after = self.ranges.get(&(r + 1)).copied();
+        match before {
+            Some((start, end)) if end == r => {
+                let new_end = after.unwrap_or(r + 1);
+                self.ranges.insert(start, new_end);
+            }
+            _ => {
+                self.ranges.insert(r, after.unwrap_or(r + 1));
+            }
+        }
+        if after.is_some() {
+            self.ranges.remove(&(r + 1));
+        }
+        true
     }
 }
 
@@ -228,7 +240,7 @@ impl<'a> Summarizer<'a> {
             acc: vec![vec![vec![param; p]; e]; infos.len()],
             rows: vec![vec![0; e]; infos.len()],
             failed: vec![vec![0; e]; infos.len()],
-            seen: (0..infos.len()).map(|_| Seen::new(realisations)).collect(),
+            seen: vec![Seen::default(); infos.len()],
             current: None,
             current_estimators: vec![false; e],
             current_centred: vec![f64::NAN; e * p],
@@ -446,5 +458,30 @@ fn bound_summary(sums: &EstimateSums, b: &BoundAcc, n_estimates: u64) -> BoundSu
         coverage: coverage(b.covered as f64, b.n as f64),
         be_coverage: coverage(b.be_covered as f64, b.n as f64),
         chi2_p: variance_ratio_p(sums, &bs),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seen_realisations_are_ranges_and_duplicates_are_found_in_any_order() {
+        let mut seen = Seen::default();
+        // Two shards' worth, the second first, as summarize may read them.
+        for r in (50..100).chain(0..50) {
+            assert!(seen.mark(r), "{r} is new");
+        }
+        assert_eq!(seen.ranges.len(), 1, "adjacent ranges merge: {:?}", seen.ranges);
+        assert_eq!(seen.ranges.get(&0), Some(&100));
+        for r in [0, 49, 50, 99] {
+            assert!(!seen.mark(r), "{r} again");
+        }
+        // A gap, then the gap filled from both sides.
+        assert!(seen.mark(102));
+        assert!(seen.mark(101));
+        assert!(seen.mark(100));
+        assert_eq!(seen.ranges.len(), 1);
+        assert_eq!(seen.ranges.get(&0), Some(&103));
     }
 }
