@@ -472,7 +472,12 @@ mod tests {
         for r in (50..100).chain(0..50) {
             assert!(seen.mark(r), "{r} is new");
         }
-        assert_eq!(seen.ranges.len(), 1, "adjacent ranges merge: {:?}", seen.ranges);
+        assert_eq!(
+            seen.ranges.len(),
+            1,
+            "adjacent ranges merge: {:?}",
+            seen.ranges
+        );
         assert_eq!(seen.ranges.get(&0), Some(&100));
         for r in [0, 49, 50, 99] {
             assert!(!seen.mark(r), "{r} again");
