@@ -42,8 +42,13 @@ enum Command {
         \n  summary.parquet       one row per condition × estimator × parameter (bias, EmpSE, \
         RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors)\
         \n  cycles.parquet        the noise-free drive cycle of each condition\n\n\
-        Files appear only when the run completes; existing files are replaced then. \
-        A per-condition table is printed on stdout and a progress bar on stderr.\n\n\
+        and DIR/figures/*.svg. Files appear only when the run completes, and replace the \
+        previous run's files as one set (a run killed at any instant leaves the old set, the \
+        new one, or a set that is reported incomplete and completed by the next run); your \
+        own files in DIR stay. An interrupted run resumes from its completed parts, and a \
+        larger --realisations extends an earlier run. One process writes a DIR at a time. \
+        A per-condition table is printed on stdout; progress on stderr (a bar on a \
+        terminal, a line every 10 s otherwise).\n\n\
         Example: chassis-mc run studies/thesis.toml --out results/thesis")]
     Run {
         /// The study file (TOML), e.g. studies/thesis.toml.
@@ -51,16 +56,8 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
-        /// Realisations per condition, overriding the study's `realisations`.
-        #[arg(long, value_name = "N")]
-        realisations: Option<u64>,
-        /// Master seed, overriding the study's `seed`: a whole number from 0 to
-        /// 9223372036854775807 (2^63 − 1), as in a study file.
-        #[arg(long, value_name = "S")]
-        seed: Option<u64>,
-        /// Worker threads (default: all cores). Results do not depend on it.
-        #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
-        threads: Option<u16>,
+        #[command(flatten)]
+        overrides: Overrides,
         /// Run only shard K of N (0-based): realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every
         /// condition, written to DIR/shard=K/realisations.parquet. Combine the shards with
         /// `chassis-mc summarize DIR`.
@@ -86,15 +83,8 @@ enum Command {
     Check {
         /// The study file (TOML).
         study: PathBuf,
-        /// Realisations per condition, overriding the study's `realisations`.
-        #[arg(long, value_name = "N")]
-        realisations: Option<u64>,
-        /// Master seed, overriding the study's `seed` (0 to 2^63 − 1).
-        #[arg(long, value_name = "S")]
-        seed: Option<u64>,
-        /// Worker threads the estimate assumes (default: all cores).
-        #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
-        threads: Option<u16>,
+        #[command(flatten)]
+        overrides: Overrides,
     },
     /// Rebuild summary.parquet (and cycles.parquet) from realisation files: the shards of a
     /// sharded run, or any run's realisations.parquet.
@@ -132,6 +122,34 @@ enum Command {
         /// An output directory of `run` or `summarize`.
         dir: PathBuf,
     },
+}
+
+/// What `run` and `check` may override in the study file.
+#[derive(Debug, clap::Args)]
+struct Overrides {
+    /// Realisations per condition, overriding the study's `realisations`.
+    #[arg(long, value_name = "N")]
+    realisations: Option<u64>,
+    /// Master seed, overriding the study's `seed`: a whole number from 0 to
+    /// 9223372036854775807 (2^63 − 1), as in a study file.
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
+}
+
+impl Overrides {
+    /// The study file at `path` with these overrides.
+    fn load(&self, path: &Path) -> Result<Study, Failure> {
+        Ok(Study::load(path)
+            .and_then(|s| s.with_overrides(self.realisations, self.seed))
+            .map_err(RunError::from)?)
+    }
+
+    fn threads(&self) -> Option<usize> {
+        self.threads.map(usize::from)
+    }
 }
 
 /// A failure with the exit code it maps to.
@@ -205,17 +223,13 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Run {
             study,
             out,
-            realisations,
-            seed,
-            threads,
+            overrides,
             shard,
             no_figures,
             quiet,
         } => {
             output_directory("--out", &out)?;
-            let study = Study::load(&study)
-                .and_then(|s| s.with_overrides(realisations, seed))
-                .map_err(RunError::from)?;
+            let study = overrides.load(&study)?;
             if let Some(shard) = shard
                 && shard.range(study.realisations).is_empty()
             {
@@ -226,7 +240,7 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 )));
             }
             let mut options = RunOptions::new(out);
-            options.threads = threads.map(usize::from);
+            options.threads = overrides.threads();
             options.shard = shard;
             options.figures = !no_figures;
             let conditions = study.condition_count();
@@ -286,16 +300,9 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             }
             Ok(())
         }
-        Command::Check {
-            study,
-            realisations,
-            seed,
-            threads,
-        } => {
-            let study = Study::load(&study)
-                .and_then(|s| s.with_overrides(realisations, seed))
-                .map_err(RunError::from)?;
-            let found = chassis_mc::check::check(&study, threads.map(usize::from))?;
+        Command::Check { study, overrides } => {
+            let study = overrides.load(&study)?;
+            let found = chassis_mc::check::check(&study, overrides.threads())?;
             print!("{}", check_report(&study, &found));
             Ok(())
         }

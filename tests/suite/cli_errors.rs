@@ -117,20 +117,15 @@ fn cases() -> Vec<Case> {
 }
 
 fn run_cli(study: &Path, out: &Path, extra: &[&str]) -> (i32, String, String) {
-    let output = Command::new(bin())
-        .arg("run")
-        .arg(study)
-        .arg("--out")
-        .arg(out)
-        .arg("--quiet")
-        .args(extra)
-        .output()
-        .unwrap();
-    (
-        output.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        String::from_utf8_lossy(&output.stderr).into_owned(),
-    )
+    let mut args = vec![
+        "run".as_ref(),
+        study.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    args.push("--quiet".as_ref());
+    args.extend(extra.iter().map(|a| std::ffi::OsStr::new(*a)));
+    cli(&args, Path::new("."))
 }
 
 /// Every regular file in `dir` with its bytes, but the lock (which records the pid of the
