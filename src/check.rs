@@ -12,8 +12,9 @@ use crate::output::{self, FileMetadata, OutputError};
 use crate::run::RunError;
 use crate::study::Study;
 
-/// Realisations timed per condition (after one untimed warm-up).
-const TIMED_PER_CONDITION: u64 = 4;
+/// Realisations timed one by one per condition (after one untimed warm-up); the median is
+/// kept, so one realisation slowed by another process on the machine does not count.
+const TIMED_PER_CONDITION: u64 = 7;
 
 /// Realisations of condition 0 encoded to measure the bytes per realisation.
 const SIZE_SAMPLE: u64 = 256;
@@ -29,7 +30,7 @@ pub struct StudyCheck {
     pub realisations: u64,
     /// Time to prepare the model (simulate the drive cycles).
     pub prepare: Duration,
-    /// Measured single-thread time of one realisation, per condition.
+    /// Median single-thread time of one realisation, per condition.
     pub per_realisation: Vec<Duration>,
     /// Worker threads the estimate assumes.
     pub threads: usize,
@@ -64,11 +65,15 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     let per_realisation = (0..infos.len())
         .map(|c| {
             model.realise(study.seed, c, 0, &mut slots);
-            let t = Instant::now();
-            for r in 1..=TIMED_PER_CONDITION {
-                model.realise(study.seed, c, r, &mut slots);
-            }
-            t.elapsed() / TIMED_PER_CONDITION as u32
+            let mut times: Vec<Duration> = (1..=TIMED_PER_CONDITION)
+                .map(|r| {
+                    let t = Instant::now();
+                    model.realise(study.seed, c, r, &mut slots);
+                    t.elapsed()
+                })
+                .collect();
+            times.sort();
+            times[times.len() / 2]
         })
         .collect();
     let threads = threads

@@ -176,9 +176,9 @@ impl From<RunError> for Failure {
 impl From<FigureError> for Failure {
     fn from(e: FigureError) -> Self {
         let code = match e {
-            FigureError::Study(_) | FigureError::Output(OutputError::Locked { .. }) => {
-                EXIT_BAD_INPUT
-            }
+            FigureError::Study(_)
+            | FigureError::NotAnOutputDirectory(_)
+            | FigureError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
             _ => EXIT_FAILURE,
         };
         Failure {
@@ -307,12 +307,6 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             Ok(())
         }
         Command::Figures { dir } => {
-            if !dir.is_dir() {
-                return Err(bad_argument(format!(
-                    "{}: not a directory (figures needs the output directory of a run)",
-                    dir.display()
-                )));
-            }
             for f in figures::draw(&dir)? {
                 println!("{}", f.display());
             }

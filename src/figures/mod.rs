@@ -58,6 +58,9 @@ pub enum FigureError {
     /// The study in the files' footer is not valid.
     #[error(transparent)]
     Study(#[from] StudyError),
+    /// The directory holds no run's output (no summary.parquet).
+    #[error("{0}: not an output directory of `run` or `summarize` (it has no summary.parquet)")]
+    NotAnOutputDirectory(PathBuf),
     /// Drawing or writing an SVG failed.
     #[error("{path}: {reason}")]
     Draw {
@@ -79,16 +82,16 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
 /// `dir/figures/`, replacing the figures of its output set together (a user's own files
 /// there stay). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
-    let summary = dir.join(files::SUMMARY);
-    if !summary.is_file() {
-        return Err(OutputError::format(
-            &summary,
-            "not found: `figures` needs the output directory of a run or of `summarize`",
-        )
-        .into());
+    if !dir.is_dir() {
+        return Err(FigureError::NotAnOutputDirectory(dir.to_path_buf()));
     }
+    // Locked first: a run writing `dir` is named, whatever it has written so far.
     let _lock = DirLock::acquire(dir)?;
     set::ensure_complete(dir)?;
+    let summary = dir.join(files::SUMMARY);
+    if !summary.is_file() {
+        return Err(FigureError::NotAnOutputDirectory(dir.to_path_buf()));
+    }
     let cycles = dir.join(files::CYCLES);
     let pending = draw_staged(dir, &summary, cycles.exists().then_some(cycles.as_path()))?;
     let written = set::commit(dir, pending, &|path| {

@@ -197,9 +197,11 @@ pub fn commit(
     files: Vec<PendingFile>,
     replaced: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<PathBuf>, OutputError> {
-    let old = match Manifest::read(dir)? {
-        Some(m) => m,
-        None => legacy_set(dir)?,
+    // Without a manifest, the old files are replaced or deleted as before, but the new
+    // manifest vouches for none of them: their bytes were never recorded.
+    let (old, vouched) = match Manifest::read(dir)? {
+        Some(m) => (m, true),
+        None => (legacy_set(dir)?, false),
     };
     let relative = |path: &Path| -> Result<String, OutputError> {
         let rel = path
@@ -230,7 +232,7 @@ pub fn commit(
         }
         if replaced(&e.path) {
             ops.push(Op::Delete(e.path.clone()));
-        } else {
+        } else if vouched {
             entries.push(e.clone());
         }
     }

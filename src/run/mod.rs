@@ -250,7 +250,8 @@ fn lock(dir: &Path, observer: &dyn Observer) -> Result<DirLock, OutputError> {
     let lock = DirLock::acquire(dir)?;
     if let Some(pid) = lock.taken_over_from {
         observer.notice(&format!(
-            "{}: taking over the lock of process {pid}, which ended without releasing it",
+            "{}: taking over the lock last held by process {pid}, which no longer holds it (it \
+             was killed, or its run was interrupted)",
             dir.display()
         ));
     }

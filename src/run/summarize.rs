@@ -67,6 +67,11 @@ fn find_realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
 /// present exactly once. The new files replace the summary, tables and figures of
 /// `out_dir`'s output set together; a realisation file there stays.
 pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<RunReport, RunError> {
+    // A directory that exists is locked before it is read, so a run writing it is named.
+    let early = match out_dir.is_dir() {
+        true => Some(DirLock::acquire(out_dir)?),
+        false => None,
+    };
     let mut paths = Vec::new();
     for input in inputs {
         paths.extend(realisation_files(input)?);
@@ -120,7 +125,10 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     let infos = model.infos();
     let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
     let summary = summarise_files(&layout, &infos, realisations, &refs)?;
-    let _lock = DirLock::acquire(out_dir)?;
+    let _lock = match early {
+        Some(lock) => lock,
+        None => DirLock::acquire(out_dir)?,
+    };
     set::ensure_complete(out_dir)?;
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {

@@ -329,6 +329,33 @@ fn realisations_ten_to_the_twelve_abort_out_of_memory() {
 }
 
 #[test]
+fn figures_vouches_for_a_damaged_file_in_a_directory_without_manifest() {
+    // An output directory without a manifest (written by an older engine, or the manifest
+    // lost): redrawing its figures must not record its realisation file as trusted, so a
+    // later extension does not reuse damaged rows.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d");
+    succeeds(run_cmd("thesis.toml", &out, &["--realisations", "100"]));
+    std::fs::remove_file(out.join(chassis_mc::output::set::MANIFEST)).unwrap();
+    let len = std::fs::metadata(out.join("realisations.parquet"))
+        .unwrap()
+        .len() as i64;
+    flip(&out.join("realisations.parquet"), len / 2);
+    let mut figures = Command::new(bin());
+    figures.arg("figures").arg(&out);
+    succeeds(figures);
+    let o = succeeds(run_cmd("thesis.toml", &out, &["--realisations", "300"]));
+    assert!(stderr(&o).contains("not reused"), "{}", stderr(&o));
+    let reference = dir.path().join("reference");
+    succeeds(run_cmd(
+        "thesis.toml",
+        &reference,
+        &["--realisations", "300"],
+    ));
+    assert_same_tables(&out, &reference);
+}
+
+#[test]
 fn stale_files_survive_a_model_change() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
@@ -411,6 +438,18 @@ fn two_concurrent_runs_into_one_dir_race() {
         assert!(started.elapsed() < Duration::from_secs(60), "no lock taken");
         std::thread::sleep(Duration::from_millis(20));
     }
+    // A fresh directory: nothing but parts written yet. Every command names the writer.
+    for command in ["figures", "summarize"] {
+        let mut c = Command::new(bin());
+        c.arg(command).arg(&out);
+        let o = output_of(c);
+        assert_eq!(o.status.code(), Some(2), "{command}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!("pid {pid}")),
+            "{command}: {}",
+            stderr(&o)
+        );
+    }
     let second = output_of(run_cmd("thesis.toml", &out, &["--realisations", "20"]));
     assert_eq!(second.status.code(), Some(2), "{}", stderr(&second));
     assert!(
@@ -423,7 +462,7 @@ fn two_concurrent_runs_into_one_dir_race() {
     kill(holder);
     let third = succeeds(run_cmd("thesis.toml", &out, &["--realisations", "20"]));
     assert!(
-        stderr(&third).contains(&format!("taking over the lock of process {pid}")),
+        stderr(&third).contains(&format!("taking over the lock last held by process {pid}")),
         "{}",
         stderr(&third)
     );
