@@ -44,9 +44,12 @@
 //!   there) and its computation in [`stats::summary`].
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
 //!   statistics, output and figures work from its [`model::Layout`].
-//! - **a noise channel, a terrain profile, a drive-cycle source, a condition axis**: today
-//!   these still touch the study, the model and the moment accumulator; see
-//!   [`noise::NoiseLevels`], [`terrain`] and [`model::vehicle`].
+//! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
+//!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
+//!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.
+//! - **a noise channel, a drive-cycle source, a condition axis**: today these still touch
+//!   the study, the model and the moment accumulator; see [`noise::NoiseLevels`] and
+//!   [`model::vehicle`].
 
 #![deny(missing_docs)]
 

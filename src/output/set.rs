@@ -313,8 +313,9 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
                 }
                 match fs::rename(&from, &to) {
                     Ok(()) => {}
-                    // Done before the process that wrote the journal died.
-                    Err(e) if e.kind() == std::io::ErrorKind::NotFound && to.exists() => {}
+                    // Done before the process that wrote the journal died (or the temporary
+                    // file was deleted by hand: the next run replaces the set anyway).
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
                     Err(e) => return Err(OutputError::io(&from, e)),
                 }
                 failpoint("commit-rename");

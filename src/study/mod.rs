@@ -92,7 +92,7 @@ impl NoiseAxes {
 }
 
 /// The validated description of a vehicle study (docs/model.md, and the README's study keys).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct VehicleStudy {
     /// Vehicle parameters (the truth the estimators try to recover).
     pub vehicle: VehicleParams,
@@ -152,7 +152,7 @@ pub struct LineFitStudy {
 }
 
 /// The model a study runs, with its validated settings.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub enum ModelSpec {
     /// The longitudinal vehicle model of the thesis.
     Vehicle(VehicleStudy),

@@ -69,13 +69,14 @@ pub struct RawDrive {
     pub torque_frequency: f64,
 }
 
-/// `[terrain]`
+/// `[terrain]`: the keys every profile has, and the profile's own keys (e.g. `height` and
+/// `period` of `cos2`), which the profile reads and checks itself (unknown keys included:
+/// serde cannot deny unknown fields next to a flattened table).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct RawTerrain {
     pub profile: String,
-    pub height: f64,
-    pub period: f64,
+    #[serde(flatten)]
+    pub params: toml::Table,
     pub length: u64,
     pub scales: Vec<f64>,
     pub scale_applies_to: String,

@@ -4,6 +4,7 @@
 use super::raw::RawStudy;
 use super::*;
 use crate::estimate::estimators::{ESTIMATORS, Ols};
+use crate::terrain::profiles::{PROFILES, Params};
 
 /// Turn a serde/TOML error into one message naming the key and line.
 pub(super) fn serde_error(
@@ -92,11 +93,23 @@ struct Checker<'a> {
 }
 
 impl Checker<'_> {
+    /// An error at `key`, with the line of the key or, for a missing key, of the nearest
+    /// enclosing one (`terrain.components[0]` for a missing `terrain.components[0].phase`).
     fn fail(&self, key: &str, reason: impl Into<String>) -> StudyError {
+        let mut path = key;
+        let line = loop {
+            if let Some(line) = self.spans.line(path) {
+                break Some(line);
+            }
+            match path.rfind(['.', '[']) {
+                Some(i) => path = &path[..i],
+                None => break None,
+            }
+        };
         StudyError {
             file: self.origin.to_string(),
             key: Some(key.to_string()),
-            line: self.spans.line(key),
+            line,
             reason: reason.into(),
         }
     }
@@ -261,12 +274,21 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         torque_frequency_rad_s: c.non_negative("drive.torque_frequency", d.torque_frequency)?,
     };
 
-    if t.profile != "cos2" {
-        return Err(c.fail(
-            "terrain.profile",
-            format!("unknown profile \"{}\"; expected \"cos2\"", t.profile),
-        ));
-    }
+    let entry = PROFILES
+        .iter()
+        .find(|p| p.name == t.profile)
+        .ok_or_else(|| {
+            let names: Vec<&str> = PROFILES.iter().map(|p| p.name).collect();
+            c.fail(
+                "terrain.profile",
+                format!(
+                    "unknown profile \"{}\"; expected one of {names:?}",
+                    t.profile
+                ),
+            )
+        })?;
+    let profile =
+        (entry.parse)(&Params::new(&t.params, "terrain")).map_err(|e| c.fail(&e.key, e.reason))?;
     let scale_applies_to = match t.scale_applies_to.as_str() {
         "grade" => ScaleTarget::Grade,
         "elevation" => ScaleTarget::Elevation,
@@ -290,8 +312,7 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         ));
     }
     let terrain = TerrainSpec {
-        height_m: c.non_negative("terrain.height", t.height)?,
-        period_m: c.positive("terrain.period", t.period)?,
+        profile,
         length_m: t.length as usize,
         scale_applies_to,
     };

@@ -3,9 +3,15 @@
 //! The thesis builds the road on a 1 m grid, takes the grade by forward Euler
 //! (`θ_i = atan(y_{i+1} − y_i)`) and scales the terrain by multiplying the **grade**
 //! (`w1 = w1_1 .* a`). Scaling the elevation instead (`θ_i = atan(a (y_{i+1} − y_i))`) is an
-//! option. Its variability metric ς is the mean of θ² (thesis eq. 43).
+//! option. Its variability metric ς is the mean of θ² (thesis eq. 43). The elevation comes
+//! from a [`Profile`]: the thesis's cos² hill or another entry of [`profiles::PROFILES`].
+
+pub mod profiles;
+
+use std::sync::Arc;
 
 use crate::numeric::sum::exact_sum;
+pub use profiles::Profile;
 
 /// Grid spacing of the terrain tables \[m\] (the thesis's `x = (0:50000)'`).
 pub const GRID_STEP_M: f64 = 1.0;
@@ -34,13 +40,12 @@ impl ScaleTarget {
     }
 }
 
-/// The `cos2` road profile `y(x) = height · cos²(x / period)` on a 1 m grid `x = 0 … length`.
-#[derive(Debug, Clone, PartialEq)]
+/// A road: its elevation profile on a 1 m grid `x = 0 … length`, and what a scale factor
+/// multiplies.
+#[derive(Debug, Clone)]
 pub struct TerrainSpec {
-    /// Peak-to-trough height h \[m\].
-    pub height_m: f64,
-    /// Period parameter P \[m\] (the elevation repeats every π P).
-    pub period_m: f64,
+    /// The elevation profile (one of [`profiles::PROFILES`]).
+    pub profile: Arc<dyn Profile>,
     /// Length L of the road \[m\]; the grade table has L entries.
     pub length_m: usize,
     /// What the scale factor multiplies.
@@ -50,8 +55,7 @@ pub struct TerrainSpec {
 impl TerrainSpec {
     /// Elevation y(x) \[m\] of the unscaled profile.
     pub fn elevation_m(&self, x_m: f64) -> f64 {
-        let c = (x_m / self.period_m).cos();
-        self.height_m * c * c
+        self.profile.elevation_m(x_m)
     }
 
     /// The grade table of this profile at terrain scale `scale`.
@@ -147,8 +151,10 @@ mod tests {
 
     fn thesis_terrain() -> TerrainSpec {
         TerrainSpec {
-            height_m: 25.0,
-            period_m: 300.0,
+            profile: Arc::new(profiles::Cos2 {
+                height_m: 25.0,
+                period_m: 300.0,
+            }),
             length_m: 50_000,
             scale_applies_to: ScaleTarget::Grade,
         }

@@ -11,6 +11,7 @@ mod noise;
 mod noise_free;
 mod output_integrity;
 mod output_noise;
+mod profiles;
 mod shards_resume;
 mod terrain_metric;
 mod thesis_table3;
