@@ -260,8 +260,29 @@ pub fn encoded_len(
 
 /// A Parquet file being written under a temporary name.
 pub struct ParquetSink {
-    writer: ArrowWriter<File>,
+    writer: ArrowWriter<HashingWriter>,
     pending: PendingFile,
+}
+
+/// A file that hashes the bytes written to it (XXH64, as [`set::checksum`] reads them
+/// back), so a file's checksum costs no second read. The Parquet writer only appends.
+struct HashingWriter {
+    file: File,
+    hasher: twox_hash::XxHash64,
+    len: u64,
+}
+
+impl std::io::Write for HashingWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.file.write(buf)?;
+        std::hash::Hasher::write(&mut self.hasher, &buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
 }
 
 impl ParquetSink {
@@ -276,12 +297,13 @@ impl ParquetSink {
         let final_path = dir.join(name);
         let tmp_path = dir.join(temporary_name(name));
         let file = File::create(&tmp_path).map_err(|e| OutputError::io(&tmp_path, e))?;
-        let pending = PendingFile {
-            tmp_path,
-            final_path,
-            committed: false,
-        };
+        let pending = PendingFile::new(tmp_path, final_path);
         let props = properties(meta, table, &schema);
+        let file = HashingWriter {
+            file,
+            hasher: twox_hash::XxHash64::with_seed(0),
+            len: 0,
+        };
         let writer = ArrowWriter::try_new(file, schema, Some(props))
             .map_err(|e| OutputError::parquet(&pending.tmp_path, e))?;
         Ok(ParquetSink { writer, pending })
@@ -303,12 +325,21 @@ impl ParquetSink {
 
     /// Write the footer and flush to disk; the file still has its temporary name.
     pub fn finish(self) -> Result<PendingFile, OutputError> {
-        let ParquetSink { writer, pending } = self;
-        let file = writer
+        let ParquetSink {
+            writer,
+            mut pending,
+        } = self;
+        let written = writer
             .into_inner()
             .map_err(|e| OutputError::parquet(&pending.tmp_path, e))?;
-        file.sync_all()
+        written
+            .file
+            .sync_all()
             .map_err(|e| OutputError::io(&pending.tmp_path, e))?;
+        pending.checksum = Some(set::Checksum {
+            len: written.len,
+            hash: std::hash::Hasher::finish(&written.hasher),
+        });
         Ok(pending)
     }
 }
@@ -319,6 +350,8 @@ pub struct PendingFile {
     tmp_path: PathBuf,
     final_path: PathBuf,
     committed: bool,
+    /// The checksum of its bytes, when known from writing them.
+    checksum: Option<set::Checksum>,
 }
 
 impl PendingFile {
@@ -358,6 +391,15 @@ impl PendingFile {
             tmp_path,
             final_path,
             committed: false,
+            checksum: None,
+        }
+    }
+
+    /// The checksum of its bytes: recorded while writing, else read from the file.
+    pub fn checksum(&self) -> Result<set::Checksum, OutputError> {
+        match self.checksum {
+            Some(c) => Ok(c),
+            None => set::checksum(&self.tmp_path),
         }
     }
 }

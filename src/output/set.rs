@@ -220,7 +220,7 @@ pub fn commit(
         let path = relative(file.final_path())?;
         entries.push(Entry {
             path: path.clone(),
-            checksum: checksum(file.tmp_path())?,
+            checksum: file.checksum()?,
         });
         ops.push(Op::Rename(relative(file.tmp_path())?, path));
         finals.push(file.final_path().to_path_buf());
@@ -429,6 +429,36 @@ mod tests {
             ],
         };
         assert_eq!(Manifest::parse(&m.render(), Path::new("m")).unwrap(), m);
+    }
+
+    #[test]
+    fn a_parquet_file_s_checksum_recorded_while_writing_equals_the_one_read_back() {
+        use std::sync::Arc;
+
+        use arrow::array::{Float64Array, RecordBatch};
+        use arrow::datatypes::{DataType, Field, Schema};
+
+        let dir = tempfile::tempdir().unwrap();
+        let schema = Arc::new(Schema::new(vec![Field::new("x", DataType::Float64, false)]));
+        let meta = crate::output::FileMetadata {
+            study_toml: "name = \"t\"".into(),
+            seed: 1,
+            realisations: 1,
+            identity: "t".into(),
+            extra: Vec::new(),
+        };
+        let mut sink =
+            crate::output::ParquetSink::create(dir.path(), "t.parquet", schema.clone(), &meta, "t")
+                .unwrap();
+        for k in 0..3 {
+            let values = Float64Array::from_iter_values((0..70_000).map(|i| (i * k) as f64));
+            sink.write(&RecordBatch::try_new(schema.clone(), vec![Arc::new(values)]).unwrap())
+                .unwrap();
+        }
+        let pending = sink.finish().unwrap();
+        let recorded = pending.checksum().unwrap();
+        assert_eq!(recorded, checksum(pending.tmp_path()).unwrap());
+        assert!(recorded.len > 0);
     }
 
     #[test]

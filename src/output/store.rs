@@ -80,7 +80,7 @@ pub fn commit_part(
     condition: usize,
     start: u64,
 ) -> Result<PathBuf, OutputError> {
-    let hash = set::checksum(file.tmp_path())?.hash;
+    let hash = file.checksum()?.hash;
     file.renamed(&part_name(condition, start, hash)).commit()
 }
 
