@@ -9,9 +9,10 @@
 use std::hint::black_box;
 use std::path::Path;
 
+use chassis_mc::estimate::channels::Channel;
 use chassis_mc::model::Model;
 use chassis_mc::model::vehicle::VehicleModel;
-use chassis_mc::noise::{self, BLOCK, Channel, NormalStream};
+use chassis_mc::noise::{self, BLOCK, NormalStream};
 use chassis_mc::study::Study;
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::Rng;
@@ -32,7 +33,7 @@ fn benches(c: &mut Criterion) {
     g.bench_function("raw_chacha8_words", |b| {
         b.iter(|| {
             r += 1;
-            let mut rng = noise::stream(2018, 0, Channel::Velocity, r);
+            let mut rng = noise::stream(2018, 0, Channel::Velocity.stream(), r);
             let mut acc = 0u64;
             for _ in 0..N {
                 acc ^= rng.next_u64();
@@ -44,7 +45,7 @@ fn benches(c: &mut Criterion) {
         let mut bytes = [0u8; 8 * BLOCK];
         b.iter(|| {
             r += 1;
-            let mut rng = noise::stream(2018, 0, Channel::Velocity, r);
+            let mut rng = noise::stream(2018, 0, Channel::Velocity.stream(), r);
             let mut acc = 0u64;
             for start in (0..N).step_by(BLOCK) {
                 let len = BLOCK.min(N - start);
@@ -60,7 +61,8 @@ fn benches(c: &mut Criterion) {
         let mut words = [0u64; BLOCK];
         b.iter(|| {
             r += 1;
-            let mut w = noise::ChaCha8Words::new(noise::key(2018, 0, Channel::Velocity), r);
+            let mut w =
+                noise::ChaCha8Words::new(noise::key(2018, 0, Channel::Velocity.stream()), r);
             let mut acc = 0u64;
             for start in (0..N).step_by(BLOCK) {
                 let len = BLOCK.min(N - start);
@@ -74,7 +76,7 @@ fn benches(c: &mut Criterion) {
         let mut buf = [0.0; BLOCK];
         b.iter(|| {
             r += 1;
-            let mut s = NormalStream::for_realisation(2018, 0, Channel::Velocity, r);
+            let mut s = NormalStream::for_realisation(2018, 0, Channel::Velocity.stream(), r);
             let mut acc = 0.0;
             for start in (0..N).step_by(BLOCK) {
                 let len = BLOCK.min(N - start);
@@ -87,7 +89,7 @@ fn benches(c: &mut Criterion) {
     g.bench_function("rand_distr_standard_normal", |b| {
         b.iter(|| {
             r += 1;
-            let mut rng = noise::stream(2018, 0, Channel::Velocity, r);
+            let mut rng = noise::stream(2018, 0, Channel::Velocity.stream(), r);
             let mut acc = 0.0;
             for _ in 0..N {
                 let z: f64 = StandardNormal.sample(&mut rng);

@@ -4,8 +4,8 @@
 
 use nalgebra::Matrix3;
 
+use super::channels::{Channel, NoiseLevels};
 use super::regression::Regression;
-use crate::noise::NoiseLevels;
 use crate::numeric::linalg::{SolveError, inverse_spd};
 use crate::numeric::sum::ExactSum;
 
@@ -16,11 +16,12 @@ impl Regression {
     /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
     /// Force: (F̃ − F)θ₁. Grade: d/dθ [g sin θ + θ₃ g cos θ] = g (cos θ − θ₃ sin θ).
     pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
-        let (sv2, sv4) = (noise.velocity_sd.powi(2), noise.velocity_sd.powi(4));
+        let sd_v = noise[Channel::Velocity];
+        let (sv2, sv4) = (sd_v.powi(2), sd_v.powi(4));
         let speed = (theta[1] * self.k).powi(2);
-        let force = (theta[0] * noise.force_sd).powi(2);
-        let grade = (self.g * noise.grade_sd).powi(2);
-        let output = noise.output_sd.powi(2);
+        let force = (theta[0] * noise[Channel::Force]).powi(2);
+        let grade = (self.g * noise[Channel::Grade]).powi(2);
+        let output = noise[Channel::Output].powi(2);
         (0..self.len())
             .map(|i| {
                 let v2 = self.v[i] * self.v[i];
@@ -88,8 +89,8 @@ pub fn scaled_inverse_sd(a: &Matrix3<f64>, sd: f64) -> Result<[f64; 3], SolveErr
 /// The thesis's bound sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) from a realisation's noisy X̃ᵀX̃ (`None`
 /// without speed noise, or when X̃ᵀX̃ is singular).
 pub fn thesis_bound(noisy_xtx: &Matrix3<f64>, noise: &NoiseLevels) -> Option<[f64; 3]> {
-    if noise.velocity_sd > 0.0 {
-        scaled_inverse_sd(noisy_xtx, noise.velocity_sd).ok()
+    if noise.is_on(Channel::Velocity) {
+        scaled_inverse_sd(noisy_xtx, noise[Channel::Velocity]).ok()
     } else {
         None
     }
@@ -123,14 +124,16 @@ pub static BOUNDS: [Bound; 4] = [
     Bound {
         name: "thesis_bound",
         description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
-        applies: |n| n.velocity_sd > 0.0,
+        applies: |n| n.is_on(Channel::Velocity),
         value: BoundValue::PerRealisation(thesis_bound),
     },
     Bound {
         name: "crlb_output",
         description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
         applies: NoiseLevels::output_only,
-        value: BoundValue::Constant(|reg, _, n| scaled_inverse_sd(&reg.xtx, n.output_sd).ok()),
+        value: BoundValue::Constant(|reg, _, n| {
+            scaled_inverse_sd(&reg.xtx, n[Channel::Output]).ok()
+        }),
     },
     Bound {
         name: "eiv_sandwich",

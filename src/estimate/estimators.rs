@@ -10,8 +10,8 @@ use std::ops::Deref;
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::channels::{Channel, NoiseLevels};
 use super::moments::Moments;
-use crate::noise::NoiseLevels;
 use crate::numeric::linalg::{SolveError, solve_spd};
 
 /// An estimator of θ from one realisation's sums.
@@ -58,7 +58,7 @@ impl Estimator for Bcls {
     }
 
     fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>) {
-        m.bcls_system(k, noise.velocity_sd)
+        m.bcls_system(k, noise[Channel::Velocity])
     }
 }
 

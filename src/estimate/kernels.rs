@@ -216,16 +216,17 @@ fn output_sums_tail(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimate::channels::Channel;
     use crate::estimate::regression::test_regression as regression;
-    use crate::noise::{Channel, NormalStream};
+    use crate::noise::NormalStream;
 
     #[test]
     fn vector_block_sums_equal_the_portable_ones_bit_for_bit() {
         let reg = regression();
         let mut e = [0.0; BLOCK];
-        NormalStream::for_realisation(5, 0, Channel::Velocity, 1).fill(&mut e);
+        NormalStream::for_realisation(5, 0, Channel::Velocity.stream(), 1).fill(&mut e);
         let mut eta = [0.0; BLOCK];
-        NormalStream::for_realisation(5, 0, Channel::Output, 1).fill(&mut eta);
+        NormalStream::for_realisation(5, 0, Channel::Output.stream(), 1).fill(&mut eta);
         for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
             let cols = Columns {
                 v: &reg.v[start..start + len],

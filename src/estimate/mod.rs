@@ -1,6 +1,7 @@
 //! Estimation: the vehicle regression, its per-realisation sums, its estimators and bounds.
 //!
 //! - [`regression`]: the noise-free columns of one drive cycle and their constant sums;
+//! - [`channels`]: the noise channels of the measurements, one enum variant each;
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
 //!   (the kernel), with the block sums of `kernels`;
 //! - [`estimators`]: OLS and BCLS normal equations from the moments;
@@ -12,6 +13,7 @@
 //! The equations are in docs/model.md.
 
 pub mod bounds;
+pub mod channels;
 pub mod conversions;
 pub mod estimators;
 mod kernels;

@@ -5,9 +5,9 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
+use super::channels::{BlockNoise, Channel, NoiseLevels, Sample};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
 use super::regression::Regression;
-use crate::noise::NoiseLevels;
 
 /// The sums of one realisation from which every estimator's normal equations are built.
 ///
@@ -78,19 +78,6 @@ struct SpeedOutputSums {
     s_w_eta: f64,
 }
 
-/// Standard-normal draws of one block, per channel (`None` when the channel is off).
-#[derive(Debug, Clone, Copy)]
-pub struct BlockNoise<'a> {
-    /// Speed noise draws.
-    pub velocity: Option<&'a [f64]>,
-    /// Output noise draws.
-    pub output: Option<&'a [f64]>,
-    /// Grade noise draws.
-    pub grade: Option<&'a [f64]>,
-    /// Force noise draws.
-    pub force: Option<&'a [f64]>,
-}
-
 /// Accumulates one realisation's [`Moments`] block by block.
 #[derive(Debug, Clone)]
 pub struct MomentAccumulator<'r> {
@@ -107,13 +94,13 @@ impl<'r> MomentAccumulator<'r> {
     /// Start a realisation of `reg` with noise levels `noise`.
     pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
         let mut fast = SpeedOutputSums::default();
-        if noise.velocity_sd == 0.0 {
+        if !noise.is_on(Channel::Velocity) {
             [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = reg.speed_sums_noise_free;
         }
         MomentAccumulator {
             reg,
             noise,
-            use_fast_path: noise.grade_sd == 0.0 && noise.force_sd == 0.0,
+            use_fast_path: noise.fast_path(),
             fast,
             general: Moments::default(),
         }
@@ -150,9 +137,9 @@ impl<'r> MomentAccumulator<'r> {
             c: &reg.c[range.clone()],
             y: &reg.y[range],
         };
-        let sd_v = self.noise.velocity_sd;
+        let sd_v = self.noise[Channel::Velocity];
         let s = &mut self.fast;
-        let e = draws.velocity.unwrap_or(&ZEROS[..len]);
+        let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
         // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
         if sd_v != 0.0 {
             let [s_w, s_wf, s_wc, s_ww, s_wy] = speed_sums(&cols, e, sd_v);
@@ -162,7 +149,7 @@ impl<'r> MomentAccumulator<'r> {
             s.s_ww += s_ww;
             s.s_wy += s_wy;
         }
-        if let Some(eta) = draws.output {
+        if let Some(eta) = draws[Channel::Output] {
             let [s_eta, s_f_eta, s_c_eta, s_w_eta] = output_sums(&cols, e, sd_v, eta);
             s.s_eta += s_eta;
             s.s_f_eta += s_f_eta;
@@ -173,31 +160,26 @@ impl<'r> MomentAccumulator<'r> {
 
     fn add_general(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
         let reg = self.reg;
-        let nz = self.noise;
+        let levels = self.noise;
         let mut b = Moments::default();
         // A channel that is off draws zeros.
         let zeros = &ZEROS[..len];
-        let force = draws.force.unwrap_or(zeros);
-        let velocity = draws.velocity.unwrap_or(zeros);
-        let grade = draws.grade.unwrap_or(zeros);
-        let output = draws.output.unwrap_or(zeros);
-        for j in 0..len {
-            let i = start + j;
-            let x1 = reg.f[i] + nz.force_sd * force[j];
-            let vt = reg.v[i] + nz.velocity_sd * velocity[j];
-            let w = vt * vt;
-            let (sin_t, cos_t) = if nz.grade_sd > 0.0 {
-                // sin/cos of θ + δ from those of θ and δ (angle addition)
-                let (sd, cd) = (nz.grade_sd * grade[j]).sin_cos();
-                (
-                    reg.sin_grade[i] * cd + reg.cos_grade[i] * sd,
-                    reg.cos_grade[i] * cd - reg.sin_grade[i] * sd,
-                )
-            } else {
-                (reg.sin_grade[i], reg.cos_grade[i])
+        let draws = draws.0.map(|d| d.unwrap_or(zeros));
+        for (j, i) in (start..start + len).enumerate() {
+            let mut s = Sample {
+                f: reg.f[i],
+                v: reg.v[i],
+                sin_grade: reg.sin_grade[i],
+                cos_grade: reg.cos_grade[i],
+                output_noise: 0.0,
             };
-            let x3 = -reg.g * cos_t;
-            let y = reg.accel[i] + reg.g * sin_t + nz.output_sd * output[j];
+            for (c, sd) in levels.iter() {
+                c.perturb(&mut s, *sd, draws[c.index()][j]);
+            }
+            let x1 = s.f;
+            let w = s.v * s.v;
+            let x3 = -reg.g * s.cos_grade;
+            let y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
             b.s_11 += x1 * x1;
             b.s_13 += x1 * x3;
             b.s_33 += x3 * x3;
@@ -223,7 +205,7 @@ impl<'r> MomentAccumulator<'r> {
             return Moments { n, ..self.general };
         }
         let s = &self.fast;
-        let sd_y = self.noise.output_sd;
+        let sd_y = self.noise[Channel::Output];
         Moments {
             s_11: reg.xtx[(0, 0)],
             s_13: reg.xtx[(0, 2)],
@@ -247,7 +229,7 @@ impl<'r> MomentAccumulator<'r> {
 mod tests {
     use super::*;
     use crate::estimate::regression::test_regression as regression;
-    use crate::noise::{BLOCK, Channel, NormalStream};
+    use crate::noise::{BLOCK, NormalStream};
 
     fn moments(reg: &Regression, noise: NoiseLevels, general: bool) -> Moments {
         let mut acc = if general {
@@ -255,8 +237,8 @@ mod tests {
         } else {
             MomentAccumulator::new(reg, noise)
         };
-        let mut speed = NormalStream::for_realisation(1, 0, Channel::Velocity, 0);
-        let mut output = NormalStream::for_realisation(1, 0, Channel::Output, 0);
+        let mut speed = NormalStream::for_realisation(1, 0, Channel::Velocity.stream(), 0);
+        let mut output = NormalStream::for_realisation(1, 0, Channel::Output.stream(), 0);
         let (mut e, mut eta) = ([0.0; BLOCK], [0.0; BLOCK]);
         for start in (0..reg.len()).step_by(BLOCK) {
             let len = BLOCK.min(reg.len() - start);
@@ -265,12 +247,11 @@ mod tests {
             acc.add_block(
                 start,
                 len,
-                BlockNoise {
-                    velocity: Some(&e[..len]),
-                    output: Some(&eta[..len]),
-                    grade: None,
-                    force: None,
-                },
+                BlockNoise::from_fn(|c| match c {
+                    Channel::Velocity => Some(&e[..len]),
+                    Channel::Output => Some(&eta[..len]),
+                    _ => None,
+                }),
             );
         }
         acc.finish()
@@ -279,11 +260,9 @@ mod tests {
     #[test]
     fn fast_and_general_paths_build_the_same_moments() {
         let reg = regression();
-        let noise = NoiseLevels {
-            velocity_sd: 0.7,
-            output_sd: 0.3,
-            ..NoiseLevels::default()
-        };
+        let mut noise = NoiseLevels::default();
+        noise[Channel::Velocity] = 0.7;
+        noise[Channel::Output] = 0.3;
         let a = moments(&reg, noise, false);
         let b = moments(&reg, noise, true);
         // Same products summed in a different grouping: agreement to rounding (1e-12
@@ -319,12 +298,7 @@ mod tests {
         let mut acc = m;
         for start in (0..reg.len()).step_by(BLOCK) {
             let len = BLOCK.min(reg.len() - start);
-            let none = BlockNoise {
-                velocity: None,
-                output: None,
-                grade: None,
-                force: None,
-            };
+            let none = BlockNoise::default();
             acc.add_block(start, len, none);
         }
         let (a, b) = acc.finish().ols_system(reg.k);

@@ -10,9 +10,13 @@
 use nalgebra::{Matrix2, Vector2};
 
 use super::{Axis, AxisValue, BoundInfo, ConditionInfo, Layout, Model, ParameterInfo, Status};
-use crate::noise::{BLOCK, Channel, NormalStream};
+use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::{inverse_spd, solve_spd};
 use crate::study::{LineFitStudy, NoiseShape, Study, StudyError};
+
+/// The channel part of the stream key of the measurement noise (docs/model.md#streams);
+/// part of the study's numbers, never change it.
+const MEASUREMENT_STREAM: u64 = 5;
 
 const ASSUMED_SIGMA: usize = 0;
 const TRUE_SIGMA: usize = 1;
@@ -131,7 +135,7 @@ impl Model for LineFitModel {
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
         let cond = &self.conditions[c];
         let times = &self.study.times;
-        let mut source = NormalStream::for_realisation(seed, c as u64, Channel::LineFit, r);
+        let mut source = NormalStream::for_realisation(seed, c as u64, MEASUREMENT_STREAM, r);
         let mut draws = [0.0; BLOCK];
         let (mut sy, mut sty) = (0.0, 0.0);
         for ts in times.chunks(BLOCK) {

@@ -16,12 +16,13 @@ use super::{
     ParameterInfo, Status,
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
+use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::EstimatorRef;
 use crate::estimate::estimators::solve;
-use crate::estimate::moments::{BlockNoise, MomentAccumulator, Moments};
+use crate::estimate::moments::{MomentAccumulator, Moments};
 use crate::estimate::regression::Regression;
-use crate::noise::{BLOCK, Channel, NoiseLevels, NormalStream};
+use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::terrain::MAX_GRADE_RAD;
@@ -92,7 +93,7 @@ impl VehicleModel {
             .collect::<Result<_, StudyError>>()?;
         let layout = layout(&vs.estimators);
         let pairs: Vec<(usize, NoiseLevels)> = (0..vs.scales.len())
-            .flat_map(|s| vs.noise.levels().into_iter().map(move |n| (s, n)))
+            .flat_map(|s| vs.noise.combinations().into_iter().map(move |n| (s, n)))
             .collect();
         let conditions = pairs
             .par_iter()
@@ -114,16 +115,10 @@ impl VehicleModel {
                 let applies_row: Vec<bool> = BOUNDS.iter().map(|b| (b.applies)(&noise)).collect();
                 Condition {
                     info: ConditionInfo {
-                        axes: [
-                            vs.scales[scale_index],
-                            noise.velocity_sd,
-                            noise.output_sd,
-                            noise.grade_sd,
-                            noise.force_sd,
-                        ]
-                        .into_iter()
-                        .map(AxisValue::Number)
-                        .collect(),
+                        axes: std::iter::once(vs.scales[scale_index])
+                            .chain(noise.0)
+                            .map(AxisValue::Number)
+                            .collect(),
                         metrics: metrics.clone(),
                         truth: truth.to_vec(),
                         applies: vec![applies_row; vs.estimators.len()],
@@ -162,50 +157,37 @@ impl VehicleModel {
         let cond = &self.conditions[c];
         let reg = &*cond.regression;
         let noise = cond.noise;
-        let stream = |on: bool, channel| {
-            on.then(|| NormalStream::for_realisation(seed, c as u64, channel, r))
-        };
-        let mut speed = stream(noise.velocity_sd > 0.0, Channel::Velocity);
-        let mut output = stream(noise.output_sd > 0.0, Channel::Output);
-        let mut grade = stream(noise.grade_sd > 0.0, Channel::Grade);
-        let mut force = stream(noise.force_sd > 0.0, Channel::Force);
-        let mut buffers = [[0.0; BLOCK]; 4];
+        let mut streams = PerChannel::from_fn(|channel| {
+            noise
+                .is_on(channel)
+                .then(|| NormalStream::for_realisation(seed, c as u64, channel.stream(), r))
+        });
+        let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
         let mut acc = MomentAccumulator::new(reg, noise);
         let n = reg.len();
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
-            let [bv, bo, bg, bf] = &mut buffers;
-            acc.add_block(
-                start,
-                len,
-                BlockNoise {
-                    velocity: draw(&mut speed, &mut bv[..len]),
-                    output: draw(&mut output, &mut bo[..len]),
-                    grade: draw(&mut grade, &mut bg[..len]),
-                    force: draw(&mut force, &mut bf[..len]),
-                },
-            );
+            let mut draws = BlockNoise::default();
+            for ((stream, buffer), draw) in
+                streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0)
+            {
+                *draw = stream.as_mut().map(|s| {
+                    s.fill_block(&mut buffer[..len]);
+                    &buffer[..len]
+                });
+            }
+            acc.add_block(start, len, draws);
         }
         acc.finish()
     }
 }
 
-/// The next block of a channel's draws into `buf`, or `None` when the channel is off.
-fn draw<'b>(stream: &mut Option<NormalStream>, buf: &'b mut [f64]) -> Option<&'b [f64]> {
-    stream.as_mut()?.fill_block(buf);
-    Some(buf)
-}
-
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(estimators: &[EstimatorRef]) -> Layout {
     Layout {
-        axes: vec![
-            Axis::number("scale", ""),
-            Axis::number("velocity_sd", "m/s"),
-            Axis::number("output_sd", "m/s^2"),
-            Axis::number("grade_sd", "rad"),
-            Axis::number("force_sd", "N"),
-        ],
+        axes: std::iter::once(Axis::number("scale", ""))
+            .chain(Channel::ALL.map(|c| Axis::number(c.key(), c.unit())))
+            .collect(),
         condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
         figure_x: Some(FigureX {
             metric: "terrain_ms_grid",

@@ -24,63 +24,22 @@ use rand_chacha::ChaCha8Rng;
 
 use tables::{ZIG_F, ZIG_R, ZIG_X};
 
-/// Independent noise sources of a realisation; each has its own key, so switching one on
-/// does not change the draws of another.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u64)]
-pub enum Channel {
-    /// Speed-measurement noise.
-    Velocity = 1,
-    /// Additive noise on the regression output.
-    Output = 2,
-    /// Noise on the measured grade signal.
-    Grade = 3,
-    /// Noise on the measured propulsion force.
-    Force = 4,
-    /// Measurement noise of the line-fit example.
-    LineFit = 5,
-}
-
-/// Noise levels of one condition (standard deviations; 0 = off).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct NoiseLevels {
-    /// Speed-measurement noise σ_v \[m/s\].
-    pub velocity_sd: f64,
-    /// Additive output noise σ_y \[m/s²\].
-    pub output_sd: f64,
-    /// Grade-measurement noise σ_θ \[rad\].
-    pub grade_sd: f64,
-    /// Propulsion-force measurement noise σ_F \[N\].
-    pub force_sd: f64,
-}
-
-impl NoiseLevels {
-    /// True when noise enters a regressor (speed, grade or force), not only the output.
-    pub fn in_regressors(&self) -> bool {
-        self.velocity_sd > 0.0 || self.grade_sd > 0.0 || self.force_sd > 0.0
-    }
-
-    /// True when only the output is noisy.
-    pub fn output_only(&self) -> bool {
-        self.output_sd > 0.0 && !self.in_regressors()
-    }
-}
-
 /// Tag that separates chassis-mc keys from any other use of the same seed.
 const KEY_TAG: &[u8; 8] = b"chassmc1";
 
-/// The 256-bit ChaCha key of (seed, condition, channel).
-pub fn key(seed: u64, condition: u64, channel: Channel) -> [u8; 32] {
+/// The 256-bit ChaCha key of (seed, condition, channel). `channel` names the noise source
+/// within a model (each model numbers its own; see e.g. the vehicle model's channels).
+pub fn key(seed: u64, condition: u64, channel: u64) -> [u8; 32] {
     let mut k = [0u8; 32];
     k[0..8].copy_from_slice(&seed.to_le_bytes());
     k[8..16].copy_from_slice(&condition.to_le_bytes());
-    k[16..24].copy_from_slice(&(channel as u64).to_le_bytes());
+    k[16..24].copy_from_slice(&channel.to_le_bytes());
     k[24..32].copy_from_slice(KEY_TAG);
     k
 }
 
 /// The random stream of one realisation on one channel.
-pub fn stream(seed: u64, condition: u64, channel: Channel, realisation: u64) -> ChaCha8Rng {
+pub fn stream(seed: u64, condition: u64, channel: u64, realisation: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::from_seed(key(seed, condition, channel));
     rng.set_stream(realisation);
     rng
@@ -111,7 +70,7 @@ impl NormalStream {
     }
 
     /// The stream of (seed, condition, channel, realisation).
-    pub fn for_realisation(seed: u64, condition: u64, channel: Channel, realisation: u64) -> Self {
+    pub fn for_realisation(seed: u64, condition: u64, channel: u64, realisation: u64) -> Self {
         Self::new(key(seed, condition, channel), realisation)
     }
 
@@ -357,22 +316,22 @@ mod tests {
 
     #[test]
     fn keys_differ_by_seed_condition_and_channel() {
-        let a = key(1, 2, Channel::Velocity);
-        assert_ne!(a, key(2, 2, Channel::Velocity));
-        assert_ne!(a, key(1, 3, Channel::Velocity));
-        assert_ne!(a, key(1, 2, Channel::Output));
+        let a = key(1, 2, 1);
+        assert_ne!(a, key(2, 2, 1));
+        assert_ne!(a, key(1, 3, 1));
+        assert_ne!(a, key(1, 2, 2));
     }
 
     #[test]
     fn streams_are_independent_of_how_they_are_created() {
-        let mut a = NormalStream::for_realisation(7, 1, Channel::Velocity, 42);
-        let mut b = NormalStream::for_realisation(7, 1, Channel::Velocity, 42);
+        let mut a = NormalStream::for_realisation(7, 1, 1, 42);
+        let mut b = NormalStream::for_realisation(7, 1, 1, 42);
         let mut x = [0.0; 300];
         let mut y = [0.0; 300];
         a.fill(&mut x);
         b.fill(&mut y);
         assert_eq!(x, y);
-        let mut c = NormalStream::for_realisation(7, 1, Channel::Velocity, 43);
+        let mut c = NormalStream::for_realisation(7, 1, 1, 43);
         c.fill(&mut y);
         assert_ne!(x, y);
     }

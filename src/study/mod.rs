@@ -17,8 +17,8 @@ use std::path::Path;
 use raw::RawStudy;
 pub use spans::KeySpans;
 
+use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::EstimatorRef;
-use crate::noise::NoiseLevels;
 use crate::terrain::{ScaleTarget, TerrainSpec};
 use crate::vehicle::{DriveParams, VehicleParams};
 
@@ -56,36 +56,36 @@ impl fmt::Display for StudyError {
 
 impl std::error::Error for StudyError {}
 
-/// Which noise enters the measurements of the vehicle study, one condition axis each.
+/// Which noise enters the measurements of the vehicle study: the standard deviations
+/// listed for each channel, one condition axis each (units per [`Channel::unit`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct NoiseAxes {
-    /// Standard deviations of the speed-measurement noise \[m/s\].
-    pub velocity_sd: Vec<f64>,
-    /// Standard deviations of the additive output (acceleration) noise \[m/s²\].
-    pub output_sd: Vec<f64>,
-    /// Standard deviations of the grade-measurement noise \[rad\] (default `[0.0]`).
-    pub grade_sd: Vec<f64>,
-    /// Standard deviations of the propulsion-force measurement noise \[N\] (default `[0.0]`).
-    pub force_sd: Vec<f64>,
-}
+pub struct NoiseAxes(PerChannel<Vec<f64>>);
 
 impl NoiseAxes {
-    /// Every combination, nested velocity × output × grade × force (the last varies fastest).
-    pub fn levels(&self) -> Vec<NoiseLevels> {
-        let mut out = Vec::new();
-        for &velocity_sd in &self.velocity_sd {
-            for &output_sd in &self.output_sd {
-                for &grade_sd in &self.grade_sd {
-                    for &force_sd in &self.force_sd {
-                        out.push(NoiseLevels {
-                            velocity_sd,
-                            output_sd,
-                            grade_sd,
-                            force_sd,
-                        });
-                    }
-                }
-            }
+    /// The axes from the levels of each channel (each list non-empty).
+    pub fn new(levels: PerChannel<Vec<f64>>) -> Self {
+        NoiseAxes(levels)
+    }
+
+    /// The levels listed for `channel`.
+    pub fn levels(&self, channel: Channel) -> &[f64] {
+        &self.0[channel]
+    }
+
+    /// Every combination, nested in [`Channel::ALL`] order (the last channel varies fastest).
+    pub fn combinations(&self) -> Vec<NoiseLevels> {
+        let mut out = vec![NoiseLevels::default()];
+        for channel in Channel::ALL {
+            out = out
+                .into_iter()
+                .flat_map(|base| {
+                    self.0[channel].iter().map(move |&sd| {
+                        let mut levels = base;
+                        levels[channel] = sd;
+                        levels
+                    })
+                })
+                .collect();
         }
         out
     }
@@ -259,7 +259,7 @@ impl Study {
     /// Number of conditions the study runs (the product of its axes).
     pub fn condition_count(&self) -> usize {
         match &self.model {
-            ModelSpec::Vehicle(v) => v.scales.len() * v.noise.levels().len(),
+            ModelSpec::Vehicle(v) => v.scales.len() * v.noise.combinations().len(),
             ModelSpec::LineFit(l) => l.noise.len() * l.noise_sd.len(),
         }
     }

@@ -1,10 +1,16 @@
 //! The study file exactly as written: serde structs, no checks beyond types.
 //!
-//! `deny_unknown_fields` everywhere so a misspelt key is an error, not a silent default.
+//! `deny_unknown_fields` wherever the keys are fixed, so a misspelt key is an error, not a
+//! silent default (the open tables are checked key by key in validation).
 //! These structs also serialise back, which is how the study "as run" is stored in every
 //! output file's metadata.
 
-use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::estimate::channels::Channel;
 
 fn default_model() -> String {
     "vehicle".to_string()
@@ -82,20 +88,26 @@ pub struct RawTerrain {
     pub scale_applies_to: String,
 }
 
-/// `[noise]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawNoise {
-    pub velocity_sd: Vec<f64>,
-    pub output_sd: Vec<f64>,
-    #[serde(default = "zero_axis")]
-    pub grade_sd: Vec<f64>,
-    #[serde(default = "zero_axis")]
-    pub force_sd: Vec<f64>,
-}
+/// `[noise]`: a list of levels per channel key (`velocity_sd`, …). Validation checks the
+/// keys against the channels and fills in the defaults; they serialise in channel order, so
+/// the study as run reads the same whatever order the file had.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(transparent)]
+pub struct RawNoise(pub BTreeMap<String, Vec<f64>>);
 
-fn zero_axis() -> Vec<f64> {
-    vec![0.0]
+impl Serialize for RawNoise {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let known = Channel::ALL.map(Channel::key);
+        let ordered = known
+            .iter()
+            .filter_map(|k| self.0.get_key_value(*k))
+            .chain(self.0.iter().filter(|(k, _)| !known.contains(&k.as_str())));
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (k, v) in ordered {
+            map.serialize_entry(k, v)?;
+        }
+        map.end()
+    }
 }
 
 /// `[line_fit]`

@@ -1,7 +1,7 @@
 //! Validation: raw TOML values → the checked values of a [`Study`], each failure a
 //! [`StudyError`] naming the file, the key, its line and the reason.
 
-use super::raw::RawStudy;
+use super::raw::{RawNoise, RawStudy};
 use super::*;
 use crate::estimate::estimators::{ESTIMATORS, Ols};
 use crate::terrain::profiles::{PROFILES, Params};
@@ -206,6 +206,16 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
             ));
         }
     };
+    // The study as run lists every channel's levels, defaults included.
+    let mut raw = raw;
+    if let Some(n) = raw.noise.as_mut() {
+        for channel in Channel::ALL {
+            if let Some(default) = channel.default_levels() {
+                n.0.entry(channel.key().to_string())
+                    .or_insert_with(|| default.to_vec());
+            }
+        }
+    }
     Ok(Study {
         name: raw.name.clone(),
         seed: raw.seed as u64,
@@ -318,12 +328,7 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
     };
     let scales = c.list("terrain.scales", &t.scales, Checker::non_negative)?;
 
-    let noise = NoiseAxes {
-        velocity_sd: c.list("noise.velocity_sd", &n.velocity_sd, Checker::non_negative)?,
-        output_sd: c.list("noise.output_sd", &n.output_sd, Checker::non_negative)?,
-        grade_sd: c.list("noise.grade_sd", &n.grade_sd, Checker::non_negative)?,
-        force_sd: c.list("noise.force_sd", &n.force_sd, Checker::non_negative)?,
-    };
+    let noise = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
 
@@ -335,6 +340,28 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         noise,
         estimators,
     })
+}
+
+/// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no
+/// other key.
+fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<NoiseAxes, StudyError> {
+    let keys = Channel::ALL.map(Channel::key);
+    if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
+        return Err(c.fail(
+            &format!("noise.{k}"),
+            format!("unknown field `{k}`, expected one of {keys:?}"),
+        ));
+    }
+    let mut levels = PerChannel::<Vec<f64>>::default();
+    for channel in Channel::ALL {
+        let key = format!("noise.{}", channel.key());
+        levels[channel] = match (n.0.get(channel.key()), channel.default_levels()) {
+            (Some(list), _) => c.list(&key, list, Checker::non_negative)?,
+            (None, Some(default)) => default.to_vec(),
+            (None, None) => return Err(c.fail(&key, "required key is missing")),
+        };
+    }
+    Ok(NoiseAxes::new(levels))
 }
 
 fn validate_estimators(

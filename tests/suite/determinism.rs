@@ -74,6 +74,19 @@ fn content_hash(batch: &arrow::array::RecordBatch) -> u64 {
     h.finish()
 }
 
+/// The content hashes of realisations, summary and cycles of `text` at R = 64.
+fn pinned_hashes(text: &str) -> [u64; 3] {
+    let study = chassis_mc::study::Study::from_toml(text, "pinned")
+        .unwrap()
+        .with_overrides(Some(64), None)
+        .unwrap();
+    let (dir, _) = run(&study, None);
+    let found = ["realisations", "summary", "cycles"]
+        .map(|name| content_hash(&read_table(&dir.path().join(format!("{name}.parquet")))));
+    println!("content hashes: {found:016x?}");
+    found
+}
+
 #[test]
 fn refactors_keep_the_realisations_bit_for_bit() {
     // Pinned on the engine before it was reorganised into typed extension entries: any
@@ -84,28 +97,39 @@ fn refactors_keep_the_realisations_bit_for_bit() {
         "scales",
         "[1.0, 2.0]",
     );
-    let study = chassis_mc::study::Study::from_toml(&text, "pinned")
-        .unwrap()
-        .with_overrides(Some(64), None)
-        .unwrap();
-    let (dir, _) = run(&study, None);
-    let realisations = read_table(&dir.path().join("realisations.parquet"));
-    let summary = read_table(&dir.path().join("summary.parquet"));
-    let cycles = read_table(&dir.path().join("cycles.parquet"));
-    let found = [
-        content_hash(&realisations),
-        content_hash(&summary),
-        content_hash(&cycles),
-    ];
-    println!("content hashes: {found:016x?}");
     // Measured on the engine of commit 2221a26 (whose files for this study are byte-identical
     // to those of this commit's parent, checked with `cmp`).
     assert_eq!(
-        found,
+        pinned_hashes(&text),
         [
             0x17b2_7824_6de9_f62d,
             0x7392_72e0_43bd_fdf0,
             0x3b43_6d7d_cd67_50b8
+        ]
+    );
+}
+
+#[test]
+fn refactors_keep_the_general_kernel_bit_for_bit() {
+    // The same for the general kernel (grade and force noise on as well as speed noise):
+    // measured on the engine of commit d09f037, before the noise channels became one enum
+    // (its files for this study are byte-identical to those of the channel enum, by `cmp`).
+    let text = set_key(
+        &study_text("bias_compensation.toml"),
+        "scales",
+        "[1.0, 2.0]",
+    );
+    let text = set_key(
+        &text,
+        "velocity_sd",
+        "[0.5]\ngrade_sd = [0.0, 0.01]\nforce_sd = [20.0]",
+    );
+    assert_eq!(
+        pinned_hashes(&text),
+        [
+            0xbd7f_7efe_144d_055a,
+            0xa77e_26c3_672b_b4d0,
+            0xb471_b9a0_3179_654d
         ]
     );
 }

@@ -8,8 +8,8 @@
 //! ≈ 1/√(2(K − 1)) = 2.2 % (normal-like statistics); we allow 10 %, ≈ 4.5 of those, so a
 //! formula that is off by a factor (e.g. √2 = 41 %, or a missing n − 1) cannot pass.
 
-use chassis_mc::noise::{Channel, NormalStream};
 use chassis_mc::stats::measures::{self, BoundSums, Estimate, EstimateSums, Z_95};
+use chassis_mc::{estimate::channels::Channel, noise::NormalStream};
 
 const K: usize = 1000;
 const N: usize = 200;
@@ -19,7 +19,7 @@ const SIGMA: f64 = 2.0;
 const NU: usize = 10;
 
 fn normals(study: u64, what: u64, n: usize) -> Vec<f64> {
-    let mut s = NormalStream::for_realisation(4242, study, Channel::Output, what);
+    let mut s = NormalStream::for_realisation(4242, study, Channel::Output.stream(), what);
     let mut v = vec![0.0; n];
     s.fill(&mut v);
     v
