@@ -63,6 +63,7 @@ pub mod numeric;
 pub mod output;
 pub mod report;
 pub mod run;
+pub mod settings;
 pub mod stats;
 pub mod study;
 pub mod terrain;

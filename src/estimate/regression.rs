@@ -140,9 +140,9 @@ impl Regression {
 #[cfg(test)]
 pub(crate) fn test_regression() -> Regression {
     use crate::terrain::GradeTable;
-    use crate::vehicle::{DriveParams, simulate};
+    use crate::vehicle::{TorqueDrive, simulate};
     let vehicle = VehicleParams::thesis();
-    let drive = DriveParams {
+    let drive = TorqueDrive {
         duration_s: 60.0,
         time_step_s: 0.01,
         steps: 6000,

@@ -26,7 +26,7 @@ use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::terrain::MAX_GRADE_RAD;
-use crate::vehicle::{DriveCycle, simulate};
+use crate::vehicle::DriveCycle;
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
@@ -80,7 +80,7 @@ impl VehicleModel {
                         ),
                     ));
                 }
-                let cycle = simulate(&vs.vehicle, &vs.drive, &table).map_err(|e| {
+                let cycle = vs.drive.cycle(&vs.vehicle, &table).map_err(|e| {
                     study.error_at(
                         &format!("terrain.scales[{i}]"),
                         format!("at scale {scale}: {e}"),

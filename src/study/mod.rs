@@ -13,6 +13,7 @@ use validate::{check_realisations, serde_error, validate};
 
 use std::fmt;
 use std::path::Path;
+use std::sync::Arc;
 
 use raw::RawStudy;
 pub use spans::KeySpans;
@@ -20,10 +21,9 @@ pub use spans::KeySpans;
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::EstimatorRef;
 use crate::terrain::{ScaleTarget, TerrainSpec};
-use crate::vehicle::{DriveParams, VehicleParams};
+use crate::vehicle::{CycleSource, VehicleParams};
 
-/// Largest number of drive-cycle samples accepted (keeps a typo from allocating gigabytes).
-pub const MAX_SAMPLES: usize = 50_000_000;
+pub use crate::vehicle::MAX_SAMPLES;
 
 /// Largest number of realisations per condition accepted.
 pub const MAX_REALISATIONS: u64 = 1 << 40;
@@ -96,8 +96,8 @@ impl NoiseAxes {
 pub struct VehicleStudy {
     /// Vehicle parameters (the truth the estimators try to recover).
     pub vehicle: VehicleParams,
-    /// Drive-cycle settings: duration, step, torque profile.
-    pub drive: DriveParams,
+    /// Where the drive cycle comes from (the drive mode and its settings).
+    pub drive: Arc<dyn CycleSource>,
     /// Terrain profile and grid; the scales are an axis of conditions.
     pub terrain: TerrainSpec,
     /// Terrain scale factors, one condition axis.

@@ -63,16 +63,14 @@ pub struct RawVehicle {
     pub wheel_radius: f64,
 }
 
-/// `[drive]`
+/// `[drive]`: the drive mode (absent: the first of the drive modes, `torque`) and the mode's
+/// own keys, which the mode reads and checks itself.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct RawDrive {
-    pub duration: f64,
-    pub time_step: f64,
-    pub initial_speed: f64,
-    pub torque_mean: f64,
-    pub torque_amplitude: f64,
-    pub torque_frequency: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<String>,
+    #[serde(flatten)]
+    pub params: toml::Table,
 }
 
 /// `[terrain]`: the keys every profile has, and the profile's own keys (e.g. `height` and

@@ -4,7 +4,9 @@
 use super::raw::{RawNoise, RawStudy};
 use super::*;
 use crate::estimate::estimators::{ESTIMATORS, Ols};
-use crate::terrain::profiles::{PROFILES, Params};
+use crate::settings::Params;
+use crate::terrain::profiles::PROFILES;
+use crate::vehicle::DRIVE_MODES;
 
 /// Turn a serde/TOML error into one message naming the key and line.
 pub(super) fn serde_error(
@@ -254,35 +256,19 @@ fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, Stu
         wheel_radius_m: c.positive("vehicle.wheel_radius", v.wheel_radius)?,
     };
 
-    let duration_s = c.positive("drive.duration", d.duration)?;
-    let time_step_s = c.positive("drive.time_step", d.time_step)?;
-    let steps = (duration_s / time_step_s).round();
-    if (steps * time_step_s - duration_s).abs() > 1e-9 * duration_s || steps < 1.0 {
-        return Err(c.fail(
-            "drive.duration",
-            format!(
-                "must be a whole multiple of drive.time_step ({time_step_s} s), got {duration_s} s"
-            ),
-        ));
-    }
-    if steps + 1.0 > MAX_SAMPLES as f64 {
-        return Err(c.fail(
-            "drive.time_step",
-            format!(
-                "gives {} samples; at most {MAX_SAMPLES} are supported",
-                steps + 1.0
-            ),
-        ));
-    }
-    let drive = DriveParams {
-        duration_s,
-        time_step_s,
-        steps: steps as usize,
-        initial_speed_m_s: c.non_negative("drive.initial_speed", d.initial_speed)?,
-        torque_mean_n_m: c.non_negative("drive.torque_mean", d.torque_mean)?,
-        torque_amplitude: c.non_negative("drive.torque_amplitude", d.torque_amplitude)?,
-        torque_frequency_rad_s: c.non_negative("drive.torque_frequency", d.torque_frequency)?,
-    };
+    let mode_name = d.mode.as_deref().unwrap_or(DRIVE_MODES[0].name);
+    let mode = DRIVE_MODES
+        .iter()
+        .find(|m| m.name == mode_name)
+        .ok_or_else(|| {
+            let names: Vec<&str> = DRIVE_MODES.iter().map(|m| m.name).collect();
+            c.fail(
+                "drive.mode",
+                format!("unknown drive mode \"{mode_name}\"; expected one of {names:?}"),
+            )
+        })?;
+    let drive =
+        (mode.parse)(&Params::new(&d.params, "drive")).map_err(|e| c.fail(&e.key, e.reason))?;
 
     let entry = PROFILES
         .iter()

@@ -1,12 +1,20 @@
-//! The longitudinal vehicle model and the RK4 drive-cycle simulation (docs/model.md#vehicle).
+//! The longitudinal vehicle model and its drive cycles (docs/model.md#vehicle).
 //!
-//! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`, brake force zero,
-//! `F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel`. The cycle is integrated by classical
-//! fixed-step RK4 at the sample step, with θ(X) the linear interpolation of the grade table.
-//! A stall or running off the terrain is an error, never a silent NaN.
+//! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`. A drive cycle
+//! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: today `torque` (the
+//! thesis's sinusoidal torque, integrated by RK4; in `torque.rs`). A stall or running off
+//! the terrain is an error, never a silent NaN.
+
+mod torque;
+
+pub use torque::{TorqueDrive, simulate};
+
+use std::fmt;
+use std::sync::Arc;
 
 use thiserror::Error;
 
+use crate::settings::{KeyError, Params};
 use crate::terrain::GradeTable;
 
 /// The vehicle's physical parameters (the truth the estimators try to recover).
@@ -57,39 +65,34 @@ impl VehicleParams {
     }
 }
 
-/// Drive-cycle settings (`[drive]`; docs/model.md#vehicle).
-#[derive(Debug, Clone, PartialEq)]
-pub struct DriveParams {
-    /// Length of the cycle \[s\].
-    pub duration_s: f64,
-    /// Sample and integration step \[s\].
-    pub time_step_s: f64,
-    /// Number of steps, duration / time_step; the cycle has `steps + 1` samples.
-    pub steps: usize,
-    /// Speed at t = 0 \[m/s\].
-    pub initial_speed_m_s: f64,
-    /// Mean final-drive torque τ0 \[N·m\].
-    pub torque_mean_n_m: f64,
-    /// Relative torque amplitude a_τ \[-\].
-    pub torque_amplitude: f64,
-    /// Torque oscillation frequency ω_τ \[rad/s\].
-    pub torque_frequency_rad_s: f64,
+/// Largest number of drive-cycle samples accepted (keeps a typo from allocating gigabytes).
+pub const MAX_SAMPLES: usize = 50_000_000;
+
+/// Where a condition's noise-free drive cycle comes from: one entry of [`DRIVE_MODES`].
+pub trait CycleSource: fmt::Debug + Send + Sync {
+    /// The noise-free cycle of `vehicle` over `terrain`.
+    fn cycle(
+        &self,
+        vehicle: &VehicleParams,
+        terrain: &GradeTable,
+    ) -> Result<DriveCycle, SimulationError>;
 }
 
-impl DriveParams {
-    /// Propulsion force F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel \[N\] (thesis eq. 30).
-    #[inline]
-    pub fn propulsion_n(&self, vehicle: &VehicleParams, t_s: f64) -> f64 {
-        let torque = self.torque_mean_n_m
-            * (1.0 + self.torque_amplitude * (self.torque_frequency_rad_s * t_s).sin());
-        torque * vehicle.final_drive_ratio / vehicle.wheel_radius_m
-    }
-
-    /// Number of samples N = steps + 1 (t = 0 … duration inclusive).
-    pub fn samples(&self) -> usize {
-        self.steps + 1
-    }
+/// A drive mode as study files name it (`[drive] mode = ...`).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveMode {
+    /// The value of `drive.mode`.
+    pub name: &'static str,
+    /// Read the mode's own keys of `[drive]` (all of them but `mode`: an unknown key is an
+    /// error).
+    pub parse: fn(&Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError>,
 }
+
+/// Every drive mode a study can name; the first is the default when `mode` is absent.
+pub static DRIVE_MODES: [DriveMode; 1] = [DriveMode {
+    name: "torque",
+    parse: TorqueDrive::parse,
+}];
 
 /// Why a drive cycle could not be simulated.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -159,79 +162,6 @@ impl DriveCycle {
     }
 }
 
-/// Simulate one drive cycle over `terrain` by fixed-step RK4 at the sample step.
-pub fn simulate(
-    vehicle: &VehicleParams,
-    drive: &DriveParams,
-    terrain: &GradeTable,
-) -> Result<DriveCycle, SimulationError> {
-    let h = drive.time_step_s;
-    let n = drive.samples();
-    let mut cycle = DriveCycle {
-        t_s: Vec::with_capacity(n),
-        x_m: Vec::with_capacity(n),
-        v_m_s: Vec::with_capacity(n),
-        grade_rad: Vec::with_capacity(n),
-        f_prop_n: Vec::with_capacity(n),
-        accel_m_s2: Vec::with_capacity(n),
-    };
-    let end_m = terrain.end_m();
-    // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
-    // leaving the table.
-    let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
-        let grade = terrain
-            .grade_at(x)
-            .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        Ok(vehicle.acceleration(f, v, grade))
-    };
-
-    let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
-    let mut f = drive.propulsion_n(vehicle, 0.0);
-    for i in 0..n {
-        let t = i as f64 * h;
-        if !(x.is_finite() && v.is_finite()) {
-            return Err(SimulationError::NonFinite { time_s: t });
-        }
-        if i > 0 && v <= 0.0 {
-            return Err(SimulationError::Stalled {
-                time_s: t,
-                position_m: x,
-                speed_m_s: v,
-            });
-        }
-        let grade = terrain
-            .grade_at(x)
-            .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        cycle.t_s.push(t);
-        cycle.x_m.push(x);
-        cycle.v_m_s.push(v);
-        cycle.grade_rad.push(grade);
-        cycle.f_prop_n.push(f);
-        cycle.accel_m_s2.push(vehicle.acceleration(f, v, grade));
-        if i + 1 == n {
-            break;
-        }
-        // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V); the force at the
-        // half step serves two stages and the one at the full step the next sample. The
-        // full step's force is taken at the next sample's time t_{i+1} = (i+1)·Δt (the
-        // time the cycle records), which can differ from t + Δt in the last bit.
-        let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
-        let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
-        let k1x = v;
-        let k1v = cycle.accel_m_s2[i];
-        let k2x = v + 0.5 * h * k1v;
-        let k2v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k1x, k2x)?;
-        let k3x = v + 0.5 * h * k2v;
-        let k3v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k2x, k3x)?;
-        let k4x = v + h * k3v;
-        let k4v = accel(t + h, f_end, x + h * k3x, k4x)?;
-        x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-        f = f_end;
-    }
-    Ok(cycle)
-}
-
 #[cfg(test)]
 impl VehicleParams {
     /// The thesis vehicle (the defaults of docs/model.md#vehicle), for unit tests.
@@ -246,65 +176,5 @@ impl VehicleParams {
             final_drive_ratio: 2.7,
             wheel_radius_m: 0.3,
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn drive(duration_s: f64) -> DriveParams {
-        DriveParams {
-            duration_s,
-            time_step_s: 0.01,
-            steps: (duration_s / 0.01).round() as usize,
-            initial_speed_m_s: 0.0,
-            torque_mean_n_m: 225.0,
-            torque_amplitude: 0.0,
-            torque_frequency_rad_s: 0.1,
-        }
-    }
-
-    #[test]
-    fn flat_road_constant_force_matches_the_closed_form() {
-        // With constant F, no grade: M dV/dt = F' − kCd V², F' = F − Cr M g, whose solution
-        // from rest is V(t) = V∞ tanh(t F' / (M V∞)), V∞ = sqrt(F'/(k Cd)).
-        let veh = VehicleParams::thesis();
-        let d = drive(60.0);
-        let flat = GradeTable::from_grades(vec![0.0; 5000]);
-        let cycle = simulate(&veh, &d, &flat).unwrap();
-        let f_net =
-            d.propulsion_n(&veh, 0.0) - veh.rolling_resistance * veh.mass_kg * veh.gravity_m_s2;
-        let v_inf = (f_net / (veh.drag_factor_kg_m() * veh.drag_coefficient)).sqrt();
-        for i in (0..cycle.len()).step_by(500) {
-            let t = cycle.t_s[i];
-            let exact = v_inf * (t * f_net / (veh.mass_kg * v_inf)).tanh();
-            // RK4 global error ~ C h^4 with h = 0.01 s: far below 1e-9 m/s here.
-            assert!(
-                (cycle.v_m_s[i] - exact).abs() < 1e-9,
-                "t={t}: {} vs {exact}",
-                cycle.v_m_s[i]
-            );
-        }
-    }
-
-    #[test]
-    fn a_wall_stalls_the_vehicle_with_a_named_error() {
-        let veh = VehicleParams::thesis();
-        let mut grades = vec![0.0; 200];
-        grades.extend(vec![0.5; 4800]); // a 0.5 rad climb: M g sin θ ≫ F_prop
-        let err = simulate(&veh, &drive(100.0), &GradeTable::from_grades(grades)).unwrap_err();
-        assert!(matches!(err, SimulationError::Stalled { .. }), "{err}");
-    }
-
-    #[test]
-    fn a_short_road_is_run_off() {
-        let veh = VehicleParams::thesis();
-        let err =
-            simulate(&veh, &drive(100.0), &GradeTable::from_grades(vec![0.0; 50])).unwrap_err();
-        assert!(
-            matches!(err, SimulationError::RanOffTerrain { .. }),
-            "{err}"
-        );
     }
 }

@@ -78,6 +78,27 @@ fn cases() -> Vec<Case> {
             reason: "whole multiple of drive.time_step",
         },
         Case {
+            name: "unknown drive mode",
+            study: t.replace("[drive]", "[drive]\nmode = \"replay\""),
+            key: "drive.mode",
+            line: Some(line_of(&t, "[drive]") + 1),
+            reason: "unknown drive mode \"replay\"; expected one of [\"torque\"]",
+        },
+        Case {
+            name: "a key the drive mode does not have",
+            study: t.replace("[drive]", "[drive]\ntorque_peak = 300.0"),
+            key: "drive.torque_peak",
+            line: Some(line_of(&t, "[drive]") + 1),
+            reason: "unknown field `torque_peak`",
+        },
+        Case {
+            name: "an unknown noise channel",
+            study: t.replace("[noise]", "[noise]\nwind_sd = [1.0]"),
+            key: "noise.wind_sd",
+            line: Some(line_of(&t, "[noise]") + 1),
+            reason: "unknown field `wind_sd`",
+        },
+        Case {
             name: "negative sigma",
             study: set("velocity_sd", "[1.0, -0.5]"),
             key: "noise.velocity_sd[1]",

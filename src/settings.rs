@@ -1,0 +1,110 @@
+//! Typed reading of the study-file keys that an extension owns: each terrain profile and
+//! drive mode reads its own keys through [`Params`], and a key it cannot accept is a
+//! [`KeyError`] naming the dotted key, which the study turns into an error with the file and
+//! line.
+
+/// A key that an extension cannot accept, and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct KeyError {
+    /// The dotted key, e.g. `terrain.components[1].period`.
+    pub key: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+/// The keys of a study-file table that an extension reads itself (a terrain profile's keys of
+/// `[terrain]`, a drive mode's of `[drive]`, or an inline table of them), read with their
+/// dotted names so that errors point at the key.
+#[derive(Debug, Clone, Copy)]
+pub struct Params<'a> {
+    table: &'a toml::Table,
+    prefix: &'a str,
+}
+
+impl<'a> Params<'a> {
+    /// The keys of `table`, named `prefix.key`.
+    pub fn new(table: &'a toml::Table, prefix: &'a str) -> Self {
+        Params { table, prefix }
+    }
+
+    /// An error about `key` of this table.
+    pub fn error(&self, key: &str, reason: impl Into<String>) -> KeyError {
+        KeyError {
+            key: format!("{}.{key}", self.prefix),
+            reason: reason.into(),
+        }
+    }
+
+    /// Fail on any key not in `known`.
+    pub fn only(&self, known: &[&str]) -> Result<(), KeyError> {
+        match self.table.keys().find(|k| !known.contains(&k.as_str())) {
+            Some(k) => {
+                Err(self.error(k, format!("unknown field `{k}`, expected one of {known:?}")))
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// A finite number (integer or float).
+    pub fn number(&self, key: &str) -> Result<f64, KeyError> {
+        let v = match self.table.get(key) {
+            None => return Err(self.error(key, "required key is missing")),
+            Some(toml::Value::Float(f)) => *f,
+            Some(toml::Value::Integer(i)) => *i as f64,
+            Some(other) => {
+                return Err(self.error(key, format!("must be a number, got {}", other.type_str())));
+            }
+        };
+        if !v.is_finite() {
+            return Err(self.error(key, format!("must be a finite number, got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// A number > 0.
+    pub fn positive(&self, key: &str) -> Result<f64, KeyError> {
+        let v = self.number(key)?;
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.error(key, format!("must be > 0, got {v}")))
+        }
+    }
+
+    /// A number ≥ 0.
+    pub fn non_negative(&self, key: &str) -> Result<f64, KeyError> {
+        let v = self.number(key)?;
+        if v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(self.error(key, format!("must be >= 0, got {v}")))
+        }
+    }
+
+    /// A non-empty array of tables, each read by `each` with its own dotted prefix.
+    pub fn tables<T>(
+        &self,
+        key: &str,
+        each: impl Fn(&Params<'_>) -> Result<T, KeyError>,
+    ) -> Result<Vec<T>, KeyError> {
+        let items = match self.table.get(key) {
+            None => return Err(self.error(key, "required key is missing")),
+            Some(toml::Value::Array(items)) if !items.is_empty() => items,
+            Some(_) => return Err(self.error(key, "must be a non-empty list of tables")),
+        };
+        items
+            .iter()
+            .enumerate()
+            .map(|(i, item)| {
+                let prefix = format!("{}.{key}[{i}]", self.prefix);
+                match item {
+                    toml::Value::Table(t) => each(&Params::new(t, &prefix)),
+                    _ => Err(KeyError {
+                        key: prefix.clone(),
+                        reason: "must be a table such as { height = 25.0, period = 300.0 }".into(),
+                    }),
+                }
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,231 @@
+//! The drive mode `torque`: F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel, the cycle
+//! integrated by classical fixed-step RK4 at the sample step with θ(X) the linear
+//! interpolation of the grade table (docs/model.md#vehicle).
+
+use std::sync::Arc;
+
+use super::{CycleSource, DriveCycle, MAX_SAMPLES, SimulationError, VehicleParams};
+use crate::settings::{KeyError, Params};
+use crate::terrain::GradeTable;
+
+/// The thesis's drive mode `torque`: a sinusoidal final-drive torque, the speed integrated
+/// by RK4 (`[drive]`; docs/model.md#vehicle).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TorqueDrive {
+    /// Length of the cycle \[s\].
+    pub duration_s: f64,
+    /// Sample and integration step \[s\].
+    pub time_step_s: f64,
+    /// Number of steps, duration / time_step; the cycle has `steps + 1` samples.
+    pub steps: usize,
+    /// Speed at t = 0 \[m/s\].
+    pub initial_speed_m_s: f64,
+    /// Mean final-drive torque τ0 \[N·m\].
+    pub torque_mean_n_m: f64,
+    /// Relative torque amplitude a_τ \[-\].
+    pub torque_amplitude: f64,
+    /// Torque oscillation frequency ω_τ \[rad/s\].
+    pub torque_frequency_rad_s: f64,
+}
+
+impl TorqueDrive {
+    /// Propulsion force F_prop(t) = τ0 (1 + a_τ sin(ω_τ t)) R_fd / r_wheel \[N\] (thesis eq. 30).
+    #[inline]
+    pub fn propulsion_n(&self, vehicle: &VehicleParams, t_s: f64) -> f64 {
+        let torque = self.torque_mean_n_m
+            * (1.0 + self.torque_amplitude * (self.torque_frequency_rad_s * t_s).sin());
+        torque * vehicle.final_drive_ratio / vehicle.wheel_radius_m
+    }
+
+    /// Number of samples N = steps + 1 (t = 0 … duration inclusive).
+    pub fn samples(&self) -> usize {
+        self.steps + 1
+    }
+}
+
+impl TorqueDrive {
+    /// Read `[drive]`: `duration` (a whole multiple of `time_step`), `time_step`,
+    /// `initial_speed` and the torque keys.
+    pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
+        p.only(&[
+            "duration",
+            "time_step",
+            "initial_speed",
+            "torque_mean",
+            "torque_amplitude",
+            "torque_frequency",
+        ])?;
+        let duration_s = p.positive("duration")?;
+        let time_step_s = p.positive("time_step")?;
+        let steps = (duration_s / time_step_s).round();
+        if (steps * time_step_s - duration_s).abs() > 1e-9 * duration_s || steps < 1.0 {
+            return Err(p.error(
+                "duration",
+                format!(
+                    "must be a whole multiple of drive.time_step ({time_step_s} s), got {duration_s} s"
+                ),
+            ));
+        }
+        if steps + 1.0 > MAX_SAMPLES as f64 {
+            return Err(p.error(
+                "time_step",
+                format!(
+                    "gives {} samples; at most {MAX_SAMPLES} are supported",
+                    steps + 1.0
+                ),
+            ));
+        }
+        Ok(Arc::new(TorqueDrive {
+            duration_s,
+            time_step_s,
+            steps: steps as usize,
+            initial_speed_m_s: p.non_negative("initial_speed")?,
+            torque_mean_n_m: p.non_negative("torque_mean")?,
+            torque_amplitude: p.non_negative("torque_amplitude")?,
+            torque_frequency_rad_s: p.non_negative("torque_frequency")?,
+        }))
+    }
+}
+
+impl CycleSource for TorqueDrive {
+    fn cycle(
+        &self,
+        vehicle: &VehicleParams,
+        terrain: &GradeTable,
+    ) -> Result<DriveCycle, SimulationError> {
+        simulate(vehicle, self, terrain)
+    }
+}
+
+/// Simulate one drive cycle over `terrain` by fixed-step RK4 at the sample step.
+pub fn simulate(
+    vehicle: &VehicleParams,
+    drive: &TorqueDrive,
+    terrain: &GradeTable,
+) -> Result<DriveCycle, SimulationError> {
+    let h = drive.time_step_s;
+    let n = drive.samples();
+    let mut cycle = DriveCycle {
+        t_s: Vec::with_capacity(n),
+        x_m: Vec::with_capacity(n),
+        v_m_s: Vec::with_capacity(n),
+        grade_rad: Vec::with_capacity(n),
+        f_prop_n: Vec::with_capacity(n),
+        accel_m_s2: Vec::with_capacity(n),
+    };
+    let end_m = terrain.end_m();
+    // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
+    // leaving the table.
+    let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
+        let grade = terrain
+            .grade_at(x)
+            .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
+        Ok(vehicle.acceleration(f, v, grade))
+    };
+
+    let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
+    let mut f = drive.propulsion_n(vehicle, 0.0);
+    for i in 0..n {
+        let t = i as f64 * h;
+        if !(x.is_finite() && v.is_finite()) {
+            return Err(SimulationError::NonFinite { time_s: t });
+        }
+        if i > 0 && v <= 0.0 {
+            return Err(SimulationError::Stalled {
+                time_s: t,
+                position_m: x,
+                speed_m_s: v,
+            });
+        }
+        let grade = terrain
+            .grade_at(x)
+            .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
+        cycle.t_s.push(t);
+        cycle.x_m.push(x);
+        cycle.v_m_s.push(v);
+        cycle.grade_rad.push(grade);
+        cycle.f_prop_n.push(f);
+        cycle.accel_m_s2.push(vehicle.acceleration(f, v, grade));
+        if i + 1 == n {
+            break;
+        }
+        // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V); the force at the
+        // half step serves two stages and the one at the full step the next sample. The
+        // full step's force is taken at the next sample's time t_{i+1} = (i+1)·Δt (the
+        // time the cycle records), which can differ from t + Δt in the last bit.
+        let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
+        let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
+        let k1x = v;
+        let k1v = cycle.accel_m_s2[i];
+        let k2x = v + 0.5 * h * k1v;
+        let k2v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k1x, k2x)?;
+        let k3x = v + 0.5 * h * k2v;
+        let k3v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k2x, k3x)?;
+        let k4x = v + h * k3v;
+        let k4v = accel(t + h, f_end, x + h * k3x, k4x)?;
+        x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        f = f_end;
+    }
+    Ok(cycle)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn drive(duration_s: f64) -> TorqueDrive {
+        TorqueDrive {
+            duration_s,
+            time_step_s: 0.01,
+            steps: (duration_s / 0.01).round() as usize,
+            initial_speed_m_s: 0.0,
+            torque_mean_n_m: 225.0,
+            torque_amplitude: 0.0,
+            torque_frequency_rad_s: 0.1,
+        }
+    }
+
+    #[test]
+    fn flat_road_constant_force_matches_the_closed_form() {
+        // With constant F, no grade: M dV/dt = F' − kCd V², F' = F − Cr M g, whose solution
+        // from rest is V(t) = V∞ tanh(t F' / (M V∞)), V∞ = sqrt(F'/(k Cd)).
+        let veh = VehicleParams::thesis();
+        let d = drive(60.0);
+        let flat = GradeTable::from_grades(vec![0.0; 5000]);
+        let cycle = simulate(&veh, &d, &flat).unwrap();
+        let f_net =
+            d.propulsion_n(&veh, 0.0) - veh.rolling_resistance * veh.mass_kg * veh.gravity_m_s2;
+        let v_inf = (f_net / (veh.drag_factor_kg_m() * veh.drag_coefficient)).sqrt();
+        for i in (0..cycle.len()).step_by(500) {
+            let t = cycle.t_s[i];
+            let exact = v_inf * (t * f_net / (veh.mass_kg * v_inf)).tanh();
+            // RK4 global error ~ C h^4 with h = 0.01 s: far below 1e-9 m/s here.
+            assert!(
+                (cycle.v_m_s[i] - exact).abs() < 1e-9,
+                "t={t}: {} vs {exact}",
+                cycle.v_m_s[i]
+            );
+        }
+    }
+
+    #[test]
+    fn a_wall_stalls_the_vehicle_with_a_named_error() {
+        let veh = VehicleParams::thesis();
+        let mut grades = vec![0.0; 200];
+        grades.extend(vec![0.5; 4800]); // a 0.5 rad climb: M g sin θ ≫ F_prop
+        let err = simulate(&veh, &drive(100.0), &GradeTable::from_grades(grades)).unwrap_err();
+        assert!(matches!(err, SimulationError::Stalled { .. }), "{err}");
+    }
+
+    #[test]
+    fn a_short_road_is_run_off() {
+        let veh = VehicleParams::thesis();
+        let err =
+            simulate(&veh, &drive(100.0), &GradeTable::from_grades(vec![0.0; 50])).unwrap_err();
+        assert!(
+            matches!(err, SimulationError::RanOffTerrain { .. }),
+            "{err}"
+        );
+    }
+}
