@@ -64,11 +64,11 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     let mut slots = vec![0.0; layout.realisation_stride()];
     let per_realisation = (0..infos.len())
         .map(|c| {
-            model.realise(study.seed, c, 0, &mut slots);
+            model.realise(study.seed(), c, 0, &mut slots);
             let mut times: Vec<Duration> = (1..=TIMED_PER_CONDITION)
                 .map(|r| {
                     let t = Instant::now();
-                    model.realise(study.seed, c, r, &mut slots);
+                    model.realise(study.seed(), c, r, &mut slots);
                     t.elapsed()
                 })
                 .collect();
@@ -81,19 +81,19 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
         .unwrap_or(1);
     let meta = FileMetadata {
         study_toml: study.to_toml(),
-        seed: study.seed,
-        realisations: study.realisations,
+        seed: study.seed(),
+        realisations: study.realisations(),
         identity: String::new(),
         extra: Vec::new(),
     };
     let realisation_bytes = bytes_per_realisation(&*model, study, &meta)?
-        * study.realisations as f64
+        * study.realisations() as f64
         * infos.len() as f64;
     let extra_bytes = extra_table_bytes(&*model, &meta)?;
     Ok(StudyCheck {
         layout,
         infos,
-        realisations: study.realisations,
+        realisations: study.realisations(),
         prepare,
         per_realisation,
         threads,
@@ -109,11 +109,11 @@ fn bytes_per_realisation(
     meta: &FileMetadata,
 ) -> Result<f64, RunError> {
     let layout = model.layout();
-    let n = SIZE_SAMPLE.min(study.realisations).max(1);
+    let n = SIZE_SAMPLE.min(study.realisations()).max(1);
     let stride = layout.realisation_stride();
     let mut slots = vec![0.0; n as usize * stride];
     for (r, s) in slots.chunks_mut(stride).enumerate() {
-        model.realise(study.seed, 0, r as u64, s);
+        model.realise(study.seed(), 0, r as u64, s);
     }
     let schema = output::realisation_schema(layout);
     let chunk = crate::montecarlo::Chunk {

@@ -231,19 +231,19 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             output_directory("--out", &out)?;
             let study = overrides.load(&study)?;
             if let Some(shard) = shard
-                && shard.range(study.realisations).is_empty()
+                && shard.range(study.realisations()).is_empty()
             {
                 return Err(bad_argument(format!(
                     "--shard {shard}: holds none of the {} realisations per condition; with R \
                      realisations use at most R shards (--shard K/N with N <= {})",
-                    study.realisations, study.realisations
+                    study.realisations(),
+                    study.realisations()
                 )));
             }
             let mut options = RunOptions::new(out);
             options.threads = overrides.threads();
             options.shard = shard;
             options.figures = !no_figures;
-            let conditions = study.condition_count();
             let started = Instant::now();
             let progress = Progress::new(quiet);
             let report = run_study(&study, &options, &progress)?;
@@ -263,8 +263,8 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 );
                 println!(
                     "{} conditions × {} realisations in {:.1} s; wrote:",
-                    conditions,
-                    study.realisations,
+                    report.infos.len(),
+                    study.realisations(),
                     started.elapsed().as_secs_f64()
                 );
                 for f in &report.files {
@@ -322,7 +322,9 @@ fn check_report(study: &Study, c: &chassis_mc::check::StudyCheck) -> String {
     let _ = writeln!(
         out,
         "{}: study \"{}\", seed {}",
-        study.origin, study.name, study.seed
+        study.origin(),
+        study.name(),
+        study.seed()
     );
     let mut header = format!("{:>4}", "cond");
     for axis in &c.layout.axes {

@@ -267,7 +267,7 @@ pub struct ExtraTable {
 /// Prepare the model a study asks for (this simulates the vehicle's drive cycles; a
 /// condition that cannot be simulated is a [`StudyError`]).
 pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
-    Ok(match &study.model {
+    Ok(match &study.model() {
         ModelSpec::Vehicle(_) => Box::new(vehicle::VehicleModel::new(study)?),
         ModelSpec::LineFit(_) => Box::new(line_fit::LineFitModel::new(study)?),
     })
@@ -275,7 +275,7 @@ pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
 
 /// The row layout a study's model will have, without preparing it (no simulation).
 pub fn layout_of(study: &Study) -> Layout {
-    match &study.model {
+    match &study.model() {
         ModelSpec::Vehicle(v) => vehicle::layout(&v.estimators),
         ModelSpec::LineFit(_) => line_fit::layout(),
     }

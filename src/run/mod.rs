@@ -194,8 +194,8 @@ fn run_prepared(
     let infos = model.infos();
     let meta = FileMetadata {
         study_toml: study.to_toml(),
-        seed: study.seed,
-        realisations: study.realisations,
+        seed: study.seed(),
+        realisations: study.realisations(),
         identity: identity(study, model, &infos),
         extra: Vec::new(),
     };
@@ -220,7 +220,7 @@ fn run_prepared(
         summary = summarise_files(
             &layout,
             &infos,
-            study.realisations,
+            study.realisations(),
             &[pending[0].tmp_path()],
         )?;
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);

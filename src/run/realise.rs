@@ -15,7 +15,7 @@ use crate::study::Study;
 /// that a rebuilt engine whose arithmetic changed never reuses an older run's parts.
 pub(super) fn identity(study: &Study, model: &dyn Model, infos: &[ConditionInfo]) -> String {
     let mut canary = vec![0.0; model.layout().realisation_stride()];
-    model.realise(study.seed, 0, 0, &mut canary);
+    model.realise(study.seed(), 0, 0, &mut canary);
     let metrics = infos.iter().flat_map(|i| i.metrics.iter().copied());
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
     for v in canary.into_iter().chain(metrics) {
@@ -42,7 +42,7 @@ pub(super) fn realise(
     let schema = output::realisation_schema(layout);
     let range = options
         .shard
-        .map_or(0..study.realisations, |s| s.range(study.realisations));
+        .map_or(0..study.realisations(), |s| s.range(study.realisations()));
     let needed = vec![range; infos.len()];
     // 1. What exists already: completed parts of an interrupted run, and the realisation
     //    file of an earlier run of the same study (e.g. with a smaller R).
@@ -95,7 +95,7 @@ pub(super) fn realise(
     let mut part: Option<ParquetSink> = None; // the part of the current work item
     montecarlo::execute(
         model,
-        study.seed,
+        study.seed(),
         &mut pieces,
         options.chunk,
         observer,

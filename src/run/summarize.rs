@@ -133,7 +133,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),
-        seed: study.seed,
+        seed: study.seed(),
         realisations,
         identity,
         extra: Vec::new(),

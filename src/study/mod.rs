@@ -161,23 +161,48 @@ pub enum ModelSpec {
 }
 
 /// A validated study: everything needed to run it, and nothing unchecked.
+///
+/// The study as written ([`to_toml`](Study::to_toml), stored in every output file and
+/// behind the resume identity) and its validated values are built together by validation
+/// and change together only through [`with_overrides`](Study::with_overrides): the fields
+/// are private, so the two cannot drift apart.
 #[derive(Debug, Clone)]
 pub struct Study {
-    /// Study name (free text, stored in output metadata).
-    pub name: String,
-    /// Master seed; with the condition and realisation index it keys every random stream.
-    pub seed: u64,
-    /// Realisations per condition.
-    pub realisations: u64,
-    /// The model and its settings.
-    pub model: ModelSpec,
-    /// Where the study came from (a path, for messages).
-    pub origin: String,
+    name: String,
+    seed: u64,
+    realisations: u64,
+    model: ModelSpec,
+    origin: String,
     raw: RawStudy,
     spans: KeySpans,
 }
 
 impl Study {
+    /// Study name (free text, stored in output metadata).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Master seed; with the condition and realisation index it keys every random stream.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Realisations per condition.
+    pub fn realisations(&self) -> u64 {
+        self.realisations
+    }
+
+    /// The model and its settings.
+    pub fn model(&self) -> &ModelSpec {
+        &self.model
+    }
+
+    /// Where the study came from (a path, for messages).
+    pub fn origin(&self) -> &str {
+        &self.origin
+    }
+
     /// Read and validate a study file.
     pub fn load(path: &Path) -> Result<Study, StudyError> {
         let origin = path.display().to_string();
@@ -253,14 +278,6 @@ impl Study {
             key: Some(key.to_string()),
             line: self.spans.line(key),
             reason: reason.into(),
-        }
-    }
-
-    /// Number of conditions the study runs (the product of its axes).
-    pub fn condition_count(&self) -> usize {
-        match &self.model {
-            ModelSpec::Vehicle(v) => v.scales.len() * v.noise.combinations().len(),
-            ModelSpec::LineFit(l) => l.noise.len() * l.noise_sd.len(),
         }
     }
 

@@ -7,16 +7,20 @@ use std::sync::Arc;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use arrow::array::{ArrayRef, Float64Array, Int32Array, RecordBatch};
-use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
+use arrow::array::RecordBatch;
 use arrow::error::ArrowError;
 
+mod axes;
+mod cycles_table;
+
+pub use axes::{Point, VehicleAxis, axes, grid};
+pub use cycles_table::{cycles_batch, cycles_schema};
+
 use super::{
-    Axis, AxisValue, BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model,
-    ParameterInfo, Status,
+    BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo, Status,
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
-use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
+use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, NoiseLevels, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::EstimatorRef;
 use crate::estimate::estimators::solve;
@@ -92,12 +96,10 @@ impl VehicleModel {
             })
             .collect::<Result<_, StudyError>>()?;
         let layout = layout(&vs.estimators);
-        let pairs: Vec<(usize, NoiseLevels)> = (0..vs.scales.len())
-            .flat_map(|s| vs.noise.combinations().into_iter().map(move |n| (s, n)))
-            .collect();
-        let conditions = pairs
+        let conditions = grid(&vs)
             .par_iter()
-            .map(|&(scale_index, noise)| {
+            .map(|point| {
+                let (scale_index, noise) = (point.scale_index, point.noise);
                 let (metrics, regression, _) = &prepared[scale_index];
                 let regression = regression.clone();
                 let constant_bounds = BOUNDS
@@ -115,10 +117,7 @@ impl VehicleModel {
                 let applies_row: Vec<bool> = BOUNDS.iter().map(|b| (b.applies)(&noise)).collect();
                 Condition {
                     info: ConditionInfo {
-                        axes: std::iter::once(vs.scales[scale_index])
-                            .chain(noise.0)
-                            .map(AxisValue::Number)
-                            .collect(),
+                        axes: axes().map(|a| a.value(&vs, point)).collect(),
                         metrics: metrics.clone(),
                         truth: truth.to_vec(),
                         applies: vec![applies_row; vs.estimators.len()],
@@ -185,9 +184,7 @@ impl VehicleModel {
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(estimators: &[EstimatorRef]) -> Layout {
     Layout {
-        axes: std::iter::once(Axis::number("scale", ""))
-            .chain(Channel::ALL.map(|c| Axis::number(c.key(), c.unit())))
-            .collect(),
+        axes: axes().map(VehicleAxis::column).collect(),
         condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
         figure_x: Some(FigureX {
             metric: "terrain_ms_grid",
@@ -228,37 +225,6 @@ pub fn layout(estimators: &[EstimatorRef]) -> Layout {
             })
             .collect(),
     }
-}
-
-/// Schema of `cycles.parquet`: the noise-free time series of each condition.
-pub fn cycles_schema() -> SchemaRef {
-    let f64_field = |name| Field::new(name, DataType::Float64, false);
-    Arc::new(Schema::new(vec![
-        Field::new("condition", DataType::Int32, false),
-        f64_field("t"),
-        f64_field("x"),
-        f64_field("v"),
-        f64_field("grade"),
-        f64_field("f_prop"),
-        f64_field("accel"),
-    ]))
-}
-
-/// One condition's drive cycle as a record batch.
-pub fn cycles_batch(condition: usize, cycle: &DriveCycle) -> Result<RecordBatch, ArrowError> {
-    let col = |v: &Vec<f64>| -> ArrayRef { Arc::new(Float64Array::from(v.clone())) };
-    RecordBatch::try_new(
-        cycles_schema(),
-        vec![
-            Arc::new(Int32Array::from(vec![condition as i32; cycle.len()])),
-            col(&cycle.t_s),
-            col(&cycle.x_m),
-            col(&cycle.v_m_s),
-            col(&cycle.grade_rad),
-            col(&cycle.f_prop_n),
-            col(&cycle.accel_m_s2),
-        ],
-    )
 }
 
 impl Model for VehicleModel {

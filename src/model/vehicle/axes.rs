@@ -1,0 +1,83 @@
+//! The condition axes of the vehicle model, one variant of [`VehicleAxis`] each: its column,
+//! its levels in the study, and what it sets in a [`Point`] of the condition grid. The
+//! conditions are the product of [`axes`] in order (the last varies fastest); the layout's
+//! axis columns and every condition's axis values are derived from the same list.
+
+use super::super::{Axis, AxisValue};
+use crate::estimate::channels::{Channel, NoiseLevels};
+use crate::study::VehicleStudy;
+
+/// A condition axis of the vehicle model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VehicleAxis {
+    /// The terrain scale factor (`terrain.scales`): each level is its own drive cycle.
+    Scale,
+    /// The standard deviation of one noise channel (`noise.<channel>_sd`).
+    Noise(Channel),
+}
+
+/// Every axis, outermost first.
+pub fn axes() -> impl Iterator<Item = VehicleAxis> {
+    std::iter::once(VehicleAxis::Scale).chain(Channel::ALL.map(VehicleAxis::Noise))
+}
+
+/// One condition: the level of every axis.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Point {
+    /// Index into `terrain.scales`; conditions with the same index share a drive cycle.
+    pub scale_index: usize,
+    /// The noise levels.
+    pub noise: NoiseLevels,
+}
+
+impl VehicleAxis {
+    /// The axis column.
+    pub fn column(self) -> Axis {
+        match self {
+            VehicleAxis::Scale => Axis::number("scale", ""),
+            VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
+        }
+    }
+
+    /// Number of levels in the study.
+    fn len(self, study: &VehicleStudy) -> usize {
+        match self {
+            VehicleAxis::Scale => study.scales.len(),
+            VehicleAxis::Noise(c) => study.noise.levels(c).len(),
+        }
+    }
+
+    /// Set level `i` of this axis in `point`.
+    fn set(self, study: &VehicleStudy, point: &mut Point, i: usize) {
+        match self {
+            VehicleAxis::Scale => point.scale_index = i,
+            VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
+        }
+    }
+
+    /// This axis's value at `point`.
+    pub fn value(self, study: &VehicleStudy, point: &Point) -> AxisValue {
+        AxisValue::Number(match self {
+            VehicleAxis::Scale => study.scales[point.scale_index],
+            VehicleAxis::Noise(c) => point.noise[c],
+        })
+    }
+}
+
+/// Every condition of `study`: the product of the axes' levels, the last axis fastest.
+pub fn grid(study: &VehicleStudy) -> Vec<Point> {
+    let mut points = vec![Point::default()];
+    for axis in axes() {
+        points = points
+            .into_iter()
+            .flat_map(|base| {
+                (0..axis.len(study)).map(move |i| {
+                    let mut p = base;
+                    axis.set(study, &mut p, i);
+                    p
+                })
+            })
+            .collect();
+    }
+    points
+}
