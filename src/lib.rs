@@ -14,17 +14,25 @@
 //!
 //! # The pipeline
 //!
+//! A study file becomes a validated [`Study`]; [`model::prepare`] turns it into a
+//! [`model::Model`] (for the vehicle: one drive cycle per terrain scale, its regression, and
+//! the conditions of the grid); the [`montecarlo`] executor runs every realisation of every
+//! condition in parallel, each from its own random streams; [`stats`] summarises them with
+//! Monte Carlo standard errors; [`output`] writes the Parquet set and [`figures`] the SVGs;
+//! [`run`] ties these together (with resume, shards and `summarize`).
+//!
 //! One module per stage, each using only the stages before it (a test checks this):
 //!
 //! | layer | module | holds |
 //! |---|---|---|
 //! | foundation | [`numeric`] | exact order-independent sums, the small SPD solver |
+//! | foundation | [`settings`] | typed reading of the study-file keys an extension owns |
 //! | foundation | [`noise`] | ChaCha8 streams keyed by (seed, condition, channel), the ziggurat |
 //! | world | [`terrain`] | elevation profiles, grade tables, the terrain metric ς |
-//! | world | [`vehicle`] | vehicle parameters, the RK4 drive-cycle simulation |
-//! | estimation | [`estimate`] | the regression, per-realisation moments (the kernel), estimators, bounds |
+//! | world | [`vehicle`] | vehicle parameters, drive cycles and where they come from (drive modes) |
+//! | estimation | [`estimate`] | noise channels, the regression, per-realisation moments (the kernel), estimators, bounds |
 //! | input | [`study`] | TOML study files → a validated [`Study`]; errors name file, key and line |
-//! | model | [`model`] | what one realisation computes and the [`model::Layout`] of its rows |
+//! | model | [`model`] | what one realisation computes, the condition grid and the [`model::Layout`] of its rows |
 //! | execution | [`montecarlo`] | the rayon executor over a `&dyn Model`, observers |
 //! | statistics | [`stats`] | performance measures with MCSEs, the two-pass summary, the summary columns |
 //! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
@@ -33,23 +41,35 @@
 //!
 //! # Where to add
 //!
-//! - **an estimator**: one [`estimate::estimators::Estimator`] impl, listed in
-//!   [`estimate::estimators::ESTIMATORS`]; study files can then name it, every realisation
-//!   runs it on the same draws, and its rows, summary and figures follow.
+//! Each kind of extension is one typed entry; the study keys, the layout, the output columns,
+//! the summary and the figures are derived from the entries.
+//!
+//! - **an estimator**: one [`estimate::estimators::Estimator`] impl (its normal equations
+//!   from the moments; which bounds it reports), listed in
+//!   [`estimate::estimators::ESTIMATORS`], in `estimate/estimators.rs`. Study files can then
+//!   name it and every realisation runs it on the same draws.
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
-//!   applies, how its standard errors are computed).
+//!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
+//! - **a noise channel**: a variant of [`estimate::channels::Channel`] and its `match` arms
+//!   (study key and column, unit, default, stream, whether it enters the regressors, how its
+//!   draw perturbs a sample), all in `estimate/channels.rs`; and its term of the
+//!   equation-error variance Ω in `estimate/bounds.rs`. The `[noise]` key, the condition
+//!   axis, the stream and the kernel follow.
+//! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
+//!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
+//!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.
+//! - **a drive mode (cycle source)**: one [`vehicle::CycleSource`] impl that reads its own
+//!   keys of `[drive]` (its own file, as `vehicle/torque.rs`) and one entry of
+//!   [`vehicle::DRIVE_MODES`].
+//! - **a condition axis** of the vehicle model: a variant of
+//!   [`model::vehicle::VehicleAxis`] and its arms (column, levels, what it sets in a
+//!   condition) in `model/vehicle/axes.rs`, and the validated levels in `study/vehicle.rs`.
 //! - **a summary measure**: a variant of [`stats::columns::Measure`] or
 //!   [`stats::columns::BoundMeasure`] (the writer, the decoder and the figures take it from
 //!   there) and its computation in [`stats::summary`].
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
 //!   statistics, output and figures work from its [`model::Layout`].
-//! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
-//!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
-//!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.
-//! - **a noise channel, a drive-cycle source, a condition axis**: today these still touch
-//!   the study, the model and the moment accumulator; see [`noise::NoiseLevels`] and
-//!   [`model::vehicle`].
 
 #![deny(missing_docs)]
 

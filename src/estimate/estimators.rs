@@ -10,6 +10,7 @@ use std::ops::Deref;
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::bounds::Bound;
 use super::channels::{Channel, NoiseLevels};
 use super::moments::Moments;
 use crate::numeric::linalg::{SolveError, solve_spd};
@@ -24,6 +25,14 @@ pub trait Estimator: Sync + Send + fmt::Debug {
 
     /// Its normal equations A θ = b from the realisation's moments; `k` = ½ρA \[kg/m\].
     fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>);
+
+    /// Whether `bound` is reported next to this estimator's estimates (where the bound
+    /// applies to the noise at all): a bound that does not describe this estimator's
+    /// spread is left out (NaN) rather than misread. Every bound by default.
+    fn reports(&self, bound: &Bound) -> bool {
+        let _ = bound;
+        true
+    }
 }
 
 /// Ordinary least squares on the noisy regressors (the thesis).

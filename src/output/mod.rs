@@ -6,6 +6,7 @@
 //! failed run leaves the previous results untouched. Compression is zstd, row groups are
 //! bounded, and the footer carries the study as run, the engine version and the seed.
 
+mod failpoints;
 pub mod lock;
 pub mod set;
 pub mod store;
@@ -25,6 +26,7 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use thiserror::Error;
 
+pub use failpoints::{FAILPOINTS, failpoint};
 pub use summary_table::{SummaryTable, read_summary, summary_batch, summary_schema};
 pub use tables::{RealisationBatches, realisation_schema, realisations_batch};
 
@@ -401,43 +403,6 @@ impl PendingFile {
             Some(c) => Ok(c),
             None => set::checksum(&self.tmp_path),
         }
-    }
-}
-
-/// The points [`failpoint`] is called at.
-pub const FAILPOINTS: [&str; 6] = [
-    "part-committed",
-    "figure-drawn",
-    "before-journal",
-    "journal-written",
-    "commit-rename",
-    "committed",
-];
-
-/// A testing hook: abort the process (as a SIGKILL would stop it: no destructor runs) the
-/// N-th time the point `name` is reached, when the environment variable
-/// `CHASSIS_MC_FAILPOINT` is `name` or `name:N` (N = 1 by default). The crash tests use it
-/// to stop a run at exact instants of writing its output.
-pub fn failpoint(name: &str) {
-    use std::sync::OnceLock;
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static TARGET: OnceLock<Option<(String, u64)>> = OnceLock::new();
-    static HITS: AtomicU64 = AtomicU64::new(0);
-    let target = TARGET.get_or_init(|| {
-        let value = std::env::var("CHASSIS_MC_FAILPOINT").ok()?;
-        let (point, n) = value.split_once(':').unwrap_or((&value, "1"));
-        if !FAILPOINTS.contains(&point) {
-            eprintln!(
-                "warning: CHASSIS_MC_FAILPOINT: no failpoint \"{point}\"; known: {FAILPOINTS:?}"
-            );
-        }
-        Some((point.to_string(), n.parse().unwrap_or(1)))
-    });
-    if let Some((point, n)) = target
-        && point == name
-        && HITS.fetch_add(1, Ordering::SeqCst) + 1 == *n
-    {
-        std::process::abort();
     }
 }
 

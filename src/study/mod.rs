@@ -1,27 +1,27 @@
 //! Study files: TOML in, a validated [`Study`] out.
 //!
-//! This is the one place where user input becomes trusted configuration. serde structs with
-//! `deny_unknown_fields` catch unknown keys, missing keys and wrong types; `validate` then
-//! checks every value. Every failure is a [`StudyError`] that names the file, the dotted key,
-//! its line and the reason, so a user can fix the file without reading code.
+//! This is the one place where user input becomes trusted configuration. serde structs
+//! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
+//! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
+//! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
+//! model's. Every failure is a [`StudyError`] that names the file, the dotted key, its line
+//! and the reason, so a user can fix the file without reading code.
 
+mod line_fit;
 mod raw;
 mod spans;
 mod validate;
+mod vehicle;
 
 use validate::{check_realisations, serde_error, validate};
 
 use std::fmt;
 use std::path::Path;
-use std::sync::Arc;
 
+pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
 pub use spans::KeySpans;
-
-use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
-use crate::estimate::estimators::EstimatorRef;
-use crate::terrain::{ScaleTarget, TerrainSpec};
-use crate::vehicle::{CycleSource, VehicleParams};
+pub use vehicle::{NoiseAxes, VehicleStudy};
 
 pub use crate::vehicle::MAX_SAMPLES;
 
@@ -55,101 +55,6 @@ impl fmt::Display for StudyError {
 }
 
 impl std::error::Error for StudyError {}
-
-/// Which noise enters the measurements of the vehicle study: the standard deviations
-/// listed for each channel, one condition axis each (units per [`Channel::unit`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct NoiseAxes(PerChannel<Vec<f64>>);
-
-impl NoiseAxes {
-    /// The axes from the levels of each channel (each list non-empty).
-    pub fn new(levels: PerChannel<Vec<f64>>) -> Self {
-        NoiseAxes(levels)
-    }
-
-    /// The levels listed for `channel`.
-    pub fn levels(&self, channel: Channel) -> &[f64] {
-        &self.0[channel]
-    }
-
-    /// Every combination, nested in [`Channel::ALL`] order (the last channel varies fastest).
-    pub fn combinations(&self) -> Vec<NoiseLevels> {
-        let mut out = vec![NoiseLevels::default()];
-        for channel in Channel::ALL {
-            out = out
-                .into_iter()
-                .flat_map(|base| {
-                    self.0[channel].iter().map(move |&sd| {
-                        let mut levels = base;
-                        levels[channel] = sd;
-                        levels
-                    })
-                })
-                .collect();
-        }
-        out
-    }
-}
-
-/// The validated description of a vehicle study (docs/model.md, and the README's study keys).
-#[derive(Debug, Clone)]
-pub struct VehicleStudy {
-    /// Vehicle parameters (the truth the estimators try to recover).
-    pub vehicle: VehicleParams,
-    /// Where the drive cycle comes from (the drive mode and its settings).
-    pub drive: Arc<dyn CycleSource>,
-    /// Terrain profile and grid; the scales are an axis of conditions.
-    pub terrain: TerrainSpec,
-    /// Terrain scale factors, one condition axis.
-    pub scales: Vec<f64>,
-    /// Noise condition axes.
-    pub noise: NoiseAxes,
-    /// Estimators run on every realisation (common random numbers).
-    pub estimators: Vec<EstimatorRef>,
-}
-
-/// Shape of the measurement noise of the line-fit example.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum NoiseShape {
-    /// Uniform on \[−√3 σ, √3 σ\] (the thesis's `18*(rand − 0.5)` has σ = 18/√12 = 5.196).
-    Uniform,
-    /// Normal N(0, σ²).
-    Gaussian,
-}
-
-impl NoiseShape {
-    /// All noise shapes.
-    pub const ALL: [NoiseShape; 2] = [NoiseShape::Uniform, NoiseShape::Gaussian];
-
-    fn parse(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|s| s.name() == name)
-    }
-
-    /// The name used in study files and output columns.
-    pub fn name(self) -> &'static str {
-        match self {
-            NoiseShape::Uniform => "uniform",
-            NoiseShape::Gaussian => "gaussian",
-        }
-    }
-}
-
-/// The validated worked example of thesis §3.2–3.3: y = θ₁ + θ₂ t with i.i.d. noise.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LineFitStudy {
-    /// True intercept θ₁.
-    pub intercept: f64,
-    /// True slope θ₂.
-    pub slope: f64,
-    /// Sample times t_i.
-    pub times: Vec<f64>,
-    /// The σ the bound assumes (the thesis uses 7.5).
-    pub assumed_sd: f64,
-    /// Noise shapes, one condition axis.
-    pub noise: Vec<NoiseShape>,
-    /// True noise standard deviations, one condition axis.
-    pub noise_sd: Vec<f64>,
-}
 
 /// The model a study runs, with its validated settings.
 #[derive(Debug, Clone)]

@@ -1,12 +1,10 @@
 //! Validation: raw TOML values → the checked values of a [`Study`], each failure a
 //! [`StudyError`] naming the file, the key, its line and the reason.
 
-use super::raw::{RawNoise, RawStudy};
-use super::*;
-use crate::estimate::estimators::{ESTIMATORS, Ols};
-use crate::settings::Params;
-use crate::terrain::profiles::PROFILES;
-use crate::vehicle::DRIVE_MODES;
+use super::raw::RawStudy;
+use super::{KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, vehicle};
+use crate::estimate::channels::Channel;
+use crate::estimate::estimators::EstimatorRef;
 
 /// Turn a serde/TOML error into one message naming the key and line.
 pub(super) fn serde_error(
@@ -89,7 +87,7 @@ pub(super) fn check_realisations(r: i128) -> Result<(), String> {
 }
 
 /// Collects value checks for one study; the first failure wins.
-struct Checker<'a> {
+pub(super) struct Checker<'a> {
     spans: &'a KeySpans,
     origin: &'a str,
 }
@@ -97,7 +95,7 @@ struct Checker<'a> {
 impl Checker<'_> {
     /// An error at `key`, with the line of the key or, for a missing key, of the nearest
     /// enclosing one (`terrain.components[0]` for a missing `terrain.components[0].phase`).
-    fn fail(&self, key: &str, reason: impl Into<String>) -> StudyError {
+    pub(super) fn fail(&self, key: &str, reason: impl Into<String>) -> StudyError {
         let mut path = key;
         let line = loop {
             if let Some(line) = self.spans.line(path) {
@@ -116,7 +114,7 @@ impl Checker<'_> {
         }
     }
 
-    fn missing_table(&self, key: &str) -> StudyError {
+    pub(super) fn missing_table(&self, key: &str) -> StudyError {
         StudyError {
             file: self.origin.to_string(),
             key: Some(key.to_string()),
@@ -125,7 +123,7 @@ impl Checker<'_> {
         }
     }
 
-    fn finite(&self, key: &str, v: f64) -> Result<f64, StudyError> {
+    pub(super) fn finite(&self, key: &str, v: f64) -> Result<f64, StudyError> {
         if v.is_finite() {
             Ok(v)
         } else {
@@ -133,7 +131,7 @@ impl Checker<'_> {
         }
     }
 
-    fn positive(&self, key: &str, v: f64) -> Result<f64, StudyError> {
+    pub(super) fn positive(&self, key: &str, v: f64) -> Result<f64, StudyError> {
         let v = self.finite(key, v)?;
         if v > 0.0 {
             Ok(v)
@@ -142,7 +140,7 @@ impl Checker<'_> {
         }
     }
 
-    fn non_negative(&self, key: &str, v: f64) -> Result<f64, StudyError> {
+    pub(super) fn non_negative(&self, key: &str, v: f64) -> Result<f64, StudyError> {
         let v = self.finite(key, v)?;
         if v >= 0.0 {
             Ok(v)
@@ -152,7 +150,7 @@ impl Checker<'_> {
     }
 
     /// A non-empty list whose items each pass `item`.
-    fn list(
+    pub(super) fn list(
         &self,
         key: &str,
         values: &[f64],
@@ -187,7 +185,7 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
             if raw.line_fit.is_some() {
                 return Err(c.fail("line_fit", "is not used by model \"vehicle\""));
             }
-            ModelSpec::Vehicle(validate_vehicle(&raw, &c)?)
+            ModelSpec::Vehicle(vehicle::validate(&raw, &c)?)
         }
         "line_fit" => {
             let unused = [
@@ -199,7 +197,7 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
             if let Some((key, _)) = unused.iter().find(|(_, present)| *present) {
                 return Err(c.fail(key, "is not used by model \"line_fit\""));
             }
-            ModelSpec::LineFit(validate_line_fit(&raw, &c)?)
+            ModelSpec::LineFit(line_fit::validate(&raw, &c)?)
         }
         other => {
             return Err(c.fail(
@@ -229,128 +227,7 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
     })
 }
 
-fn validate_vehicle(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
-    let v = raw
-        .vehicle
-        .as_ref()
-        .ok_or_else(|| c.missing_table("vehicle"))?;
-    let d = raw.drive.as_ref().ok_or_else(|| c.missing_table("drive"))?;
-    let t = raw
-        .terrain
-        .as_ref()
-        .ok_or_else(|| c.missing_table("terrain"))?;
-    let n = raw.noise.as_ref().ok_or_else(|| c.missing_table("noise"))?;
-    let e = raw
-        .estimation
-        .as_ref()
-        .ok_or_else(|| c.missing_table("estimation"))?;
-
-    let vehicle = VehicleParams {
-        mass_kg: c.positive("vehicle.mass", v.mass)?,
-        drag_coefficient: c.non_negative("vehicle.drag_coefficient", v.drag_coefficient)?,
-        rolling_resistance: c.non_negative("vehicle.rolling_resistance", v.rolling_resistance)?,
-        frontal_area_m2: c.positive("vehicle.frontal_area", v.frontal_area)?,
-        air_density_kg_m3: c.positive("vehicle.air_density", v.air_density)?,
-        gravity_m_s2: c.positive("vehicle.gravity", v.gravity)?,
-        final_drive_ratio: c.positive("vehicle.final_drive_ratio", v.final_drive_ratio)?,
-        wheel_radius_m: c.positive("vehicle.wheel_radius", v.wheel_radius)?,
-    };
-
-    let mode_name = d.mode.as_deref().unwrap_or(DRIVE_MODES[0].name);
-    let mode = DRIVE_MODES
-        .iter()
-        .find(|m| m.name == mode_name)
-        .ok_or_else(|| {
-            let names: Vec<&str> = DRIVE_MODES.iter().map(|m| m.name).collect();
-            c.fail(
-                "drive.mode",
-                format!("unknown drive mode \"{mode_name}\"; expected one of {names:?}"),
-            )
-        })?;
-    let drive =
-        (mode.parse)(&Params::new(&d.params, "drive")).map_err(|e| c.fail(&e.key, e.reason))?;
-
-    let entry = PROFILES
-        .iter()
-        .find(|p| p.name == t.profile)
-        .ok_or_else(|| {
-            let names: Vec<&str> = PROFILES.iter().map(|p| p.name).collect();
-            c.fail(
-                "terrain.profile",
-                format!(
-                    "unknown profile \"{}\"; expected one of {names:?}",
-                    t.profile
-                ),
-            )
-        })?;
-    let profile =
-        (entry.parse)(&Params::new(&t.params, "terrain")).map_err(|e| c.fail(&e.key, e.reason))?;
-    let scale_applies_to = match t.scale_applies_to.as_str() {
-        "grade" => ScaleTarget::Grade,
-        "elevation" => ScaleTarget::Elevation,
-        other => {
-            return Err(c.fail(
-                "terrain.scale_applies_to",
-                format!("must be \"grade\" or \"elevation\", got \"{other}\""),
-            ));
-        }
-    };
-    if t.length < 2 {
-        return Err(c.fail(
-            "terrain.length",
-            format!("must be at least 2 m, got {}", t.length),
-        ));
-    }
-    if t.length > MAX_SAMPLES as u64 {
-        return Err(c.fail(
-            "terrain.length",
-            format!("must be at most {MAX_SAMPLES} m, got {}", t.length),
-        ));
-    }
-    let terrain = TerrainSpec {
-        profile,
-        length_m: t.length as usize,
-        scale_applies_to,
-    };
-    let scales = c.list("terrain.scales", &t.scales, Checker::non_negative)?;
-
-    let noise = validate_noise(n, c)?;
-    let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
-    let estimators = validate_estimators(&e.estimators, &all, c)?;
-
-    Ok(VehicleStudy {
-        vehicle,
-        drive,
-        terrain,
-        scales,
-        noise,
-        estimators,
-    })
-}
-
-/// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no
-/// other key.
-fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<NoiseAxes, StudyError> {
-    let keys = Channel::ALL.map(Channel::key);
-    if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
-        return Err(c.fail(
-            &format!("noise.{k}"),
-            format!("unknown field `{k}`, expected one of {keys:?}"),
-        ));
-    }
-    let mut levels = PerChannel::<Vec<f64>>::default();
-    for channel in Channel::ALL {
-        let key = format!("noise.{}", channel.key());
-        levels[channel] = match (n.0.get(channel.key()), channel.default_levels()) {
-            (Some(list), _) => c.list(&key, list, Checker::non_negative)?,
-            (None, Some(default)) => default.to_vec(),
-            (None, None) => return Err(c.fail(&key, "required key is missing")),
-        };
-    }
-    Ok(NoiseAxes::new(levels))
-}
-
-fn validate_estimators(
+pub(super) fn validate_estimators(
     names: &[String],
     allowed: &[EstimatorRef],
     c: &Checker<'_>,
@@ -376,58 +253,4 @@ fn validate_estimators(
         estimators.push(kind);
     }
     Ok(estimators)
-}
-
-fn validate_line_fit(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, StudyError> {
-    let l = raw
-        .line_fit
-        .as_ref()
-        .ok_or_else(|| c.missing_table("line_fit"))?;
-    if let Some(e) = &raw.estimation {
-        validate_estimators(&e.estimators, &[EstimatorRef(&Ols)], c)?;
-    }
-    let t_start = c.finite("line_fit.t_start", l.t_start)?;
-    let t_step = c.positive("line_fit.t_step", l.t_step)?;
-    let t_end = c.finite("line_fit.t_end", l.t_end)?;
-    let span = (t_end - t_start) / t_step;
-    let steps = span.round();
-    if steps < 1.0 || (steps - span).abs() > 1e-9 * span.abs().max(1.0) {
-        return Err(c.fail(
-            "line_fit.t_end",
-            format!(
-                "must lie a whole number (≥ 1) of t_step = {t_step} after t_start = {t_start}, got {t_end}"
-            ),
-        ));
-    }
-    if steps + 1.0 > MAX_SAMPLES as f64 {
-        return Err(c.fail("line_fit.t_step", "gives too many samples"));
-    }
-    let times = (0..=steps as usize)
-        .map(|i| t_start + i as f64 * t_step)
-        .collect();
-    if l.noise.is_empty() {
-        return Err(c.fail("line_fit.noise", "must list at least one noise shape"));
-    }
-    let mut noise = Vec::new();
-    for (i, name) in l.noise.iter().enumerate() {
-        let shape = NoiseShape::parse(name).ok_or_else(|| {
-            let names: Vec<String> = NoiseShape::ALL
-                .iter()
-                .map(|s| format!("\"{}\"", s.name()))
-                .collect();
-            c.fail(
-                &format!("line_fit.noise[{i}]"),
-                format!("unknown noise \"{name}\"; expected {}", names.join(" or ")),
-            )
-        })?;
-        noise.push(shape);
-    }
-    Ok(LineFitStudy {
-        intercept: c.finite("line_fit.intercept", l.intercept)?,
-        slope: c.finite("line_fit.slope", l.slope)?,
-        times,
-        assumed_sd: c.positive("line_fit.assumed_sd", l.assumed_sd)?,
-        noise,
-        noise_sd: c.list("line_fit.noise_sd", &l.noise_sd, Checker::non_negative)?,
-    })
 }

@@ -114,13 +114,22 @@ impl VehicleModel {
                         .unwrap_or([f64::NAN; 3])
                     })
                     .collect();
-                let applies_row: Vec<bool> = BOUNDS.iter().map(|b| (b.applies)(&noise)).collect();
+                let applies = vs
+                    .estimators
+                    .iter()
+                    .map(|e| {
+                        BOUNDS
+                            .iter()
+                            .map(|b| (b.applies)(&noise) && e.reports(b))
+                            .collect()
+                    })
+                    .collect();
                 Condition {
                     info: ConditionInfo {
                         axes: axes().map(|a| a.value(&vs, point)).collect(),
                         metrics: metrics.clone(),
                         truth: truth.to_vec(),
-                        applies: vec![applies_row; vs.estimators.len()],
+                        applies,
                     },
                     scale_index,
                     noise,
@@ -284,7 +293,11 @@ impl Model for VehicleModel {
             for p in 0..3 {
                 slots[layout.theta_at(ei, p)] = theta[p];
                 for (b, values) in bounds.iter().enumerate() {
-                    slots[layout.bound_at(ei, b, p)] = values[p];
+                    slots[layout.bound_at(ei, b, p)] = if cond.info.applies[ei][b] {
+                        values[p]
+                    } else {
+                        f64::NAN
+                    };
                 }
             }
             let inputs = ExtraInputs {
