@@ -3,6 +3,8 @@
 //! [`KeyError`] naming the dotted key, which the study turns into an error with the file and
 //! line.
 
+use std::path::{Path, PathBuf};
+
 /// A key that an extension cannot accept, and why.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct KeyError {
@@ -19,12 +21,108 @@ pub struct KeyError {
 pub struct Params<'a> {
     table: &'a toml::Table,
     prefix: &'a str,
+    dir: &'a Path,
 }
 
 impl<'a> Params<'a> {
-    /// The keys of `table`, named `prefix.key`.
+    /// The keys of `table`, named `prefix.key`; file paths relative to the working directory.
     pub fn new(table: &'a toml::Table, prefix: &'a str) -> Self {
-        Params { table, prefix }
+        Params {
+            table,
+            prefix,
+            dir: Path::new(""),
+        }
+    }
+
+    /// The same keys, with file paths relative to `dir` (the study file's directory).
+    pub fn relative_to(self, dir: &'a Path) -> Self {
+        Params { dir, ..self }
+    }
+
+    /// Whether the table has `key`.
+    pub fn has(&self, key: &str) -> bool {
+        self.table.contains_key(key)
+    }
+
+    /// `read(self, key)` when the table has `key`, else `None`.
+    pub fn optional<T>(
+        &self,
+        key: &str,
+        read: impl FnOnce(&Self, &str) -> Result<T, KeyError>,
+    ) -> Result<Option<T>, KeyError> {
+        self.has(key).then(|| read(self, key)).transpose()
+    }
+
+    /// A string.
+    pub fn string(&self, key: &str) -> Result<&'a str, KeyError> {
+        match self.table.get(key) {
+            None => Err(self.error(key, "required key is missing")),
+            Some(toml::Value::String(s)) => Ok(s),
+            Some(other) => {
+                Err(self.error(key, format!("must be a string, got {}", other.type_str())))
+            }
+        }
+    }
+
+    /// One of the strings `options`.
+    pub fn choice(&self, key: &str, options: &[&'static str]) -> Result<&'static str, KeyError> {
+        let s = self.string(key)?;
+        options
+            .iter()
+            .find(|o| **o == s)
+            .copied()
+            .ok_or_else(|| self.error(key, format!("must be one of {options:?}, got \"{s}\"")))
+    }
+
+    /// A boolean.
+    pub fn boolean(&self, key: &str) -> Result<bool, KeyError> {
+        match self.table.get(key) {
+            None => Err(self.error(key, "required key is missing")),
+            Some(toml::Value::Boolean(b)) => Ok(*b),
+            Some(other) => Err(self.error(
+                key,
+                format!("must be true or false, got {}", other.type_str()),
+            )),
+        }
+    }
+
+    /// A file path, relative to the study file's directory unless absolute.
+    pub fn file(&self, key: &str) -> Result<PathBuf, KeyError> {
+        let s = self.string(key)?;
+        if s.is_empty() {
+            return Err(self.error(key, "must name a file"));
+        }
+        Ok(self.dir.join(s))
+    }
+
+    /// A non-empty list of numbers > 0.
+    pub fn positive_list(&self, key: &str) -> Result<Vec<f64>, KeyError> {
+        let items = match self.table.get(key) {
+            None => return Err(self.error(key, "required key is missing")),
+            Some(toml::Value::Array(items)) if !items.is_empty() => items,
+            Some(_) => return Err(self.error(key, "must be a non-empty list of numbers")),
+        };
+        items
+            .iter()
+            .enumerate()
+            .map(|(i, item)| {
+                let v = match item {
+                    toml::Value::Float(f) => *f,
+                    toml::Value::Integer(n) => *n as f64,
+                    other => {
+                        return Err(self.error(
+                            &format!("{key}[{i}]"),
+                            format!("must be a number, got {}", other.type_str()),
+                        ));
+                    }
+                };
+                if v > 0.0 && v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(self.error(&format!("{key}[{i}]"), format!("must be > 0, got {v}")))
+                }
+            })
+            .collect()
     }
 
     /// An error about `key` of this table.
@@ -98,7 +196,7 @@ impl<'a> Params<'a> {
             .map(|(i, item)| {
                 let prefix = format!("{}.{key}[{i}]", self.prefix);
                 match item {
-                    toml::Value::Table(t) => each(&Params::new(t, &prefix)),
+                    toml::Value::Table(t) => each(&Params::new(t, &prefix).relative_to(self.dir)),
                     _ => Err(KeyError {
                         key: prefix.clone(),
                         reason: "must be a table such as { height = 25.0, period = 300.0 }".into(),

@@ -27,17 +27,29 @@ pub(super) fn x_axis(layout: &Layout, t: &SummaryTable) -> XAxis {
     let per_row = |value: &dyn Fn(&ConditionInfo) -> f64| -> Vec<f64> {
         t.rows.iter().map(|r| value(t.info(r))).collect()
     };
+    // The model's preferred metric stands for its axis where that axis varies (the
+    // thesis's ς for the scale) and is defined.
     if let Some(fx) = &layout.figure_x
         && let Some(m) = layout
             .condition_metrics
             .iter()
             .position(|&m| m == fx.metric)
+        && let Some(a) = layout.axes.iter().position(|axis| axis.name == fx.replaces)
+        && varies(
+            &t.rows
+                .iter()
+                .map(|r| &t.info(r).axes[a])
+                .collect::<Vec<_>>(),
+        )
     {
-        return XAxis {
-            values: per_row(&|info| info.metrics[m]),
-            label: fx.label.into(),
-            replaces: Some(fx.replaces),
-        };
+        let values = per_row(&|info| info.metrics[m]);
+        if values.iter().all(|v| v.is_finite()) {
+            return XAxis {
+                values,
+                label: fx.label.into(),
+                replaces: Some(fx.replaces),
+            };
+        }
     }
     for (a, axis) in layout.axes.iter().enumerate() {
         if axis.kind != AxisKind::Number {

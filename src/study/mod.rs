@@ -60,7 +60,7 @@ impl std::error::Error for StudyError {}
 #[derive(Debug, Clone)]
 pub enum ModelSpec {
     /// The longitudinal vehicle model of the thesis.
-    Vehicle(VehicleStudy),
+    Vehicle(Box<VehicleStudy>),
     /// The straight-line example of thesis §3.2–3.3.
     LineFit(LineFitStudy),
 }

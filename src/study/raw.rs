@@ -59,8 +59,10 @@ pub struct RawVehicle {
     pub frontal_area: f64,
     pub air_density: f64,
     pub gravity: f64,
-    pub final_drive_ratio: f64,
-    pub wheel_radius: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub final_drive_ratio: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheel_radius: Option<f64>,
 }
 
 /// `[drive]`: the drive mode (absent: the first of the drive modes, `torque`) and the mode's
@@ -78,12 +80,16 @@ pub struct RawDrive {
 /// serde cannot deny unknown fields next to a flattened table).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RawTerrain {
-    pub profile: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<String>,
     #[serde(flatten)]
     pub params: toml::Table,
-    pub length: u64,
-    pub scales: Vec<f64>,
-    pub scale_applies_to: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scales: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_applies_to: Option<String>,
 }
 
 /// `[noise]`: a list of levels per channel key (`velocity_sd`, …). Validation checks the

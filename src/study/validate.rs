@@ -114,6 +114,14 @@ impl Checker<'_> {
         }
     }
 
+    /// The directory of the study file, against which the paths it names are resolved.
+    pub(super) fn dir(&self) -> std::path::PathBuf {
+        std::path::Path::new(self.origin)
+            .parent()
+            .map(std::path::Path::to_path_buf)
+            .unwrap_or_default()
+    }
+
     pub(super) fn missing_table(&self, key: &str) -> StudyError {
         StudyError {
             file: self.origin.to_string(),
@@ -185,7 +193,7 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
             if raw.line_fit.is_some() {
                 return Err(c.fail("line_fit", "is not used by model \"vehicle\""));
             }
-            ModelSpec::Vehicle(vehicle::validate(&raw, &c)?)
+            ModelSpec::Vehicle(Box::new(vehicle::validate(&raw, &c)?))
         }
         "line_fit" => {
             let unused = [

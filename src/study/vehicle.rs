@@ -8,10 +8,10 @@ use super::validate::{Checker, validate_estimators};
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef};
-use crate::settings::Params;
+use crate::settings::{KeyError, Params};
 use crate::terrain::profiles::PROFILES;
 use crate::terrain::{ScaleTarget, TerrainSpec};
-use crate::vehicle::{CycleSource, DRIVE_MODES, VehicleParams};
+use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 
 /// Which noise enters the measurements of the vehicle study: the standard deviations
 /// listed for each channel, one condition axis each (units per [`Channel::unit`]).
@@ -55,8 +55,14 @@ pub struct VehicleStudy {
     pub vehicle: VehicleParams,
     /// Where the drive cycle comes from (the drive mode and its settings).
     pub drive: Arc<dyn CycleSource>,
-    /// Terrain profile and grid; the scales are an axis of conditions.
-    pub terrain: TerrainSpec,
+    /// Which samples the regression uses.
+    pub selection: RowSelection,
+    /// The durations axis \[s\]: keep the first T seconds of the cycle (`None`: the whole
+    /// cycle).
+    pub durations: Option<Vec<f64>>,
+    /// Terrain profile and grid (`None` when the drive cycle brings its own grade); the
+    /// scales are an axis of conditions.
+    pub terrain: Option<TerrainSpec>,
     /// Terrain scale factors, one condition axis.
     pub scales: Vec<f64>,
     /// Noise condition axes.
@@ -71,10 +77,6 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         .as_ref()
         .ok_or_else(|| c.missing_table("vehicle"))?;
     let d = raw.drive.as_ref().ok_or_else(|| c.missing_table("drive"))?;
-    let t = raw
-        .terrain
-        .as_ref()
-        .ok_or_else(|| c.missing_table("terrain"))?;
     let n = raw.noise.as_ref().ok_or_else(|| c.missing_table("noise"))?;
     let e = raw
         .estimation
@@ -88,8 +90,19 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         frontal_area_m2: c.positive("vehicle.frontal_area", v.frontal_area)?,
         air_density_kg_m3: c.positive("vehicle.air_density", v.air_density)?,
         gravity_m_s2: c.positive("vehicle.gravity", v.gravity)?,
-        final_drive_ratio: c.positive("vehicle.final_drive_ratio", v.final_drive_ratio)?,
-        wheel_radius_m: c.positive("vehicle.wheel_radius", v.wheel_radius)?,
+        drivetrain: match (v.final_drive_ratio, v.wheel_radius) {
+            (Some(ratio), Some(radius)) => Some(Drivetrain {
+                final_drive_ratio: c.positive("vehicle.final_drive_ratio", ratio)?,
+                wheel_radius_m: c.positive("vehicle.wheel_radius", radius)?,
+            }),
+            (None, Some(_)) => {
+                return Err(c.fail("vehicle.final_drive_ratio", "required key is missing"));
+            }
+            (Some(_), None) => {
+                return Err(c.fail("vehicle.wheel_radius", "required key is missing"));
+            }
+            (None, None) => None,
+        },
     };
 
     let mode_name = d.mode.as_deref().unwrap_or(DRIVE_MODES[0].name);
@@ -103,52 +116,41 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
                 format!("unknown drive mode \"{mode_name}\"; expected one of {names:?}"),
             )
         })?;
-    let drive =
-        (mode.parse)(&Params::new(&d.params, "drive")).map_err(|e| c.fail(&e.key, e.reason))?;
-
-    let entry = PROFILES
-        .iter()
-        .find(|p| p.name == t.profile)
-        .ok_or_else(|| {
-            let names: Vec<&str> = PROFILES.iter().map(|p| p.name).collect();
-            c.fail(
-                "terrain.profile",
-                format!(
-                    "unknown profile \"{}\"; expected one of {names:?}",
-                    t.profile
-                ),
-            )
-        })?;
-    let profile =
-        (entry.parse)(&Params::new(&t.params, "terrain")).map_err(|e| c.fail(&e.key, e.reason))?;
-    let scale_applies_to = match t.scale_applies_to.as_str() {
-        "grade" => ScaleTarget::Grade,
-        "elevation" => ScaleTarget::Elevation,
-        other => {
-            return Err(c.fail(
-                "terrain.scale_applies_to",
-                format!("must be \"grade\" or \"elevation\", got \"{other}\""),
-            ));
+    // The keys every drive mode has; the rest are the mode's own.
+    let mut own = d.params.clone();
+    let mut common = toml::Table::new();
+    for key in COMMON_DRIVE_KEYS {
+        if let Some(value) = own.remove(key) {
+            common.insert(key.to_string(), value);
         }
+    }
+    let dir = c.dir();
+    let fail = |e: KeyError| c.fail(&e.key, e.reason);
+    let drive = (mode.parse)(&Params::new(&own, "drive").relative_to(&dir)).map_err(fail)?;
+    let common = Params::new(&common, "drive");
+    let selection = RowSelection {
+        min_speed_m_s: common
+            .optional("min_speed", Params::non_negative)
+            .map_err(fail)?
+            .unwrap_or(0.0),
+        exclude_braking: common
+            .optional("exclude_braking", Params::boolean)
+            .map_err(fail)?
+            .unwrap_or(false),
     };
-    if t.length < 2 {
+    let durations = common
+        .optional("durations", Params::positive_list)
+        .map_err(fail)?;
+    if drive.needs_drivetrain() && vehicle.drivetrain.is_none() {
         return Err(c.fail(
-            "terrain.length",
-            format!("must be at least 2 m, got {}", t.length),
+            "vehicle.final_drive_ratio",
+            format!(
+                "required key is missing (drive mode \"{}\" turns a torque into a force)",
+                mode.name
+            ),
         ));
     }
-    if t.length > MAX_SAMPLES as u64 {
-        return Err(c.fail(
-            "terrain.length",
-            format!("must be at most {MAX_SAMPLES} m, got {}", t.length),
-        ));
-    }
-    let terrain = TerrainSpec {
-        profile,
-        length_m: t.length as usize,
-        scale_applies_to,
-    };
-    let scales = c.list("terrain.scales", &t.scales, Checker::non_negative)?;
+    let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
 
     let noise = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
@@ -157,11 +159,113 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     Ok(VehicleStudy {
         vehicle,
         drive,
+        selection,
+        durations,
         terrain,
         scales,
         noise,
         estimators,
     })
+}
+
+/// Keys of `[drive]` that every drive mode has.
+const COMMON_DRIVE_KEYS: [&str; 3] = ["min_speed", "exclude_braking", "durations"];
+
+/// `[terrain]`: the profile and its grid (required when the drive mode `needs` them, else
+/// `[terrain]` may only give `scales`), and the scales (default `[1.0]` without a profile).
+fn validate_terrain(
+    raw: &RawStudy,
+    needs: bool,
+    c: &Checker<'_>,
+) -> Result<(Option<TerrainSpec>, Vec<f64>), StudyError> {
+    let t = match (&raw.terrain, needs) {
+        (Some(t), _) => t,
+        (None, true) => return Err(c.missing_table("terrain")),
+        (None, false) => return Ok((None, vec![1.0])),
+    };
+    if !needs {
+        let named = [
+            ("profile", t.profile.is_some()),
+            ("length", t.length.is_some()),
+            ("scale_applies_to", t.scale_applies_to.is_some()),
+        ];
+        let extra = t
+            .params
+            .keys()
+            .map(String::as_str)
+            .chain(named.iter().filter(|(_, given)| *given).map(|(k, _)| *k))
+            .next();
+        if let Some(key) = extra {
+            return Err(c.fail(
+                &format!("terrain.{key}"),
+                "is not used: the trace brings its own grade (only terrain.scales is read)",
+            ));
+        }
+        let scales = match &t.scales {
+            Some(s) => c.list("terrain.scales", s, Checker::non_negative)?,
+            None => vec![1.0],
+        };
+        return Ok((None, scales));
+    }
+    let required = |key: &str| c.fail(&format!("terrain.{key}"), "required key is missing");
+    let name = t.profile.as_deref().ok_or_else(|| required("profile"))?;
+    let entry = PROFILES.iter().find(|p| p.name == name).ok_or_else(|| {
+        let names: Vec<&str> = PROFILES.iter().map(|p| p.name).collect();
+        c.fail(
+            "terrain.profile",
+            format!("unknown profile \"{name}\"; expected one of {names:?}"),
+        )
+    })?;
+    let dir = c.dir();
+    let profile = (entry.parse)(&Params::new(&t.params, "terrain").relative_to(&dir))
+        .map_err(|e| c.fail(&e.key, e.reason))?;
+    let scale_applies_to = match t.scale_applies_to.as_deref() {
+        Some("grade") => ScaleTarget::Grade,
+        Some("elevation") => ScaleTarget::Elevation,
+        Some(other) => {
+            return Err(c.fail(
+                "terrain.scale_applies_to",
+                format!("must be \"grade\" or \"elevation\", got \"{other}\""),
+            ));
+        }
+        None => return Err(required("scale_applies_to")),
+    };
+    let extent = profile.extent_m();
+    let length = match (t.length, extent) {
+        (Some(l), _) => l,
+        (None, Some(e)) => e.floor().max(0.0) as u64,
+        (None, None) => return Err(required("length")),
+    };
+    if length < 2 {
+        return Err(c.fail(
+            "terrain.length",
+            format!("must be at least 2 m, got {length}"),
+        ));
+    }
+    if length > MAX_SAMPLES as u64 {
+        return Err(c.fail(
+            "terrain.length",
+            format!("must be at most {MAX_SAMPLES} m, got {length}"),
+        ));
+    }
+    if let Some(e) = extent
+        && length as f64 > e
+    {
+        return Err(c.fail(
+            "terrain.length",
+            format!("is {length} m but the profile's file reaches only {e} m"),
+        ));
+    }
+    let scales = t.scales.as_ref().ok_or_else(|| required("scales"))?;
+    let scales = c.list("terrain.scales", scales, Checker::non_negative)?;
+    Ok((
+        Some(TerrainSpec {
+            profile,
+            length_m: length as usize,
+            scale_applies_to,
+        }),
+        scales,
+    ))
 }
 
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no

@@ -11,6 +11,7 @@ pub mod profiles;
 use std::sync::Arc;
 
 use crate::numeric::sum::exact_sum;
+use crate::settings::{KeyError, Params};
 pub use profiles::Profile;
 
 /// Grid spacing of the terrain tables \[m\] (the thesis's `x = (0:50000)'`).
@@ -40,6 +41,46 @@ impl ScaleTarget {
     }
 }
 
+/// Unit of a grade column in a data file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GradeUnit {
+    /// The angle in radians.
+    Rad,
+    /// Rise over run; θ = atan(g).
+    Fraction,
+    /// 100 × rise over run; θ = atan(p / 100).
+    Percent,
+}
+
+impl GradeUnit {
+    /// Every unit, as study files name them.
+    pub const ALL: [(&'static str, GradeUnit); 3] = [
+        ("rad", GradeUnit::Rad),
+        ("fraction", GradeUnit::Fraction),
+        ("percent", GradeUnit::Percent),
+    ];
+
+    /// A grade in this unit, as an angle \[rad\].
+    pub fn to_rad(self, g: f64) -> f64 {
+        match self {
+            GradeUnit::Rad => g,
+            GradeUnit::Fraction => g.atan(),
+            GradeUnit::Percent => (g / 100.0).atan(),
+        }
+    }
+
+    /// Read `key` of `p` as a grade unit.
+    pub fn parse(p: &Params<'_>, key: &str) -> Result<GradeUnit, KeyError> {
+        let names = Self::ALL.map(|(n, _)| n);
+        let name = p.choice(key, &names)?;
+        Ok(Self::ALL
+            .iter()
+            .find(|(n, _)| *n == name)
+            .expect("a listed name")
+            .1)
+    }
+}
+
 /// A road: its elevation profile on a 1 m grid `x = 0 … length`, and what a scale factor
 /// multiplies.
 #[derive(Debug, Clone)]
@@ -53,24 +94,15 @@ pub struct TerrainSpec {
 }
 
 impl TerrainSpec {
-    /// Elevation y(x) \[m\] of the unscaled profile.
-    pub fn elevation_m(&self, x_m: f64) -> f64 {
-        self.profile.elevation_m(x_m)
-    }
-
     /// The grade table of this profile at terrain scale `scale`.
     pub fn grade_table(&self, scale: f64) -> GradeTable {
-        let elevation: Vec<f64> = (0..=self.length_m)
-            .map(|i| self.elevation_m(i as f64 * GRID_STEP_M))
-            .collect();
-        let grade_rad = elevation
-            .windows(2)
-            .map(|y| {
-                let rise = y[1] - y[0];
-                match self.scale_applies_to {
-                    ScaleTarget::Grade => scale * (rise / GRID_STEP_M).atan(),
-                    ScaleTarget::Elevation => (scale * rise / GRID_STEP_M).atan(),
-                }
+        let grade_rad = self
+            .profile
+            .rises_m(self.length_m)
+            .into_iter()
+            .map(|rise| match self.scale_applies_to {
+                ScaleTarget::Grade => scale * (rise / GRID_STEP_M).atan(),
+                ScaleTarget::Elevation => (scale * rise / GRID_STEP_M).atan(),
             })
             .collect();
         GradeTable { grade_rad }

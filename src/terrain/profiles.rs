@@ -1,16 +1,32 @@
-//! Road elevation profiles: each one entry of [`PROFILES`] (its name in study files, how it
-//! reads its own keys of `[terrain]`, and its elevation y(x)). The grade table, scaling and
+//! Road profiles: each one entry of [`PROFILES`] (its name in study files, how it reads its
+//! own keys of `[terrain]`, and its rise over each 1 m step). The grade table, scaling and
 //! the terrain metric are the same for every profile (see docs/model.md#terrain).
 
 use std::fmt;
+use std::path::PathBuf;
 use std::sync::Arc;
 
+use super::{GRID_STEP_M, GradeUnit};
 use crate::settings::{KeyError, Params};
+use crate::tabular::read_columns;
 
-/// A road's elevation along its distance.
+/// A road's profile along its distance.
 pub trait Profile: fmt::Debug + Send + Sync {
-    /// Elevation y(x) \[m\] of the unscaled profile at distance `x_m` \[m\].
-    fn elevation_m(&self, x_m: f64) -> f64;
+    /// The unscaled rise y(x_{i+1}) − y(x_i) \[m\] over each grid step i = 0 … length − 1
+    /// (x_i = i m).
+    fn rises_m(&self, length: usize) -> Vec<f64>;
+
+    /// The distance up to which the profile is defined \[m\] (`None`: any length).
+    fn extent_m(&self) -> Option<f64> {
+        None
+    }
+}
+
+/// The rises of the elevation function `y` \[m\] on the grid x = 0 … length m (forward Euler,
+/// as the thesis).
+pub fn rises_of(y: impl Fn(f64) -> f64, length: usize) -> Vec<f64> {
+    let elevation: Vec<f64> = (0..=length).map(|i| y(i as f64 * GRID_STEP_M)).collect();
+    elevation.windows(2).map(|w| w[1] - w[0]).collect()
 }
 
 /// A profile as study files name it.
@@ -23,7 +39,7 @@ pub struct ProfileEntry {
 }
 
 /// Every profile a study can name.
-pub static PROFILES: [ProfileEntry; 2] = [
+pub static PROFILES: [ProfileEntry; 3] = [
     ProfileEntry {
         name: "cos2",
         parse: Cos2::parse,
@@ -31,6 +47,10 @@ pub static PROFILES: [ProfileEntry; 2] = [
     ProfileEntry {
         name: "sines",
         parse: Sines::parse,
+    },
+    ProfileEntry {
+        name: "file",
+        parse: FileProfile::parse,
     },
 ];
 
@@ -53,10 +73,17 @@ impl Cos2 {
     }
 }
 
-impl Profile for Cos2 {
-    fn elevation_m(&self, x_m: f64) -> f64 {
+impl Cos2 {
+    /// Elevation y(x) \[m\] at distance `x_m` \[m\].
+    pub fn elevation_m(&self, x_m: f64) -> f64 {
         let c = (x_m / self.period_m).cos();
         self.height_m * c * c
+    }
+}
+
+impl Profile for Cos2 {
+    fn rises_m(&self, length: usize) -> Vec<f64> {
+        rises_of(|x| self.elevation_m(x), length)
     }
 }
 
@@ -93,8 +120,9 @@ impl Sines {
     }
 }
 
-impl Profile for Sines {
-    fn elevation_m(&self, x_m: f64) -> f64 {
+impl Sines {
+    /// Elevation y(x) \[m\] at distance `x_m` \[m\].
+    pub fn elevation_m(&self, x_m: f64) -> f64 {
         self.components
             .iter()
             .map(|k| {
@@ -102,5 +130,116 @@ impl Profile for Sines {
                 k.height_m * c * c
             })
             .sum()
+    }
+}
+
+impl Profile for Sines {
+    fn rises_m(&self, length: usize) -> Vec<f64> {
+        rises_of(|x| self.elevation_m(x), length)
+    }
+}
+
+/// `"file"`: a road from a data file, elevation \[m\] or grade by distance \[m\], linearly
+/// interpolated to the 1 m grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileProfile {
+    /// The data file.
+    pub file: PathBuf,
+    /// Distances \[m\], strictly increasing, the first at most 0.
+    pub distance_m: Vec<f64>,
+    /// What the file gives at those distances.
+    pub values: FileValues,
+}
+
+/// The quantity a terrain file gives.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FileValues {
+    /// Elevation \[m\]: grades by forward Euler on the grid, as every profile.
+    Elevation(Vec<f64>),
+    /// Grade \[rad\]: interpolated to the grid directly.
+    Grade(Vec<f64>),
+}
+
+impl FileProfile {
+    fn parse(p: &Params<'_>) -> Result<Arc<dyn Profile>, KeyError> {
+        p.only(&[
+            "file",
+            "distance_column",
+            "elevation_column",
+            "grade_column",
+            "grade_unit",
+        ])?;
+        let file = p.file("file")?;
+        let distance = p.string("distance_column")?;
+        let (column, unit) = match (p.has("elevation_column"), p.has("grade_column")) {
+            (true, false) => {
+                if p.has("grade_unit") {
+                    return Err(p.error("grade_unit", "applies to grade_column only"));
+                }
+                (p.string("elevation_column")?, None)
+            }
+            (false, true) => (
+                p.string("grade_column")?,
+                Some(GradeUnit::parse(p, "grade_unit")?),
+            ),
+            _ => {
+                return Err(p.error(
+                    "elevation_column",
+                    "give exactly one of elevation_column and grade_column",
+                ));
+            }
+        };
+        let cols = read_columns(&file, &[distance, column], 3)
+            .map_err(|e| p.error("file", e.to_string()))?;
+        cols.strictly_increasing(distance)
+            .map_err(|e| p.error("file", e.to_string()))?;
+        let distance_m = cols.get(distance).to_vec();
+        if distance_m[0] > 0.0 {
+            return Err(p.error(
+                "file",
+                format!(
+                    "{}: column \"{distance}\" starts at {} m; the road must start at 0 m",
+                    file.display(),
+                    distance_m[0]
+                ),
+            ));
+        }
+        let v = cols.get(column);
+        let values = match unit {
+            None => FileValues::Elevation(v.to_vec()),
+            Some(unit) => FileValues::Grade(v.iter().map(|&g| unit.to_rad(g)).collect()),
+        };
+        Ok(Arc::new(FileProfile {
+            file,
+            distance_m,
+            values,
+        }))
+    }
+
+    /// Linear interpolation of `values` at `x_m` (inside the file's range).
+    fn at(&self, values: &[f64], x_m: f64) -> f64 {
+        let d = &self.distance_m;
+        // The segment [d[i], d[i + 1]] holding x (the last one at the end).
+        let i = d.partition_point(|&di| di <= x_m).clamp(1, d.len() - 1) - 1;
+        if x_m == d[i] {
+            return values[i];
+        }
+        let f = (x_m - d[i]) / (d[i + 1] - d[i]);
+        values[i] + f * (values[i + 1] - values[i])
+    }
+}
+
+impl Profile for FileProfile {
+    fn rises_m(&self, length: usize) -> Vec<f64> {
+        match &self.values {
+            FileValues::Elevation(y) => rises_of(|x| self.at(y, x), length),
+            FileValues::Grade(g) => (0..length)
+                .map(|i| self.at(g, i as f64 * GRID_STEP_M).tan() * GRID_STEP_M)
+                .collect(),
+        }
+    }
+
+    fn extent_m(&self) -> Option<f64> {
+        self.distance_m.last().copied()
     }
 }

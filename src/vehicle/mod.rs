@@ -1,12 +1,15 @@
 //! The longitudinal vehicle model and its drive cycles (docs/model.md#vehicle).
 //!
 //! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`. A drive cycle
-//! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: today `torque` (the
-//! thesis's sinusoidal torque, integrated by RK4; in `torque.rs`). A stall or running off
-//! the terrain is an error, never a silent NaN.
+//! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: `torque` (the thesis's
+//! sinusoidal torque, integrated by RK4; in `torque.rs`) and `speed_trace` (a recorded speed
+//! trace followed exactly, the force from inverse dynamics; in `speed_trace.rs`). A stall or
+//! running off the terrain is an error, never a silent NaN.
 
+mod speed_trace;
 mod torque;
 
+pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences};
 pub use torque::{TorqueDrive, simulate};
 
 use std::fmt;
@@ -32,6 +35,14 @@ pub struct VehicleParams {
     pub air_density_kg_m3: f64,
     /// Gravitational acceleration g \[m/s²\].
     pub gravity_m_s2: f64,
+    /// The drivetrain, which turns a torque into a force (needed by drive modes that
+    /// simulate from a torque).
+    pub drivetrain: Option<Drivetrain>,
+}
+
+/// The drivetrain: F = τ R_fd / r_wheel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drivetrain {
     /// Final-drive gear ratio R_fd \[-\].
     pub final_drive_ratio: f64,
     /// Wheel radius r_wheel \[m\].
@@ -68,14 +79,33 @@ impl VehicleParams {
 /// Largest number of drive-cycle samples accepted (keeps a typo from allocating gigabytes).
 pub const MAX_SAMPLES: usize = 50_000_000;
 
+/// The road a cycle is driven on, at one terrain scale.
+#[derive(Debug, Clone, Copy)]
+pub struct Road<'a> {
+    /// The grade table at this scale; `None` when the study has no terrain profile (the
+    /// cycle brings its own grade).
+    pub table: Option<&'a GradeTable>,
+    /// The terrain scale factor (it multiplies a grade the cycle brings itself).
+    pub scale: f64,
+}
+
 /// Where a condition's noise-free drive cycle comes from: one entry of [`DRIVE_MODES`].
 pub trait CycleSource: fmt::Debug + Send + Sync {
-    /// The noise-free cycle of `vehicle` over `terrain`.
-    fn cycle(
-        &self,
-        vehicle: &VehicleParams,
-        terrain: &GradeTable,
-    ) -> Result<DriveCycle, SimulationError>;
+    /// The noise-free cycle of `vehicle` on `road`.
+    fn cycle(&self, vehicle: &VehicleParams, road: Road<'_>)
+    -> Result<DriveCycle, SimulationError>;
+
+    /// Whether the cycle needs a terrain profile (otherwise `[terrain]` is optional and only
+    /// its `scales` are read).
+    fn needs_terrain(&self) -> bool {
+        true
+    }
+
+    /// Whether the cycle needs the vehicle's drivetrain (`final_drive_ratio`,
+    /// `wheel_radius`).
+    fn needs_drivetrain(&self) -> bool {
+        false
+    }
 }
 
 /// A drive mode as study files name it (`[drive] mode = ...`).
@@ -89,10 +119,16 @@ pub struct DriveMode {
 }
 
 /// Every drive mode a study can name; the first is the default when `mode` is absent.
-pub static DRIVE_MODES: [DriveMode; 1] = [DriveMode {
-    name: "torque",
-    parse: TorqueDrive::parse,
-}];
+pub static DRIVE_MODES: [DriveMode; 2] = [
+    DriveMode {
+        name: "torque",
+        parse: TorqueDrive::parse,
+    },
+    DriveMode {
+        name: "speed_trace",
+        parse: SpeedTrace::parse,
+    },
+];
 
 /// Why a drive cycle could not be simulated.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -119,6 +155,18 @@ pub enum SimulationError {
         time_s: f64,
         /// Last grid point of the table \[m\].
         end_m: f64,
+    },
+    /// A grade the cycle brings itself reaches the limit after scaling.
+    #[error(
+        "the grade of the trace reaches {grade_rad:.3} rad at t = {time_s:.2} s after scaling; grades must stay below {limit} rad in magnitude"
+    )]
+    TooSteep {
+        /// The grade \[rad\].
+        grade_rad: f64,
+        /// Where \[s\].
+        time_s: f64,
+        /// The limit \[rad\].
+        limit: f64,
     },
     /// The state became NaN or infinite.
     #[error("the simulation diverged (non-finite state) at t = {time_s:.2} s")]
@@ -160,6 +208,58 @@ impl DriveCycle {
     pub fn terrain_mean_square(&self) -> f64 {
         crate::terrain::mean_square(&self.grade_rad)
     }
+
+    /// Time from the first sample to the last \[s\].
+    pub fn length_s(&self) -> f64 {
+        match (self.t_s.first(), self.t_s.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// Which samples the regression uses: those in the first `duration_s` seconds (all when
+    /// `None`), at a true speed of at least `selection.min_speed_m_s` and, with
+    /// `selection.exclude_braking`, a tractive force ≥ 0.
+    pub fn used(&self, selection: &RowSelection, duration_s: Option<f64>) -> Vec<bool> {
+        let t0 = self.t_s.first().copied().unwrap_or(0.0);
+        (0..self.len())
+            .map(|i| {
+                duration_s.is_none_or(|d| self.t_s[i] - t0 <= d)
+                    && self.v_m_s[i] >= selection.min_speed_m_s
+                    && !(selection.exclude_braking && self.f_prop_n[i] < 0.0)
+            })
+            .collect()
+    }
+
+    /// The samples where `used` is true, in order.
+    pub fn select(&self, used: &[bool]) -> DriveCycle {
+        let pick = |v: &Vec<f64>| -> Vec<f64> {
+            v.iter()
+                .zip(used)
+                .filter(|(_, u)| **u)
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        DriveCycle {
+            t_s: pick(&self.t_s),
+            x_m: pick(&self.x_m),
+            v_m_s: pick(&self.v_m_s),
+            grade_rad: pick(&self.grade_rad),
+            f_prop_n: pick(&self.f_prop_n),
+            accel_m_s2: pick(&self.accel_m_s2),
+        }
+    }
+}
+
+/// Which samples of a cycle the regression uses (`[drive]` `min_speed`, `exclude_braking`);
+/// chosen from the noise-free signals, the same in every realisation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RowSelection {
+    /// Samples slower than this are left out \[m/s\] (standstill, where rolling resistance
+    /// is not defined).
+    pub min_speed_m_s: f64,
+    /// Leave out samples with a negative tractive force (braking).
+    pub exclude_braking: bool,
 }
 
 #[cfg(test)]
@@ -173,8 +273,10 @@ impl VehicleParams {
             frontal_area_m2: 5.5,
             air_density_kg_m3: 1.2,
             gravity_m_s2: 9.81,
-            final_drive_ratio: 2.7,
-            wheel_radius_m: 0.3,
+            drivetrain: Some(Drivetrain {
+                final_drive_ratio: 2.7,
+                wheel_radius_m: 0.3,
+            }),
         }
     }
 }

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use super::{CycleSource, DriveCycle, MAX_SAMPLES, SimulationError, VehicleParams};
+use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, VehicleParams};
 use crate::settings::{KeyError, Params};
 use crate::terrain::GradeTable;
 
@@ -34,7 +34,10 @@ impl TorqueDrive {
     pub fn propulsion_n(&self, vehicle: &VehicleParams, t_s: f64) -> f64 {
         let torque = self.torque_mean_n_m
             * (1.0 + self.torque_amplitude * (self.torque_frequency_rad_s * t_s).sin());
-        torque * vehicle.final_drive_ratio / vehicle.wheel_radius_m
+        let drivetrain = vehicle
+            .drivetrain
+            .expect("the torque mode is validated to have a drivetrain");
+        torque * drivetrain.final_drive_ratio / drivetrain.wheel_radius_m
     }
 
     /// Number of samples N = steps + 1 (t = 0 … duration inclusive).
@@ -91,9 +94,16 @@ impl CycleSource for TorqueDrive {
     fn cycle(
         &self,
         vehicle: &VehicleParams,
-        terrain: &GradeTable,
+        road: Road<'_>,
     ) -> Result<DriveCycle, SimulationError> {
-        simulate(vehicle, self, terrain)
+        let table = road
+            .table
+            .expect("the torque mode is validated to have a terrain profile");
+        simulate(vehicle, self, table)
+    }
+
+    fn needs_drivetrain(&self) -> bool {
+        true
     }
 }
 

@@ -82,7 +82,7 @@ fn cases() -> Vec<Case> {
             study: t.replace("[drive]", "[drive]\nmode = \"replay\""),
             key: "drive.mode",
             line: Some(line_of(&t, "[drive]") + 1),
-            reason: "unknown drive mode \"replay\"; expected one of [\"torque\"]",
+            reason: "unknown drive mode \"replay\"; expected one of [\"torque\", \"speed_trace\"]",
         },
         Case {
             name: "a key the drive mode does not have",

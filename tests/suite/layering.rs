@@ -7,9 +7,10 @@
 use std::path::Path;
 
 /// Bottom to top. A module may use those before it in this list (and itself).
-const LAYERS: [&str; 15] = [
+const LAYERS: [&str; 16] = [
     "numeric",
     "settings",
+    "tabular",
     "noise",
     "terrain",
     "vehicle",

@@ -12,13 +12,18 @@ use crate::study::VehicleStudy;
 pub enum VehicleAxis {
     /// The terrain scale factor (`terrain.scales`): each level is its own drive cycle.
     Scale,
+    /// The first T seconds of the cycle (`drive.durations`; one level, the whole cycle,
+    /// without it).
+    Duration,
     /// The standard deviation of one noise channel (`noise.<channel>_sd`).
     Noise(Channel),
 }
 
 /// Every axis, outermost first.
 pub fn axes() -> impl Iterator<Item = VehicleAxis> {
-    std::iter::once(VehicleAxis::Scale).chain(Channel::ALL.map(VehicleAxis::Noise))
+    [VehicleAxis::Scale, VehicleAxis::Duration]
+        .into_iter()
+        .chain(Channel::ALL.map(VehicleAxis::Noise))
 }
 
 /// One condition: the level of every axis.
@@ -26,6 +31,8 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
 pub struct Point {
     /// Index into `terrain.scales`; conditions with the same index share a drive cycle.
     pub scale_index: usize,
+    /// Index into `drive.durations` (0 without it).
+    pub duration_index: usize,
     /// The noise levels.
     pub noise: NoiseLevels,
 }
@@ -35,6 +42,7 @@ impl VehicleAxis {
     pub fn column(self) -> Axis {
         match self {
             VehicleAxis::Scale => Axis::number("scale", ""),
+            VehicleAxis::Duration => Axis::number("duration", "s"),
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
         }
     }
@@ -43,6 +51,7 @@ impl VehicleAxis {
     fn len(self, study: &VehicleStudy) -> usize {
         match self {
             VehicleAxis::Scale => study.scales.len(),
+            VehicleAxis::Duration => study.durations.as_ref().map_or(1, Vec::len),
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
         }
     }
@@ -51,14 +60,16 @@ impl VehicleAxis {
     fn set(self, study: &VehicleStudy, point: &mut Point, i: usize) {
         match self {
             VehicleAxis::Scale => point.scale_index = i,
+            VehicleAxis::Duration => point.duration_index = i,
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
         }
     }
 
-    /// This axis's value at `point`.
-    pub fn value(self, study: &VehicleStudy, point: &Point) -> AxisValue {
+    /// This axis's value at `point`, whose cycle segment lasts `duration_s`.
+    pub fn value(self, study: &VehicleStudy, point: &Point, duration_s: f64) -> AxisValue {
         AxisValue::Number(match self {
             VehicleAxis::Scale => study.scales[point.scale_index],
+            VehicleAxis::Duration => duration_s,
             VehicleAxis::Noise(c) => point.noise[c],
         })
     }

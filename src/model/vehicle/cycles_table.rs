@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, Float64Array, Int32Array, RecordBatch};
+use arrow::array::{ArrayRef, BooleanArray, Float64Array, Int32Array, RecordBatch};
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use arrow::error::ArrowError;
 
@@ -20,11 +20,16 @@ pub fn cycles_schema() -> SchemaRef {
         f64_field("grade"),
         f64_field("f_prop"),
         f64_field("accel"),
+        Field::new("used", DataType::Boolean, false),
     ]))
 }
 
 /// One condition's drive cycle as a record batch.
-pub fn cycles_batch(condition: usize, cycle: &DriveCycle) -> Result<RecordBatch, ArrowError> {
+pub fn cycles_batch(
+    condition: usize,
+    cycle: &DriveCycle,
+    used: &[bool],
+) -> Result<RecordBatch, ArrowError> {
     let col = |v: &Vec<f64>| -> ArrayRef { Arc::new(Float64Array::from(v.clone())) };
     RecordBatch::try_new(
         cycles_schema(),
@@ -36,6 +41,7 @@ pub fn cycles_batch(condition: usize, cycle: &DriveCycle) -> Result<RecordBatch,
             col(&cycle.grade_rad),
             col(&cycle.f_prop_n),
             col(&cycle.accel_m_s2),
+            Arc::new(BooleanArray::from(used.to_vec())),
         ],
     )
 }

@@ -12,6 +12,7 @@ use arrow::error::ArrowError;
 
 mod axes;
 mod cycles_table;
+mod prepare;
 
 pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
@@ -29,17 +30,19 @@ use crate::estimate::regression::Regression;
 use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
-use crate::terrain::MAX_GRADE_RAD;
 use crate::vehicle::DriveCycle;
+use prepare::{ScaleCycle, Segment, duration_count, scale_cycles, segments};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
 
-/// One prepared condition: its noise and the regression of its drive cycle.
+/// One prepared condition: its noise and the regression of its rows.
 #[derive(Debug)]
 struct Condition {
     info: ConditionInfo,
     scale_index: usize,
+    /// Index of its (scale, duration) segment.
+    segment: usize,
     noise: NoiseLevels,
     regression: Arc<Regression>,
     /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
@@ -53,55 +56,33 @@ pub struct VehicleModel {
     study: VehicleStudy,
     layout: Layout,
     conditions: Vec<Condition>,
-    /// One simulated cycle per terrain scale (kept for cycles.parquet and figures).
-    cycles: Vec<Arc<DriveCycle>>,
+    /// One cycle per terrain scale (kept for cycles.parquet and figures).
+    cycles: Vec<ScaleCycle>,
+    /// The rows of each (scale, duration).
+    segments: Vec<Segment>,
 }
 
 impl VehicleModel {
-    /// Prepare every condition of `study`: simulate one cycle per terrain scale. A scale at
-    /// which the vehicle stalls or runs off the terrain is an error naming that scale.
+    /// Prepare every condition of `study`: one drive cycle per terrain scale, the regression
+    /// of each (scale, duration). A scale at which the vehicle stalls or runs off the
+    /// terrain is an error naming that scale.
     pub fn new(study: &Study) -> Result<Self, StudyError> {
         let vs = study
             .vehicle()
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
             .clone();
         let truth = vs.vehicle.theta();
-        // One drive cycle per scale, simulated in parallel (each is independent).
-        let prepared: Vec<(Vec<f64>, Arc<Regression>, Arc<DriveCycle>)> = vs
-            .scales
-            .par_iter()
-            .enumerate()
-            .map(|(i, &scale)| {
-                let table = vs.terrain.grade_table(scale);
-                if let Some((grade, x)) = table.steepest_beyond_limit() {
-                    return Err(study.error_at(
-                        &format!("terrain.scales[{i}]"),
-                        format!(
-                            "at scale {scale} the steepest grade of the terrain is {grade:.3} rad at x = {x} m; \
-                             grades must stay below {MAX_GRADE_RAD} rad in magnitude (scaling applies \
-                             to the {})",
-                            vs.terrain.scale_applies_to.name()
-                        ),
-                    ));
-                }
-                let cycle = vs.drive.cycle(&vs.vehicle, &table).map_err(|e| {
-                    study.error_at(
-                        &format!("terrain.scales[{i}]"),
-                        format!("at scale {scale}: {e}"),
-                    )
-                })?;
-                let metrics = vec![table.mean_square(), cycle.terrain_mean_square()];
-                let regression = Arc::new(Regression::new(&cycle, &vs.vehicle));
-                Ok((metrics, regression, Arc::new(cycle)))
-            })
-            .collect::<Result<_, StudyError>>()?;
+        let cycles = scale_cycles(study, &vs)?;
+        let segments = segments(study, &vs, &cycles)?;
+        let durations = duration_count(&vs);
         let layout = layout(&vs.estimators);
         let conditions = grid(&vs)
             .par_iter()
             .map(|point| {
-                let (scale_index, noise) = (point.scale_index, point.noise);
-                let (metrics, regression, _) = &prepared[scale_index];
-                let regression = regression.clone();
+                let noise = point.noise;
+                let k = point.scale_index * durations + point.duration_index;
+                let segment = &segments[k];
+                let regression = segment.regression.clone();
                 let constant_bounds = BOUNDS
                     .iter()
                     .map(|bound| {
@@ -126,12 +107,15 @@ impl VehicleModel {
                     .collect();
                 Condition {
                     info: ConditionInfo {
-                        axes: axes().map(|a| a.value(&vs, point)).collect(),
-                        metrics: metrics.clone(),
+                        axes: axes()
+                            .map(|a| a.value(&vs, point, segment.duration_s))
+                            .collect(),
+                        metrics: segment.metrics.clone(),
                         truth: truth.to_vec(),
                         applies,
                     },
-                    scale_index,
+                    scale_index: point.scale_index,
+                    segment: k,
                     noise,
                     regression,
                     constant_bounds,
@@ -142,7 +126,8 @@ impl VehicleModel {
             study: vs,
             layout,
             conditions,
-            cycles: prepared.into_iter().map(|(_, _, cycle)| cycle).collect(),
+            cycles,
+            segments,
         })
     }
 
@@ -150,7 +135,7 @@ impl VehicleModel {
     pub fn cycles(&self) -> Vec<Arc<DriveCycle>> {
         self.conditions
             .iter()
-            .map(|c| self.cycles[c.scale_index].clone())
+            .map(|c| self.cycles[c.scale_index].cycle.clone())
             .collect()
     }
 
@@ -251,7 +236,11 @@ impl Model for VehicleModel {
 
     fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
         let condition = self.conditions.get(index).filter(|_| table == 0)?;
-        Some(cycles_batch(index, &self.cycles[condition.scale_index]))
+        Some(cycles_batch(
+            index,
+            &self.cycles[condition.scale_index].cycle,
+            &self.segments[condition.segment].used,
+        ))
     }
 
     fn condition_count(&self) -> usize {

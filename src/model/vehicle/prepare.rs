@@ -1,0 +1,131 @@
+//! The drive cycles of a vehicle study, one per terrain scale, and the regression of each
+//! (scale, duration): the rows a condition's realisations are drawn on.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use crate::estimate::regression::Regression;
+use crate::study::{Study, StudyError, VehicleStudy};
+use crate::terrain::MAX_GRADE_RAD;
+use crate::vehicle::{DriveCycle, Road};
+
+/// The drive cycle of one terrain scale.
+#[derive(Debug)]
+pub(super) struct ScaleCycle {
+    /// The noise-free cycle (every sample, used or not).
+    pub cycle: Arc<DriveCycle>,
+    /// ς over the terrain table \[rad²\] (NaN without a terrain profile).
+    pub terrain_ms_grid: f64,
+}
+
+/// The regression rows of one (scale, duration).
+#[derive(Debug)]
+pub(super) struct Segment {
+    /// Which samples of the scale's cycle the regression uses.
+    pub used: Arc<Vec<bool>>,
+    /// The regression of those samples.
+    pub regression: Arc<Regression>,
+    /// The condition metrics: ς over the table and over the used samples.
+    pub metrics: Vec<f64>,
+    /// The duration \[s\]: the axis value, or the whole cycle's length.
+    pub duration_s: f64,
+}
+
+/// One cycle per scale, simulated in parallel (each is independent). A scale at which the
+/// grade is too steep, the vehicle stalls or runs off the terrain is an error naming it.
+pub(super) fn scale_cycles(
+    study: &Study,
+    vs: &VehicleStudy,
+) -> Result<Vec<ScaleCycle>, StudyError> {
+    vs.scales
+        .par_iter()
+        .enumerate()
+        .map(|(i, &scale)| {
+            let key = format!("terrain.scales[{i}]");
+            let table = vs.terrain.as_ref().map(|t| t.grade_table(scale));
+            if let (Some(t), Some(table)) = (&vs.terrain, &table)
+                && let Some((grade, x)) = table.steepest_beyond_limit()
+            {
+                return Err(study.error_at(
+                    &key,
+                    format!(
+                        "at scale {scale} the steepest grade of the terrain is {grade:.3} rad at x = {x} m; \
+                         grades must stay below {MAX_GRADE_RAD} rad in magnitude (scaling applies \
+                         to the {})",
+                        t.scale_applies_to.name()
+                    ),
+                ));
+            }
+            let road = Road {
+                table: table.as_ref(),
+                scale,
+            };
+            let cycle = vs
+                .drive
+                .cycle(&vs.vehicle, road)
+                .map_err(|e| study.error_at(&key, format!("at scale {scale}: {e}")))?;
+            Ok(ScaleCycle {
+                cycle: Arc::new(cycle),
+                terrain_ms_grid: table.map_or(f64::NAN, |t| t.mean_square()),
+            })
+        })
+        .collect()
+}
+
+/// The number of levels of the duration axis (1 without `durations`).
+pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
+    vs.durations.as_ref().map_or(1, Vec::len)
+}
+
+/// The segment of every (scale, duration), scale-major: index `s · durations + d`. A
+/// duration longer than the cycle, or a selection that leaves fewer than 3 rows, is an
+/// error naming the key.
+pub(super) fn segments(
+    study: &Study,
+    vs: &VehicleStudy,
+    cycles: &[ScaleCycle],
+) -> Result<Vec<Segment>, StudyError> {
+    let n = duration_count(vs);
+    (0..cycles.len() * n)
+        .into_par_iter()
+        .map(|k| {
+            let (s, d) = (k / n, k % n);
+            let cycle = &cycles[s].cycle;
+            let length = cycle.length_s();
+            let duration = vs.durations.as_ref().map(|ds| ds[d]);
+            let key = match duration {
+                Some(_) => format!("drive.durations[{d}]"),
+                None => "drive.min_speed".to_string(),
+            };
+            if let Some(t) = duration
+                && t > length
+            {
+                return Err(study.error_at(
+                    &key,
+                    format!("is {t} s but the drive cycle lasts {length} s"),
+                ));
+            }
+            let used = cycle.used(&vs.selection, duration);
+            let rows = used.iter().filter(|u| **u).count();
+            if rows < 3 {
+                return Err(study.error_at(
+                    &key,
+                    format!(
+                        "leaves {rows} samples of the cycle at scale {} for the regression \
+                         (min_speed, exclude_braking and durations select them); at least 3 are needed",
+                        vs.scales[s]
+                    ),
+                ));
+            }
+            let selected = cycle.select(&used);
+            let regression = Regression::new(&selected, &vs.vehicle);
+            Ok(Segment {
+                used: Arc::new(used),
+                regression: Arc::new(regression),
+                metrics: vec![cycles[s].terrain_ms_grid, selected.terrain_mean_square()],
+                duration_s: duration.unwrap_or(length),
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,315 @@
+//! Numeric columns of a user's data file (a speed trace, a road profile): CSV or Parquet,
+//! chosen by the extension.
+//!
+//! CSV: a header row, commas, optional quotes (a header may be `"speed, km/h"`); a UTF-8
+//! byte-order mark, blank lines, `#` comment lines and CRLF line ends are accepted. Parquet:
+//! float or integer columns. Every cell of a requested column must be a finite number; a
+//! bad one is a [`TabularError`] naming the file, the column and the line (CSV, the file's
+//! own 1-based line number) or row (Parquet, 1-based).
+
+use std::fmt;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use arrow::array::{Array, AsArray};
+use arrow::datatypes::{DataType, Float64Type};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+
+/// Why a data file cannot be used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TabularError {
+    /// The file.
+    pub file: PathBuf,
+    /// The column at fault, if one is.
+    pub column: Option<String>,
+    /// Where: `line N` (CSV) or `row N` (Parquet), if a row is at fault.
+    pub place: Option<String>,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl fmt::Display for TabularError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.file.display())?;
+        if let Some(c) = &self.column {
+            write!(f, "column \"{c}\", ")?;
+        }
+        if let Some(p) = &self.place {
+            write!(f, "{p}: ")?;
+        }
+        f.write_str(&self.reason)
+    }
+}
+
+impl std::error::Error for TabularError {}
+
+/// Numeric columns read from one data file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Columns {
+    /// The file read.
+    pub file: PathBuf,
+    /// Where each row came from: its 1-based line in a CSV file, or its 1-based row number
+    /// in a Parquet file.
+    pub origins: Vec<usize>,
+    /// True when the file is Parquet (`origins` are row numbers, else line numbers).
+    pub parquet: bool,
+    columns: Vec<(String, Vec<f64>)>,
+}
+
+impl Columns {
+    /// The values of column `name` (one of those requested).
+    ///
+    /// # Panics
+    /// If `name` was not requested.
+    pub fn get(&self, name: &str) -> &[f64] {
+        &self
+            .columns
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("column {name} was not requested"))
+            .1
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.origins.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.origins.is_empty()
+    }
+
+    /// `line N` (CSV) or `row N` (Parquet) of row index `i`.
+    pub fn place(&self, i: usize) -> String {
+        let kind = if self.parquet { "row" } else { "line" };
+        format!("{kind} {}", self.origins[i])
+    }
+
+    /// Check that column `name` strictly increases.
+    pub fn strictly_increasing(&self, name: &str) -> Result<(), TabularError> {
+        let v = self.get(name);
+        match (1..v.len()).find(|&i| v[i] <= v[i - 1]) {
+            None => Ok(()),
+            Some(i) => Err(self.error(
+                Some(name),
+                Some(i),
+                format!(
+                    "{} does not increase (the row before has {}); the column must be strictly increasing",
+                    v[i],
+                    v[i - 1]
+                ),
+            )),
+        }
+    }
+
+    fn error(&self, column: Option<&str>, row: Option<usize>, reason: String) -> TabularError {
+        TabularError {
+            file: self.file.clone(),
+            column: column.map(str::to_string),
+            place: row.map(|i| self.place(i)),
+            reason,
+        }
+    }
+}
+
+/// Read the columns `wanted` (each must exist) from `path`, with at least `min_rows` rows.
+pub fn read_columns(
+    path: &Path,
+    wanted: &[&str],
+    min_rows: usize,
+) -> Result<Columns, TabularError> {
+    let fail = |reason: String| TabularError {
+        file: path.to_path_buf(),
+        column: None,
+        place: None,
+        reason,
+    };
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let columns = match extension.as_deref() {
+        Some("csv") => read_csv(path, wanted)?,
+        Some("parquet") => read_parquet(path, wanted)?,
+        _ => {
+            return Err(fail(
+                "unsupported file type: the name must end in .csv or .parquet".into(),
+            ));
+        }
+    };
+    if columns.len() < min_rows {
+        return Err(fail(format!(
+            "has {} data rows; at least {min_rows} are needed",
+            columns.len()
+        )));
+    }
+    Ok(columns)
+}
+
+/// The position of each wanted column among `names`, or an error listing what the file has.
+fn positions(path: &Path, names: &[String], wanted: &[&str]) -> Result<Vec<usize>, TabularError> {
+    wanted
+        .iter()
+        .map(|w| {
+            names
+                .iter()
+                .position(|n| n == w)
+                .ok_or_else(|| TabularError {
+                    file: path.to_path_buf(),
+                    column: Some(w.to_string()),
+                    place: None,
+                    reason: format!("no such column; the file has {names:?}"),
+                })
+        })
+        .collect()
+}
+
+fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
+    let fail = |place: Option<String>, column: Option<&str>, reason: String| TabularError {
+        file: path.to_path_buf(),
+        column: column.map(str::to_string),
+        place,
+        reason,
+    };
+    let bytes = std::fs::read(path).map_err(|e| fail(None, None, format!("cannot read: {e}")))?;
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+    // Blank and comment lines are dropped before parsing, and CRLF becomes LF; `physical[k]` is the file's own
+    // line number of the reader's line k + 1, so that messages name the file's lines.
+    let mut kept = Vec::with_capacity(text.len());
+    let mut physical = Vec::new();
+    for (n, line) in text.split_inclusive(|&b| b == b'\n').enumerate() {
+        let content = line.trim_ascii();
+        if content.is_empty() || content.starts_with(b"#") {
+            continue;
+        }
+        // Line ends as LF (a CR before it dropped).
+        let line = line.strip_suffix(b"\n").unwrap_or(line);
+        kept.extend_from_slice(line.strip_suffix(b"\r").unwrap_or(line));
+        kept.push(b'\n');
+        physical.push(n + 1);
+    }
+    let text = kept;
+    let line_at = |k: u64| physical.get(k as usize - 1).copied().unwrap_or(k as usize);
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(text.as_slice());
+    let line_of = |e: &csv::Error| e.position().map(|p| format!("line {}", line_at(p.line())));
+    let names: Vec<String> = reader
+        .headers()
+        .map_err(|e| fail(line_of(&e), None, format!("cannot read the header: {e}")))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let index = positions(path, &names, wanted)?;
+    let mut values = vec![Vec::new(); wanted.len()];
+    let mut origins = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| {
+            let reason = match e.kind() {
+                csv::ErrorKind::UnequalLengths {
+                    expected_len, len, ..
+                } => format!("has {len} fields; the header has {expected_len}"),
+                _ => format!("cannot read: {e}"),
+            };
+            fail(line_of(&e), None, reason)
+        })?;
+        let line = record.position().map_or(0, |p| line_at(p.line()));
+        for ((column, &k), out) in wanted.iter().zip(&index).zip(&mut values) {
+            let cell = &record[k];
+            let place = Some(format!("line {line}"));
+            if cell.is_empty() {
+                return Err(fail(place, Some(column), "the cell is empty".into()));
+            }
+            let v: f64 = cell.parse().map_err(|_| {
+                fail(
+                    place.clone(),
+                    Some(column),
+                    format!("\"{cell}\" is not a number"),
+                )
+            })?;
+            if !v.is_finite() {
+                return Err(fail(
+                    place,
+                    Some(column),
+                    format!("{cell} is not a finite number"),
+                ));
+            }
+            out.push(v);
+        }
+        origins.push(line);
+    }
+    Ok(Columns {
+        file: path.to_path_buf(),
+        origins,
+        parquet: false,
+        columns: wanted.iter().map(|w| w.to_string()).zip(values).collect(),
+    })
+}
+
+fn read_parquet(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
+    let fail = |place: Option<String>, column: Option<&str>, reason: String| TabularError {
+        file: path.to_path_buf(),
+        column: column.map(str::to_string),
+        place,
+        reason,
+    };
+    let file = File::open(path).map_err(|e| fail(None, None, format!("cannot open: {e}")))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .map_err(|e| fail(None, None, format!("not a readable Parquet file: {e}")))?;
+    let names: Vec<String> = builder
+        .schema()
+        .fields()
+        .iter()
+        .map(|f| f.name().clone())
+        .collect();
+    let index = positions(path, &names, wanted)?;
+    let reader = builder
+        .build()
+        .map_err(|e| fail(None, None, format!("not a readable Parquet file: {e}")))?;
+    let mut values = vec![Vec::new(); wanted.len()];
+    let mut rows = 0usize;
+    for batch in reader {
+        let batch = batch.map_err(|e| fail(None, None, format!("cannot read: {e}")))?;
+        for ((column, &k), out) in wanted.iter().zip(&index).zip(&mut values) {
+            let array = batch.column(k);
+            let numeric = array.data_type().is_numeric() && *array.data_type() != DataType::Null;
+            if !numeric {
+                return Err(fail(
+                    None,
+                    Some(column),
+                    format!("is {}, not a number", array.data_type()),
+                ));
+            }
+            let array = arrow::compute::cast(array, &DataType::Float64)
+                .map_err(|e| fail(None, Some(column), format!("cannot read as numbers: {e}")))?;
+            let array = array.as_primitive::<Float64Type>();
+            for i in 0..array.len() {
+                let place = Some(format!("row {}", rows + i + 1));
+                if array.is_null(i) {
+                    return Err(fail(place, Some(column), "the cell is empty (null)".into()));
+                }
+                let v = array.value(i);
+                if !v.is_finite() {
+                    return Err(fail(
+                        place,
+                        Some(column),
+                        format!("{v} is not a finite number"),
+                    ));
+                }
+                out.push(v);
+            }
+        }
+        rows += batch.num_rows();
+    }
+    Ok(Columns {
+        file: path.to_path_buf(),
+        origins: (1..=rows).collect(),
+        parquet: true,
+        columns: wanted.iter().map(|w| w.to_string()).zip(values).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests;
