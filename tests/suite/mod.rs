@@ -12,6 +12,7 @@ mod noise_free;
 mod output_integrity;
 mod output_noise;
 mod profiles;
+mod routes;
 mod shards_resume;
 mod terrain_metric;
 mod thesis_table3;
