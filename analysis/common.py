@@ -91,8 +91,8 @@ def truth(study):
 def terrain_metrics(run_dir):
     """Per condition: ς over the terrain table (`terrain_ms_grid`, from summary.parquet; the
     table itself is not in the output) and ς over the drive cycle (`terrain_ms_cycle`, the
-    mean of θ² over the cycle's samples, thesis eq. 43), computed here from the grades in
-    cycles.parquet with a compensated sum."""
+    mean of θ² over the samples the regression uses, thesis eq. 43), computed here from the
+    grades in cycles.parquet (its `used` rows) with a compensated sum."""
     run_dir = pathlib.Path(run_dir)
     with duckdb.connect() as con:
         con.execute("SET threads = 1")
@@ -101,7 +101,7 @@ def terrain_metrics(run_dir):
             "any_value(c.ms) AS terrain_ms_cycle "
             "FROM read_parquet($summary) s JOIN ("
             "  SELECT condition, fsum(grade * grade) / count(*) AS ms "
-            "  FROM read_parquet($cycles) GROUP BY condition) c USING (condition) "
+            "  FROM read_parquet($cycles) WHERE used GROUP BY condition) c USING (condition) "
             "GROUP BY s.condition ORDER BY s.condition",
             {"summary": str(run_dir / "summary.parquet"),
              "cycles": str(run_dir / "cycles.parquet")},
