@@ -4,7 +4,8 @@
 //! moment kernel (draw + accumulate) and a whole realisation (kernel + solves + bounds).
 //!
 //! Run: `cargo bench --bench kernel`. The targets are ratios measured in one run:
-//! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation.
+//! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation; and the kernel's cost per sample
+//! on a day-long speed trace (80 000 samples) within 20 % of the thesis cycle's.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -116,5 +117,80 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(kernel, benches);
+/// A day-long 1 Hz drive log of `TRACE_SAMPLES` samples as a speed-trace study (speed
+/// 10–20 m/s, grade ±2 %, σ_v = 1 m/s), written into `dir`.
+fn trace_model(dir: &Path) -> VehicleModel {
+    let mut csv = String::from("t,v,grade\n");
+    for i in 0..TRACE_SAMPLES {
+        let t = i as f64;
+        let v = 15.0 + 5.0 * (t / 50.0).sin();
+        let g = 0.02 * (t / 300.0).sin();
+        csv.push_str(&format!("{t},{v},{g}\n"));
+    }
+    std::fs::write(dir.join("day.csv"), csv).unwrap();
+    let thesis =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/thesis.toml"))
+            .unwrap();
+    let mut text = String::new();
+    let mut skip = false;
+    for line in thesis.lines() {
+        if line.starts_with('[') {
+            skip = line == "[drive]" || line == "[terrain]";
+            if line == "[drive]" {
+                text.push_str("[drive]\nmode = \"speed_trace\"\ntrace = \"day.csv\"\ntime_column = \"t\"\nspeed_column = \"v\"\nspeed_unit = \"m/s\"\ngrade_column = \"grade\"\ngrade_unit = \"rad\"\n");
+            }
+        }
+        if !skip {
+            text.push_str(line);
+            text.push('\n');
+        }
+    }
+    let path = dir.join("day.toml");
+    std::fs::write(&path, text).unwrap();
+    VehicleModel::new(&Study::load(&path).unwrap()).unwrap()
+}
+
+/// Samples of the day-long trace (a 1 Hz log of 22 h).
+const TRACE_SAMPLES: usize = 80_000;
+
+/// The kernel's cost per sample on a day-long speed trace against the thesis cycle: criterion
+/// times each (throughput in samples), and a ratio measured in this run is printed (median
+/// of 15 interleaved rounds of 20 realisations each).
+fn per_sample(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let thesis = thesis_model();
+    let trace = trace_model(dir.path());
+    let mut g = c.benchmark_group("kernel_per_sample");
+    let mut r = 0u64;
+    for (name, model, n) in [
+        ("thesis_cycle", &thesis, N),
+        ("speed_trace_80k", &trace, TRACE_SAMPLES),
+    ] {
+        g.throughput(criterion::Throughput::Elements(n as u64));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                r += 1;
+                black_box(model.moments(2018, 0, r))
+            })
+        });
+    }
+    g.finish();
+    let per_sample = |model: &VehicleModel, n: usize, r0: u64| {
+        let start = std::time::Instant::now();
+        for r in r0..r0 + 20 {
+            black_box(model.moments(2018, 0, r));
+        }
+        start.elapsed().as_secs_f64() / (20 * n) as f64
+    };
+    let mut ratios: Vec<f64> = (0..15u64)
+        .map(|k| per_sample(&trace, TRACE_SAMPLES, 100 * k) / per_sample(&thesis, N, 100 * k))
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    println!(
+        "kernel cost per sample, speed trace (80 000 samples) / thesis cycle (60 001): {:.3} (median of 15; range {:.3}–{:.3})",
+        ratios[7], ratios[0], ratios[14]
+    );
+}
+
+criterion_group!(kernel, benches, per_sample);
 criterion_main!(kernel);
