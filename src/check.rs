@@ -81,6 +81,7 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
         .unwrap_or(1);
     let meta = FileMetadata {
         study_toml: study.to_toml(),
+        study_dir: study.dir().display().to_string(),
         seed: study.seed(),
         realisations: study.realisations(),
         identity: String::new(),

@@ -113,7 +113,11 @@ pub fn draw_staged(
     let study_toml = footer
         .get(keys::STUDY)
         .ok_or_else(|| OutputError::format(summary_path, "no study in the footer"))?;
-    let study = Study::from_toml(study_toml, &format!("{} (footer)", summary_path.display()))?;
+    let study = Study::from_toml_in(
+        study_toml,
+        &format!("{} (footer)", summary_path.display()),
+        &output::footer_dir(&footer, summary_path),
+    )?;
     let layout = crate::model::layout_of(&study);
     let summary = output::read_summary(summary_path, &layout)?;
     let cycles = match cycles_path {

@@ -79,6 +79,9 @@ pub mod keys {
     pub const PART: &str = "chassis_mc.part";
     /// On a shard's realisation file: "K/N".
     pub const SHARD: &str = "chassis_mc.shard";
+    /// The directory the study's data files (a speed trace, a terrain file) are named
+    /// relative to, so that the study can be reloaded from the footer.
+    pub const STUDY_DIR: &str = "chassis_mc.study_dir";
 }
 
 /// Failure while writing or reading output.
@@ -176,6 +179,8 @@ impl OutputError {
 pub struct FileMetadata {
     /// The study TOML as run.
     pub study_toml: String,
+    /// See [`keys::STUDY_DIR`].
+    pub study_dir: String,
     /// The master seed.
     pub seed: u64,
     /// Realisations per condition.
@@ -198,6 +203,7 @@ impl FileMetadata {
         let mut kv = vec![
             KeyValue::new(keys::TABLE.into(), table.to_string()),
             KeyValue::new(keys::STUDY.into(), self.study_toml.clone()),
+            KeyValue::new(keys::STUDY_DIR.into(), self.study_dir.clone()),
             KeyValue::new(keys::VERSION.into(), env!("CARGO_PKG_VERSION").to_string()),
             KeyValue::new(keys::SEED.into(), self.seed.to_string()),
             KeyValue::new(keys::REALISATIONS.into(), self.realisations.to_string()),
@@ -460,6 +466,15 @@ impl Footer {
             .iter()
             .find(|(k, _)| k == key)
             .map(|(_, v)| v.as_str())
+    }
+}
+
+/// The directory a footer's study names its data files relative to: the one recorded with
+/// it, or (for files written before it was recorded) the directory of `path`.
+pub fn footer_dir(footer: &Footer, path: &Path) -> PathBuf {
+    match footer.get(keys::STUDY_DIR) {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => path.parent().map(Path::to_path_buf).unwrap_or_default(),
     }
 }
 

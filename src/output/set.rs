@@ -442,6 +442,7 @@ mod tests {
         let schema = Arc::new(Schema::new(vec![Field::new("x", DataType::Float64, false)]));
         let meta = crate::output::FileMetadata {
             study_toml: "name = \"t\"".into(),
+            study_dir: String::new(),
             seed: 1,
             realisations: 1,
             identity: "t".into(),

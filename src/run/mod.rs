@@ -194,6 +194,7 @@ fn run_prepared(
     let infos = model.infos();
     let meta = FileMetadata {
         study_toml: study.to_toml(),
+        study_dir: study.dir().display().to_string(),
         seed: study.seed(),
         realisations: study.realisations(),
         identity: identity(study, model, &infos),

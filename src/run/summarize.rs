@@ -119,7 +119,8 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         }
     }
     let origin = format!("{} (footer)", first.display());
-    let study = Study::from_toml(&study_toml, &origin)?;
+    let dir = output::footer_dir(&output::read_metadata(first)?, first);
+    let study = Study::from_toml_in(&study_toml, &origin, &dir)?;
     let model = model::prepare(&study)?;
     let layout = model.layout().clone();
     let infos = model.infos();
@@ -133,6 +134,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),
+        study_dir: study.dir().display().to_string(),
         seed: study.seed(),
         realisations,
         identity,

@@ -16,7 +16,7 @@ mod vehicle;
 use validate::{check_realisations, serde_error, validate};
 
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
@@ -78,6 +78,7 @@ pub struct Study {
     realisations: u64,
     model: ModelSpec,
     origin: String,
+    dir: PathBuf,
     raw: RawStudy,
     spans: KeySpans,
 }
@@ -120,12 +121,28 @@ impl Study {
         Study::from_toml(&text, &origin)
     }
 
-    /// Validate study text; `origin` names it in errors.
+    /// Validate study text; `origin` names it in errors, and the data files it names are
+    /// relative to `origin`'s directory.
     pub fn from_toml(text: &str, origin: &str) -> Result<Study, StudyError> {
+        let dir = Path::new(origin).parent().unwrap_or(Path::new(""));
+        Study::from_toml_in(text, origin, dir)
+    }
+
+    /// Validate study text whose data files are relative to `dir` (e.g. a study read back
+    /// from an output file's footer, with the directory recorded there).
+    pub fn from_toml_in(text: &str, origin: &str, dir: &Path) -> Result<Study, StudyError> {
         let spans = KeySpans::new(text);
         let raw: RawStudy =
             toml::from_str(text).map_err(|e| serde_error(&e, &spans, text, origin))?;
-        validate(raw, spans, origin)
+        // Absolute, so that the directory recorded with the output stays valid from
+        // anywhere (as given when it cannot be resolved).
+        let dir = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+        validate(raw, spans, origin, dir)
+    }
+
+    /// The directory the study's data files are named relative to.
+    pub fn dir(&self) -> &Path {
+        &self.dir
     }
 
     /// Apply command-line overrides of the realisation count and seed.

@@ -1,6 +1,8 @@
 //! Validation: raw TOML values → the checked values of a [`Study`], each failure a
 //! [`StudyError`] naming the file, the key, its line and the reason.
 
+use std::path::{Path, PathBuf};
+
 use super::raw::RawStudy;
 use super::{KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, vehicle};
 use crate::estimate::channels::Channel;
@@ -90,6 +92,7 @@ pub(super) fn check_realisations(r: i128) -> Result<(), String> {
 pub(super) struct Checker<'a> {
     spans: &'a KeySpans,
     origin: &'a str,
+    dir: &'a Path,
 }
 
 impl Checker<'_> {
@@ -115,11 +118,8 @@ impl Checker<'_> {
     }
 
     /// The directory of the study file, against which the paths it names are resolved.
-    pub(super) fn dir(&self) -> std::path::PathBuf {
-        std::path::Path::new(self.origin)
-            .parent()
-            .map(std::path::Path::to_path_buf)
-            .unwrap_or_default()
+    pub(super) fn dir(&self) -> &Path {
+        self.dir
     }
 
     pub(super) fn missing_table(&self, key: &str) -> StudyError {
@@ -175,10 +175,16 @@ impl Checker<'_> {
     }
 }
 
-pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<Study, StudyError> {
+pub(super) fn validate(
+    raw: RawStudy,
+    spans: KeySpans,
+    origin: &str,
+    dir: PathBuf,
+) -> Result<Study, StudyError> {
     let c = Checker {
         spans: &spans,
         origin,
+        dir: &dir,
     };
     if raw.name.trim().is_empty() {
         return Err(c.fail("name", "must not be empty"));
@@ -230,6 +236,7 @@ pub(super) fn validate(raw: RawStudy, spans: KeySpans, origin: &str) -> Result<S
         realisations: raw.realisations as u64,
         model,
         origin: origin.to_string(),
+        dir,
         raw,
         spans,
     })

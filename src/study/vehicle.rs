@@ -124,9 +124,8 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
             common.insert(key.to_string(), value);
         }
     }
-    let dir = c.dir();
     let fail = |e: KeyError| c.fail(&e.key, e.reason);
-    let drive = (mode.parse)(&Params::new(&own, "drive").relative_to(&dir)).map_err(fail)?;
+    let drive = (mode.parse)(&Params::new(&own, "drive").relative_to(c.dir())).map_err(fail)?;
     let common = Params::new(&common, "drive");
     let selection = RowSelection {
         min_speed_m_s: common
@@ -216,8 +215,7 @@ fn validate_terrain(
             format!("unknown profile \"{name}\"; expected one of {names:?}"),
         )
     })?;
-    let dir = c.dir();
-    let profile = (entry.parse)(&Params::new(&t.params, "terrain").relative_to(&dir))
+    let profile = (entry.parse)(&Params::new(&t.params, "terrain").relative_to(c.dir()))
         .map_err(|e| c.fail(&e.key, e.reason))?;
     let scale_applies_to = match t.scale_applies_to.as_deref() {
         Some("grade") => ScaleTarget::Grade,

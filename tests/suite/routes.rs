@@ -386,3 +386,37 @@ fn a_malformed_trace_is_exit_2_naming_file_column_and_line_and_writes_nothing() 
         assert!(!out.exists(), "{name}: wrote {}", out.display());
     }
 }
+
+#[test]
+fn the_shipped_route_and_heavy_duty_studies_run_from_any_directory() {
+    // The route study names its trace relative to the study file; run, figures and
+    // summarize (which reload the study from the output's footer) must all find it from
+    // another working directory.
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["route_trace.toml", "heavy_duty.toml"] {
+        let out = tmp.path().join(name.trim_end_matches(".toml"));
+        let output = Command::new(bin())
+            .arg("run")
+            .arg(study_path(name))
+            .arg("--out")
+            .arg(&out)
+            .args(["--realisations", "20", "--quiet"])
+            .current_dir(tmp.path())
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{name}: {stderr}");
+        assert!(out.join("figures/cycles.svg").is_file(), "{name}");
+        let output = Command::new(bin())
+            .arg("summarize")
+            .arg(&out)
+            .arg("--quiet")
+            .current_dir(tmp.path())
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{name} summarize: {stderr}");
+    }
+}
