@@ -21,8 +21,11 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
         .filter(|(_, (_, v))| !**v)
         .map(|(a, (axis, _))| format!("{} = {}", axis.name, infos[0].axes[a]))
         .collect();
+    for line in &layout.context {
+        let _ = writeln!(out, "\n{line}");
+    }
     if !fixed.is_empty() {
-        let _ = writeln!(out, "\nIn every condition: {}.", fixed.join(", "));
+        let _ = writeln!(out, "In every condition: {}.", fixed.join(", "));
     }
     for (p, param) in layout.parameters.iter().enumerate() {
         let truth = rows

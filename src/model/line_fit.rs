@@ -89,6 +89,7 @@ impl LineFitModel {
 /// The row layout of the line-fit model.
 pub fn layout() -> Layout {
     Layout {
+        context: Vec::new(),
         axes: vec![Axis::text("noise"), Axis::number("noise_sd", "")],
         condition_metrics: vec![],
         figure_x: None,

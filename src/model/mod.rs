@@ -135,6 +135,8 @@ pub struct Layout {
     pub bounds: Vec<BoundInfo>,
     /// What figures plot against instead of the first axis that varies, if anything.
     pub figure_x: Option<FigureX>,
+    /// What every condition shares, in words (e.g. the route and the drive), for tables.
+    pub context: Vec<String>,
 }
 
 /// A condition metric that figures use as their x axis in place of a condition axis (e.g.
@@ -276,7 +278,7 @@ pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
 /// The row layout a study's model will have, without preparing it (no simulation).
 pub fn layout_of(study: &Study) -> Layout {
     match &study.model() {
-        ModelSpec::Vehicle(v) => vehicle::layout(&v.estimators),
+        ModelSpec::Vehicle(v) => vehicle::layout(v),
         ModelSpec::LineFit(_) => line_fit::layout(),
     }
 }

@@ -16,6 +16,9 @@ pub trait Profile: fmt::Debug + Send + Sync {
     /// (x_i = i m).
     fn rises_m(&self, length: usize) -> Vec<f64>;
 
+    /// The profile in a few words, for tables and figures (e.g. `cos2 h = 25 m, P = 300 m`).
+    fn describe(&self) -> String;
+
     /// The distance up to which the profile is defined \[m\] (`None`: any length).
     fn extent_m(&self) -> Option<f64> {
         None
@@ -85,6 +88,10 @@ impl Profile for Cos2 {
     fn rises_m(&self, length: usize) -> Vec<f64> {
         rises_of(|x| self.elevation_m(x), length)
     }
+
+    fn describe(&self) -> String {
+        format!("cos2 h = {} m, P = {} m", self.height_m, self.period_m)
+    }
 }
 
 /// `"sines"`: y(x) = Σ h_k cos²(x / P_k + φ_k), a road of several superposed hills.
@@ -136,6 +143,10 @@ impl Sines {
 impl Profile for Sines {
     fn rises_m(&self, length: usize) -> Vec<f64> {
         rises_of(|x| self.elevation_m(x), length)
+    }
+
+    fn describe(&self) -> String {
+        format!("sines of {} components", self.components.len())
     }
 }
 
@@ -241,5 +252,14 @@ impl Profile for FileProfile {
 
     fn extent_m(&self) -> Option<f64> {
         self.distance_m.last().copied()
+    }
+
+    fn describe(&self) -> String {
+        let what = match self.values {
+            FileValues::Elevation(_) => "elevation",
+            FileValues::Grade(_) => "grade",
+        };
+        let name = self.file.file_name().unwrap_or_default().to_string_lossy();
+        format!("{what} from {name}")
     }
 }

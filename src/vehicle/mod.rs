@@ -95,6 +95,9 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
     fn cycle(&self, vehicle: &VehicleParams, road: Road<'_>)
     -> Result<DriveCycle, SimulationError>;
 
+    /// The drive in a few words, for tables and figures.
+    fn describe(&self) -> String;
+
     /// Whether the cycle needs a terrain profile (otherwise `[terrain]` is optional and only
     /// its `scales` are read).
     fn needs_terrain(&self) -> bool {

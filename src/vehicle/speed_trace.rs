@@ -199,6 +199,20 @@ impl CycleSource for SpeedTrace {
     fn needs_terrain(&self) -> bool {
         self.grade_rad.is_none()
     }
+
+    fn describe(&self) -> String {
+        let name = self.file.file_name().unwrap_or_default().to_string_lossy();
+        let span = self.t_s[self.t_s.len() - 1] - self.t_s[0];
+        let grade = if self.grade_rad.is_some() {
+            ", grade by time"
+        } else {
+            ""
+        };
+        format!(
+            "speed trace {name} ({} samples, {span} s{grade})",
+            self.t_s.len()
+        )
+    }
 }
 
 #[cfg(test)]

@@ -105,6 +105,15 @@ impl CycleSource for TorqueDrive {
     fn needs_drivetrain(&self) -> bool {
         true
     }
+
+    fn describe(&self) -> String {
+        format!(
+            "torque {} N·m ± {} %, {} s",
+            self.torque_mean_n_m,
+            100.0 * self.torque_amplitude,
+            self.duration_s
+        )
+    }
 }
 
 /// Simulate one drive cycle over `terrain` by fixed-step RK4 at the sample step.

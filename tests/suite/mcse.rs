@@ -148,6 +148,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
 
     let layout = Layout {
         figure_x: None,
+        context: vec![],
         axes: vec![],
         condition_metrics: vec![],
         parameters: vec![ParameterInfo {

@@ -23,7 +23,6 @@ use super::{
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, NoiseLevels, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
-use crate::estimate::estimators::EstimatorRef;
 use crate::estimate::estimators::solve;
 use crate::estimate::moments::{MomentAccumulator, Moments};
 use crate::estimate::regression::Regression;
@@ -75,7 +74,7 @@ impl VehicleModel {
         let cycles = scale_cycles(study, &vs)?;
         let segments = segments(study, &vs, &cycles)?;
         let durations = duration_count(&vs);
-        let layout = layout(&vs.estimators);
+        let layout = layout(&vs);
         let conditions = grid(&vs)
             .par_iter()
             .map(|point| {
@@ -176,8 +175,21 @@ impl VehicleModel {
 }
 
 /// The row layout of the vehicle model running `estimators`.
-pub fn layout(estimators: &[EstimatorRef]) -> Layout {
+pub fn layout(study: &VehicleStudy) -> Layout {
+    let terrain = match &study.terrain {
+        Some(t) => format!(
+            "{}, {} km",
+            t.profile.describe(),
+            t.length_m as f64 / 1000.0
+        ),
+        None => "the trace's grade".to_string(),
+    };
+    let estimators = &study.estimators;
     Layout {
+        context: vec![format!(
+            "route: {terrain}; drive: {}",
+            study.drive.describe()
+        )],
         axes: axes().map(VehicleAxis::column).collect(),
         condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
         figure_x: Some(FigureX {
