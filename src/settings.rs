@@ -64,14 +64,16 @@ impl<'a> Params<'a> {
         }
     }
 
-    /// One of the strings `options`.
-    pub fn choice(&self, key: &str, options: &[&'static str]) -> Result<&'static str, KeyError> {
+    /// The value named by the string at `key`, one of `named` (name, value) pairs.
+    pub fn named<T: Copy>(&self, key: &str, named: &[(&'static str, T)]) -> Result<T, KeyError> {
         let s = self.string(key)?;
-        options
-            .iter()
-            .find(|o| **o == s)
-            .copied()
-            .ok_or_else(|| self.error(key, format!("must be one of {options:?}, got \"{s}\"")))
+        match named.iter().find(|(n, _)| *n == s) {
+            Some((_, value)) => Ok(*value),
+            None => {
+                let names: Vec<&str> = named.iter().map(|(n, _)| *n).collect();
+                Err(self.error(key, format!("must be one of {names:?}, got \"{s}\"")))
+            }
+        }
     }
 
     /// A boolean.

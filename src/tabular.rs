@@ -165,6 +165,39 @@ fn positions(path: &Path, names: &[String], wanted: &[&str]) -> Result<Vec<usize
         .collect()
 }
 
+/// The text of a CSV file prepared for the `csv` reader: without its BOM, its blank and
+/// comment lines (a `#` after optional whitespace), the CR of CRLF, and whitespace before a
+/// field (so that `a, "b, c"` is two fields); with the physical line number of each line
+/// kept, since the reader counts lines of this text.
+fn prepare_csv(bytes: &[u8]) -> (Vec<u8>, Vec<usize>) {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let mut text = Vec::with_capacity(bytes.len());
+    let mut lines = Vec::new();
+    let mut quoted = false; // inside a quoted field
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = line.strip_suffix(b"\r").unwrap_or(line);
+        let body = line.trim_ascii_start();
+        if !quoted && (body.is_empty() || body[0] == b'#') {
+            continue;
+        }
+        lines.push(i + 1);
+        let (mut start, mut closed) = (!quoted, false); // at a field's start; after a closing quote
+        for &b in line {
+            if quoted {
+                (quoted, closed) = (b != b'"', b == b'"');
+            } else if start && (b == b' ' || b == b'\t') {
+                continue;
+            } else {
+                quoted = b == b'"' && (start || closed);
+                (start, closed) = (b == b',', false);
+            }
+            text.push(b);
+        }
+        text.push(b'\n');
+    }
+    (text, lines)
+}
+
 fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
     let fail = |place: Option<String>, column: Option<&str>, reason: String| TabularError {
         file: path.to_path_buf(),
@@ -173,23 +206,8 @@ fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
         reason,
     };
     let bytes = std::fs::read(path).map_err(|e| fail(None, None, format!("cannot read: {e}")))?;
-    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    // Blank and comment lines are dropped before parsing, and CRLF becomes LF; `physical[k]` is the file's own
-    // line number of the reader's line k + 1, so that messages name the file's lines.
-    let mut kept = Vec::with_capacity(text.len());
-    let mut physical = Vec::new();
-    for (n, line) in text.split_inclusive(|&b| b == b'\n').enumerate() {
-        let content = line.trim_ascii();
-        if content.is_empty() || content.starts_with(b"#") {
-            continue;
-        }
-        // Line ends as LF (a CR before it dropped).
-        let line = line.strip_suffix(b"\n").unwrap_or(line);
-        kept.extend_from_slice(line.strip_suffix(b"\r").unwrap_or(line));
-        kept.push(b'\n');
-        physical.push(n + 1);
-    }
-    let text = kept;
+    // The reader's line k + 1 is the file's line physical[k]: messages name the file's lines.
+    let (text, physical) = prepare_csv(&bytes);
     let line_at = |k: u64| physical.get(k as usize - 1).copied().unwrap_or(k as usize);
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)

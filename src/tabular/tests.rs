@@ -31,6 +31,16 @@ fn a_real_file_with_bom_comments_blank_lines_quotes_and_crlf_is_read() {
 }
 
 #[test]
+fn a_quoted_header_after_a_space_and_a_quoted_cell_over_two_lines_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = "t, \"speed, km/h\", note\n0, 1, \"two\n\n# not a comment\"\n1, 2, x\n2, 3, y\n";
+    let path = write(&dir, "q.csv", text.as_bytes());
+    let c = read_columns(&path, &["speed, km/h"], 3).unwrap();
+    assert_eq!(c.get("speed, km/h"), &[1.0, 2.0, 3.0]);
+    assert_eq!(c.origins, vec![2, 5, 6]);
+}
+
+#[test]
 fn a_bad_cell_is_named_by_column_and_physical_line() {
     let text = "\u{feff}# header follows\n\nt,v\n0,1\n# c\n\n1,abc\n2,3\n";
     let e = error(text, &["t", "v"]);

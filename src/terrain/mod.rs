@@ -71,13 +71,7 @@ impl GradeUnit {
 
     /// Read `key` of `p` as a grade unit.
     pub fn parse(p: &Params<'_>, key: &str) -> Result<GradeUnit, KeyError> {
-        let names = Self::ALL.map(|(n, _)| n);
-        let name = p.choice(key, &names)?;
-        Ok(Self::ALL
-            .iter()
-            .find(|(n, _)| *n == name)
-            .expect("a listed name")
-            .1)
+        p.named(key, &Self::ALL)
     }
 }
 

@@ -72,13 +72,7 @@ impl SpeedTrace {
         let file = p.file("trace")?;
         let time = p.string("time_column")?;
         let speed = p.string("speed_column")?;
-        let speed_names = SpeedUnit::ALL.map(|(n, _)| n);
-        let speed_unit = p.choice("speed_unit", &speed_names)?;
-        let speed_unit = SpeedUnit::ALL
-            .iter()
-            .find(|(n, _)| *n == speed_unit)
-            .expect("a listed name")
-            .1;
+        let speed_unit = p.named("speed_unit", &SpeedUnit::ALL)?;
         let grade = p.optional("grade_column", |p, k| p.string(k))?;
         let grade_unit = match grade {
             Some(_) => Some(GradeUnit::parse(p, "grade_unit")?),

@@ -308,21 +308,6 @@ fn an_interrupted_run_leaves_existing_results_untouched() {
     );
 }
 
-/// Run the binary with `args` in a fresh working directory; (exit code, stdout, stderr).
-fn cli(args: &[&std::ffi::OsStr], cwd: &Path) -> (i32, String, String) {
-    let output = Command::new(bin())
-        .args(args)
-        .current_dir(cwd)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap();
-    (
-        output.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        String::from_utf8_lossy(&output.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn a_non_physical_grade_is_accepted() {
     // Scaled by 1000, the grade reaches ±83 rad, which sin and cos wrap into plausible

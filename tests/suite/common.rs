@@ -5,6 +5,7 @@
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 
 use arrow::array::{Array, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray};
 use chassis_mc::montecarlo::Silent;
@@ -138,3 +139,27 @@ pub fn bin() -> PathBuf {
 
 /// Parameter names in output order.
 pub const PARAMS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
+
+/// Run the binary with `args` in a fresh working directory; (exit code, stdout, stderr).
+pub fn cli(args: &[&std::ffi::OsStr], cwd: &Path) -> (i32, String, String) {
+    let output = Command::new(bin())
+        .args(args)
+        .current_dir(cwd)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    (
+        output.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// The three tables of two runs hold the same columns, value for value (not the same
+/// schemas: the footer records the study text, which may differ).
+pub fn assert_same_tables(a: &Path, b: &Path) {
+    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"] {
+        let (x, y) = (read_table(&a.join(name)), read_table(&b.join(name)));
+        assert_eq!(x.columns(), y.columns(), "{name}");
+    }
+}

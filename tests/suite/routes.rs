@@ -221,14 +221,7 @@ fn a_file_terrain_equal_to_the_cos2_table_reproduces_the_cos2_study_bit_for_bit(
     let file = load(&text, 40);
     let (a, _) = run(&thesis, None);
     let (b, _) = run(&file, None);
-    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"] {
-        let (x, y) = (
-            read_table(&a.path().join(name)),
-            read_table(&b.path().join(name)),
-        );
-        // Columns, not schemas: the footer records the study text, which differs.
-        assert_eq!(x.columns(), y.columns(), "{name}");
-    }
+    assert_same_tables(a.path(), b.path());
 }
 
 #[test]
@@ -276,20 +269,6 @@ fn a_speed_trace_of_the_torque_cycle_gives_the_torque_study_within_mcse() {
             );
         }
     }
-}
-
-/// Run the binary; (exit code, stdout, stderr).
-fn cli(args: &[&std::ffi::OsStr]) -> (i32, String, String) {
-    let output = Command::new(bin())
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap();
-    (
-        output.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        String::from_utf8_lossy(&output.stderr).into_owned(),
-    )
 }
 
 #[test]
@@ -364,13 +343,16 @@ fn a_malformed_trace_is_exit_2_naming_file_column_and_line_and_writes_nothing() 
         let study = tmp.path().join(format!("{}.toml", name.replace(' ', "_")));
         std::fs::write(&study, thesis_with(Some(&drive), Some(""))).unwrap();
         let out = tmp.path().join(format!("out-{}", name.replace(' ', "_")));
-        let (code, stdout, stderr) = cli(&[
-            "run".as_ref(),
-            study.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-            "--quiet".as_ref(),
-        ]);
+        let (code, stdout, stderr) = cli(
+            &[
+                "run".as_ref(),
+                study.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+                "--quiet".as_ref(),
+            ],
+            tmp.path(),
+        );
         assert_eq!(code, 2, "{name}: exit {code}: {stderr}");
         assert!(stdout.is_empty(), "{name}: {stdout}");
         assert_eq!(stderr.trim().lines().count(), 1, "{name}: {stderr}");
