@@ -67,6 +67,9 @@ pub struct VehicleStudy {
     pub scales: Vec<f64>,
     /// Noise condition axes.
     pub noise: NoiseAxes,
+    /// Constant offsets of the measured grade \[rad\], one condition axis (`[0.0]` when
+    /// the study has no `noise.grade_bias`).
+    pub grade_bias: Vec<f64>,
     /// Estimators run on every realisation (common random numbers).
     pub estimators: Vec<EstimatorRef>,
 }
@@ -151,7 +154,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     }
     let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
 
-    let noise = validate_noise(n, c)?;
+    let (noise, grade_bias) = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
 
@@ -163,6 +166,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         terrain,
         scales,
         noise,
+        grade_bias,
         estimators,
     })
 }
@@ -268,8 +272,12 @@ fn validate_terrain(
 
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no
 /// other key.
-fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<NoiseAxes, StudyError> {
-    let keys = Channel::ALL.map(Channel::key);
+fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<(NoiseAxes, Vec<f64>), StudyError> {
+    let keys: Vec<&str> = Channel::ALL
+        .map(Channel::key)
+        .into_iter()
+        .chain([GRADE_BIAS])
+        .collect();
     if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
         return Err(c.fail(
             &format!("noise.{k}"),
@@ -285,5 +293,12 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<NoiseAxes, StudyError
             (None, None) => return Err(c.fail(&key, "required key is missing")),
         };
     }
-    Ok(NoiseAxes::new(levels))
+    let grade_bias = match n.0.get(GRADE_BIAS) {
+        Some(list) => c.list(&format!("noise.{GRADE_BIAS}"), list, Checker::finite)?,
+        None => vec![0.0],
+    };
+    Ok((NoiseAxes::new(levels), grade_bias))
 }
+
+/// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
+const GRADE_BIAS: &str = "grade_bias";

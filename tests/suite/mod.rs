@@ -13,6 +13,7 @@ mod output_integrity;
 mod output_noise;
 mod profiles;
 mod routes;
+mod sensors;
 mod shards_resume;
 mod terrain_metric;
 mod thesis_table3;

@@ -17,6 +17,8 @@ pub enum VehicleAxis {
     Duration,
     /// The standard deviation of one noise channel (`noise.<channel>_sd`).
     Noise(Channel),
+    /// A constant offset of the measured grade (`noise.grade_bias`).
+    GradeBias,
 }
 
 /// Every axis, outermost first.
@@ -24,6 +26,7 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
     [VehicleAxis::Scale, VehicleAxis::Duration]
         .into_iter()
         .chain(Channel::ALL.map(VehicleAxis::Noise))
+        .chain([VehicleAxis::GradeBias])
 }
 
 /// One condition: the level of every axis.
@@ -35,6 +38,8 @@ pub struct Point {
     pub duration_index: usize,
     /// The noise levels.
     pub noise: NoiseLevels,
+    /// Index into `noise.grade_bias`.
+    pub grade_bias_index: usize,
 }
 
 impl VehicleAxis {
@@ -44,6 +49,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => Axis::number("scale", ""),
             VehicleAxis::Duration => Axis::number("duration", "s"),
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
+            VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
         }
     }
 
@@ -53,6 +59,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales.len(),
             VehicleAxis::Duration => study.durations.as_ref().map_or(1, Vec::len),
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
+            VehicleAxis::GradeBias => study.grade_bias.len(),
         }
     }
 
@@ -62,6 +69,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => point.scale_index = i,
             VehicleAxis::Duration => point.duration_index = i,
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
+            VehicleAxis::GradeBias => point.grade_bias_index = i,
         }
     }
 
@@ -71,6 +79,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Noise(c) => point.noise[c],
+            VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
         })
     }
 }

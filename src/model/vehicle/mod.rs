@@ -81,7 +81,7 @@ impl VehicleModel {
                 let noise = point.noise;
                 let k = point.scale_index * durations + point.duration_index;
                 let segment = &segments[k];
-                let regression = segment.regression.clone();
+                let regression = segment.regressions[point.grade_bias_index].clone();
                 let constant_bounds = BOUNDS
                     .iter()
                     .map(|bound| {

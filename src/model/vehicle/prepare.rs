@@ -24,8 +24,8 @@ pub(super) struct ScaleCycle {
 pub(super) struct Segment {
     /// Which samples of the scale's cycle the regression uses.
     pub used: Arc<Vec<bool>>,
-    /// The regression of those samples.
-    pub regression: Arc<Regression>,
+    /// The regression of those samples, one per grade bias (the measured grade θ + b).
+    pub regressions: Vec<Arc<Regression>>,
     /// The condition metrics: ς over the table and over the used samples.
     pub metrics: Vec<f64>,
     /// The duration \[s\]: the axis value, or the whole cycle's length.
@@ -119,10 +119,21 @@ pub(super) fn segments(
                 ));
             }
             let selected = cycle.select(&used);
-            let regression = Regression::new(&selected, &vs.vehicle);
+            let regressions = vs
+                .grade_bias
+                .iter()
+                .map(|&b| {
+                    if b == 0.0 {
+                        return Arc::new(Regression::new(&selected, &vs.vehicle));
+                    }
+                    let mut measured = selected.clone();
+                    measured.grade_rad.iter_mut().for_each(|g| *g += b);
+                    Arc::new(Regression::new(&measured, &vs.vehicle))
+                })
+                .collect();
             Ok(Segment {
                 used: Arc::new(used),
-                regression: Arc::new(regression),
+                regressions,
                 metrics: vec![cycles[s].terrain_ms_grid, selected.terrain_mean_square()],
                 duration_s: duration.unwrap_or(length),
             })
