@@ -2,7 +2,7 @@
 //! `thesis_bound` (σ² A⁻¹), `eiv_sandwich` and `eiv_crlb_linearized` from the first-order
 //! equation-error variance Ω (see docs/model.md#bounds).
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::channels::{Channel, NoiseLevels};
 use super::regression::Regression;
@@ -56,9 +56,37 @@ impl Regression {
     ) -> Result<[f64; 3], SolveError> {
         let omega = self.equation_error_variance(theta, noise);
         let bread = inverse_spd(&self.xtx)?;
-        let meat = self.weighted_gram(&omega);
+        let mut meat = self.weighted_gram(&omega);
+        if noise.velocity_correlated() {
+            meat += self.correlated_speed_meat(theta, noise);
+        }
         let cov = bread * meat * bread;
         Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
+    /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
+    /// (Gaussian e: Cov(e_i², e_j²) = 2ρ²σ⁴, Cov(e_i, e_j²) = 0). Summed in O(N) by the
+    /// recursion G_i = φ_i (G_{i−1} + a_{i−1} x_{i−1}) = Σ_{j<i} ρ_ij a_j x_j.
+    fn correlated_speed_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
+        let sd = noise[Channel::Velocity];
+        let scale = (theta[1] * self.k).powi(2);
+        let phi = self.ar1_coefficients(noise.velocity_correlation_s);
+        let x = |i: usize| Vector3::new(self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]);
+        // (weight a_i, per-step factor, coefficient): the ρ term and the ρ² term.
+        let mut total = Matrix3::zeros();
+        for (square, coefficient) in [(false, 4.0 * sd * sd), (true, 2.0 * sd.powi(4))] {
+            let a = |i: usize| if square { 1.0 } else { self.v[i] };
+            let mut g = Vector3::zeros();
+            let mut half = Matrix3::zeros();
+            for (i, [p, _]) in phi.iter().enumerate().skip(1) {
+                let step = if square { p * p } else { *p };
+                g = step * (g + a(i - 1) * x(i - 1));
+                half += a(i) * x(i) * g.transpose();
+            }
+            total += coefficient * (half + half.transpose());
+        }
+        scale * total
     }
 
     /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
@@ -137,14 +165,14 @@ pub static BOUNDS: [Bound; 4] = [
     },
     Bound {
         name: "eiv_sandwich",
-        description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance",
+        description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance; with AR(1) speed noise, Ω banded",
         applies: NoiseLevels::in_regressors,
         value: BoundValue::Constant(|reg, theta, n| reg.sandwich_se(theta, n).ok()),
     },
     Bound {
         name: "eiv_crlb_linearized",
-        description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach)",
-        applies: NoiseLevels::in_regressors,
+        description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated speed noise)",
+        applies: |n| n.in_regressors() && !n.velocity_correlated(),
         value: BoundValue::Constant(|reg, theta, n| reg.linearized_crlb_se(theta, n).ok()),
     },
 ];

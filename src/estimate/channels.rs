@@ -172,10 +172,41 @@ impl<T> IndexMut<Channel> for PerChannel<T> {
     }
 }
 
-/// Noise levels of one condition: a standard deviation per channel (0 = off).
-pub type NoiseLevels = PerChannel<f64>;
+/// Noise levels of one condition: a standard deviation per channel (0 = off), and the
+/// correlation time of the speed noise.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct NoiseLevels {
+    /// Standard deviation per channel, in the channel's unit (0 = off).
+    pub sd: PerChannel<f64>,
+    /// Correlation time τ_c of the speed noise \[s\]: a stationary AR(1) process with
+    /// φ = exp(−Δt/τ_c) between consecutive samples (0 = white).
+    pub velocity_correlation_s: f64,
+}
+
+impl Index<Channel> for NoiseLevels {
+    type Output = f64;
+    fn index(&self, c: Channel) -> &f64 {
+        &self.sd[c]
+    }
+}
+
+impl IndexMut<Channel> for NoiseLevels {
+    fn index_mut(&mut self, c: Channel) -> &mut f64 {
+        &mut self.sd[c]
+    }
+}
 
 impl NoiseLevels {
+    /// (channel, standard deviation) pairs in [`Channel::ALL`] order.
+    pub fn iter(&self) -> impl Iterator<Item = (Channel, &f64)> {
+        self.sd.iter()
+    }
+
+    /// True when the speed noise is on and correlated in time.
+    pub fn velocity_correlated(&self) -> bool {
+        self.is_on(Channel::Velocity) && self.velocity_correlation_s > 0.0
+    }
+
     /// Whether `channel` is on.
     pub fn is_on(&self, channel: Channel) -> bool {
         self[channel] > 0.0

@@ -30,6 +30,8 @@ use crate::vehicle::{DriveCycle, VehicleParams};
 /// The noise-free regression of one drive cycle and its constant sums.
 #[derive(Debug, Clone)]
 pub struct Regression {
+    /// Sample times \[s\] (for noise correlated in time).
+    pub t: Vec<f64>,
     /// Column 1: F_prop \[N\].
     pub f: Vec<f64>,
     /// Column 3: c = −g cos θ \[m/s²\].
@@ -107,6 +109,7 @@ impl Regression {
             }
         }
         Regression {
+            t: cycle.t_s.clone(),
             speed_sums_noise_free,
             sum_f: sum(&f),
             sum_c: sum(&c),
@@ -133,6 +136,19 @@ impl Regression {
     /// True when there are no samples.
     pub fn is_empty(&self) -> bool {
         self.f.is_empty()
+    }
+
+    /// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at these
+    /// samples: φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that
+    /// e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i is stationary with unit variance for any steps
+    /// (the first entry is unused: e_0 = z_0).
+    pub fn ar1_coefficients(&self, tau_s: f64) -> Vec<[f64; 2]> {
+        std::iter::once([0.0, 1.0])
+            .chain(self.t.windows(2).map(|w| {
+                let phi = (-(w[1] - w[0]) / tau_s).exp();
+                [phi, (1.0 - phi * phi).sqrt()]
+            }))
+            .collect()
     }
 }
 

@@ -67,6 +67,9 @@ pub struct VehicleStudy {
     pub scales: Vec<f64>,
     /// Noise condition axes.
     pub noise: NoiseAxes,
+    /// Correlation times of the speed noise \[s\], one condition axis (`[0.0]`, white, when
+    /// the study has no `noise.velocity_correlation_time`).
+    pub velocity_correlation_s: Vec<f64>,
     /// Constant offsets of the measured grade \[rad\], one condition axis (`[0.0]` when
     /// the study has no `noise.grade_bias`).
     pub grade_bias: Vec<f64>,
@@ -154,7 +157,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     }
     let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
 
-    let (noise, grade_bias) = validate_noise(n, c)?;
+    let (noise, grade_bias, velocity_correlation_s) = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
 
@@ -167,6 +170,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         scales,
         noise,
         grade_bias,
+        velocity_correlation_s,
         estimators,
     })
 }
@@ -272,11 +276,14 @@ fn validate_terrain(
 
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no
 /// other key.
-fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<(NoiseAxes, Vec<f64>), StudyError> {
+fn validate_noise(
+    n: &RawNoise,
+    c: &Checker<'_>,
+) -> Result<(NoiseAxes, Vec<f64>, Vec<f64>), StudyError> {
     let keys: Vec<&str> = Channel::ALL
         .map(Channel::key)
         .into_iter()
-        .chain([GRADE_BIAS])
+        .chain([GRADE_BIAS, VELOCITY_CORRELATION])
         .collect();
     if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
         return Err(c.fail(
@@ -297,8 +304,20 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<(NoiseAxes, Vec<f64>)
         Some(list) => c.list(&format!("noise.{GRADE_BIAS}"), list, Checker::finite)?,
         None => vec![0.0],
     };
-    Ok((NoiseAxes::new(levels), grade_bias))
+    let correlation = match n.0.get(VELOCITY_CORRELATION) {
+        Some(list) => c.list(
+            &format!("noise.{VELOCITY_CORRELATION}"),
+            list,
+            Checker::non_negative,
+        )?,
+        None => vec![0.0],
+    };
+    Ok((NoiseAxes::new(levels), grade_bias, correlation))
 }
+
+/// The `[noise]` key of the speed noise's correlation time \[s\] (an axis; default `[0]`,
+/// white noise).
+const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
 
 /// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
 const GRADE_BIAS: &str = "grade_bias";

@@ -46,10 +46,15 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 }
 
 /// Columns added after the hashes below were pinned, each with a value the older engine
-/// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none)
-/// and `used` (every sample). They are checked separately; the hash covers every other
-/// column.
-const ADDED_COLUMNS: [&str; 3] = ["duration", "grade_bias", "used"];
+/// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none),
+/// `velocity_correlation_time` (white noise) and `used` (every sample). They are checked
+/// separately; the hash covers every other column.
+const ADDED_COLUMNS: [&str; 4] = [
+    "duration",
+    "grade_bias",
+    "velocity_correlation_time",
+    "used",
+];
 
 /// XXH64 of every value of a table, column by column in row order (doubles by their bits,
 /// nulls marked), but the [`ADDED_COLUMNS`]: a fingerprint of the content that ignores the
@@ -98,6 +103,11 @@ fn pinned_hashes(text: &str) -> [u64; 3] {
     for table in &tables[..2] {
         assert!(f64_col(table, "duration").iter().all(|&d| d == 600.0));
         assert!(f64_col(table, "grade_bias").iter().all(|&b| b == 0.0));
+        assert!(
+            f64_col(table, "velocity_correlation_time")
+                .iter()
+                .all(|&t| t == 0.0)
+        );
     }
     let used = tables[2]
         .column_by_name("used")

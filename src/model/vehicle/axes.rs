@@ -17,6 +17,8 @@ pub enum VehicleAxis {
     Duration,
     /// The standard deviation of one noise channel (`noise.<channel>_sd`).
     Noise(Channel),
+    /// The correlation time of the speed noise (`noise.velocity_correlation_time`).
+    VelocityCorrelation,
     /// A constant offset of the measured grade (`noise.grade_bias`).
     GradeBias,
 }
@@ -26,7 +28,7 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
     [VehicleAxis::Scale, VehicleAxis::Duration]
         .into_iter()
         .chain(Channel::ALL.map(VehicleAxis::Noise))
-        .chain([VehicleAxis::GradeBias])
+        .chain([VehicleAxis::VelocityCorrelation, VehicleAxis::GradeBias])
 }
 
 /// One condition: the level of every axis.
@@ -49,6 +51,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => Axis::number("scale", ""),
             VehicleAxis::Duration => Axis::number("duration", "s"),
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
+            VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
         }
     }
@@ -59,6 +62,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales.len(),
             VehicleAxis::Duration => study.durations.as_ref().map_or(1, Vec::len),
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
+            VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
             VehicleAxis::GradeBias => study.grade_bias.len(),
         }
     }
@@ -69,6 +73,9 @@ impl VehicleAxis {
             VehicleAxis::Scale => point.scale_index = i,
             VehicleAxis::Duration => point.duration_index = i,
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
+            VehicleAxis::VelocityCorrelation => {
+                point.noise.velocity_correlation_s = study.velocity_correlation_s[i]
+            }
             VehicleAxis::GradeBias => point.grade_bias_index = i,
         }
     }
@@ -79,6 +86,7 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Noise(c) => point.noise[c],
+            VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
             VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
         })
     }

@@ -21,7 +21,7 @@ use super::{
     BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo, Status,
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
-use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, NoiseLevels, PerChannel};
+use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::solve;
 use crate::estimate::moments::{MomentAccumulator, Moments};
@@ -44,6 +44,8 @@ struct Condition {
     segment: usize,
     noise: NoiseLevels,
     regression: Arc<Regression>,
+    /// AR(1) coefficients of correlated speed noise (`None` when white).
+    ar1: Option<Vec<[f64; 2]>>,
     /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
     /// realisations and the bound applies (NaN otherwise).
     constant_bounds: Vec<[f64; 3]>,
@@ -116,6 +118,9 @@ impl VehicleModel {
                     scale_index: point.scale_index,
                     segment: k,
                     noise,
+                    ar1: noise
+                        .velocity_correlated()
+                        .then(|| regression.ar1_coefficients(noise.velocity_correlation_s)),
                     regression,
                     constant_bounds,
                 }
@@ -157,14 +162,28 @@ impl VehicleModel {
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
         let mut acc = MomentAccumulator::new(reg, noise);
         let n = reg.len();
+        // The previous sample's correlated speed noise (AR(1) only).
+        let mut previous = 0.0;
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
+            if let (Some(ar1), Some(stream)) = (&cond.ar1, &mut streams[Channel::Velocity]) {
+                let buffer = &mut buffers[Channel::Velocity][..len];
+                stream.fill_block(buffer);
+                for (z, [phi, scale]) in buffer.iter_mut().zip(&ar1[start..start + len]) {
+                    *z = phi * previous + scale * *z;
+                    previous = *z;
+                }
+            }
             let mut draws = BlockNoise::default();
-            for ((stream, buffer), draw) in
-                streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0)
+            for (channel, ((stream, buffer), draw)) in Channel::ALL
+                .into_iter()
+                .zip(streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0))
             {
                 *draw = stream.as_mut().map(|s| {
-                    s.fill_block(&mut buffer[..len]);
+                    // The correlated speed noise is drawn and filtered above.
+                    if !(channel == Channel::Velocity && cond.ar1.is_some()) {
+                        s.fill_block(&mut buffer[..len]);
+                    }
                     &buffer[..len]
                 });
             }
