@@ -124,7 +124,11 @@ impl Study {
     /// Validate study text; `origin` names it in errors, and the data files it names are
     /// relative to `origin`'s directory.
     pub fn from_toml(text: &str, origin: &str) -> Result<Study, StudyError> {
-        let dir = Path::new(origin).parent().unwrap_or(Path::new(""));
+        // A bare file name's directory is the working directory.
+        let dir = match Path::new(origin).parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
         Study::from_toml_in(text, origin, dir)
     }
 

@@ -402,3 +402,22 @@ fn the_shipped_route_and_heavy_duty_studies_run_from_any_directory() {
         assert!(output.status.success(), "{name} summarize: {stderr}");
     }
 }
+
+#[test]
+fn a_study_run_by_its_bare_file_name_finds_its_trace() {
+    // From inside studies/: the study's directory is the working directory, recorded as
+    // such, so the figures (which reload the study from the output footer) find the trace.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let output = Command::new(bin())
+        .args(["run", "route_trace.toml", "--out"])
+        .arg(&out)
+        .args(["--realisations", "10", "--quiet"])
+        .current_dir(root().join("studies"))
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(out.join("figures/cycles.svg").is_file());
+}

@@ -70,6 +70,9 @@ pub(super) fn scale_cycles(
                 terrain_ms_grid: table.map_or(f64::NAN, |t| t.mean_square()),
             })
         })
+        .collect::<Vec<_>>()
+        // The first error in study order, whatever the thread count.
+        .into_iter()
         .collect()
 }
 
@@ -138,5 +141,8 @@ pub(super) fn segments(
                 duration_s: duration.unwrap_or(length),
             })
         })
+        .collect::<Vec<_>>()
+        // The first error in study order, whatever the thread count.
+        .into_iter()
         .collect()
 }
