@@ -5,7 +5,8 @@
 //!
 //! Run: `cargo bench --bench kernel`. The targets are ratios measured in one run:
 //! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation; and the kernel's cost per sample
-//! on a day-long speed trace (80 000 samples) within 20 % of the thesis cycle's.
+//! on a day-long speed trace (80 000 samples) within 20 % of the thesis cycle's; and a
+//! realisation running OLS and `wbcls` (or `rls`) at most twice one running OLS alone.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -192,5 +193,75 @@ fn per_sample(c: &mut Criterion) {
     );
 }
 
-criterion_group!(kernel, benches, per_sample);
+/// The thesis study (velocity noise σ_v = 1 m/s, scale 1) running `estimators`.
+fn thesis_with(dir: &Path, estimators: &str) -> VehicleModel {
+    let thesis =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/thesis.toml"))
+            .unwrap();
+    let text: String = thesis
+        .lines()
+        .map(|line| {
+            if line.starts_with("estimators") {
+                format!("estimators = {estimators}\n")
+            } else {
+                format!("{line}\n")
+            }
+        })
+        .collect();
+    let path = dir.join("estimators.toml");
+    std::fs::write(&path, text).unwrap();
+    VehicleModel::new(&Study::load(&path).unwrap()).unwrap()
+}
+
+/// What an estimator that reads the rows adds to a realisation: the whole realisation
+/// (kernel, rows, every estimator, bounds) with OLS and one more estimator against OLS
+/// alone. Criterion times each, and the ratios measured in this run are printed (median of
+/// 15 interleaved rounds of 10 realisations each). The target: at most 2.
+fn estimator_cost(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let models: Vec<(&str, VehicleModel)> = [
+        ("ols", r#"["ols"]"#),
+        ("ols_bcls", r#"["ols", "bcls"]"#),
+        ("ols_wbcls", r#"["ols", "wbcls"]"#),
+        ("ols_rls", r#"["ols", "rls"]"#),
+    ]
+    .into_iter()
+    .map(|(name, list)| (name, thesis_with(dir.path(), list)))
+    .collect();
+    let mut g = c.benchmark_group("estimator_cost");
+    g.sample_size(30);
+    let mut r = 0u64;
+    for (name, model) in &models {
+        let mut slots = vec![0.0; model.layout().realisation_stride()];
+        g.bench_function(*name, |b| {
+            b.iter(|| {
+                r += 1;
+                model.realise(2018, 0, r, &mut slots);
+                black_box(slots[1])
+            })
+        });
+    }
+    g.finish();
+    let time = |model: &VehicleModel, r0: u64| {
+        let mut slots = vec![0.0; model.layout().realisation_stride()];
+        let start = std::time::Instant::now();
+        for r in r0..r0 + 10 {
+            model.realise(2018, 0, r, &mut slots);
+            black_box(slots[1]);
+        }
+        start.elapsed().as_secs_f64()
+    };
+    for (name, model) in &models[1..] {
+        let mut ratios: Vec<f64> = (0..15u64)
+            .map(|k| time(model, 100 * k) / time(&models[0].1, 100 * k))
+            .collect();
+        ratios.sort_by(f64::total_cmp);
+        println!(
+            "realisation cost, {name} / ols alone: {:.3} (median of 15; range {:.3}–{:.3})",
+            ratios[7], ratios[0], ratios[14]
+        );
+    }
+}
+
+criterion_group!(kernel, benches, per_sample, estimator_cost);
 criterion_main!(kernel);

@@ -44,6 +44,8 @@ pub struct ExtraInputs<'a> {
     pub fisher_condition: f64,
     /// The realisation's thesis bound, where it applies.
     pub thesis_bound: Option<&'a [f64; 3]>,
+    /// The estimator's settle time, where it reports one.
+    pub settle_time_s: Option<f64>,
 }
 
 /// A derived quantity stored next to every estimate: one entry of [`EXTRAS`].
@@ -60,7 +62,7 @@ pub struct Extra {
 }
 
 /// Every per-row extra of the vehicle model, in column order.
-pub static EXTRAS: [Extra; 5] = [
+pub static EXTRAS: [Extra; 6] = [
     Extra {
         name: "mass_hat",
         unit: "kg",
@@ -96,5 +98,11 @@ pub static EXTRAS: [Extra; 5] = [
             x.thesis_bound
                 .map_or(f64::NAN, |b| thesis_error_conversions(x.theta, b).1)
         },
+    },
+    Extra {
+        name: "rls_settle_time",
+        unit: "s",
+        description: "rls only: time from the first row after which the 1/M estimate stays within ±2 % of its truth (null if never)",
+        value: |x| x.settle_time_s.unwrap_or(f64::NAN),
     },
 ];

@@ -12,10 +12,75 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::Bound;
 use super::channels::{Channel, NoiseLevels};
-use super::moments::Moments;
+use super::moments::{Moments, Rows, RowsView};
+use super::regression::Regression;
+use super::rls::Rls;
+use super::wbcls::Wbcls;
 use crate::numeric::linalg::{SolveError, solve_spd};
 
-/// An estimator of θ from one realisation's sums.
+/// Everything an estimator may use from one realisation: what a real log would give (the
+/// measured sums and rows, the sample times, the known noise levels), never the noise-free
+/// signals; the truth only to score itself (the RLS settle time).
+#[derive(Debug, Clone, Copy)]
+pub struct Realisation<'a> {
+    /// The sums of the measured rows.
+    pub moments: &'a Moments,
+    /// The measured rows (`Some` when an estimator of the study [needs them](Estimator::needs_rows)).
+    pub rows: Option<&'a Rows>,
+    /// The condition's regression: only its sample times `t`, k = ½ρA and g are read.
+    pub regression: &'a Regression,
+    /// The condition's noise levels (known to the estimator, as in the thesis).
+    pub noise: &'a NoiseLevels,
+    /// The estimator settings of the study.
+    pub settings: &'a EstimatorSettings,
+    /// The true θ (for scores such as the settle time, never for the estimate).
+    pub truth: &'a [f64; 3],
+}
+
+impl<'a> Realisation<'a> {
+    /// The measured rows; an estimator that reads them says so in
+    /// [`Estimator::needs_rows`], so the model always provides them.
+    pub fn rows(&self) -> RowsView<'a> {
+        self.rows
+            .expect("the model provides the rows to an estimator that needs them")
+            .view(self.regression)
+    }
+}
+
+/// Study settings of the estimators (`[estimation]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimatorSettings {
+    /// Exponential forgetting factor λ of `rls`, 0 < λ ≤ 1 (1: no forgetting).
+    pub forgetting: f64,
+}
+
+impl Default for EstimatorSettings {
+    fn default() -> Self {
+        EstimatorSettings { forgetting: 1.0 }
+    }
+}
+
+/// One estimator's result on one realisation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// θ̂, or why the normal equations could not be solved.
+    pub theta: Result<Vector3<f64>, SolveError>,
+    /// `rls` only: the time \[s\] after which the 1/M estimate stays within ±2 % of its
+    /// truth, from the first row (`None`: never, or not this estimator).
+    pub settle_time_s: Option<f64>,
+}
+
+impl Estimate {
+    /// An estimate with nothing but θ̂.
+    pub fn theta(theta: Result<Vector3<f64>, SolveError>) -> Self {
+        Estimate {
+            theta,
+            settle_time_s: None,
+        }
+    }
+}
+
+/// An estimator of θ from one realisation.
 pub trait Estimator: Sync + Send + fmt::Debug {
     /// Name in study files and in the `estimator` column.
     fn name(&self) -> &'static str;
@@ -23,14 +88,20 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// One line on what it is.
     fn description(&self) -> &'static str;
 
-    /// Its normal equations A θ = b from the realisation's moments; `k` = ½ρA \[kg/m\].
-    fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>);
+    /// Whether it reads the measured rows, not only their sums (the model then keeps the
+    /// rows of each realisation in memory).
+    fn needs_rows(&self) -> bool {
+        false
+    }
+
+    /// Its estimate from the realisation.
+    fn estimate(&self, r: &Realisation<'_>) -> Estimate;
 
     /// Whether `bound` is reported next to this estimator's estimates (where the bound
     /// applies to the noise at all): a bound that does not describe this estimator's
     /// spread is left out (NaN) rather than misread. Every bound by default.
-    fn reports(&self, bound: &Bound) -> bool {
-        let _ = bound;
+    fn reports(&self, bound: &Bound, settings: &EstimatorSettings) -> bool {
+        let _ = (bound, settings);
         true
     }
 }
@@ -48,8 +119,8 @@ impl Estimator for Ols {
         "ordinary least squares on the measured regressors (the thesis)"
     }
 
-    fn system(&self, m: &Moments, k: f64, _noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>) {
-        m.ols_system(k)
+    fn estimate(&self, r: &Realisation<'_>) -> Estimate {
+        Estimate::theta(solve(&r.moments.ols_system(r.regression.k)))
     }
 }
 
@@ -66,13 +137,16 @@ impl Estimator for Bcls {
         "bias-compensated least squares: unbiased replacements of V² and V⁴ for speed noise of known σ_v"
     }
 
-    fn system(&self, m: &Moments, k: f64, noise: &NoiseLevels) -> (Matrix3<f64>, Vector3<f64>) {
-        m.bcls_system(k, noise[Channel::Velocity])
+    fn estimate(&self, r: &Realisation<'_>) -> Estimate {
+        Estimate::theta(solve(
+            &r.moments
+                .bcls_system(r.regression.k, r.noise[Channel::Velocity]),
+        ))
     }
 }
 
 /// Every estimator a study can name, in the order they are listed in messages.
-pub static ESTIMATORS: [&dyn Estimator; 2] = [&Ols, &Bcls];
+pub static ESTIMATORS: [&dyn Estimator; 4] = [&Ols, &Bcls, &Wbcls, &Rls];
 
 /// A registered estimator, compared by name.
 #[derive(Debug, Clone, Copy)]

@@ -4,7 +4,8 @@
 //! - [`channels`]: the noise channels of the measurements, one enum variant each;
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
 //!   (the kernel), with the block sums of `kernels`;
-//! - [`estimators`]: OLS and BCLS normal equations from the moments;
+//! - [`estimators`]: the estimator trait, OLS and BCLS normal equations from the moments;
+//!   [`wbcls`] (weighted BCLS) and [`rls`] (recursive LS with forgetting) from the rows;
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
 //!
@@ -19,3 +20,6 @@ pub mod estimators;
 mod kernels;
 pub mod moments;
 pub mod regression;
+pub mod rls;
+mod row_sums;
+pub mod wbcls;

@@ -63,6 +63,165 @@ impl Moments {
     }
 }
 
+/// Row `i` of the measured regression, (x̃₁, w = Ṽ², x̃₃, ỹ), with each channel's
+/// standard-normal draw `draw(channel)` (0 when it is off).
+#[inline]
+fn measured_row(
+    reg: &Regression,
+    levels: &NoiseLevels,
+    i: usize,
+    draw: impl Fn(Channel) -> f64,
+) -> [f64; 4] {
+    let mut s = Sample {
+        f: reg.f[i],
+        v: reg.v[i],
+        sin_grade: reg.sin_grade[i],
+        cos_grade: reg.cos_grade[i],
+        output_noise: 0.0,
+    };
+    for (c, sd) in levels.iter() {
+        c.perturb(&mut s, *sd, draw(c));
+    }
+    let x1 = s.f;
+    let w = s.v * s.v;
+    let x3 = -reg.g * s.cos_grade;
+    let y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
+    [x1, w, x3, y]
+}
+
+/// The measured rows of one realisation, for estimators that need more than the sums
+/// (weighted and recursive ones). A column the noise does not touch is not copied: the
+/// regression's own column stands in for it (see [`Rows::view`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Rows {
+    /// w = Ṽ² \[m²/s²\] (column 2 is −k w).
+    w: Vec<f64>,
+    /// x̃₁ = F̃ \[N\] (`None`: noise-free).
+    f: Option<Vec<f64>>,
+    /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
+    c: Option<Vec<f64>>,
+    /// ỹ \[m/s²\] (`None`: noise-free).
+    y: Option<Vec<f64>>,
+    /// Whether f, c and y are copied in this realisation (else the regression's stand in).
+    copies: [bool; 3],
+}
+
+/// The measured rows as columns: x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ.
+#[derive(Debug, Clone, Copy)]
+pub struct RowsView<'a> {
+    /// x̃₁ = F̃ \[N\].
+    pub f: &'a [f64],
+    /// w = Ṽ² \[m²/s²\].
+    pub w: &'a [f64],
+    /// x̃₃ = −g cos θ̃ \[m/s²\].
+    pub c: &'a [f64],
+    /// ỹ \[m/s²\].
+    pub y: &'a [f64],
+    /// True when x̃₁ and x̃₃ are the regression's noise-free columns.
+    pub noise_free_f_c: bool,
+}
+
+impl RowsView<'_> {
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.w.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.w.is_empty()
+    }
+}
+
+impl Rows {
+    /// Empty rows of `reg` under `noise`, with room for all of them.
+    pub fn new(reg: &Regression, noise: &NoiseLevels) -> Self {
+        let mut rows = Rows::default();
+        rows.reset(reg, noise);
+        rows
+    }
+
+    /// Empty these rows for a realisation of `reg` under `noise`, keeping their memory
+    /// (a thread reuses one `Rows` for all its realisations).
+    pub fn reset(&mut self, reg: &Regression, noise: &NoiseLevels) {
+        let n = reg.len();
+        let general = !noise.fast_path();
+        let column = |v: &mut Option<Vec<f64>>, copied: bool| {
+            if copied {
+                let v = v.get_or_insert_with(Vec::new);
+                v.clear();
+                v.reserve(n);
+            } else if let Some(v) = v {
+                // Keep the memory for a later condition that copies it.
+                v.clear();
+            }
+        };
+        self.w.clear();
+        self.w.reserve(n);
+        column(&mut self.f, general);
+        column(&mut self.c, general);
+        column(&mut self.y, general || noise.is_on(Channel::Output));
+        self.copies = [general, general, general || noise.is_on(Channel::Output)];
+    }
+
+    /// The columns, with `reg`'s (the regression the rows were measured on) where the noise
+    /// left one untouched.
+    pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
+        let pick = |own: &'a Option<Vec<f64>>, copied: bool, theirs: &'a [f64]| match own {
+            Some(v) if copied => v.as_slice(),
+            _ => theirs,
+        };
+        RowsView {
+            f: pick(&self.f, self.copies[0], &reg.f),
+            w: &self.w,
+            c: pick(&self.c, self.copies[1], &reg.c),
+            y: pick(&self.y, self.copies[2], &reg.y),
+            noise_free_f_c: !self.copies[0],
+        }
+    }
+
+    /// Append the measured rows `start .. start + len` of `reg` with the block's draws (the
+    /// same draws the moments of the block are summed from, with the same arithmetic).
+    pub fn push_block(
+        &mut self,
+        reg: &Regression,
+        levels: &NoiseLevels,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+    ) {
+        let range = start..start + len;
+        if !self.copies[0] {
+            // Fast path: only Ṽ and ỹ carry noise.
+            let sd_v = levels[Channel::Velocity];
+            let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
+            self.w
+                .extend(reg.v[range.clone()].iter().zip(e).map(|(v, e)| {
+                    let vt = v + sd_v * e;
+                    vt * vt
+                }));
+            if let (Some(y), Some(eta), true) =
+                (&mut self.y, draws[Channel::Output], self.copies[2])
+            {
+                let sd_y = levels[Channel::Output];
+                y.extend(reg.y[range].iter().zip(eta).map(|(y, eta)| y + sd_y * eta));
+            }
+            return;
+        }
+        let (Some(f), Some(c), Some(y)) = (&mut self.f, &mut self.c, &mut self.y) else {
+            unreachable!("the general path copies every column");
+        };
+        for (j, i) in range.enumerate() {
+            let [x1, w, x3, yi] =
+                measured_row(reg, levels, i, |ch| draws[ch].map_or(0.0, |d| d[j]));
+            f.push(x1);
+            self.w.push(w);
+            c.push(x3);
+            y.push(yi);
+        }
+    }
+}
+
 /// Partial sums of the fast path (speed and output noise only): everything that the noise
 /// touches, accumulated per block.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -166,20 +325,7 @@ impl<'r> MomentAccumulator<'r> {
         let zeros = &ZEROS[..len];
         let draws = draws.0.map(|d| d.unwrap_or(zeros));
         for (j, i) in (start..start + len).enumerate() {
-            let mut s = Sample {
-                f: reg.f[i],
-                v: reg.v[i],
-                sin_grade: reg.sin_grade[i],
-                cos_grade: reg.cos_grade[i],
-                output_noise: 0.0,
-            };
-            for (c, sd) in levels.iter() {
-                c.perturb(&mut s, *sd, draws[c.index()][j]);
-            }
-            let x1 = s.f;
-            let w = s.v * s.v;
-            let x3 = -reg.g * s.cos_grade;
-            let y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
+            let [x1, w, x3, y] = measured_row(reg, &levels, i, |c| draws[c.index()][j]);
             b.s_11 += x1 * x1;
             b.s_13 += x1 * x3;
             b.s_33 += x3 * x3;

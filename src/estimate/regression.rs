@@ -20,12 +20,18 @@
 //! | grade, σ_θ \[rad\] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 //! | force, σ_F \[N\] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
+use std::sync::OnceLock;
+
 use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
+use super::moments::Moments;
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
+
+/// Row ranges and the noise-free sums of x₁ and x₃ over each (see [`Regression::segments`]).
+type Segments = (Vec<(usize, usize)>, Vec<Moments>);
 
 /// The noise-free regression of one drive cycle and its constant sums.
 #[derive(Debug, Clone)]
@@ -64,6 +70,9 @@ pub struct Regression {
     /// over blocks, exactly as a realisation without speed noise would sum them: such a
     /// realisation starts from these instead of recomputing them.
     pub(crate) speed_sums_noise_free: [f64; 5],
+    /// The weight segments of `wbcls` and the noise-free sums of x₁ and x₃ over each,
+    /// computed when first asked for.
+    segments: OnceLock<Segments>,
 }
 
 impl Regression {
@@ -109,6 +118,7 @@ impl Regression {
             }
         }
         Regression {
+            segments: OnceLock::new(),
             t: cycle.t_s.clone(),
             speed_sums_noise_free,
             sum_f: sum(&f),
@@ -126,6 +136,43 @@ impl Regression {
             xtx,
             xty,
         }
+    }
+
+    /// Consecutive row ranges of at least `segment_s` \[s\] each (the last may be shorter;
+    /// a range holds at least one row), and over each the noise-free sums of x₁ and x₃ alone
+    /// (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃; the rest zero). Computed on first use; `segment_s` must
+    /// be the same at every call.
+    pub fn segments(&self, segment_s: f64) -> (&[(usize, usize)], &[Moments]) {
+        let (ranges, sums) = self.segments.get_or_init(|| {
+            let t = &self.t;
+            let mut ranges = Vec::new();
+            let mut start = 0;
+            for i in 1..t.len() {
+                if t[i] - t[start] >= segment_s {
+                    ranges.push((start, i));
+                    start = i;
+                }
+            }
+            if !t.is_empty() {
+                ranges.push((start, t.len()));
+            }
+            let sums = ranges
+                .iter()
+                .map(|&(a, b)| {
+                    let (f, c) = (&self.f[a..b], &self.c[a..b]);
+                    Moments {
+                        s_11: f.iter().map(|x| x * x).sum(),
+                        s_13: f.iter().zip(c).map(|(x, z)| x * z).sum(),
+                        s_33: c.iter().map(|z| z * z).sum(),
+                        s_1: f.iter().sum(),
+                        s_3: c.iter().sum(),
+                        ..Moments::default()
+                    }
+                })
+                .collect();
+            (ranges, sums)
+        });
+        (ranges, sums)
     }
 
     /// Number of samples N.

@@ -56,6 +56,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, 
         .ok_or_else(|| c.missing_table("line_fit"))?;
     if let Some(e) = &raw.estimation {
         validate_estimators(&e.estimators, &[EstimatorRef(&Ols)], c)?;
+        if e.forgetting.is_some() {
+            return Err(c.fail(
+                "estimation.forgetting",
+                "applies to the vehicle model's rls estimator only",
+            ));
+        }
     }
     let t_start = c.finite("line_fit.t_start", l.t_start)?;
     let t_step = c.positive("line_fit.t_step", l.t_step)?;

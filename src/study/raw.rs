@@ -133,4 +133,6 @@ pub struct RawLineFit {
 #[serde(deny_unknown_fields)]
 pub struct RawEstimation {
     pub estimators: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forgetting: Option<f64>,
 }

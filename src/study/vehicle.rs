@@ -7,7 +7,7 @@ use super::raw::{RawNoise, RawStudy};
 use super::validate::{Checker, validate_estimators};
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
-use crate::estimate::estimators::{ESTIMATORS, EstimatorRef};
+use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params};
 use crate::terrain::profiles::PROFILES;
 use crate::terrain::{ScaleTarget, TerrainSpec};
@@ -75,6 +75,8 @@ pub struct VehicleStudy {
     pub grade_bias: Vec<f64>,
     /// Estimators run on every realisation (common random numbers).
     pub estimators: Vec<EstimatorRef>,
+    /// Settings of the estimators (`estimation.forgetting`).
+    pub settings: EstimatorSettings,
 }
 
 pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
@@ -160,6 +162,16 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     let (noise, grade_bias, velocity_correlation_s) = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
+    let forgetting = match e.forgetting {
+        Some(l) if !(l > 0.0 && l <= 1.0) => {
+            return Err(c.fail(
+                "estimation.forgetting",
+                format!("must lie in (0, 1] (1: no forgetting), got {l}"),
+            ));
+        }
+        Some(l) => l,
+        None => 1.0,
+    };
 
     Ok(VehicleStudy {
         vehicle,
@@ -172,6 +184,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_bias,
         velocity_correlation_s,
         estimators,
+        settings: EstimatorSettings { forgetting },
     })
 }
 

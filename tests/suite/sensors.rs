@@ -182,3 +182,127 @@ fn the_generalised_sandwich_predicts_the_ols_spread_under_ar1_speed_noise() {
         }
     }
 }
+
+/// The thesis study at scales 1 and 2, σ_v = 1 m/s, running `estimators`, R realisations.
+fn estimators_study(estimators: &str, extra: &str, r: u64) -> chassis_mc::study::Study {
+    let text = set_key(&study_text("thesis.toml"), "scales", "[1.0, 2.0]");
+    let text = set_key(&text, "estimators", estimators);
+    let text = format!("{text}{extra}");
+    chassis_mc::study::Study::from_toml(&text, "estimators")
+        .unwrap()
+        .with_overrides(Some(r), None)
+        .unwrap()
+}
+
+#[test]
+fn rls_without_forgetting_is_ols_on_every_realisation() {
+    // λ = 1: the running sums after the last row are XᵀX and Xᵀy, summed in another order
+    // than the kernel's blocks. The two solutions differ by rounding amplified by the
+    // equilibrated normal matrix's condition (≈ 1e5 here): ≤ 1e-9 relative leaves a
+    // hundredfold margin (measured ≤ 6e-11).
+    let (dir, _) = run(&estimators_study("[\"ols\", \"rls\"]", "", 400), None);
+    let t = read_table(&dir.path().join("realisations.parquet"));
+    let est = str_col(&t, "estimator");
+    let (cond, real) = (i32_col(&t, "condition"), i64_col(&t, "realisation"));
+    let settle = f64_col(&t, "rls_settle_time");
+    let mut compared = 0;
+    for name in PARAMS {
+        let theta = f64_col(&t, &format!("theta_{name}"));
+        for i in (0..t.num_rows()).filter(|&i| est[i] == "rls") {
+            let j = (0..t.num_rows())
+                .find(|&j| est[j] == "ols" && cond[j] == cond[i] && real[j] == real[i])
+                .unwrap();
+            let rel = (theta[i] - theta[j]).abs() / theta[j].abs();
+            assert!(rel <= 1e-9, "{name} c{} r{}: {rel:e}", cond[i], real[i]);
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 3 * 2 * 400);
+    // The settle time is reported for rls only, and lies inside the 600 s cycle.
+    for i in 0..t.num_rows() {
+        if est[i] == "rls" {
+            assert!(settle[i] > 0.0 && settle[i] < 600.0, "{}", settle[i]);
+        } else {
+            assert!(settle[i].is_nan());
+        }
+    }
+}
+
+#[test]
+fn forgetting_weights_the_recent_rows_and_spreads_wider() {
+    // λ < 1 weights the last 1/(1 − λ) rows: with λ = 0.9999 (100 s memory at 100 Hz) the
+    // estimate rests on a sixth of the cycle, so its spread must exceed OLS's. A forgetting
+    // factor outside (0, 1] is an error naming the key.
+    let (dir, _) = run(
+        &estimators_study("[\"ols\", \"rls\"]", "forgetting = 0.9999\n", 400),
+        None,
+    );
+    let s = read_table(&dir.path().join("summary.parquet"));
+    let (est, param, cond) = (
+        str_col(&s, "estimator"),
+        str_col(&s, "parameter"),
+        i32_col(&s, "condition"),
+    );
+    let emp = f64_col(&s, "emp_se");
+    for i in (0..s.num_rows()).filter(|&i| est[i] == "rls") {
+        let j = (0..s.num_rows())
+            .find(|&j| est[j] == "ols" && cond[j] == cond[i] && param[j] == param[i])
+            .unwrap();
+        assert!(
+            emp[i] > emp[j],
+            "{}: {} vs OLS {}",
+            param[i],
+            emp[i],
+            emp[j]
+        );
+    }
+    let text = set_key(&study_text("thesis.toml"), "estimators", "[\"rls\"]");
+    let err = chassis_mc::study::Study::from_toml(&format!("{text}forgetting = 1.5\n"), "bad")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("estimation.forgetting") && err.contains("(0, 1]"),
+        "{err}"
+    );
+}
+
+#[test]
+fn wbcls_is_unbiased_and_reaches_the_linearised_bound() {
+    // σ_v = 1 m/s, scales 1 and 2, R = 400. WBCLS's bias must be within 4 MCSE of zero for
+    // every parameter, and its EmpSE of Cd/M within 15 % of eiv_crlb_linearized
+    // (XᵀΩ⁻¹X)⁻¹, the bound of a weighted unbiased estimator (measured 1 % and 8 %; the
+    // EmpSE's own MCSE at R = 400 is 3.5 %). BCLS, unweighted, sits ~3× above it.
+    let (dir, _) = run(
+        &estimators_study("[\"ols\", \"bcls\", \"wbcls\"]", "", 400),
+        None,
+    );
+    let s = read_table(&dir.path().join("summary.parquet"));
+    let (est, param) = (str_col(&s, "estimator"), str_col(&s, "parameter"));
+    let (bias, mcse) = (f64_col(&s, "bias"), f64_col(&s, "bias_mcse"));
+    let (emp, bound) = (f64_col(&s, "emp_se"), f64_col(&s, "eiv_crlb_linearized_se"));
+    let mut checked = 0;
+    for i in 0..s.num_rows() {
+        match (est[i].as_str(), param[i].as_str()) {
+            ("wbcls", p) => {
+                assert!(
+                    bias[i].abs() <= 4.0 * mcse[i],
+                    "{p}: bias {} ± {}",
+                    bias[i],
+                    mcse[i]
+                );
+                if p == "drag_over_mass" {
+                    assert!(
+                        (emp[i] / bound[i] - 1.0).abs() <= 0.15,
+                        "Cd/M: EmpSE {} vs bound {}",
+                        emp[i],
+                        bound[i]
+                    );
+                }
+                checked += 1;
+            }
+            ("bcls", "drag_over_mass") => assert!(emp[i] > 2.5 * bound[i], "{}", emp[i]),
+            _ => {}
+        }
+    }
+    assert_eq!(checked, 6);
+}

@@ -2,6 +2,7 @@
 //! the measured speed, output, grade and force; OLS and BCLS on the same draw of each
 //! realisation (common random numbers); and every bound that applies.
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
@@ -23,8 +24,8 @@ use super::{
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
-use crate::estimate::estimators::solve;
-use crate::estimate::moments::{MomentAccumulator, Moments};
+use crate::estimate::estimators::Realisation;
+use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
 use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::condition_number;
@@ -61,6 +62,10 @@ pub struct VehicleModel {
     cycles: Vec<ScaleCycle>,
     /// The rows of each (scale, duration).
     segments: Vec<Segment>,
+    /// Whether an estimator of the study reads the measured rows.
+    needs_rows: bool,
+    /// The true θ.
+    truth: [f64; 3],
 }
 
 impl VehicleModel {
@@ -102,7 +107,7 @@ impl VehicleModel {
                     .map(|e| {
                         BOUNDS
                             .iter()
-                            .map(|b| (b.applies)(&noise) && e.reports(b))
+                            .map(|b| (b.applies)(&noise) && e.reports(b, &vs.settings))
                             .collect()
                     })
                     .collect();
@@ -127,11 +132,13 @@ impl VehicleModel {
             })
             .collect();
         Ok(VehicleModel {
-            study: vs,
             layout,
             conditions,
             cycles,
             segments,
+            needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
+            truth,
+            study: vs,
         })
     }
 
@@ -151,6 +158,12 @@ impl VehicleModel {
     /// The moments of realisation `r` of condition `c`: the kernel. Draws each active
     /// channel's normals block by block and accumulates the normal-equation sums.
     pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
+        self.measure(seed, c, r, None)
+    }
+
+    /// The moments of realisation `r` of condition `c`, and, into `rows` when given, its
+    /// measured rows (from the same draws).
+    pub fn measure(&self, seed: u64, c: usize, r: u64, mut rows: Option<&mut Rows>) -> Moments {
         let cond = &self.conditions[c];
         let reg = &*cond.regression;
         let noise = cond.noise;
@@ -186,6 +199,9 @@ impl VehicleModel {
                     }
                     &buffer[..len]
                 });
+            }
+            if let Some(rows) = rows.as_deref_mut() {
+                rows.push_block(reg, &noise, start, len, draws);
             }
             acc.add_block(start, len, draws);
         }
@@ -283,9 +299,27 @@ impl Model for VehicleModel {
     }
 
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
+        thread_local! {
+            /// The measured rows of this thread's current realisation (memory reused).
+            static ROWS: RefCell<Rows> = RefCell::default();
+        }
+        ROWS.with_borrow_mut(|rows| self.realise_with(seed, c, r, rows, slots));
+    }
+}
+
+impl VehicleModel {
+    /// [`Model::realise`] with a thread's row buffer.
+    fn realise_with(&self, seed: u64, c: usize, r: u64, rows: &mut Rows, slots: &mut [f64]) {
         let cond = &self.conditions[c];
         let k = cond.regression.k;
-        let moments = self.moments(seed, c, r);
+        let rows = self.needs_rows.then(|| {
+            rows.reset(&cond.regression, &cond.noise);
+            rows
+        });
+        let (moments, rows) = match rows {
+            Some(rows) => (self.measure(seed, c, r, Some(&mut *rows)), Some(&*rows)),
+            None => (self.measure(seed, c, r, None), None),
+        };
         let noisy_xtx = moments.ols_system(k).0;
         let fisher_condition = condition_number(&noisy_xtx);
         let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise);
@@ -302,13 +336,20 @@ impl Model for VehicleModel {
             .collect();
         let layout = &self.layout;
         for (ei, est) in self.study.estimators.iter().enumerate() {
-            let estimate = solve(&est.system(&moments, k, &cond.noise));
-            let status = if estimate.is_ok() {
+            let estimate = est.estimate(&Realisation {
+                moments: &moments,
+                rows,
+                regression: &cond.regression,
+                noise: &cond.noise,
+                settings: &self.study.settings,
+                truth: &self.truth,
+            });
+            let status = if estimate.theta.is_ok() {
                 Status::Ok
             } else {
                 Status::Singular
             };
-            let theta = estimate.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
+            let theta = estimate.theta.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             slots[layout.status_at(ei)] = status as u8 as f64;
             for p in 0..3 {
                 slots[layout.theta_at(ei, p)] = theta[p];
@@ -324,6 +365,7 @@ impl Model for VehicleModel {
                 theta: &theta,
                 fisher_condition,
                 thesis_bound: thesis_bound.as_ref(),
+                settle_time_s: estimate.settle_time_s,
             };
             for (x, extra) in EXTRAS.iter().enumerate() {
                 slots[layout.extra_at(ei, x)] = (extra.value)(&inputs);

@@ -1,0 +1,305 @@
+//! Sums over a realisation's measured rows for the estimators that read them: the moments
+//! of consecutive segments (`wbcls`) and the running normal equations of `rls`. Both in
+//! four lanes like the kernel's block sums, compiled for AVX2 where the CPU has it; the
+//! two builds run the same operations in the same order, so they agree bit for bit.
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::moments::{Moments, RowsView};
+
+const LANES: usize = 4;
+
+#[inline(always)]
+fn reduce(l: [f64; LANES]) -> f64 {
+    (l[0] + l[1]) + (l[2] + l[3])
+}
+
+#[inline(always)]
+fn mul(a: [f64; LANES], b: [f64; LANES]) -> [f64; LANES] {
+    [a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3]]
+}
+
+/// Least time between two checks of the running `rls` estimate \[s\]: the settle time is
+/// resolved to this or to four rows, whichever is longer.
+pub const RLS_CHECK_S: f64 = 0.25;
+
+/// The moments of rows `start..end` (N = the row count). With `constant`, the sums of
+/// x̃₁ and x̃₃ alone (Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃) are taken from it instead of being
+/// summed: the caller passes them where those columns are noise-free.
+pub fn segment_moments(
+    rows: RowsView<'_>,
+    start: usize,
+    end: usize,
+    constant: Option<&Moments>,
+) -> Moments {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { segment_moments_avx2(rows, start, end, constant) };
+        }
+    }
+    segment_moments_body(rows, start, end, constant)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn segment_moments_avx2(
+    rows: RowsView<'_>,
+    start: usize,
+    end: usize,
+    constant: Option<&Moments>,
+) -> Moments {
+    segment_moments_body(rows, start, end, constant)
+}
+
+/// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
+#[inline(always)]
+fn noisy_sums(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
+    let n = f.len();
+    let whole = n - n % LANES;
+    let mut acc = [[0.0; LANES]; 8];
+    for i in (0..whole).step_by(LANES) {
+        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
+        let w: [f64; LANES] = w[i..i + LANES].try_into().unwrap();
+        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
+        let y: [f64; LANES] = y[i..i + LANES].try_into().unwrap();
+        let terms = [
+            mul(x1, y),
+            mul(x3, y),
+            mul(x1, w),
+            mul(x3, w),
+            mul(w, w),
+            mul(w, y),
+            w,
+            y,
+        ];
+        for (a, t) in acc.iter_mut().zip(terms) {
+            for l in 0..LANES {
+                a[l] += t[l];
+            }
+        }
+    }
+    for i in whole..n {
+        let (x1, w, x3, y) = (f[i], w[i], c[i], y[i]);
+        let terms = [x1 * y, x3 * y, x1 * w, x3 * w, w * w, w * y, w, y];
+        for (a, t) in acc.iter_mut().zip(terms) {
+            a[0] += t;
+        }
+    }
+    acc.map(reduce)
+}
+
+/// The sums of x̃₁ and x̃₃ alone: [Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃].
+#[inline(always)]
+fn regressor_sums(f: &[f64], c: &[f64]) -> [f64; 5] {
+    let n = f.len();
+    let whole = n - n % LANES;
+    let mut acc = [[0.0; LANES]; 5];
+    for i in (0..whole).step_by(LANES) {
+        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
+        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
+        let terms = [mul(x1, x1), mul(x1, x3), mul(x3, x3), x1, x3];
+        for (a, t) in acc.iter_mut().zip(terms) {
+            for l in 0..LANES {
+                a[l] += t[l];
+            }
+        }
+    }
+    for i in whole..n {
+        let (x1, x3) = (f[i], c[i]);
+        for (a, t) in acc.iter_mut().zip([x1 * x1, x1 * x3, x3 * x3, x1, x3]) {
+            a[0] += t;
+        }
+    }
+    acc.map(reduce)
+}
+
+#[inline(always)]
+fn segment_moments_body(
+    rows: RowsView<'_>,
+    start: usize,
+    end: usize,
+    constant: Option<&Moments>,
+) -> Moments {
+    let (f, w, c, y) = (
+        &rows.f[start..end],
+        &rows.w[start..end],
+        &rows.c[start..end],
+        &rows.y[start..end],
+    );
+    let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = noisy_sums(f, w, c, y);
+    let [s_11, s_13, s_33, s_1, s_3] = match constant {
+        Some(m) => [m.s_11, m.s_13, m.s_33, m.s_1, m.s_3],
+        None => regressor_sums(f, c),
+    };
+    Moments {
+        s_11,
+        s_13,
+        s_33,
+        s_1y,
+        s_3y,
+        s_1w,
+        s_3w,
+        s_ww,
+        s_wy,
+        s_w,
+        s_1,
+        s_3,
+        s_y,
+        n: (end - start) as f64,
+    }
+}
+
+/// The exponentially weighted normal equations A = Σ λ^(N−1−i) x̃_i x̃_iᵀ, b likewise, of
+/// all rows (k = ½ρA for column 2, `t` the row times), and the first checked row from which
+/// on θ̂₁ of the rows so far stays within `target ± band` at every check (`None`: outside
+/// or undefined at the last). Checks fall on the last row of a group of four at least
+/// [`RLS_CHECK_S`] after the previous check, the last row of the last group, and every
+/// row after it.
+pub fn rls_scan(
+    rows: RowsView<'_>,
+    t: &[f64],
+    k: f64,
+    lambda: f64,
+    target: f64,
+    band: f64,
+) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { rls_scan_avx2(rows, t, k, lambda, target, band) };
+        }
+    }
+    if lambda == 1.0 {
+        rls_scan_body::<false>(rows, t, k, lambda, target, band)
+    } else {
+        rls_scan_body::<true>(rows, t, k, lambda, target, band)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rls_scan_avx2(
+    rows: RowsView<'_>,
+    t: &[f64],
+    k: f64,
+    lambda: f64,
+    target: f64,
+    band: f64,
+) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
+    if lambda == 1.0 {
+        rls_scan_body::<false>(rows, t, k, lambda, target, band)
+    } else {
+        rls_scan_body::<true>(rows, t, k, lambda, target, band)
+    }
+}
+
+/// The nine running sums [p, q, e, s, u, v, b₁, b₂, b₃] of A = [[p, q, e], [q, s, u],
+/// [e, u, v]] and b, from one row.
+#[inline(always)]
+fn products(x1: f64, x2: f64, x3: f64, y: f64) -> [f64; 9] {
+    [
+        x1 * x1,
+        x1 * x2,
+        x1 * x3,
+        x2 * x2,
+        x2 * x3,
+        x3 * x3,
+        x1 * y,
+        x2 * y,
+        x3 * y,
+    ]
+}
+
+/// Whether θ̂₁ = (A⁻¹b)₁ lies within `target ± band`, by the first column's cofactors
+/// (|num − target·det| ≤ band·|det|, no division); false when A is singular.
+#[inline(always)]
+fn settled(a: &[f64; 9], target: f64, band: f64) -> bool {
+    let [p, q, e, s, u, v, b1, b2, b3] = *a;
+    let c11 = s * v - u * u;
+    let det = p * c11 - q * (q * v - u * e) + e * (q * u - s * e);
+    let num = b1 * c11 - q * (b2 * v - u * b3) + e * (b2 * u - s * b3);
+    det != 0.0 && (num - target * det).abs() <= band * det.abs()
+}
+
+#[inline(always)]
+fn rls_scan_body<const FORGET: bool>(
+    rows: RowsView<'_>,
+    t: &[f64],
+    k: f64,
+    lambda: f64,
+    target: f64,
+    band: f64,
+) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
+    let n = rows.len();
+    let whole = n - n % LANES;
+    // Lane j holds the rows ≡ j (mod 4), each weighted so that the sum of the lanes after
+    // a group of four rows is the state after its last row: a new row of lane j enters
+    // with λ^(3−j), and every group ages all lanes by λ⁴.
+    let entry = [lambda.powi(3), lambda.powi(2), lambda, 1.0];
+    let age = lambda.powi(4);
+    let mut lanes = [[0.0; LANES]; 9];
+    let mut state = [0.0; 9];
+    // The first checked row of the current run of checks inside the band.
+    let mut settle = None;
+    let mut check = |state: &[f64; 9], row: usize| {
+        if !settled(state, target, band) {
+            settle = None;
+        } else if settle.is_none() {
+            settle = Some(row);
+        }
+    };
+    let mut last_check = f64::NEG_INFINITY;
+    let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
+    for start in (0..whole).step_by(LANES) {
+        let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
+        let w: [f64; LANES] = w[start..start + LANES].try_into().unwrap();
+        let x2 = w.map(|w| -k * w);
+        let x3: [f64; LANES] = c[start..start + LANES].try_into().unwrap();
+        let y: [f64; LANES] = y[start..start + LANES].try_into().unwrap();
+        let terms = [
+            mul(x1, x1),
+            mul(x1, x2),
+            mul(x1, x3),
+            mul(x2, x2),
+            mul(x2, x3),
+            mul(x3, x3),
+            mul(x1, y),
+            mul(x2, y),
+            mul(x3, y),
+        ];
+        for (lane, t) in lanes.iter_mut().zip(terms) {
+            for l in 0..LANES {
+                // λ = 1: the factors are exactly 1, so this is the same sum.
+                lane[l] = if FORGET {
+                    age * lane[l] + entry[l] * t[l]
+                } else {
+                    lane[l] + t[l]
+                };
+            }
+        }
+        let last = start + LANES - 1;
+        if t[last] - last_check >= RLS_CHECK_S || last + 1 == whole {
+            last_check = t[last];
+            state = lanes.map(reduce);
+            check(&state, last);
+        }
+    }
+    for i in whole..n {
+        let x = products(f[i], -k * w[i], c[i], y[i]);
+        for (s, x) in state.iter_mut().zip(x) {
+            *s = lambda * *s + x;
+        }
+        check(&state, i);
+    }
+    let [p, q, e, s, u, v, b1, b2, b3] = state;
+    (
+        (
+            Matrix3::new(p, q, e, q, s, u, e, u, v),
+            Vector3::new(b1, b2, b3),
+        ),
+        settle,
+    )
+}

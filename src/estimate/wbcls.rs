@@ -1,0 +1,173 @@
+//! `wbcls`: weighted bias-compensated least squares (see docs/model.md#wbcls).
+//!
+//! BCLS, then the equation-error variance Ω̂ from that estimate, then BCLS with weights
+//! 1/Ω̂, twice. The rows are cut into consecutive segments of [`SEGMENT_S`]; a segment's
+//! weight takes the speed inside Ω̂ from the measured speed of its neighbouring segments
+//! (not its own), so each weight is independent of the noise of the rows it weights (for
+//! AR(1) speed noise the neighbours are taken three correlation times away, where the
+//! correlation has fallen below 5 %) and the compensated weighted sums stay unbiased. The
+//! moments of each segment are summed once per realisation; each iteration only reweights
+//! them.
+
+use super::bounds::Bound;
+use super::channels::{Channel, NoiseLevels};
+use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
+use super::moments::Moments;
+use super::row_sums::segment_moments;
+
+/// Length of the segments that share one weight \[s\] (a segment holds at least one row).
+pub const SEGMENT_S: f64 = 0.5;
+
+/// How many times the weights are recomputed from the latest estimate.
+pub const ITERATIONS: usize = 2;
+
+/// How many correlation times of AR(1) speed noise lie between a segment and the
+/// neighbours its weight is taken from.
+pub const CORRELATION_TIMES_LEFT_OUT: f64 = 3.0;
+
+/// Weighted bias-compensated least squares.
+#[derive(Debug, Clone, Copy)]
+pub struct Wbcls;
+
+impl Estimator for Wbcls {
+    fn name(&self) -> &'static str {
+        "wbcls"
+    }
+
+    fn description(&self) -> &'static str {
+        "weighted BCLS: BCLS, then weights 1/Ω̂ from that estimate and the locally averaged measured speed, then BCLS with the weights (twice)"
+    }
+
+    fn needs_rows(&self) -> bool {
+        true
+    }
+
+    fn estimate(&self, r: &Realisation<'_>) -> Estimate {
+        let rows = r.rows();
+        let k = r.regression.k;
+        let sd = r.noise[Channel::Velocity];
+        let mut theta = match solve(&r.moments.bcls_system(k, sd)) {
+            Ok(theta) => theta,
+            failed => return Estimate::theta(failed),
+        };
+        let (segments, constant) = r.regression.segments(SEGMENT_S);
+        let moments: Vec<Moments> = segments
+            .iter()
+            .zip(constant)
+            .map(|(&(a, b), constant)| {
+                segment_moments(rows, a, b, rows.noise_free_f_c.then_some(constant))
+            })
+            .collect();
+        let local = neighbour_means(&moments, sd * sd, segments_left_out(r.noise));
+        for _ in 0..ITERATIONS {
+            let th = [theta[0], theta[1], theta[2]];
+            let mut total = Moments::default();
+            for (m, &(v2, c2)) in moments.iter().zip(&local) {
+                let variance = row_variance(&th, k, v2, c2, r.noise);
+                if !(variance > 0.0 && variance.is_finite()) {
+                    // No noise, or a variance model that breaks down: stay with the last
+                    // estimate.
+                    return Estimate::theta(Ok(theta));
+                }
+                total.add_scaled(m, 1.0 / variance);
+            }
+            theta = match solve(&total.bcls_system(k, sd)) {
+                Ok(theta) => theta,
+                failed => return Estimate::theta(failed),
+            };
+        }
+        Estimate::theta(Ok(theta))
+    }
+
+    fn reports(&self, bound: &Bound, _settings: &EstimatorSettings) -> bool {
+        // The sandwich is the spread of the unweighted estimators.
+        bound.name != "eiv_sandwich"
+    }
+}
+
+/// How many segments on each side of a segment are skipped before its neighbours: none
+/// for white noise, three correlation times for AR(1) noise.
+fn segments_left_out(noise: &NoiseLevels) -> usize {
+    if noise.velocity_correlated() {
+        (CORRELATION_TIMES_LEFT_OUT * noise.velocity_correlation_s / SEGMENT_S).ceil() as usize
+    } else {
+        0
+    }
+}
+
+/// Per segment b, from the segments `skip + 1` before and after it (those that exist):
+/// the mean of Ṽ² − σ² (an unbiased local V², at least 0) and of x̃₃²; the means over all
+/// segments where it has no neighbour.
+fn neighbour_means(moments: &[Moments], s2: f64, skip: usize) -> Vec<(f64, f64)> {
+    let mean = |ms: &mut dyn Iterator<Item = &Moments>| {
+        let (mut w, mut c2, mut n) = (0.0, 0.0, 0.0);
+        for m in ms {
+            w += m.s_w;
+            c2 += m.s_33;
+            n += m.n;
+        }
+        (n > 0.0).then(|| ((w / n - s2).max(0.0), c2 / n))
+    };
+    let overall = mean(&mut moments.iter()).unwrap_or((0.0, 0.0));
+    (0..moments.len())
+        .map(|b| {
+            let before = b.checked_sub(skip + 1).map(|i| &moments[i]);
+            let after = moments.get(b + skip + 1);
+            mean(&mut before.into_iter().chain(after)).unwrap_or(overall)
+        })
+        .collect()
+}
+
+impl Moments {
+    /// Add `q` times every sum of `m`, N included.
+    fn add_scaled(&mut self, m: &Moments, q: f64) {
+        self.s_11 += q * m.s_11;
+        self.s_13 += q * m.s_13;
+        self.s_33 += q * m.s_33;
+        self.s_1y += q * m.s_1y;
+        self.s_3y += q * m.s_3y;
+        self.s_1w += q * m.s_1w;
+        self.s_3w += q * m.s_3w;
+        self.s_ww += q * m.s_ww;
+        self.s_wy += q * m.s_wy;
+        self.s_w += q * m.s_w;
+        self.s_1 += q * m.s_1;
+        self.s_3 += q * m.s_3;
+        self.s_y += q * m.s_y;
+        self.n += q * m.n;
+    }
+}
+
+/// Ω̂: the first-order equation-error variance of docs/model.md#bounds at the estimate
+/// `theta`, with a local V̂² for V² and a local mean of x̃₃² = g² cos² θ̃ for the grade term
+/// (its θ₃ sin θ part, below 0.3 % of it, is left out).
+fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels) -> f64 {
+    let s2 = noise[Channel::Velocity].powi(2);
+    (theta[1] * k).powi(2) * (4.0 * v2 * s2 + 2.0 * s2 * s2)
+        + (theta[0] * noise[Channel::Force]).powi(2)
+        + noise[Channel::Grade].powi(2) * c2
+        + noise[Channel::Output].powi(2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_segment_takes_its_speed_from_its_neighbours_not_itself() {
+        let m = |w: f64| Moments {
+            s_w: w,
+            s_33: 96.0,
+            n: 1.0,
+            ..Moments::default()
+        };
+        let moments = [m(100.0), m(400.0), m(900.0), m(1600.0)];
+        let local = neighbour_means(&moments, 1.0, 0);
+        assert_eq!(local[1], ((100.0 + 900.0) / 2.0 - 1.0, 96.0));
+        assert_eq!(local[0].0, 399.0);
+        // Skipping one: segment 0 uses segment 2, segment 1 segment 3.
+        let local = neighbour_means(&moments, 1.0, 1);
+        assert_eq!(local[0].0, 899.0);
+        assert_eq!(local[1].0, 1599.0);
+    }
+}
