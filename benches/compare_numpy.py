@@ -21,6 +21,10 @@ excluded), so the ratio is conservative.
 With `--correlation-time TAU` [s] the speed noise is a stationary AR(1) process
 (docs/model.md#sensors: e_0 = σ z_0, e_i = φ e_{i−1} + √(1 − φ²) σ z_i, φ = exp(−Δt/τ)),
 generated here by its own recursion over NumPy's normals, at scales 1.0 and 2.0 only.
+
+With `--differentiated` the acceleration in the output is the central difference of the
+measured speed (docs/model.md#sensors: ỹ_i = (Ṽ_{i+1} − Ṽ_{i−1}) / (2h) + g sin θ_i, the first
+and last sample left out), at scales 1.0 and 2.0 only; it combines with `--correlation-time`.
 """
 
 import os
@@ -106,7 +110,7 @@ def ar1(z, phi):
     return e
 
 
-def numpy_monte_carlo(study, cycles, r, seed, tau=0.0):
+def numpy_monte_carlo(study, cycles, r, seed, tau=0.0, differentiated=False):
     """OLS estimates of θ for r realisations of speed noise per scale: (scales, r, 3)."""
     v = study["vehicle"]
     g, k = v["gravity"], 0.5 * v["air_density"] * v["frontal_area"]
@@ -125,7 +129,13 @@ def numpy_monte_carlo(study, cycles, r, seed, tau=0.0):
             e = rng.standard_normal(vel.shape[0]) if noise is None else noise[j]
             vt = vel + sd * e
             x = np.column_stack((f, -k * vt * vt, c))
-            est[s, j] = np.linalg.solve(x.T @ x, x.T @ y)
+            yt = y
+            if differentiated:
+                h = study["drive"]["time_step"]
+                inner = slice(1, -1)
+                yt = (vt[2:] - vt[:-2]) / (2 * h) + g * np.sin(cycles["grade"][s][inner])
+                x = x[inner]
+            est[s, j] = np.linalg.solve(x.T @ x, x.T @ yt)
     return est
 
 
@@ -136,13 +146,18 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--correlation-time", type=float, default=0.0,
                     help="AR(1) speed noise with this correlation time [s], scales 1 and 2")
+    ap.add_argument("--differentiated", action="store_true",
+                    help="acceleration differentiated from the measured speed, scales 1 and 2")
     args = ap.parse_args()
     if not BINARY.exists():
         sys.exit(f"{BINARY} not found: run `cargo build --release` first")
     text = STUDY.read_text()
-    if args.correlation_time > 0:
+    if args.correlation_time > 0 or args.differentiated:
         text = "\n".join("scales = [1.0, 2.0]" if line.startswith("scales =") else line
                          for line in text.splitlines())
+    if args.differentiated:
+        text = text.replace("[estimation]", "[estimation]\nacceleration = \"differentiated\"")
+    if args.correlation_time > 0:
         text = text.replace("[noise]", "[noise]\nvelocity_correlation_time = "
                             f"[{args.correlation_time}]")
     study = tomllib.loads(text)
@@ -158,7 +173,8 @@ def main():
 
     cycles = simulate(study, grade_tables(study))
     started = time.perf_counter()
-    est = numpy_monte_carlo(study, cycles, args.r_numpy, args.seed, args.correlation_time)
+    est = numpy_monte_carlo(study, cycles, args.r_numpy, args.seed, args.correlation_time,
+                            args.differentiated)
     numpy_s = time.perf_counter() - started
 
     failures = 0

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::channels::{Channel, NoiseLevels};
-use super::regression::Regression;
+use super::regression::{Regression, ar1_coefficients};
 use crate::numeric::linalg::{SolveError, inverse_spd};
 use crate::numeric::sum::ExactSum;
 
@@ -16,7 +16,16 @@ impl Regression {
     /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
     /// Force: (F̃ − F)θ₁. Grade: d/dθ [g sin θ + θ₃ g cos θ] = g (cos θ − θ₃ sin θ).
     pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
-        let sd_v = noise[Channel::Velocity];
+        self.row_variance(theta, noise, true)
+    }
+
+    /// Ω_i, with or without the speed noise's term.
+    fn row_variance(&self, theta: &[f64; 3], noise: &NoiseLevels, with_speed: bool) -> Vec<f64> {
+        let sd_v = if with_speed {
+            noise[Channel::Velocity]
+        } else {
+            0.0
+        };
         let (sv2, sv4) = (sd_v.powi(2), sd_v.powi(4));
         let speed = (theta[1] * self.k).powi(2);
         let force = (theta[0] * noise[Channel::Force]).powi(2);
@@ -54,12 +63,18 @@ impl Regression {
         theta: &[f64; 3],
         noise: &NoiseLevels,
     ) -> Result<[f64; 3], SolveError> {
-        let omega = self.equation_error_variance(theta, noise);
         let bread = inverse_spd(&self.xtx)?;
-        let mut meat = self.weighted_gram(&omega);
-        if noise.velocity_correlated() {
-            meat += self.correlated_speed_meat(theta, noise);
-        }
+        let meat = if noise.speed_noise_differentiated() {
+            self.weighted_gram(&self.row_variance(theta, noise, false))
+                + self.differentiated_speed_meat(theta, noise)
+        } else {
+            let omega = self.equation_error_variance(theta, noise);
+            let mut meat = self.weighted_gram(&omega);
+            if noise.velocity_correlated() {
+                meat += self.correlated_speed_meat(theta, noise);
+            }
+            meat
+        };
         let cov = bread * meat * bread;
         Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
     }
@@ -71,7 +86,7 @@ impl Regression {
     fn correlated_speed_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
         let sd = noise[Channel::Velocity];
         let scale = (theta[1] * self.k).powi(2);
-        let phi = self.ar1_coefficients(noise.velocity_correlation_s);
+        let phi = ar1_coefficients(&self.t, noise.velocity_correlation_s);
         let x = |i: usize| Vector3::new(self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]);
         // (weight a_i, per-step factor, coefficient): the ρ term and the ρ² term.
         let mut total = Matrix3::zeros();
@@ -87,6 +102,63 @@ impl Regression {
             total += coefficient * (half + half.transpose());
         }
         scale * total
+    }
+
+    /// The speed noise's part of XᵀΣX when the acceleration is differentiated from the
+    /// measured speed. Row i's equation error carries σ_v Σ_j L_ij e_j with
+    /// L_{i,s} = 2kθ₂V_i (through Ṽ²), L_{i,s±1} = ±1/Δt_i (through ỹ), s the row's sample,
+    /// plus kθ₂σ_v²(e_s² − 1). With loadings g_j = Σ_i L_ij x_i per logged sample j:
+    ///
+    /// ```text
+    /// σ_v² Σ_jl ρ_jl g_j g_lᵀ + 2 σ_v⁴ (kθ₂)² Σ_ii' ρ_ss'² x_i x_i'ᵀ
+    /// ```
+    ///
+    /// (ρ = 1 on the diagonal and 0 off it for white noise; for AR(1) the products of φ,
+    /// summed in O(N) by the recursion of [`correlated_speed_meat`](Self::correlated_speed_meat)).
+    fn differentiated_speed_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
+        let d = self
+            .differentiation
+            .as_ref()
+            .expect("a differentiated acceleration has its span");
+        let sd = noise[Channel::Velocity];
+        let kt = self.k * theta[1];
+        let x = |i: usize| Vector3::new(self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]);
+        let mut g = vec![Vector3::zeros(); d.span_t.len()];
+        for i in 0..self.len() {
+            let (s, xi) = (d.sample[i], x(i));
+            g[s] += 2.0 * kt * self.v[i] * xi;
+            g[s + 1] += d.inv_dt[i] * xi;
+            g[s - 1] -= d.inv_dt[i] * xi;
+        }
+        // The correlation between neighbours of a sequence at times `t` (ρ, or ρ² for the
+        // squares); none for white noise.
+        let steps = |t: &[f64], square: bool| -> Option<Vec<f64>> {
+            noise.velocity_correlated().then(|| {
+                ar1_coefficients(t, noise.velocity_correlation_s)
+                    .iter()
+                    .map(|[phi, _]| if square { phi * phi } else { *phi })
+                    .collect()
+            })
+        };
+        // Σ_jl ρ_jl a_j a_lᵀ over a sequence with correlation `steps` between neighbours.
+        let banded = |a: &dyn Fn(usize) -> Vector3<f64>, n: usize, steps: Option<Vec<f64>>| {
+            let mut total = Matrix3::zeros();
+            for j in 0..n {
+                total += a(j) * a(j).transpose();
+            }
+            if let Some(steps) = steps {
+                let mut carried = Vector3::zeros();
+                for (j, &step) in steps.iter().enumerate().skip(1) {
+                    carried = step * (carried + a(j - 1));
+                    let half = a(j) * carried.transpose();
+                    total += half + half.transpose();
+                }
+            }
+            total
+        };
+        let linear = banded(&|j| g[j], g.len(), steps(&d.span_t, false));
+        let square = banded(&x, self.len(), steps(&self.t, true));
+        sd * sd * linear + 2.0 * sd.powi(4) * kt * kt * square
     }
 
     /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
@@ -165,14 +237,14 @@ pub static BOUNDS: [Bound; 4] = [
     },
     Bound {
         name: "eiv_sandwich",
-        description: "first-order covariance (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Ω the equation-error variance; with AR(1) speed noise, Ω banded",
+        description: "first-order covariance (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Σ the covariance of the equation errors (diagonal Ω; banded for AR(1) speed noise and for a differentiated acceleration)",
         applies: NoiseLevels::in_regressors,
         value: BoundValue::Constant(|reg, theta, n| reg.sandwich_se(theta, n).ok()),
     },
     Bound {
         name: "eiv_crlb_linearized",
-        description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated speed noise)",
-        applies: |n| n.in_regressors() && !n.velocity_correlated(),
+        description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated or differentiated speed noise)",
+        applies: |n| n.in_regressors() && n.independent_rows(),
         value: BoundValue::Constant(|reg, theta, n| reg.linearized_crlb_se(theta, n).ok()),
     },
 ];

@@ -172,8 +172,32 @@ impl<T> IndexMut<Channel> for PerChannel<T> {
     }
 }
 
-/// Noise levels of one condition: a standard deviation per channel (0 = off), and the
-/// correlation time of the speed noise.
+/// Where the acceleration in the regression output comes from (`estimation.acceleration`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Acceleration {
+    /// The true dV/dt (the thesis; an ideal accelerometer).
+    #[default]
+    Model,
+    /// The central difference of the *measured* speed, as a log without an accelerometer
+    /// has it: the speed noise then enters the output too.
+    Differentiated,
+}
+
+impl Acceleration {
+    /// Every source, in the order of messages.
+    pub const ALL: [Acceleration; 2] = [Acceleration::Model, Acceleration::Differentiated];
+
+    /// Its name in study files and in the `acceleration` column.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Acceleration::Model => "model",
+            Acceleration::Differentiated => "differentiated",
+        }
+    }
+}
+
+/// Noise levels of one condition: a standard deviation per channel (0 = off), the
+/// correlation time of the speed noise, and where the acceleration comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NoiseLevels {
     /// Standard deviation per channel, in the channel's unit (0 = off).
@@ -181,6 +205,8 @@ pub struct NoiseLevels {
     /// Correlation time τ_c of the speed noise \[s\]: a stationary AR(1) process with
     /// φ = exp(−Δt/τ_c) between consecutive samples (0 = white).
     pub velocity_correlation_s: f64,
+    /// The source of the acceleration in ỹ.
+    pub acceleration: Acceleration,
 }
 
 impl Index<Channel> for NoiseLevels {
@@ -200,6 +226,19 @@ impl NoiseLevels {
     /// (channel, standard deviation) pairs in [`Channel::ALL`] order.
     pub fn iter(&self) -> impl Iterator<Item = (Channel, &f64)> {
         self.sd.iter()
+    }
+
+    /// True when the acceleration is differentiated from the noisy measured speed: the
+    /// speed noise then enters the output as well, and rows share noise with their
+    /// neighbours.
+    pub fn speed_noise_differentiated(&self) -> bool {
+        self.acceleration == Acceleration::Differentiated && self.is_on(Channel::Velocity)
+    }
+
+    /// True when the rows' equation errors are independent (no correlated speed noise, no
+    /// differentiated speed noise).
+    pub fn independent_rows(&self) -> bool {
+        !self.velocity_correlated() && !self.speed_noise_differentiated()
     }
 
     /// True when the speed noise is on and correlated in time.
@@ -222,9 +261,11 @@ impl NoiseLevels {
         self.is_on(Channel::Output) && !self.in_regressors()
     }
 
-    /// True when every channel that is on is handled by the vectorised kernel.
+    /// True when every channel that is on is handled by the vectorised kernel (whose output
+    /// noise is the output channel's alone).
     pub fn fast_path(&self) -> bool {
-        self.iter().all(|(c, &sd)| c.on_fast_path() || sd == 0.0)
+        !self.speed_noise_differentiated()
+            && self.iter().all(|(c, &sd)| c.on_fast_path() || sd == 0.0)
     }
 }
 

@@ -97,6 +97,13 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// Its estimate from the realisation.
     fn estimate(&self, r: &Realisation<'_>) -> Estimate;
 
+    /// Whether it compensates the speed noise's bias with the noise's moments (BCLS and
+    /// its kin): such an estimator stays unbiased under a differentiated acceleration with
+    /// AR(1) speed noise only when the samples are evenly spaced.
+    fn compensates_speed_noise(&self) -> bool {
+        false
+    }
+
     /// Whether `bound` is reported next to this estimator's estimates (where the bound
     /// applies to the noise at all): a bound that does not describe this estimator's
     /// spread is left out (NaN) rather than misread. Every bound by default.
@@ -135,6 +142,10 @@ impl Estimator for Bcls {
 
     fn description(&self) -> &'static str {
         "bias-compensated least squares: unbiased replacements of V² and V⁴ for speed noise of known σ_v"
+    }
+
+    fn compensates_speed_noise(&self) -> bool {
+        true
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {

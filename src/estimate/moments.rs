@@ -64,13 +64,15 @@ impl Moments {
 }
 
 /// Row `i` of the measured regression, (x̃₁, w = Ṽ², x̃₃, ỹ), with each channel's
-/// standard-normal draw `draw(channel)` (0 when it is off).
+/// standard-normal draw `draw(channel)` (0 when it is off), and the noise of a
+/// differentiated acceleration \[m/s²\] where there is one.
 #[inline]
 fn measured_row(
     reg: &Regression,
     levels: &NoiseLevels,
     i: usize,
     draw: impl Fn(Channel) -> f64,
+    derivative: Option<f64>,
 ) -> [f64; 4] {
     let mut s = Sample {
         f: reg.f[i],
@@ -85,7 +87,10 @@ fn measured_row(
     let x1 = s.f;
     let w = s.v * s.v;
     let x3 = -reg.g * s.cos_grade;
-    let y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
+    let mut y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
+    if let Some(d) = derivative {
+        y += d;
+    }
     [x1, w, x3, y]
 }
 
@@ -180,8 +185,9 @@ impl Rows {
         }
     }
 
-    /// Append the measured rows `start .. start + len` of `reg` with the block's draws (the
-    /// same draws the moments of the block are summed from, with the same arithmetic).
+    /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
+    /// derivative noise (the same the moments of the block are summed from, with the same
+    /// arithmetic).
     pub fn push_block(
         &mut self,
         reg: &Regression,
@@ -189,6 +195,7 @@ impl Rows {
         start: usize,
         len: usize,
         draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
     ) {
         let range = start..start + len;
         if !self.copies[0] {
@@ -212,8 +219,13 @@ impl Rows {
             unreachable!("the general path copies every column");
         };
         for (j, i) in range.enumerate() {
-            let [x1, w, x3, yi] =
-                measured_row(reg, levels, i, |ch| draws[ch].map_or(0.0, |d| d[j]));
+            let [x1, w, x3, yi] = measured_row(
+                reg,
+                levels,
+                i,
+                |ch| draws[ch].map_or(0.0, |d| d[j]),
+                derivative.map(|d| d[j]),
+            );
             f.push(x1);
             self.w.push(w);
             c.push(x3);
@@ -274,15 +286,26 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
-    /// Add samples `start .. start + len` with the block's standard-normal draws. Each
-    /// block is summed separately and then added, so rounding grows like the number of
-    /// blocks, not of samples.
+    /// Add samples `start .. start + len` with the block's standard-normal draws and, for
+    /// a differentiated acceleration, the noise it adds to each output \[m/s²\]. Each block
+    /// is summed separately and then added, so rounding grows like the number of blocks,
+    /// not of samples.
     #[inline]
-    pub fn add_block(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+    pub fn add_block(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+    ) {
         if self.use_fast_path {
+            debug_assert!(
+                derivative.is_none(),
+                "the fast path has no derivative noise"
+            );
             self.add_fast(start, len, draws);
         } else {
-            self.add_general(start, len, draws);
+            self.add_general(start, len, draws, derivative);
         }
     }
 
@@ -317,7 +340,13 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
-    fn add_general(&mut self, start: usize, len: usize, draws: BlockNoise<'_>) {
+    fn add_general(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+    ) {
         let reg = self.reg;
         let levels = self.noise;
         let mut b = Moments::default();
@@ -325,7 +354,13 @@ impl<'r> MomentAccumulator<'r> {
         let zeros = &ZEROS[..len];
         let draws = draws.0.map(|d| d.unwrap_or(zeros));
         for (j, i) in (start..start + len).enumerate() {
-            let [x1, w, x3, y] = measured_row(reg, &levels, i, |c| draws[c.index()][j]);
+            let [x1, w, x3, y] = measured_row(
+                reg,
+                &levels,
+                i,
+                |c| draws[c.index()][j],
+                derivative.map(|d| d[j]),
+            );
             b.s_11 += x1 * x1;
             b.s_13 += x1 * x3;
             b.s_33 += x3 * x3;
@@ -398,6 +433,7 @@ mod tests {
                     Channel::Output => Some(&eta[..len]),
                     _ => None,
                 }),
+                None,
             );
         }
         acc.finish()
@@ -445,7 +481,7 @@ mod tests {
         for start in (0..reg.len()).step_by(BLOCK) {
             let len = BLOCK.min(reg.len() - start);
             let none = BlockNoise::default();
-            acc.add_block(start, len, none);
+            acc.add_block(start, len, none, None);
         }
         let (a, b) = acc.finish().ols_system(reg.k);
         for i in 0..3 {

@@ -70,6 +70,9 @@ pub struct Regression {
     /// over blocks, exactly as a realisation without speed noise would sum them: such a
     /// realisation starts from these instead of recomputing them.
     pub(crate) speed_sums_noise_free: [f64; 5],
+    /// The logged speed samples a differentiated acceleration reads (`None`: the
+    /// regression's output holds the model acceleration).
+    pub differentiation: Option<Differentiation>,
     /// The weight segments of `wbcls` and the noise-free sums of x₁ and x₃ over each,
     /// computed when first asked for.
     segments: OnceLock<Segments>,
@@ -118,6 +121,7 @@ impl Regression {
             }
         }
         Regression {
+            differentiation: None,
             segments: OnceLock::new(),
             t: cycle.t_s.clone(),
             speed_sums_noise_free,
@@ -185,18 +189,89 @@ impl Regression {
         self.f.is_empty()
     }
 
-    /// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at these
-    /// samples: φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that
-    /// e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i is stationary with unit variance for any steps
-    /// (the first entry is unused: e_0 = z_0).
+    /// The AR(1) coefficients of speed noise with correlation time `tau_s` \[s\] at the
+    /// samples that carry it ([`noise_times`](Self::noise_times); see [`ar1_coefficients`]).
     pub fn ar1_coefficients(&self, tau_s: f64) -> Vec<[f64; 2]> {
-        std::iter::once([0.0, 1.0])
-            .chain(self.t.windows(2).map(|w| {
-                let phi = (-(w[1] - w[0]) / tau_s).exp();
-                [phi, (1.0 - phi * phi).sqrt()]
-            }))
-            .collect()
+        ar1_coefficients(self.noise_times(), tau_s)
     }
+}
+
+/// Where a differentiated acceleration takes its speeds: the logged samples from the one
+/// before the first row to the one after the last (the *span*; rows left out of the
+/// regression in between are logged too), and each row's place in it. Row i's output is
+/// (Ṽ_{s+1} − Ṽ_{s−1}) / (t_{s+1} − t_{s−1}) + g sin θ̃ with s = `sample[i]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Differentiation {
+    /// Times of the span's samples \[s\].
+    pub span_t: Vec<f64>,
+    /// Each row's sample in the span (its neighbours are the samples before and after).
+    pub sample: Vec<usize>,
+    /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
+    pub inv_dt: Vec<f64>,
+    /// True when the span's steps are equal to 1e-6 relative (then AR(1) noise is as
+    /// correlated with the sample before as with the one after, which BCLS relies on).
+    pub uniform_steps: bool,
+}
+
+impl Regression {
+    /// The regression of the samples of `cycle` marked in `used` (none of them its first or
+    /// last sample) with the acceleration differentiated from the speed: the noise-free
+    /// output is the central difference of the true speed, and [`Differentiation`] tells
+    /// the kernel where each row's speed noise comes from.
+    pub fn differentiated(
+        cycle: &DriveCycle,
+        used: &[bool],
+        grade_offset: f64,
+        vehicle: &VehicleParams,
+    ) -> Regression {
+        let (t, v) = (&cycle.t_s, &cycle.v_m_s);
+        let rows: Vec<usize> = (0..used.len()).filter(|&i| used[i]).collect();
+        assert!(
+            rows.first().is_some_and(|&i| i > 0) && rows.last().is_some_and(|&i| i + 1 < t.len()),
+            "a differentiated row needs a sample on each side"
+        );
+        let inv_dt: Vec<f64> = rows.iter().map(|&i| 1.0 / (t[i + 1] - t[i - 1])).collect();
+        let mut selected = cycle.select(used);
+        selected.accel_m_s2 = rows
+            .iter()
+            .zip(&inv_dt)
+            .map(|(&i, q)| (v[i + 1] - v[i - 1]) * q)
+            .collect();
+        selected
+            .grade_rad
+            .iter_mut()
+            .for_each(|g| *g += grade_offset);
+        let start = rows[0] - 1;
+        let span_t = t[start..=rows[rows.len() - 1] + 1].to_vec();
+        let steps: Vec<f64> = span_t.windows(2).map(|w| w[1] - w[0]).collect();
+        let uniform_steps = steps.iter().all(|d| (d / steps[0] - 1.0).abs() <= 1e-6);
+        let mut reg = Regression::new(&selected, vehicle);
+        reg.differentiation = Some(Differentiation {
+            span_t,
+            sample: rows.iter().map(|&i| i - start).collect(),
+            inv_dt,
+            uniform_steps,
+        });
+        reg
+    }
+
+    /// The times of the samples that carry speed noise: the span for a differentiated
+    /// acceleration, else the rows.
+    pub fn noise_times(&self) -> &[f64] {
+        self.differentiation.as_ref().map_or(&self.t, |d| &d.span_t)
+    }
+}
+
+/// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at samples `t`:
+/// φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i
+/// is stationary with unit variance for any steps (the first entry is unused: e_0 = z_0).
+pub fn ar1_coefficients(t: &[f64], tau_s: f64) -> Vec<[f64; 2]> {
+    std::iter::once([0.0, 1.0])
+        .chain(t.windows(2).map(|w| {
+            let phi = (-(w[1] - w[0]) / tau_s).exp();
+            [phi, (1.0 - phi * phi).sqrt()]
+        }))
+        .collect()
 }
 
 /// A short thesis-like cycle (60 s over a sinusoidal grade) for unit tests.

@@ -42,6 +42,10 @@ impl Estimator for Wbcls {
         true
     }
 
+    fn compensates_speed_noise(&self) -> bool {
+        true
+    }
+
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let rows = r.rows();
         let k = r.regression.k;
@@ -59,11 +63,13 @@ impl Estimator for Wbcls {
             })
             .collect();
         let local = neighbour_means(&moments, sd * sd, segments_left_out(r.noise));
+        let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
             let th = [theta[0], theta[1], theta[2]];
             let mut total = Moments::default();
-            for (m, &(v2, c2)) in moments.iter().zip(&local) {
-                let variance = row_variance(&th, k, v2, c2, r.noise);
+            for (b, (m, &(v2, c2))) in moments.iter().zip(&local).enumerate() {
+                let variance = row_variance(&th, k, v2, c2, r.noise)
+                    + derivative.as_ref().map_or(0.0, |d| d[b]);
                 if !(variance > 0.0 && variance.is_finite()) {
                     // No noise, or a variance model that breaks down: stay with the last
                     // estimate.
@@ -86,13 +92,44 @@ impl Estimator for Wbcls {
 }
 
 /// How many segments on each side of a segment are skipped before its neighbours: none
-/// for white noise, three correlation times for AR(1) noise.
+/// for white noise, three correlation times for AR(1) noise, and at least one when the
+/// acceleration is differentiated (a segment's edge rows read the neighbours' samples).
 fn segments_left_out(noise: &NoiseLevels) -> usize {
-    if noise.velocity_correlated() {
+    let correlated = if noise.velocity_correlated() {
         (CORRELATION_TIMES_LEFT_OUT * noise.velocity_correlation_s / SEGMENT_S).ceil() as usize
     } else {
         0
+    };
+    if noise.speed_noise_differentiated() {
+        correlated.max(1)
+    } else {
+        correlated
     }
+}
+
+/// Per segment, the variance a differentiated acceleration adds to ỹ:
+/// σ_v² Var(e_{s+1} − e_{s−1}) / Δt² = 2σ_v² (1 − ρ) / Δt² with ρ = exp(−Δt/τ) (0 for white
+/// noise), at the segment's mean Δt = t_{s+1} − t_{s−1} (noise-free sample times).
+fn derivative_variance(r: &Realisation<'_>, segments: &[(usize, usize)]) -> Option<Vec<f64>> {
+    if !r.noise.speed_noise_differentiated() {
+        return None;
+    }
+    let d = r.regression.differentiation.as_ref()?;
+    let s2 = r.noise[Channel::Velocity].powi(2);
+    let tau = r.noise.velocity_correlation_s;
+    Some(
+        segments
+            .iter()
+            .map(|&(a, b)| {
+                let span: f64 = (a..b)
+                    .map(|i| d.span_t[d.sample[i] + 1] - d.span_t[d.sample[i] - 1])
+                    .sum();
+                let dt = span / (b - a) as f64;
+                let rho = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
+                2.0 * s2 * (1.0 - rho) / (dt * dt)
+            })
+            .collect(),
+    )
 }
 
 /// Per segment b, from the segments `skip + 1` before and after it (those that exist):

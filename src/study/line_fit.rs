@@ -62,6 +62,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<LineFitStudy, 
                 "applies to the vehicle model's rls estimator only",
             ));
         }
+        if e.acceleration.is_some() {
+            return Err(c.fail(
+                "estimation.acceleration",
+                "applies to the vehicle model only",
+            ));
+        }
     }
     let t_start = c.finite("line_fit.t_start", l.t_start)?;
     let t_step = c.positive("line_fit.t_step", l.t_step)?;

@@ -135,4 +135,7 @@ pub struct RawEstimation {
     pub estimators: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forgetting: Option<f64>,
+    /// A name or a list of names (an axis).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceleration: Option<toml::Value>,
 }

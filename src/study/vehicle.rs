@@ -6,6 +6,7 @@ use std::sync::Arc;
 use super::raw::{RawNoise, RawStudy};
 use super::validate::{Checker, validate_estimators};
 use super::{MAX_SAMPLES, StudyError};
+use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params};
@@ -77,6 +78,9 @@ pub struct VehicleStudy {
     pub estimators: Vec<EstimatorRef>,
     /// Settings of the estimators (`estimation.forgetting`).
     pub settings: EstimatorSettings,
+    /// Sources of the acceleration in the output, one condition axis (`[model]` when the
+    /// study has no `estimation.acceleration`).
+    pub acceleration: Vec<Acceleration>,
 }
 
 pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
@@ -185,6 +189,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         velocity_correlation_s,
         estimators,
         settings: EstimatorSettings { forgetting },
+        acceleration: validate_acceleration(e.acceleration.as_ref(), c)?,
     })
 }
 
@@ -326,6 +331,51 @@ fn validate_noise(
         None => vec![0.0],
     };
     Ok((NoiseAxes::new(levels), grade_bias, correlation))
+}
+
+/// `estimation.acceleration`: one name or a list of names of [`Acceleration::ALL`].
+fn validate_acceleration(
+    value: Option<&toml::Value>,
+    c: &Checker<'_>,
+) -> Result<Vec<Acceleration>, StudyError> {
+    const KEY: &str = "estimation.acceleration";
+    let names: Vec<&str> = Acceleration::ALL.map(Acceleration::name).to_vec();
+    let one = |key: &str, v: &toml::Value| -> Result<Acceleration, StudyError> {
+        let name = v
+            .as_str()
+            .ok_or_else(|| c.fail(key, format!("must be a string, one of {names:?}")))?;
+        Acceleration::ALL
+            .into_iter()
+            .find(|a| a.name() == name)
+            .ok_or_else(|| {
+                c.fail(
+                    key,
+                    format!("unknown acceleration source \"{name}\"; expected one of {names:?}"),
+                )
+            })
+    };
+    let levels = match value {
+        None => vec![Acceleration::Model],
+        Some(toml::Value::Array(items)) => {
+            if items.is_empty() {
+                return Err(c.fail(KEY, "must list at least one value"));
+            }
+            let mut levels = Vec::new();
+            for (i, v) in items.iter().enumerate() {
+                let a = one(&format!("{KEY}[{i}]"), v)?;
+                if levels.contains(&a) {
+                    return Err(c.fail(
+                        &format!("{KEY}[{i}]"),
+                        format!("\"{}\" is listed twice", a.name()),
+                    ));
+                }
+                levels.push(a);
+            }
+            levels
+        }
+        Some(v) => vec![one(KEY, v)?],
+    };
+    Ok(levels)
 }
 
 /// The `[noise]` key of the speed noise's correlation time \[s\] (an axis; default `[0]`,

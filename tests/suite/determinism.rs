@@ -49,12 +49,13 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 /// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none),
 /// `velocity_correlation_time` (white noise) and `used` (every sample). They are checked
 /// separately; the hash covers every other column.
-const ADDED_COLUMNS: [&str; 5] = [
+const ADDED_COLUMNS: [&str; 6] = [
     "duration",
     "grade_bias",
     "velocity_correlation_time",
     "used",
     "rls_settle_time",
+    "acceleration",
 ];
 
 /// XXH64 of every value of a table, column by column in row order (doubles by their bits,

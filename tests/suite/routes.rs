@@ -421,3 +421,37 @@ fn a_study_run_by_its_bare_file_name_finds_its_trace() {
     assert!(output.status.success(), "{stderr}");
     assert!(out.join("figures/cycles.svg").is_file());
 }
+
+#[test]
+fn a_differentiated_acceleration_on_an_uneven_trace() {
+    // A speed trace's own acceleration is the central difference of its speed, so without
+    // noise the differentiated output (the same difference, first and last sample left
+    // out) is the trace's and OLS recovers θ as before. With AR(1) speed noise on these
+    // uneven steps (0.8–1.3 s) BCLS's compensation does not hold (the noise is more
+    // correlated with one neighbour than the other): an error naming the combination.
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("log.csv");
+    std::fs::write(&path, drive_log()).unwrap();
+    let text = thesis_with(Some(&trace_drive(&path, "min_speed = 0.5")), Some(""));
+    let text = format!("{text}acceleration = \"differentiated\"\n");
+    assert_recovers_theta(&load(&text, 2), "differentiated speed trace");
+
+    let text = set_key(&text, "velocity_sd", "[0.3]");
+    let text = set_key(&text, "estimators", "[\"ols\", \"bcls\"]");
+    let text = text.replace("[noise]", "[noise]\nvelocity_correlation_time = [2.0]");
+    let err = chassis_mc::model::vehicle::VehicleModel::new(&load(&text, 2))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("estimation.acceleration")
+            && err.contains("\"bcls\"")
+            && err.contains("evenly"),
+        "{err}"
+    );
+    // White noise keeps BCLS unbiased on any steps: no error.
+    let white = text.replace(
+        "velocity_correlation_time = [2.0]",
+        "velocity_correlation_time = [0.0]",
+    );
+    assert!(chassis_mc::model::vehicle::VehicleModel::new(&load(&white, 2)).is_ok());
+}

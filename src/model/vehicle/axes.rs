@@ -21,6 +21,8 @@ pub enum VehicleAxis {
     VelocityCorrelation,
     /// A constant offset of the measured grade (`noise.grade_bias`).
     GradeBias,
+    /// The source of the acceleration in the output (`estimation.acceleration`).
+    Acceleration,
 }
 
 /// Every axis, outermost first.
@@ -28,7 +30,11 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
     [VehicleAxis::Scale, VehicleAxis::Duration]
         .into_iter()
         .chain(Channel::ALL.map(VehicleAxis::Noise))
-        .chain([VehicleAxis::VelocityCorrelation, VehicleAxis::GradeBias])
+        .chain([
+            VehicleAxis::VelocityCorrelation,
+            VehicleAxis::GradeBias,
+            VehicleAxis::Acceleration,
+        ])
 }
 
 /// One condition: the level of every axis.
@@ -53,6 +59,7 @@ impl VehicleAxis {
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
             VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
+            VehicleAxis::Acceleration => Axis::text("acceleration"),
         }
     }
 
@@ -64,6 +71,7 @@ impl VehicleAxis {
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
             VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
             VehicleAxis::GradeBias => study.grade_bias.len(),
+            VehicleAxis::Acceleration => study.acceleration.len(),
         }
     }
 
@@ -77,17 +85,22 @@ impl VehicleAxis {
                 point.noise.velocity_correlation_s = study.velocity_correlation_s[i]
             }
             VehicleAxis::GradeBias => point.grade_bias_index = i,
+            VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
         }
     }
 
     /// This axis's value at `point`, whose cycle segment lasts `duration_s`.
     pub fn value(self, study: &VehicleStudy, point: &Point, duration_s: f64) -> AxisValue {
+        if self == VehicleAxis::Acceleration {
+            return AxisValue::Text(point.noise.acceleration.name().to_string());
+        }
         AxisValue::Number(match self {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
             VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
+            VehicleAxis::Acceleration => unreachable!("a text axis, returned above"),
         })
     }
 }

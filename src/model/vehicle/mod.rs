@@ -31,7 +31,7 @@ use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
-use prepare::{ScaleCycle, Segment, duration_count, scale_cycles, segments};
+use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
@@ -41,8 +41,8 @@ pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resist
 struct Condition {
     info: ConditionInfo,
     scale_index: usize,
-    /// Index of its (scale, duration) segment.
-    segment: usize,
+    /// Which samples of its cycle the regression uses.
+    used: Arc<Vec<bool>>,
     noise: NoiseLevels,
     regression: Arc<Regression>,
     /// AR(1) coefficients of correlated speed noise (`None` when white).
@@ -60,8 +60,6 @@ pub struct VehicleModel {
     conditions: Vec<Condition>,
     /// One cycle per terrain scale (kept for cycles.parquet and figures).
     cycles: Vec<ScaleCycle>,
-    /// The rows of each (scale, duration).
-    segments: Vec<Segment>,
     /// Whether an estimator of the study reads the measured rows.
     needs_rows: bool,
     /// The true θ.
@@ -82,13 +80,21 @@ impl VehicleModel {
         let segments = segments(study, &vs, &cycles)?;
         let durations = duration_count(&vs);
         let layout = layout(&vs);
+        if let Some(e) = vs.estimators.iter().find(|e| e.compensates_speed_noise()) {
+            uneven_differentiation(study, &vs, &segments, e.name())?;
+        }
         let conditions = grid(&vs)
             .par_iter()
             .map(|point| {
                 let noise = point.noise;
                 let k = point.scale_index * durations + point.duration_index;
                 let segment = &segments[k];
-                let regression = segment.regressions[point.grade_bias_index].clone();
+                let source = vs
+                    .acceleration
+                    .iter()
+                    .position(|&a| a == noise.acceleration)
+                    .expect("the grid takes the source from the study's list");
+                let regression = segment.regressions[source][point.grade_bias_index].clone();
                 let constant_bounds = BOUNDS
                     .iter()
                     .map(|bound| {
@@ -121,7 +127,7 @@ impl VehicleModel {
                         applies,
                     },
                     scale_index: point.scale_index,
-                    segment: k,
+                    used: segment.used[source].clone(),
                     noise,
                     ar1: noise
                         .velocity_correlated()
@@ -135,7 +141,6 @@ impl VehicleModel {
             layout,
             conditions,
             cycles,
-            segments,
             needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
             truth,
             study: vs,
@@ -175,11 +180,40 @@ impl VehicleModel {
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
         let mut acc = MomentAccumulator::new(reg, noise);
         let n = reg.len();
-        // The previous sample's correlated speed noise (AR(1) only).
+        // A differentiated acceleration: the speed noise of every logged sample of the span
+        // (AR(1)-filtered where correlated), drawn before the rows that read it.
+        let span_noise = match (&reg.differentiation, &mut streams[Channel::Velocity]) {
+            (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
+                let mut e = vec![0.0; d.span_t.len()];
+                for chunk in e.chunks_mut(BLOCK) {
+                    stream.fill_block(chunk);
+                }
+                if let Some(ar1) = &cond.ar1 {
+                    let mut previous = 0.0;
+                    for (z, [phi, scale]) in e.iter_mut().zip(ar1) {
+                        *z = phi * previous + scale * *z;
+                        previous = *z;
+                    }
+                }
+                Some((d, e))
+            }
+            _ => None,
+        };
+        let mut derivative = [0.0; BLOCK];
+        // The previous sample's correlated speed noise (AR(1) on the rows only).
         let mut previous = 0.0;
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
-            if let (Some(ar1), Some(stream)) = (&cond.ar1, &mut streams[Channel::Velocity]) {
+            if let Some((d, e)) = &span_noise {
+                // Each row's own sample's noise, and σ_v (e_{s+1} − e_{s−1}) / Δt in ỹ.
+                let sd = noise[Channel::Velocity];
+                let buffer = &mut buffers[Channel::Velocity][..len];
+                for (j, i) in (start..start + len).enumerate() {
+                    let s = d.sample[i];
+                    buffer[j] = e[s];
+                    derivative[j] = sd * (e[s + 1] - e[s - 1]) * d.inv_dt[i];
+                }
+            } else if let (Some(ar1), Some(stream)) = (&cond.ar1, &mut streams[Channel::Velocity]) {
                 let buffer = &mut buffers[Channel::Velocity][..len];
                 stream.fill_block(buffer);
                 for (z, [phi, scale]) in buffer.iter_mut().zip(&ar1[start..start + len]) {
@@ -187,26 +221,57 @@ impl VehicleModel {
                     previous = *z;
                 }
             }
+            // The speed noise is drawn above when it is correlated or differentiated.
+            let speed_drawn = cond.ar1.is_some() || span_noise.is_some();
             let mut draws = BlockNoise::default();
             for (channel, ((stream, buffer), draw)) in Channel::ALL
                 .into_iter()
                 .zip(streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0))
             {
                 *draw = stream.as_mut().map(|s| {
-                    // The correlated speed noise is drawn and filtered above.
-                    if !(channel == Channel::Velocity && cond.ar1.is_some()) {
+                    if !(channel == Channel::Velocity && speed_drawn) {
                         s.fill_block(&mut buffer[..len]);
                     }
                     &buffer[..len]
                 });
             }
+            let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
             if let Some(rows) = rows.as_deref_mut() {
-                rows.push_block(reg, &noise, start, len, draws);
+                rows.push_block(reg, &noise, start, len, draws, derivative);
             }
-            acc.add_block(start, len, draws);
+            acc.add_block(start, len, draws, derivative);
         }
         acc.finish()
     }
+}
+
+/// A compensating estimator (`name`) under a differentiated acceleration with AR(1) speed
+/// noise needs evenly spaced samples: on uneven ones the noise is more correlated with one
+/// neighbour than the other, E[ỹ Ṽ²] gains a term the compensation does not remove, and
+/// the combination is an error naming it.
+fn uneven_differentiation(
+    study: &Study,
+    vs: &VehicleStudy,
+    segments: &[prepare::Segment],
+    name: &str,
+) -> Result<(), StudyError> {
+    let correlated = vs.velocity_correlation_s.iter().any(|&t| t > 0.0)
+        && vs.noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0);
+    let uneven = segments
+        .iter()
+        .flat_map(|s| s.regressions.iter().flatten())
+        .any(|r| r.differentiation.as_ref().is_some_and(|d| !d.uniform_steps));
+    if correlated && uneven {
+        return Err(study.error_at(
+            "estimation.acceleration",
+            format!(
+                "\"differentiated\" with correlated speed noise (noise.velocity_correlation_time) \
+                 and the estimator \"{name}\" needs evenly spaced samples, and this cycle's are not: \
+                 no bias compensation is implemented for that combination"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The row layout of the vehicle model running `estimators`.
@@ -286,7 +351,7 @@ impl Model for VehicleModel {
         Some(cycles_batch(
             index,
             &self.cycles[condition.scale_index].cycle,
-            &self.segments[condition.segment].used,
+            &condition.used,
         ))
     }
 

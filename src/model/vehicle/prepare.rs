@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::terrain::MAX_GRADE_RAD;
@@ -22,10 +23,13 @@ pub(super) struct ScaleCycle {
 /// The regression rows of one (scale, duration).
 #[derive(Debug)]
 pub(super) struct Segment {
-    /// Which samples of the scale's cycle the regression uses.
-    pub used: Arc<Vec<bool>>,
-    /// The regression of those samples, one per grade bias (the measured grade θ + b).
-    pub regressions: Vec<Arc<Regression>>,
+    /// Which samples of the scale's cycle the regression uses, per acceleration source (in
+    /// study order): a differentiated acceleration leaves out the cycle's first and last
+    /// sample, which have no neighbour on one side.
+    pub used: Vec<Arc<Vec<bool>>>,
+    /// The regression of those samples per acceleration source, and within it one per
+    /// grade bias (the measured grade θ + b).
+    pub regressions: Vec<Vec<Arc<Regression>>>,
     /// The condition metrics: ς over the table and over the used samples.
     pub metrics: Vec<f64>,
     /// The duration \[s\]: the axis value, or the whole cycle's length.
@@ -110,32 +114,58 @@ pub(super) fn segments(
                 ));
             }
             let used = cycle.used(&vs.selection, duration);
-            let rows = used.iter().filter(|u| **u).count();
-            if rows < 3 {
-                return Err(study.error_at(
-                    &key,
-                    format!(
-                        "leaves {rows} samples of the cycle at scale {} for the regression \
-                         (min_speed, exclude_braking and durations select them); at least 3 are needed",
-                        vs.scales[s]
-                    ),
-                ));
+            let mut used_per_source = Vec::new();
+            let mut regressions = Vec::new();
+            for &source in &vs.acceleration {
+                let mut used = used.clone();
+                if source == Acceleration::Differentiated {
+                    used[0] = false;
+                    if let Some(last) = used.last_mut() {
+                        *last = false;
+                    }
+                }
+                let rows = used.iter().filter(|u| **u).count();
+                if rows < 3 {
+                    return Err(study.error_at(
+                        &key,
+                        format!(
+                            "leaves {rows} samples of the cycle at scale {} for the regression \
+                             (min_speed, exclude_braking and durations select them{}); at least 3 are needed",
+                            vs.scales[s],
+                            if source == Acceleration::Differentiated {
+                                "; a differentiated acceleration also leaves out the first and last sample"
+                            } else {
+                                ""
+                            }
+                        ),
+                    ));
+                }
+                let selected = cycle.select(&used);
+                regressions.push(
+                    vs.grade_bias
+                        .iter()
+                        .map(|&b| {
+                            Arc::new(match source {
+                                Acceleration::Differentiated => {
+                                    Regression::differentiated(cycle, &used, b, &vs.vehicle)
+                                }
+                                Acceleration::Model if b == 0.0 => {
+                                    Regression::new(&selected, &vs.vehicle)
+                                }
+                                Acceleration::Model => {
+                                    let mut measured = selected.clone();
+                                    measured.grade_rad.iter_mut().for_each(|g| *g += b);
+                                    Regression::new(&measured, &vs.vehicle)
+                                }
+                            })
+                        })
+                        .collect(),
+                );
+                used_per_source.push(Arc::new(used));
             }
             let selected = cycle.select(&used);
-            let regressions = vs
-                .grade_bias
-                .iter()
-                .map(|&b| {
-                    if b == 0.0 {
-                        return Arc::new(Regression::new(&selected, &vs.vehicle));
-                    }
-                    let mut measured = selected.clone();
-                    measured.grade_rad.iter_mut().for_each(|g| *g += b);
-                    Arc::new(Regression::new(&measured, &vs.vehicle))
-                })
-                .collect();
             Ok(Segment {
-                used: Arc::new(used),
+                used: used_per_source,
                 regressions,
                 metrics: vec![cycles[s].terrain_ms_grid, selected.terrain_mean_square()],
                 duration_s: duration.unwrap_or(length),
