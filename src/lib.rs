@@ -45,10 +45,11 @@
 //! Each kind of extension is one typed entry; the study keys, the layout, the output columns,
 //! the summary and the figures are derived from the entries.
 //!
-//! - **an estimator**: one [`estimate::estimators::Estimator`] impl (its normal equations
-//!   from the moments; which bounds it reports), listed in
-//!   [`estimate::estimators::ESTIMATORS`], in `estimate/estimators.rs`. Study files can then
-//!   name it and every realisation runs it on the same draws.
+//! - **an estimator**: one [`estimate::estimators::Estimator`] impl (its estimate from a
+//!   realisation's moments, or also from its measured rows when it says it needs them;
+//!   which bounds it reports), listed in [`estimate::estimators::ESTIMATORS`] (its own file
+//!   in `estimate/` when it is more than normal equations, as `wbcls.rs` and `rls.rs`).
+//!   Study files can then name it and every realisation runs it on the same draws.
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].

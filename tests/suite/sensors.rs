@@ -360,3 +360,27 @@ fn the_sandwich_predicts_ols_under_a_differentiated_acceleration() {
         }
     }
 }
+
+#[test]
+fn the_shipped_sensors_study_crosses_its_axes() {
+    // studies/sensors.toml (R = 3 here): 11 scales × 2 correlation times × 2 acceleration
+    // sources, four estimators. On the differentiated acceleration wbcls is bcls to 1e-4
+    // relative: the derivative's noise, the same in every row, dominates Ω̂ (2σ²(1 − ρ)/Δt²
+    // ≥ 99 m²/s⁴ against (kθ₂)²·4V²σ² ≤ 7e-4), so its weights vary by < 1e-5 (measured
+    // differences around 1e-6).
+    let (dir, report) = run(&study("sensors.toml", 3), None);
+    assert_eq!(report.infos.len(), 44);
+    let t = read_table(&dir.path().join("realisations.parquet"));
+    let (acc, est) = (str_col(&t, "acceleration"), str_col(&t, "estimator"));
+    assert!(acc.iter().any(|a| a == "model") && acc.iter().any(|a| a == "differentiated"));
+    let theta = f64_col(&t, "theta_drag_over_mass");
+    let mut compared = 0;
+    for i in (0..t.num_rows()).filter(|&i| est[i] == "wbcls" && acc[i] == "differentiated") {
+        let bcls = i - 1;
+        assert_eq!(est[bcls], "bcls");
+        let rel = ((theta[i] - theta[bcls]) / theta[bcls]).abs();
+        assert!(rel < 1e-4, "{i}: {} {}", theta[i], theta[bcls]);
+        compared += 1;
+    }
+    assert_eq!(compared, 22 * 3);
+}
