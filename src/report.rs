@@ -1,7 +1,12 @@
-//! The human-readable table printed after a run: per parameter, one line per condition ×
-//! estimator with the mean ± MCSE, the empirical SE, the applicable bound and EmpSE/bound.
+//! What a reader sees of a run: the table printed after it (per parameter, one line per
+//! condition × estimator with the mean ± MCSE, the empirical SE, the applicable bound and
+//! EmpSE/bound) and `report.html`, the page written next to its files.
 
 use std::fmt::Write as _;
+
+mod html;
+
+pub use html::{Page, escape, page, warnings};
 
 use crate::model::{ConditionInfo, Layout};
 use crate::stats::summary::SummaryRow;

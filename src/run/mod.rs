@@ -230,6 +230,15 @@ fn run_prepared(
             let figures = draw_figures(out_dir, &pending)?;
             pending.extend(figures);
         }
+        let report = write_report(
+            out_dir,
+            "run",
+            study.name(),
+            &meta,
+            (&layout, &infos, &summary),
+            &pending,
+        )?;
+        pending.push(report);
     }
     let files = set::commit(&dir, pending, &|_| true)?;
     output::failpoint("committed");
@@ -273,6 +282,48 @@ pub(super) fn draw_figures(
     };
     let summary = find(files::SUMMARY).expect("the summary is written before the figures");
     Ok(figures::draw_staged(out_dir, summary, find(files::CYCLES))?)
+}
+
+/// Name of the report page in an output directory.
+pub const REPORT: &str = "report.html";
+
+/// Write `report.html` into `out_dir` (under a temporary name, to be committed with the
+/// rest): the study, provenance, the per-condition table and the figures among `pending`.
+pub(super) fn write_report(
+    out_dir: &Path,
+    command: &str,
+    study_name: &str,
+    meta: &FileMetadata,
+    (layout, infos, summary): (&Layout, &[ConditionInfo], &[SummaryRow]),
+    pending: &[PendingFile],
+) -> Result<PendingFile, OutputError> {
+    let figures_dir = out_dir.join(figures::FIGURES);
+    let mut figures = Vec::new();
+    for file in pending {
+        let path = file.final_path();
+        if path.parent() == Some(figures_dir.as_path())
+            && path.extension().is_some_and(|e| e == "svg")
+        {
+            let svg = fs::read_to_string(file.tmp_path())
+                .map_err(|e| OutputError::io(file.tmp_path(), e))?;
+            let name = path.file_name().unwrap_or_default().to_string_lossy();
+            figures.push((name.into_owned(), svg));
+        }
+    }
+    let table = crate::report::table(layout, infos, summary);
+    let html = crate::report::page(&crate::report::Page {
+        command,
+        study_name,
+        meta,
+        layout,
+        infos,
+        summary,
+        table: &table,
+        figures: &figures,
+    });
+    let tmp = out_dir.join(output::temporary_name(REPORT));
+    fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
+    Ok(PendingFile::new(tmp, out_dir.join(REPORT)))
 }
 
 pub(super) fn write_summary(

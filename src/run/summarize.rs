@@ -4,7 +4,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use super::{
-    RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_summary,
+    RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_report,
+    write_summary,
 };
 use crate::model::{self, ConditionInfo, Layout};
 use crate::output::lock::DirLock;
@@ -146,6 +147,15 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         let figures = draw_figures(out_dir, &pending)?;
         pending.extend(figures);
     }
+    let report = write_report(
+        out_dir,
+        "summarize",
+        study.name(),
+        &meta,
+        (&layout, &infos, &summary),
+        &pending,
+    )?;
+    pending.push(report);
     // The summary's set keeps the realisation files it summarised.
     let files = set::commit(out_dir, pending, &|path| {
         path != files::REALISATIONS && !path.starts_with("shard=")

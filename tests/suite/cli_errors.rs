@@ -179,7 +179,7 @@ fn bad_study_files_exit_2_with_file_key_line_and_reason() {
     );
     assert_eq!(code, 0, "{err}");
     let before = snapshot(&existing);
-    assert_eq!(before.len(), 4, "three tables and the manifest");
+    assert_eq!(before.len(), 5, "three tables, the report and the manifest");
 
     for case in cases() {
         let file = tmp

@@ -12,6 +12,7 @@ mod noise_free;
 mod output_integrity;
 mod output_noise;
 mod profiles;
+mod report;
 mod routes;
 mod sensors;
 mod shards_resume;

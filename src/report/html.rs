@@ -1,0 +1,191 @@
+//! `report.html`: one self-contained page per output directory (no network, figures inline)
+//! with the study, its provenance, the per-condition table, the figures and plain-language
+//! warnings where a number is easy to misread.
+
+use std::fmt::Write as _;
+
+use crate::model::{ConditionInfo, Layout};
+use crate::output::FileMetadata;
+use crate::stats::summary::SummaryRow;
+
+/// What a report page shows.
+#[derive(Debug, Clone, Copy)]
+pub struct Page<'a> {
+    /// What wrote the directory, e.g. `run`.
+    pub command: &'a str,
+    /// The study's name.
+    pub study_name: &'a str,
+    /// The footer metadata of the directory's files (study as run, seed, R, identity).
+    pub meta: &'a FileMetadata,
+    /// The row layout.
+    pub layout: &'a Layout,
+    /// Every condition.
+    pub infos: &'a [ConditionInfo],
+    /// The summary rows.
+    pub summary: &'a [SummaryRow],
+    /// The per-condition table as printed after a run.
+    pub table: &'a str,
+    /// The figures: file name and SVG text, inlined in this order.
+    pub figures: &'a [(String, String)],
+}
+
+/// `text` with `&`, `<`, `>` and `"` escaped for HTML.
+pub fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// An SVG document as an inline element: without its XML declaration.
+fn inline_svg(svg: &str) -> &str {
+    match svg.find("<svg") {
+        Some(i) => &svg[i..],
+        None => svg,
+    }
+}
+
+/// The page, as well-formed XHTML-compatible HTML5.
+pub fn page(p: &Page<'_>) -> String {
+    let mut out = String::new();
+    let title = format!("{} — chassis-mc {}", p.study_name, p.command);
+    let _ = write!(
+        out,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{}</title>\n\
+         <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem;line-height:1.4}}\
+         pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto;font-size:.8rem}}\
+         .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem;margin:.5rem 0}}\
+         figure{{margin:1rem 0}}figcaption{{font-size:.85rem;color:#444}}\
+         table.meta td{{padding:.1rem .75rem .1rem 0}}</style>\n</head>\n<body>\n<h1>{}</h1>\n",
+        escape(&title),
+        escape(&title)
+    );
+    // Provenance.
+    let _ = write!(
+        out,
+        "<h2>Provenance</h2>\n<table class=\"meta\">\n\
+         <tr><td>study</td><td>{}</td></tr>\n\
+         <tr><td>chassis-mc version</td><td>{}</td></tr>\n\
+         <tr><td>seed</td><td>{}</td></tr>\n\
+         <tr><td>realisations per condition (R)</td><td>{}</td></tr>\n\
+         <tr><td>conditions</td><td>{}</td></tr>\n\
+         <tr><td>identity</td><td><code>{}</code></td></tr>\n</table>\n",
+        escape(p.study_name),
+        escape(env!("CARGO_PKG_VERSION")),
+        p.meta.seed,
+        p.meta.realisations,
+        p.infos.len(),
+        escape(&p.meta.identity)
+    );
+    // Warnings.
+    let warnings = warnings(p.layout, p.infos, p.summary);
+    if !warnings.is_empty() {
+        out.push_str("<h2>Read with care</h2>\n");
+        for w in &warnings {
+            let _ = writeln!(out, "<p class=\"warning\">{}</p>", escape(w));
+        }
+    }
+    // The table.
+    let _ = write!(
+        out,
+        "<h2>Per condition</h2>\n<pre>{}</pre>\n",
+        escape(p.table.trim_matches('\n'))
+    );
+    // Figures.
+    if !p.figures.is_empty() {
+        out.push_str("<h2>Figures</h2>\n");
+        for (name, svg) in p.figures {
+            let _ = write!(
+                out,
+                "<figure>\n{}\n<figcaption>figures/{}</figcaption>\n</figure>\n",
+                inline_svg(svg),
+                escape(name)
+            );
+        }
+    }
+    let _ = write!(
+        out,
+        "<h2>Study as run</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
+        escape(&p.meta.study_toml)
+    );
+    out
+}
+
+/// Plain-language warnings about the numbers of this run.
+pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (b, bound) in layout.bounds.iter().enumerate() {
+        let ratios: Vec<f64> = summary
+            .iter()
+            .filter_map(|r| r.bounds[b].as_ref().map(|s| s.emp_over.value))
+            .filter(|v| v.is_finite())
+            .collect();
+        let applies = infos
+            .iter()
+            .filter(|i| i.applies.iter().any(|e| e[b]))
+            .count();
+        if bound.name == "thesis_bound" && !ratios.is_empty() {
+            let (lo, hi) = min_max(&ratios);
+            out.push(format!(
+                "thesis_bound is not a valid bound under speed noise: the noise is in the \
+                 regressors, not in the output, and σ_v [m/s] is not in the output's units. Here \
+                 the real spread of the estimates is {lo:.3}–{hi:.3} times thesis_bound."
+            ));
+        } else if applies > 0 && applies < infos.len() {
+            out.push(format!(
+                "{} is reported in {applies} of {} conditions only: {}.",
+                bound.name,
+                infos.len(),
+                bound.description
+            ));
+        }
+    }
+    for (e, name) in layout.estimators.iter().enumerate() {
+        let rows: Vec<&SummaryRow> = summary.iter().filter(|r| r.estimator == e).collect();
+        let biased: Vec<&&SummaryRow> = rows
+            .iter()
+            .filter(|r| r.bias.value.abs() > 4.0 * r.bias.mcse)
+            .collect();
+        if let Some(worst) = biased
+            .iter()
+            .max_by(|a, b| a.rel_bias.value.abs().total_cmp(&b.rel_bias.value.abs()))
+        {
+            out.push(format!(
+                "{name} is biased beyond 4 MCSE in {} of its {} estimates (largest: {} {:+.2} % \
+                 of the truth in condition {}). EmpSE and every bound describe the spread only; \
+                 RMSE includes the bias.",
+                biased.len(),
+                rows.len(),
+                layout.parameters[worst.parameter].name,
+                100.0 * worst.rel_bias.value,
+                worst.condition
+            ));
+        }
+    }
+    let failed: u64 = summary
+        .iter()
+        .filter(|r| r.parameter == 0)
+        .map(|r| r.n_failed)
+        .sum();
+    if failed > 0 {
+        out.push(format!(
+            "{failed} estimates failed (singular normal equations) and are left out of every \
+             measure."
+        ));
+    }
+    out
+}
+
+fn min_max(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        })
+}

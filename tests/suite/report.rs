@@ -1,0 +1,86 @@
+//! `report.html`: the page every `run` and `summarize` writes next to its files.
+
+use super::common::*;
+
+/// The text of every element named `name` under `node`, in document order.
+fn texts<'a>(doc: &'a roxmltree::Document<'a>, name: &str) -> Vec<String> {
+    doc.descendants()
+        .filter(|n| n.tag_name().name() == name)
+        .map(|n| {
+            n.descendants()
+                .filter(|d| d.is_text())
+                .map(|d| d.text().unwrap_or(""))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_report_parses_and_names_the_study_seed_r_and_embeds_every_figure() {
+    // Speed noise with OLS and BCLS: the thesis bound is reported (and must be warned
+    // about), OLS is biased (warned), BCLS is not.
+    let study = study("bias_compensation.toml", 5);
+    let (dir, _) = run(&study, None);
+    let text = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(text.starts_with("<!DOCTYPE html>"));
+    // Well-formed (XHTML-compatible) HTML: an XML parser reads it whole.
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..Default::default()
+    };
+    let doc = roxmltree::Document::parse_with_options(&text, options)
+        .unwrap_or_else(|e| panic!("report.html: {e}"));
+    let title = &texts(&doc, "title")[0];
+    assert!(title.contains("bias_compensation"), "{title}");
+    let cells = texts(&doc, "td");
+    let value = |label: &str| {
+        let i = cells.iter().position(|c| c.starts_with(label)).unwrap();
+        cells[i + 1].clone()
+    };
+    assert_eq!(value("seed"), "2018");
+    assert_eq!(value("realisations per condition"), "5");
+    assert_eq!(value("study"), "bias_compensation");
+    // Every figure of the run, inline, in the order of the captions.
+    let mut written: Vec<String> = std::fs::read_dir(dir.path().join("figures"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    let mut captions: Vec<String> = texts(&doc, "figcaption")
+        .iter()
+        .map(|c| c.trim_start_matches("figures/").to_string())
+        .collect();
+    let svgs = doc
+        .descendants()
+        .filter(|n| {
+            n.tag_name().name() == "svg"
+                && n.parent().is_some_and(|p| p.tag_name().name() == "figure")
+        })
+        .count();
+    assert_eq!(svgs, captions.len());
+    captions.sort();
+    assert_eq!(captions, written);
+    assert!(written.len() >= 12, "{written:?}");
+    // The warnings a reader needs.
+    let warnings: Vec<String> = doc
+        .descendants()
+        .filter(|n| n.attribute("class") == Some("warning"))
+        .map(|n| n.text().unwrap_or("").to_string())
+        .collect();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("thesis_bound is not a valid bound")),
+        "{warnings:?}"
+    );
+    assert!(
+        warnings.iter().any(|w| w.starts_with("ols is biased")),
+        "{warnings:?}"
+    );
+    // The study as run, escaped and complete.
+    let pre = texts(&doc, "pre");
+    assert!(
+        pre.iter()
+            .any(|p| p.contains("name = \"bias_compensation\""))
+    );
+}
