@@ -7,6 +7,7 @@ use anyhow::anyhow;
 use chassis_mc::figures::{self, FigureError};
 use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
+use chassis_mc::stats::plan::{self, Target, replications_for};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
 
@@ -70,6 +71,13 @@ enum Command {
         /// still printed on stderr).
         #[arg(long)]
         quiet: bool,
+        /// Treat this run as a pilot: print the realisations per condition needed for the
+        /// Monte Carlo standard error of MEASURE (mean, bias, rel_bias, emp_se, mse, rmse,
+        /// rel_precision) to reach MCSE in every condition × estimator (× parameter, or only
+        /// PARAMETER's), R·(MCSE now / MCSE wanted)², with the run time that takes at this
+        /// run's pace. Repeatable.
+        #[arg(long, value_name = "[PARAMETER:]MEASURE=MCSE", value_parser = Target::parse)]
+        replications_for: Vec<Target>,
     },
     /// Check a study without running it: its conditions, the run time and the output size.
     #[command(long_about = "Check a study without running it.\n\n\
@@ -217,6 +225,58 @@ fn output_directory(flag: &str, dir: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Check that every target names a parameter of `layout` (before the run).
+fn check_targets(layout: &chassis_mc::model::Layout, targets: &[Target]) -> Result<(), Failure> {
+    let parameters: Vec<&str> = layout.parameters.iter().map(|p| p.name).collect();
+    for target in targets {
+        if let Some(p) = &target.parameter
+            && !parameters.contains(&p.as_str())
+        {
+            return Err(bad_argument(format!(
+                "--replications-for: unknown parameter \"{p}\"; expected one of {parameters:?}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Print, for each target, the realisations it needs and the time they take at the pace of
+/// the run just done (`seconds` for `pilot_r` realisations per condition).
+fn plan_replications(
+    report: &chassis_mc::run::RunReport,
+    targets: &[Target],
+    pilot_r: u64,
+    seconds: f64,
+) -> Result<(), Failure> {
+    let parameters: Vec<&str> = report.layout.parameters.iter().map(|p| p.name).collect();
+    for target in targets {
+        let what = format!(
+            "{}{} MCSE {:e}",
+            target
+                .parameter
+                .as_deref()
+                .map_or(String::new(), |p| format!("{p}:")),
+            target.measure,
+            target.mcse
+        );
+        match replications_for(&report.summary, &parameters, pilot_r, target) {
+            Some((needed, row)) => {
+                let current = plan::measure(row, &target.measure).map_or(f64::NAN, |m| m.mcse);
+                println!(
+                    "replications for {what}: R = {needed} per condition (now {pilot_r}, MCSE \
+                     {current:.3e} at condition {}, {}, {}); about {:.0} s at this run's pace",
+                    row.condition,
+                    report.layout.estimators[row.estimator],
+                    parameters[row.parameter],
+                    seconds * needed as f64 / pilot_r as f64
+                );
+            }
+            None => println!("replications for {what}: no finite MCSE in this run to plan from"),
+        }
+    }
+    Ok(())
+}
+
 /// Execute a parsed command.
 pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
@@ -227,9 +287,11 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             shard,
             no_figures,
             quiet,
+            replications_for,
         } => {
             output_directory("--out", &out)?;
             let study = overrides.load(&study)?;
+            check_targets(&chassis_mc::model::layout_of(&study), &replications_for)?;
             if let Some(shard) = shard
                 && shard.range(study.realisations()).is_empty()
             {
@@ -271,6 +333,12 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                     println!("  {}", f.display());
                 }
             }
+            plan_replications(
+                &report,
+                &replications_for,
+                study.realisations(),
+                started.elapsed().as_secs_f64(),
+            )?;
             Ok(())
         }
         Command::Summarize {

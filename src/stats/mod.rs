@@ -3,4 +3,5 @@
 
 pub mod columns;
 pub mod measures;
+pub mod plan;
 pub mod summary;

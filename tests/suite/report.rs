@@ -1,4 +1,5 @@
-//! `report.html`: the page every `run` and `summarize` writes next to its files.
+//! What a run tells its reader: `report.html`, the page every `run` and `summarize` writes
+//! next to its files, and the `--replications-for` plan.
 
 use super::common::*;
 
@@ -82,5 +83,67 @@ fn the_report_parses_and_names_the_study_seed_r_and_embeds_every_figure() {
     assert!(
         pre.iter()
             .any(|p| p.contains("name = \"bias_compensation\""))
+    );
+}
+
+#[test]
+fn replications_for_plans_the_r_that_reaches_a_target_mcse() {
+    // A pilot of R₀ = 40 (bias_compensation at scale 1 and σ_v = 1), then the R it plans
+    // for half its largest bias MCSE of Cd/M: R ≈ 4·R₀. Run at that R (extending the
+    // pilot), the largest MCSE must be near the target: the ratio of the two runs' MCSEs
+    // has a relative SE of √(1/(2·40) + 1/(2·160)) ≈ 12.5 %, so 3 SE allow 1.375.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[1.0]");
+    let path = tmp.path().join("pilot.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("out");
+    let run = |r: &str, extra: &[&str]| {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "run".as_ref(),
+            path.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--realisations".as_ref(),
+            r.as_ref(),
+            "--quiet".as_ref(),
+        ];
+        args.extend(extra.iter().map(|a| std::ffi::OsStr::new(*a)));
+        let (code, stdout, stderr) = cli(&args, tmp.path());
+        assert_eq!(code, 0, "{stderr}");
+        stdout
+    };
+    run("40", &[]);
+    let worst = |dir: &std::path::Path| {
+        let s = read_table(&dir.join("summary.parquet"));
+        let param = str_col(&s, "parameter");
+        f64_col(&s, "bias_mcse")
+            .into_iter()
+            .zip(param)
+            .filter(|(_, p)| p == "drag_over_mass")
+            .map(|(m, _)| m)
+            .fold(0.0, f64::max)
+    };
+    let target = worst(&out) / 2.0;
+    let planned = run(
+        "40",
+        &[
+            "--replications-for",
+            &format!("drag_over_mass:bias={target:e}"),
+        ],
+    );
+    let r: u64 = planned
+        .split("R = ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no R in: {planned}"));
+    assert!((159..=161).contains(&r), "{planned}");
+    assert!(planned.contains("s at this run's pace"), "{planned}");
+    run(&r.to_string(), &[]);
+    let ratio = worst(&out) / target;
+    assert!(
+        (1.0 / 1.375..1.375).contains(&ratio),
+        "MCSE / target = {ratio}"
     );
 }

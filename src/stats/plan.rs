@@ -1,0 +1,123 @@
+//! How many realisations a target Monte Carlo standard error needs (Morris, White &
+//! Crowther 2019, §5.3): every measure's MCSE falls as 1/√R, so from a pilot of R₀
+//! realisations with MCSE s₀ the target s needs R = ⌈R₀ (s₀ / s)²⌉.
+
+use super::measures::Estimate;
+use super::summary::SummaryRow;
+
+/// A measure of the summary whose MCSE can be planned.
+pub const MEASURES: [&str; 7] = [
+    "mean",
+    "bias",
+    "rel_bias",
+    "emp_se",
+    "mse",
+    "rmse",
+    "rel_precision",
+];
+
+/// A target `[PARAMETER:]MEASURE=MCSE` of `--replications-for`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// Only this parameter (`None`: every parameter).
+    pub parameter: Option<String>,
+    /// One of [`MEASURES`].
+    pub measure: String,
+    /// The wanted MCSE, in the measure's unit.
+    pub mcse: f64,
+}
+
+impl Target {
+    /// Parse `[PARAMETER:]MEASURE=MCSE`.
+    pub fn parse(text: &str) -> Result<Target, String> {
+        let (lhs, value) = text
+            .split_once('=')
+            .ok_or_else(|| format!("expected [PARAMETER:]MEASURE=MCSE, got \"{text}\""))?;
+        let (parameter, measure) = match lhs.split_once(':') {
+            Some((p, m)) => (Some(p.trim().to_string()), m.trim()),
+            None => (None, lhs.trim()),
+        };
+        if !MEASURES.contains(&measure) {
+            return Err(format!(
+                "unknown measure \"{measure}\"; expected one of {MEASURES:?}"
+            ));
+        }
+        let mcse: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| format!("the MCSE \"{value}\" is not a number"))?;
+        if !(mcse > 0.0 && mcse.is_finite()) {
+            return Err(format!("the MCSE must be positive and finite, got {mcse}"));
+        }
+        Ok(Target {
+            parameter,
+            measure: measure.to_string(),
+            mcse,
+        })
+    }
+}
+
+/// The value and MCSE of `measure` in `row`.
+pub fn measure(row: &SummaryRow, measure: &str) -> Option<Estimate> {
+    Some(match measure {
+        "mean" => row.mean,
+        "bias" => row.bias,
+        "rel_bias" => row.rel_bias,
+        "emp_se" => row.emp_se,
+        "mse" => row.mse,
+        "rmse" => row.rmse,
+        "rel_precision" => row.rel_precision,
+        _ => return None,
+    })
+}
+
+/// The realisations `target` needs: the largest over the rows it covers (of parameters
+/// named in `parameters`), and the row that needs them. `None` when it covers no row with a
+/// finite MCSE.
+pub fn replications_for<'a>(
+    rows: &'a [SummaryRow],
+    parameters: &[&str],
+    pilot_r: u64,
+    target: &Target,
+) -> Option<(u64, &'a SummaryRow)> {
+    rows.iter()
+        .filter(|r| {
+            target
+                .parameter
+                .as_deref()
+                .is_none_or(|p| parameters.get(r.parameter) == Some(&p))
+        })
+        .filter_map(|r| {
+            let m = measure(r, &target.measure)?;
+            m.mcse.is_finite().then(|| {
+                let needed = pilot_r as f64 * (m.mcse / target.mcse).powi(2);
+                (needed.ceil().max(2.0) as u64, r)
+            })
+        })
+        .max_by_key(|(n, _)| *n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn targets_parse_with_and_without_a_parameter() {
+        assert_eq!(
+            Target::parse("drag_over_mass:bias=1e-9").unwrap(),
+            Target {
+                parameter: Some("drag_over_mass".into()),
+                measure: "bias".into(),
+                mcse: 1e-9
+            }
+        );
+        assert_eq!(Target::parse("emp_se=0.5").unwrap().parameter, None);
+        assert!(
+            Target::parse("coverage=0.01")
+                .unwrap_err()
+                .contains("unknown measure")
+        );
+        assert!(Target::parse("bias=-1").unwrap_err().contains("positive"));
+        assert!(Target::parse("bias").unwrap_err().contains("expected"));
+    }
+}
