@@ -4,6 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
+use chassis_mc::design::{
+    DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence, design,
+};
 use chassis_mc::figures::{self, FigureError};
 use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
@@ -117,6 +120,49 @@ enum Command {
         /// Print no table.
         #[arg(long)]
         quiet: bool,
+    },
+    /// Find the smallest duration or terrain scale (or the largest speed noise) at which a
+    /// target precision holds.
+    #[command(
+        long_about = "Find the smallest value of KEY in [FROM, TO] (the largest, for \
+        noise.velocity_sd) at which a target on one parameter holds for one estimator.\n\n\
+        KEY is drive.duration [s] (torque drive mode; the answer is a whole number of time \
+        steps), terrain.scale or noise.velocity_sd [m/s]; the study must have one condition \
+        once KEY is set. The target is PARAMETER:MEASURE<=VALUE with MEASURE rel_rmse, \
+        rel_emp_se or abs_rel_bias (fractions of the true value). First-order predictions \
+        (the bound's SE and the first-order speed-noise bias) on a grid of 25 values bracket \
+        the answer; Monte Carlo runs of the study (its realisations and seed) confirm and \
+        bisect it to 1 % of the range. A value holds when the Monte Carlo estimate of the \
+        measure is at most the target. Prints the answer with the measure's MCSE there and \
+        writes, into --out DIR, design.parquet (every value evaluated: predicted and \
+        simulated measure with its MCSE, is_answer; the answer also in the footer key \
+        chassis_mc.design.answer), figures/design.svg and report.html.\n\n\
+        Example: chassis-mc design studies/thesis.toml --vary drive.duration --from 60 --to \
+        600 --target drag_over_mass:rel_rmse<=0.001 --estimator bcls --out results/design"
+    )]
+    Design {
+        /// The study file (TOML).
+        study: PathBuf,
+        /// The key varied: drive.duration, terrain.scale or noise.velocity_sd.
+        #[arg(long, value_name = "KEY", value_parser = DesignKey::parse)]
+        vary: DesignKey,
+        /// The lower end of the range searched.
+        #[arg(long, value_name = "A", allow_negative_numbers = true)]
+        from: f64,
+        /// The upper end of the range searched.
+        #[arg(long, value_name = "B", allow_negative_numbers = true)]
+        to: f64,
+        /// PARAMETER:MEASURE<=VALUE, e.g. drag_over_mass:rel_rmse<=0.001.
+        #[arg(long, value_name = "TARGET", value_parser = DesignTarget::parse)]
+        target: DesignTarget,
+        /// The estimator (one of the study's; default its first).
+        #[arg(long, value_name = "E")]
+        estimator: Option<String>,
+        /// Output directory (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
     },
     /// Redraw DIR/figures/*.svg from an output directory's summary.parquet and cycles.parquet.
     #[command(
@@ -372,6 +418,68 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
             let study = overrides.load(&study)?;
             let found = chassis_mc::check::check(&study, overrides.threads())?;
             print!("{}", check_report(&study, &found));
+            Ok(())
+        }
+        Command::Design {
+            study,
+            vary,
+            from,
+            to,
+            target,
+            estimator,
+            out,
+            overrides,
+        } => {
+            output_directory("--out", &out)?;
+            let study = overrides.load(&study)?;
+            let request = DesignRequest {
+                key: vary,
+                from,
+                to,
+                target,
+                estimator,
+                out,
+            };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(overrides.threads().unwrap_or(0))
+                .build()
+                .map_err(|e| bad_argument(format!("--threads: {e}")))?;
+            let result = pool.install(|| design(&study, &request)).map_err(|e| {
+                let code = match e {
+                    DesignError::Study(_) | DesignError::Request(_) => EXIT_BAD_INPUT,
+                    DesignError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+                    _ => EXIT_FAILURE,
+                };
+                Failure {
+                    error: anyhow!(e),
+                    code,
+                }
+            })?;
+            println!(
+                "{}",
+                answer_sentence(&request, result.answer, result.answer_sd, result.neighbour)
+            );
+            println!(
+                "estimator {}, {} realisations per Monte Carlo evaluation, {} values evaluated \
+                 ({} by Monte Carlo); wrote:",
+                result.estimator,
+                result.realisations,
+                result.points.len(),
+                result
+                    .points
+                    .iter()
+                    .filter(|p| p.simulated.is_some())
+                    .count()
+            );
+            for f in &result.files {
+                println!("  {}", f.display());
+            }
+            if result.answer.is_none() {
+                return Err(Failure {
+                    error: anyhow!("no value in the range meets the target"),
+                    code: EXIT_FAILURE,
+                });
+            }
             Ok(())
         }
         Command::Figures { dir } => {

@@ -38,7 +38,7 @@
 //! | statistics | [`stats`] | performance measures with MCSEs, the two-pass summary, the summary columns |
 //! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
 //! | output | [`figures`] | SVG figures from the summary and cycles |
-//! | top | [`report`], [`run`], [`check`] | the printed table; run, shard and summarize; a study checked without running |
+//! | top | [`report`], [`run`], [`check`], [`design`] | the printed table and report.html; run, shard and summarize; a study checked without running; the smallest duration (or scale, or largest noise) meeting a target |
 //!
 //! # Where to add
 //!
@@ -76,6 +76,7 @@
 #![deny(missing_docs)]
 
 pub mod check;
+pub mod design;
 pub mod estimate;
 pub mod figures;
 pub mod model;

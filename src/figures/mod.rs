@@ -171,3 +171,45 @@ fn draw_into(
     names.extend(cycle_figure?);
     Ok(names)
 }
+
+/// The figure of a `design` search: the measure against the varied key, its first-order
+/// prediction as a line, the Monte Carlo evaluations as points with ±2 MCSE bars, and the
+/// target as a dashed line. Written to `path`.
+pub fn design_chart(
+    path: &Path,
+    titles: [&str; 3],
+    predicted: &[(f64, f64)],
+    simulated: &[(f64, f64, f64)],
+    target: f64,
+) -> Result<(), FigureError> {
+    let [title, x_label, y_label] = titles;
+    let series = [
+        chart::Series {
+            label: "first-order prediction".into(),
+            color: chart::color(0),
+            points: predicted.iter().map(|&(x, y)| (x, y, f64::NAN)).collect(),
+            markers: false,
+        },
+        chart::Series {
+            label: "Monte Carlo ± 2 MCSE".into(),
+            color: chart::color(1),
+            points: simulated.iter().map(|&(x, y, m)| (x, y, 2.0 * m)).collect(),
+            markers: true,
+        },
+    ];
+    let reference = [chart::Reference {
+        y: target,
+        label: format!("target {target:.3e}"),
+    }];
+    chart::chart(
+        path,
+        &chart::Axes {
+            title,
+            x_label,
+            y_label,
+            log_y: false,
+        },
+        &series,
+        &reference,
+    )
+}

@@ -17,7 +17,7 @@ use crate::model::{self, ConditionInfo, Layout, Model};
 use crate::montecarlo::{DEFAULT_CHUNK, Observer};
 pub use crate::output::files;
 pub use shard::Shard;
-pub use summarize::{realisation_files, summarise_files, summarize};
+pub use summarize::{realisation_files, summarise_files, summarise_in_memory, summarize};
 
 mod realise;
 mod shard;

@@ -7,11 +7,11 @@ use super::{
     RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_report,
     write_summary,
 };
-use crate::model::{self, ConditionInfo, Layout};
+use crate::model::{self, ConditionInfo, Layout, Model, Status};
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, RealisationBatches, keys, set};
 use crate::stats::measures::Z_95;
-use crate::stats::summary::{Summarizer, SummaryRow};
+use crate::stats::summary::{Record, Summarizer, SummaryError, SummaryRow};
 use crate::study::{Study, StudyError};
 
 /// The realisation files in `input`: the file itself, or in a directory its
@@ -206,6 +206,67 @@ pub fn summarise_files(
                     path: paths.first().map(|p| p.to_path_buf()).unwrap_or_default(),
                     source,
                 })?;
+        }
+    }
+    Ok(summarizer.finish())
+}
+
+/// The summary of `model`'s realisations 0..R of every condition (R = the study's), computed
+/// in memory and written nowhere: for callers that evaluate a study many times (`design`).
+pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<SummaryRow>, RunError> {
+    use rayon::prelude::*;
+    let layout = model.layout();
+    let infos = model.infos();
+    let stride = layout.realisation_stride();
+    let r = study.realisations();
+    // Every slot of every realisation is held at once: at most 2^28 (2 GiB).
+    let count = usize::try_from(r)
+        .ok()
+        .and_then(|r| r.checked_mul(infos.len() * stride))
+        .filter(|&n| n <= 1 << 28)
+        .ok_or_else(|| {
+            RunError::Study(study.error_at(
+                "realisations",
+                format!(
+                    "{r} realisations of {} conditions do not fit in memory for an in-memory \
+                     summary; use fewer",
+                    infos.len()
+                ),
+            ))
+        })?;
+    let inconsistent = |source: SummaryError| RunError::Summary {
+        path: PathBuf::from("(in memory)"),
+        source,
+    };
+    let mut slots = vec![f64::NAN; count];
+    slots.par_chunks_mut(stride).enumerate().for_each(|(i, s)| {
+        let (c, k) = (i / r as usize, i % r as usize);
+        model.realise(study.seed(), c, k as u64, s);
+    });
+    let p = layout.parameters.len();
+    let bounds = layout.bounds.len() * p;
+    let mut summarizer = Summarizer::new(layout, &infos, r, Z_95);
+    let records = |i: usize| {
+        let s = &slots[i * stride..(i + 1) * stride];
+        (0..layout.estimators.len()).map(move |e| Record {
+            condition: i / r as usize,
+            realisation: (i % r as usize) as u64,
+            estimator: e,
+            ok: s[layout.status_at(e)] == Status::Ok as u8 as f64,
+            theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
+            bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
+        })
+    };
+    let n = infos.len() * r as usize;
+    for i in 0..n {
+        for rec in records(i) {
+            summarizer.first_pass(&rec).map_err(inconsistent)?;
+        }
+    }
+    summarizer.end_first_pass().map_err(inconsistent)?;
+    for i in 0..n {
+        for rec in records(i) {
+            summarizer.second_pass(&rec).map_err(inconsistent)?;
         }
     }
     Ok(summarizer.finish())

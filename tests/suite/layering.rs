@@ -7,7 +7,7 @@
 use std::path::Path;
 
 /// Bottom to top. A module may use those before it in this list (and itself).
-const LAYERS: [&str; 16] = [
+const LAYERS: [&str; 17] = [
     "numeric",
     "settings",
     "tabular",
@@ -24,6 +24,7 @@ const LAYERS: [&str; 16] = [
     "report",
     "run",
     "check",
+    "design",
 ];
 
 fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {

@@ -155,6 +155,51 @@ impl VehicleModel {
             .collect()
     }
 
+    /// The first-order prediction of estimator `e`'s (index in the study's list) bias and
+    /// standard error in condition `c`, per parameter: the bias of the ratio of expectations
+    /// (the normal equations' expected sums under the condition's speed noise, solved;
+    /// zero for an estimator that compensates it; other channels' biases are not
+    /// predicted), and the SE of the first bound the estimator reports among `crlb_output`,
+    /// `eiv_sandwich` and `eiv_crlb_linearized` (NaN where none applies).
+    pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
+        let cond = &self.conditions[c];
+        let est = &self.study.estimators[e];
+        let se = ["crlb_output", "eiv_sandwich", "eiv_crlb_linearized"]
+            .iter()
+            .filter_map(|name| BOUNDS.iter().position(|b| b.name == *name))
+            .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
+            .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
+        if est.compensates_speed_noise() {
+            return ([0.0; 3], se);
+        }
+        let reg = &*cond.regression;
+        let s2 = cond.noise[Channel::Velocity].powi(2);
+        let [s_w, s_1w, s_3w, s_ww, s_wy] = reg.speed_sums_noise_free;
+        let n = reg.len() as f64;
+        let expected = Moments {
+            s_11: reg.xtx[(0, 0)],
+            s_13: reg.xtx[(0, 2)],
+            s_33: reg.xtx[(2, 2)],
+            s_1y: reg.xty[0],
+            s_3y: reg.xty[2],
+            // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
+            s_1w: s_1w + s2 * reg.sum_f,
+            s_3w: s_3w + s2 * reg.sum_c,
+            s_ww: s_ww + 6.0 * s2 * s_w + 3.0 * s2 * s2 * n,
+            s_wy: s_wy + s2 * reg.sum_y,
+            s_w: s_w + s2 * n,
+            s_1: reg.sum_f,
+            s_3: reg.sum_c,
+            s_y: reg.sum_y,
+            n,
+        };
+        let bias = match crate::estimate::estimators::solve(&expected.ols_system(reg.k)) {
+            Ok(theta) => [0, 1, 2].map(|p| theta[p] - self.truth[p]),
+            Err(_) => [f64::NAN; 3],
+        };
+        (bias, se)
+    }
+
     /// The validated study settings.
     pub fn study(&self) -> &VehicleStudy {
         &self.study
