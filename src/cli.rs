@@ -8,6 +8,7 @@ use chassis_mc::design::{
     DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence, design,
 };
 use chassis_mc::figures::{self, FigureError};
+use chassis_mc::fit::{FitError, FitSpec, simulate_log};
 use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
 use chassis_mc::stats::plan::{self, Target, replications_for};
@@ -161,6 +162,50 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
+    },
+    /// Estimate mass, drag and rolling resistance from a measured log, with sandwich SEs and
+    /// a parametric bootstrap.
+    #[command(
+        long_about = "Estimate θ = [1/M, Cd/M, Cr] (and M, Cd) from a measured log.\n\n\
+        FIT.toml gives [log] (file, time_column, speed_column, speed_unit, force_column [N] \
+        or torque_column [N m] with the vehicle's final_drive_ratio and wheel_radius, \
+        grade_column, grade_unit, optional acceleration_column [m/s^2] (else the speed is \
+        differentiated), min_speed), [vehicle] (the known frontal_area, air_density, gravity), \
+        [noise] (the assumed sensor noise: velocity_sd, output_sd, grade_sd, force_sd, \
+        velocity_correlation_time), [estimation] estimators, seed and realisations. Each \
+        estimator's estimate gets its sandwich SE and a parametric bootstrap: the fitted \
+        vehicle driven along the measured (smoothed) speed and grade, the assumed noise \
+        re-drawn, re-estimated R times (boot_mean, boot_bias, bias_corrected, 95 % percentile \
+        interval). Writes DIR/fit.parquet and DIR/report.html and prints the table.\n\n\
+        Example: chassis-mc fit studies/fit_example.toml --out results/fit"
+    )]
+    Fit {
+        /// The fit file (TOML).
+        fit: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
+    /// Write a synthetic log of a one-condition study: its cycle with one realisation's noise.
+    #[command(
+        long_about = "Write a synthetic measured log (CSV) of a study with one \
+        condition: the noise-free drive cycle plus realisation R's noise of every channel that \
+        is on, drawn as a run draws it (seed and R select it). Columns time_s, speed_m_s, \
+        force_n, grade_rad, accel_m_s2 (the model acceleration plus the output noise). The \
+        input of `fit` for a vehicle whose truth is known.\n\n\
+        Example: chassis-mc simulate-log studies/fit_log.toml --out studies/data/fit_log.csv"
+    )]
+    SimulateLog {
+        /// The study file (TOML), one condition.
+        study: PathBuf,
+        /// The CSV file to write.
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// Which realisation's noise.
+        #[arg(long, value_name = "R", default_value_t = 0)]
+        realisation: u64,
         #[command(flatten)]
         overrides: Overrides,
     },
@@ -480,6 +525,42 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                     code: EXIT_FAILURE,
                 });
             }
+            Ok(())
+        }
+        Command::Fit { fit, out } => {
+            output_directory("--out", &out)?;
+            let code = |e: &FitError| match e {
+                FitError::Study(_) | FitError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+                _ => EXIT_FAILURE,
+            };
+            let fail = |e: FitError| Failure {
+                code: code(&e),
+                error: anyhow!(e),
+            };
+            let spec = FitSpec::load(&fit).map_err(|e| fail(e.into()))?;
+            let result = chassis_mc::fit::fit(&spec, &out).map_err(fail)?;
+            print!("{}", chassis_mc::fit::table(&result.rows));
+            println!("wrote:");
+            for f in &result.files {
+                println!("  {}", f.display());
+            }
+            Ok(())
+        }
+        Command::SimulateLog {
+            study,
+            out,
+            realisation,
+            overrides,
+        } => {
+            let study = overrides.load(&study)?;
+            let n = simulate_log(&study, realisation, &out).map_err(|e| Failure {
+                code: match e {
+                    FitError::Study(_) => EXIT_BAD_INPUT,
+                    _ => EXIT_FAILURE,
+                },
+                error: anyhow!(e),
+            })?;
+            println!("wrote {} ({n} samples)", out.display());
             Ok(())
         }
         Command::Figures { dir } => {

@@ -38,7 +38,7 @@
 //! | statistics | [`stats`] | performance measures with MCSEs, the two-pass summary, the summary columns |
 //! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
 //! | output | [`figures`] | SVG figures from the summary and cycles |
-//! | top | [`report`], [`run`], [`check`], [`design`] | the printed table and report.html; run, shard and summarize; a study checked without running; the smallest duration (or scale, or largest noise) meeting a target |
+//! | top | [`report`], [`run`], [`check`], [`design`], [`fit`] | the printed table and report.html; run, shard and summarize; a study checked without running; the smallest duration (or scale, or largest noise) meeting a target; estimates from a measured log |
 //!
 //! # Where to add
 //!
@@ -79,6 +79,7 @@ pub mod check;
 pub mod design;
 pub mod estimate;
 pub mod figures;
+pub mod fit;
 pub mod model;
 pub mod montecarlo;
 pub mod noise;

@@ -3,12 +3,15 @@
 //! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`. A drive cycle
 //! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: `torque` (the thesis's
 //! sinusoidal torque, integrated by RK4; in `torque.rs`) and `speed_trace` (a recorded speed
-//! trace followed exactly, the force from inverse dynamics; in `speed_trace.rs`). A stall or
+//! trace followed exactly, the force from inverse dynamics; in `speed_trace.rs`) and `replay`
+//! (a cycle given sample by sample; in `replay.rs`). A stall or
 //! running off the terrain is an error, never a silent NaN.
 
+mod replay;
 mod speed_trace;
 mod torque;
 
+pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences};
 pub use torque::{TorqueDrive, simulate};
 
@@ -122,7 +125,7 @@ pub struct DriveMode {
 }
 
 /// Every drive mode a study can name; the first is the default when `mode` is absent.
-pub static DRIVE_MODES: [DriveMode; 2] = [
+pub static DRIVE_MODES: [DriveMode; 3] = [
     DriveMode {
         name: "torque",
         parse: TorqueDrive::parse,
@@ -130,6 +133,10 @@ pub static DRIVE_MODES: [DriveMode; 2] = [
     DriveMode {
         name: "speed_trace",
         parse: SpeedTrace::parse,
+    },
+    DriveMode {
+        name: "replay",
+        parse: Replay::parse,
     },
 ];
 

@@ -79,10 +79,10 @@ fn cases() -> Vec<Case> {
         },
         Case {
             name: "unknown drive mode",
-            study: t.replace("[drive]", "[drive]\nmode = \"replay\""),
+            study: t.replace("[drive]", "[drive]\nmode = \"playback\""),
             key: "drive.mode",
             line: Some(line_of(&t, "[drive]") + 1),
-            reason: "unknown drive mode \"replay\"; expected one of [\"torque\", \"speed_trace\"]",
+            reason: "unknown drive mode \"playback\"; expected one of [\"torque\", \"speed_trace\", \"replay\"]",
         },
         Case {
             name: "a key the drive mode does not have",

@@ -7,7 +7,7 @@
 use std::path::Path;
 
 /// Bottom to top. A module may use those before it in this list (and itself).
-const LAYERS: [&str; 17] = [
+const LAYERS: [&str; 18] = [
     "numeric",
     "settings",
     "tabular",
@@ -25,6 +25,7 @@ const LAYERS: [&str; 17] = [
     "run",
     "check",
     "design",
+    "fit",
 ];
 
 fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {

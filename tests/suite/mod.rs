@@ -5,6 +5,7 @@ mod cli_errors;
 mod design;
 mod determinism;
 mod figures;
+mod fit;
 mod layering;
 mod line_fit;
 mod mcse;

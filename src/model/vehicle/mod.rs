@@ -200,6 +200,11 @@ impl VehicleModel {
         (bias, se)
     }
 
+    /// The noise levels of condition `c`.
+    pub fn noise_levels(&self, c: usize) -> NoiseLevels {
+        self.conditions[c].noise
+    }
+
     /// The validated study settings.
     pub fn study(&self) -> &VehicleStudy {
         &self.study

@@ -1,0 +1,829 @@
+//! `fit`: the estimates from a measured log, with sandwich standard errors and a parametric
+//! bootstrap (see docs/model.md#fit); and `simulate-log`, which writes such a log from a
+//! study (the project's own generator of synthetic logs).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow::datatypes::{DataType, Field, Schema};
+use nalgebra::Vector3;
+use thiserror::Error;
+
+use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
+use crate::estimate::moments::{Moments, Rows};
+use crate::estimate::regression::Regression;
+use crate::model::Model;
+use crate::model::vehicle::{PARAMETERS, VehicleModel};
+use crate::noise::NormalStream;
+use crate::output::lock::DirLock;
+use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, set};
+use crate::settings::{KeyError, Params};
+use crate::study::{KeySpans, Study, StudyError};
+use crate::tabular::read_columns;
+use crate::terrain::GradeUnit;
+use crate::vehicle::{DriveCycle, VehicleParams};
+use crate::vehicle::{SpeedUnit, central_differences};
+
+/// The output file of `fit`.
+pub const FIT_FILE: &str = "fit.parquet";
+
+/// Half-width \[s\] of the centred moving average that smooths the measured speed into the
+/// bootstrap's true speed trace.
+pub const SMOOTHING_S: f64 = 0.5;
+
+/// Why a fit cannot be made.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum FitError {
+    /// The fit file or its log is invalid.
+    #[error(transparent)]
+    Study(#[from] StudyError),
+    /// Writing the output failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// A validated fit file.
+#[derive(Debug, Clone)]
+pub struct FitSpec {
+    /// Where it was read from.
+    pub origin: String,
+    /// Its directory (relative paths resolve against it).
+    pub dir: PathBuf,
+    /// The log file.
+    pub log: PathBuf,
+    /// The measured cycle (speed, force, grade, acceleration as logged or differentiated).
+    pub cycle: DriveCycle,
+    /// Which samples the regression uses.
+    pub used: Vec<bool>,
+    /// Where the acceleration comes from.
+    pub acceleration: Acceleration,
+    /// `min_speed` \[m/s\].
+    pub min_speed: f64,
+    /// Known vehicle quantities (mass, Cd and Cr are what the fit finds).
+    pub vehicle: VehicleParams,
+    /// The assumed sensor noise.
+    pub noise: NoiseLevels,
+    /// The estimators.
+    pub estimators: Vec<EstimatorRef>,
+    /// Estimator settings.
+    pub settings: EstimatorSettings,
+    /// Bootstrap seed.
+    pub seed: u64,
+    /// Bootstrap realisations.
+    pub realisations: u64,
+    /// The fit file's text.
+    pub text: String,
+}
+
+impl FitSpec {
+    /// Read and check `path`.
+    pub fn load(path: &Path) -> Result<FitSpec, StudyError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError {
+            file: origin.clone(),
+            key: None,
+            line: None,
+            reason: format!("cannot read: {e}"),
+        })?;
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Self::parse(&text, &origin, &dir)
+    }
+
+    /// Check the fit file `text` read from `origin` in `dir`.
+    pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, StudyError> {
+        let spans = KeySpans::new(text);
+        let fail = |e: KeyError| StudyError {
+            file: origin.to_string(),
+            line: spans.line(&e.key),
+            key: Some(e.key),
+            reason: e.reason,
+        };
+        let table: toml::Table = toml::from_str(text).map_err(|e| StudyError {
+            file: origin.to_string(),
+            key: None,
+            line: e.span().map(|s| spans.line_of(s.start)),
+            reason: e.message().to_string(),
+        })?;
+        let top = Params::new(&table, "");
+        let root = |key: &str| -> Result<&toml::Table, StudyError> {
+            table
+                .get(key)
+                .and_then(toml::Value::as_table)
+                .ok_or_else(|| StudyError {
+                    file: origin.to_string(),
+                    key: Some(key.to_string()),
+                    line: None,
+                    reason: format!("the [{key}] table is missing"),
+                })
+        };
+        for key in table.keys() {
+            if ![
+                "name",
+                "seed",
+                "realisations",
+                "log",
+                "vehicle",
+                "noise",
+                "estimation",
+            ]
+            .contains(&key.as_str())
+            {
+                return Err(fail(top.error(key, "unknown key").strip_dot()));
+            }
+        }
+        let seed = top.number("seed").map_err(|e| fail(e.strip_dot()))?;
+        let realisations = top
+            .positive("realisations")
+            .map_err(|e| fail(e.strip_dot()))?;
+        if seed < 0.0 || seed.fract() != 0.0 || realisations.fract() != 0.0 || realisations < 20.0 {
+            return Err(fail(KeyError {
+                key: "realisations".into(),
+                reason: format!(
+                    "seed must be a whole number ≥ 0 and realisations a whole number ≥ 20 (for \
+                     a 95 % percentile interval), got seed {seed}, realisations {realisations}"
+                ),
+            }));
+        }
+
+        // [vehicle]: the known quantities.
+        let v = Params::new(root("vehicle")?, "vehicle");
+        v.only(&[
+            "frontal_area",
+            "air_density",
+            "gravity",
+            "final_drive_ratio",
+            "wheel_radius",
+        ])
+        .map_err(fail)?;
+        let vehicle = VehicleParams {
+            mass_kg: 1.0,
+            drag_coefficient: 0.0,
+            rolling_resistance: 0.0,
+            frontal_area_m2: v.positive("frontal_area").map_err(fail)?,
+            air_density_kg_m3: v.positive("air_density").map_err(fail)?,
+            gravity_m_s2: v.positive("gravity").map_err(fail)?,
+            drivetrain: None,
+        };
+
+        // [log]
+        let l = Params::new(root("log")?, "log").relative_to(dir);
+        l.only(&[
+            "file",
+            "time_column",
+            "speed_column",
+            "speed_unit",
+            "force_column",
+            "torque_column",
+            "grade_column",
+            "grade_unit",
+            "acceleration_column",
+            "min_speed",
+        ])
+        .map_err(fail)?;
+        let file = l.file("file").map_err(fail)?;
+        let time = l.string("time_column").map_err(fail)?;
+        let speed = l.string("speed_column").map_err(fail)?;
+        let speed_unit = l.named("speed_unit", &SpeedUnit::ALL).map_err(fail)?;
+        let grade = l.string("grade_column").map_err(fail)?;
+        let grade_unit = GradeUnit::parse(&l, "grade_unit").map_err(fail)?;
+        let accel = l
+            .optional("acceleration_column", |p, k| p.string(k))
+            .map_err(fail)?;
+        let min_speed = l
+            .optional("min_speed", Params::non_negative)
+            .map_err(fail)?
+            .unwrap_or(0.0);
+        let (force, torque_factor) = match (l.has("force_column"), l.has("torque_column")) {
+            (true, false) => (l.string("force_column").map_err(fail)?, None),
+            (false, true) => {
+                let ratio = v.positive("final_drive_ratio").map_err(fail)?;
+                let radius = v.positive("wheel_radius").map_err(fail)?;
+                (
+                    l.string("torque_column").map_err(fail)?,
+                    Some(ratio / radius),
+                )
+            }
+            _ => {
+                return Err(fail(l.error(
+                    "force_column",
+                    "give exactly one of force_column [N] and torque_column [N m]",
+                )));
+            }
+        };
+        let mut wanted = vec![time, speed, force, grade];
+        wanted.extend(accel);
+        let cols =
+            read_columns(&file, &wanted, 3).map_err(|e| fail(l.error("file", e.to_string())))?;
+        cols.strictly_increasing(time)
+            .map_err(|e| fail(l.error("file", e.to_string())))?;
+        let t = cols.get(time).to_vec();
+        let v_m_s: Vec<f64> = cols
+            .get(speed)
+            .iter()
+            .map(|&s| speed_unit.to_m_s(s))
+            .collect();
+        let f: Vec<f64> = cols
+            .get(force)
+            .iter()
+            .map(|&x| torque_factor.map_or(x, |q| q * x))
+            .collect();
+        let grade_rad: Vec<f64> = cols
+            .get(grade)
+            .iter()
+            .map(|&g| grade_unit.to_rad(g))
+            .collect();
+        let (accel_m_s2, acceleration) = match accel {
+            Some(a) => (cols.get(a).to_vec(), Acceleration::Model),
+            None => (
+                central_differences(&t, &v_m_s),
+                Acceleration::Differentiated,
+            ),
+        };
+        let mut x = vec![0.0; t.len()];
+        for i in 1..t.len() {
+            x[i] = x[i - 1] + 0.5 * (t[i] - t[i - 1]) * (v_m_s[i] + v_m_s[i - 1]);
+        }
+        let cycle = DriveCycle {
+            t_s: t,
+            x_m: x,
+            v_m_s,
+            grade_rad,
+            f_prop_n: f,
+            accel_m_s2,
+        };
+        let n = cycle.t_s.len();
+        let mut used: Vec<bool> = cycle.v_m_s.iter().map(|&s| s >= min_speed).collect();
+        if acceleration == Acceleration::Differentiated {
+            used[0] = false;
+            used[n - 1] = false;
+        }
+        if used.iter().filter(|u| **u).count() < 3 {
+            return Err(fail(l.error(
+                "min_speed",
+                "leaves fewer than 3 samples of the log for the regression",
+            )));
+        }
+
+        // [noise]: the assumed sensor noise (scalars).
+        let nz = Params::new(root("noise")?, "noise");
+        let keys: Vec<&str> = Channel::ALL
+            .map(Channel::key)
+            .into_iter()
+            .chain(["velocity_correlation_time"])
+            .collect();
+        nz.only(&keys).map_err(fail)?;
+        let mut noise = NoiseLevels {
+            acceleration,
+            ..NoiseLevels::default()
+        };
+        for c in Channel::ALL {
+            noise[c] = nz
+                .optional(c.key(), Params::non_negative)
+                .map_err(fail)?
+                .unwrap_or(0.0);
+        }
+        noise.velocity_correlation_s = nz
+            .optional("velocity_correlation_time", Params::non_negative)
+            .map_err(fail)?
+            .unwrap_or(0.0);
+
+        // [estimation]
+        let e = Params::new(root("estimation")?, "estimation");
+        e.only(&["estimators", "forgetting"]).map_err(fail)?;
+        let estimation = root("estimation")?;
+        let names: Vec<String> = match estimation.get("estimators") {
+            Some(toml::Value::Array(items)) => items
+                .iter()
+                .map(|v| v.as_str().map(str::to_string))
+                .collect::<Option<Vec<String>>>()
+                .ok_or_else(|| fail(e.error("estimators", "must be a list of estimator names")))?,
+            Some(_) => {
+                return Err(fail(
+                    e.error("estimators", "must be a list of estimator names"),
+                ));
+            }
+            None => Vec::new(),
+        };
+        if names.is_empty() {
+            return Err(fail(
+                e.error("estimators", "must list at least one estimator"),
+            ));
+        }
+        let mut estimators = Vec::new();
+        for (i, name) in names.iter().enumerate() {
+            let est = EstimatorRef::find(name).ok_or_else(|| {
+                fail(e.error(
+                    &format!("estimators[{i}]"),
+                    format!("unknown estimator \"{name}\""),
+                ))
+            })?;
+            estimators.push(est);
+        }
+        let forgetting = e
+            .optional("forgetting", Params::positive)
+            .map_err(fail)?
+            .unwrap_or(1.0);
+        if forgetting > 1.0 {
+            return Err(fail(e.error("forgetting", "must lie in (0, 1]")));
+        }
+        Ok(FitSpec {
+            origin: origin.to_string(),
+            dir: dir.to_path_buf(),
+            log: file,
+            cycle,
+            used,
+            acceleration,
+            min_speed,
+            vehicle,
+            noise,
+            estimators,
+            settings: EstimatorSettings { forgetting },
+            seed: seed as u64,
+            realisations: realisations as u64,
+            text: text.to_string(),
+        })
+    }
+
+    /// The regression of the log's used samples, taken as they are (measured).
+    fn regression(&self) -> Regression {
+        match self.acceleration {
+            Acceleration::Differentiated => {
+                Regression::differentiated(&self.cycle, &self.used, 0.0, &self.vehicle)
+            }
+            Acceleration::Model => Regression::new(&self.cycle.select(&self.used), &self.vehicle),
+        }
+    }
+}
+
+impl KeyError {
+    /// The key without a leading dot (a key of the file's top level).
+    fn strip_dot(mut self) -> KeyError {
+        if let Some(k) = self.key.strip_prefix('.') {
+            self.key = k.to_string();
+        }
+        self
+    }
+}
+
+/// Each estimator's θ̂ on the measured rows of `reg` (taken as they are).
+fn estimates(
+    reg: &Regression,
+    noise: &NoiseLevels,
+    estimators: &[EstimatorRef],
+    settings: &EstimatorSettings,
+) -> Vec<Option<Vector3<f64>>> {
+    let moments = noise_free_moments(reg);
+    let mut rows = Rows::new(reg, &NoiseLevels::default());
+    for start in (0..reg.len()).step_by(crate::noise::BLOCK) {
+        let len = crate::noise::BLOCK.min(reg.len() - start);
+        rows.push_block(
+            reg,
+            &NoiseLevels::default(),
+            start,
+            len,
+            Default::default(),
+            None,
+        );
+    }
+    estimators
+        .iter()
+        .map(|e| {
+            e.estimate(&Realisation {
+                moments: &moments,
+                rows: Some(&rows),
+                regression: reg,
+                noise,
+                settings,
+                truth: &[f64::NAN; 3],
+            })
+            .theta
+            .ok()
+        })
+        .collect()
+}
+
+/// The sums of `reg`'s own rows.
+fn noise_free_moments(reg: &Regression) -> Moments {
+    let [s_w, s_1w, s_3w, s_ww, s_wy] = reg.speed_sums_noise_free;
+    Moments {
+        s_11: reg.xtx[(0, 0)],
+        s_13: reg.xtx[(0, 2)],
+        s_33: reg.xtx[(2, 2)],
+        s_1y: reg.xty[0],
+        s_3y: reg.xty[2],
+        s_1w,
+        s_3w,
+        s_ww,
+        s_wy,
+        s_w,
+        s_1: reg.sum_f,
+        s_3: reg.sum_c,
+        s_y: reg.sum_y,
+        n: reg.len() as f64,
+    }
+}
+
+/// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁.
+fn with_derived(theta: &Vector3<f64>) -> [f64; 5] {
+    [
+        theta[0],
+        theta[1],
+        theta[2],
+        1.0 / theta[0],
+        theta[1] / theta[0],
+    ]
+}
+
+/// Names of the rows of `fit.parquet`, in order: θ, then M and Cd.
+pub const FIT_PARAMETERS: [&str; 5] = [
+    PARAMETERS[0],
+    PARAMETERS[1],
+    PARAMETERS[2],
+    "mass",
+    "drag_coefficient",
+];
+
+/// One row of `fit.parquet`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitRow {
+    /// Estimator name.
+    pub estimator: &'static str,
+    /// One of [`FIT_PARAMETERS`].
+    pub parameter: &'static str,
+    /// The estimate from the log.
+    pub estimate: f64,
+    /// Its sandwich SE (θ only; NaN for M and Cd).
+    pub sandwich_se: f64,
+    /// Mean of the bootstrap estimates.
+    pub boot_mean: f64,
+    /// boot_mean − estimate: the estimator's bias where the truth is the fit.
+    pub boot_bias: f64,
+    /// estimate − boot_bias.
+    pub bias_corrected: f64,
+    /// 2.5 % quantile of the bootstrap estimates.
+    pub ci_low: f64,
+    /// 97.5 % quantile of the bootstrap estimates.
+    pub ci_high: f64,
+}
+
+/// What `fit` found.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// One row per estimator × parameter.
+    pub rows: Vec<FitRow>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// The parametric bootstrap of one estimator's fit: the vehicle with θ = `theta` driven
+/// along the smoothed measured speed and the measured grade, the assumed noise re-drawn,
+/// re-estimated `spec.realisations` times. Returns each realisation's θ̂ (failed ones left
+/// out).
+fn bootstrap(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+    scratch: &Path,
+) -> Result<Vec<Vector3<f64>>, FitError> {
+    let c = &spec.cycle;
+    // The smoothed speed: a centred moving average over ±SMOOTHING_S.
+    let n = c.t_s.len();
+    let (mut lo, mut hi) = (0, 0);
+    let mut sum = 0.0;
+    let mut smooth = Vec::with_capacity(n);
+    for i in 0..n {
+        while hi < n && c.t_s[hi] <= c.t_s[i] + SMOOTHING_S {
+            sum += c.v_m_s[hi];
+            hi += 1;
+        }
+        while c.t_s[lo] < c.t_s[i] - SMOOTHING_S {
+            sum -= c.v_m_s[lo];
+            lo += 1;
+        }
+        smooth.push((sum / (hi - lo) as f64).max(0.0));
+    }
+    // The bootstrap world's truth: the smoothed speed, the logged force and grade, and the
+    // acceleration that makes every row fit θ exactly (so the excitation is the log's own).
+    // With a differentiated acceleration the output comes from the speed's differences, so
+    // the force is the one that makes those fit θ instead.
+    let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
+    let central = central_differences(&c.t_s, &smooth);
+    let mut csv = String::from("t,v,f_prop,grade,accel\n");
+    for i in 0..n {
+        let (v, gr) = (smooth[i], c.grade_rad[i]);
+        let resistance = theta[1] * k * v * v + theta[2] * g * gr.cos() + g * gr.sin();
+        let (f, a) = match spec.acceleration {
+            Acceleration::Model => {
+                let f = c.f_prop_n[i];
+                (f, theta[0] * f - resistance)
+            }
+            Acceleration::Differentiated => ((central[i] + resistance) / theta[0], central[i]),
+        };
+        let _ = writeln!(csv, "{},{v},{f},{gr},{a}", c.t_s[i]);
+    }
+    let trace = scratch.join(format!("trace-{}.csv", estimator.name()));
+    std::fs::write(&trace, csv).map_err(|e| OutputError::io(&trace, e))?;
+    let noise = &spec.noise;
+    let mass = 1.0 / theta[0];
+    let text = format!(
+        "name = \"fit bootstrap\"\nseed = {}\nrealisations = {}\n\n[vehicle]\nmass = {mass:e}\n\
+         drag_coefficient = {:e}\nrolling_resistance = {:e}\nfrontal_area = {:e}\n\
+         air_density = {:e}\ngravity = {:e}\n\n[drive]\nmode = \"replay\"\n\
+         file = \"{}\"\nmin_speed = {:e}\n\n[noise]\n\
+         velocity_sd = [{:e}]\noutput_sd = [{:e}]\ngrade_sd = [{:e}]\nforce_sd = [{:e}]\n\
+         velocity_correlation_time = [{:e}]\n\n[estimation]\nestimators = [\"{}\"]\n\
+         forgetting = {:e}\nacceleration = \"{}\"\n",
+        spec.seed,
+        spec.realisations,
+        theta[1] * mass,
+        theta[2],
+        spec.vehicle.frontal_area_m2,
+        spec.vehicle.air_density_kg_m3,
+        spec.vehicle.gravity_m_s2,
+        trace.file_name().unwrap_or_default().to_string_lossy(),
+        spec.min_speed,
+        noise[Channel::Velocity],
+        noise[Channel::Output],
+        noise[Channel::Grade],
+        noise[Channel::Force],
+        noise.velocity_correlation_s,
+        estimator.name(),
+        spec.settings.forgetting,
+        spec.acceleration.name(),
+    );
+    let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
+    let study = Study::from_toml_in(&text, &origin, scratch)?;
+    let model = VehicleModel::new(&study)?;
+    let layout = model.layout();
+    let stride = layout.realisation_stride();
+    use rayon::prelude::*;
+    let thetas: Vec<Option<Vector3<f64>>> = (0..spec.realisations)
+        .into_par_iter()
+        .map(|r| {
+            let mut slots = vec![0.0; stride];
+            model.realise(spec.seed, 0, r, &mut slots);
+            let t = Vector3::from_fn(|p, _| slots[layout.theta_at(0, p)]);
+            t.iter().all(|v| v.is_finite()).then_some(t)
+        })
+        .collect();
+    Ok(thetas.into_iter().flatten().collect())
+}
+
+/// The q-quantile of sorted `v` (linear interpolation).
+fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let h = q * (v.len() - 1) as f64;
+    let (i, frac) = (h.floor() as usize, h.fract());
+    let j = (i + 1).min(v.len() - 1);
+    v[i] + frac * (v[j] - v[i])
+}
+
+/// Fit `spec`'s log and write `fit.parquet` and `report.html` into `out`.
+pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
+    let reg = spec.regression();
+    let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
+    std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
+    let _lock = DirLock::acquire(out)?;
+    set::ensure_complete(out)?;
+    let scratch = out.join(output::temporary_name("fit-bootstrap"));
+    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
+    let mut rows = Vec::new();
+    let result = (|| -> Result<(), FitError> {
+        for (est, theta) in spec.estimators.iter().zip(&fits) {
+            let Some(theta) = theta else {
+                return Err(StudyError {
+                    file: spec.origin.clone(),
+                    key: Some("estimation.estimators".into()),
+                    line: None,
+                    reason: format!(
+                        "{}: the normal equations of the log are singular",
+                        est.name()
+                    ),
+                }
+                .into());
+            };
+            if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
+                return Err(StudyError {
+                    file: spec.origin.clone(),
+                    key: Some("estimation.estimators".into()),
+                    line: None,
+                    reason: format!(
+                        "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
+                         positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
+                        est.name(),
+                        theta[0],
+                        theta[1],
+                        theta[2]
+                    ),
+                }
+                .into());
+            }
+            let se = reg
+                .sandwich_se(&[theta[0], theta[1], theta[2]], &spec.noise)
+                .unwrap_or([f64::NAN; 3]);
+            let boot = bootstrap(spec, *est, theta, &scratch)?;
+            let estimate = with_derived(theta);
+            for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+                let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
+                values.sort_by(f64::total_cmp);
+                let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
+                let boot_bias = boot_mean - estimate[p];
+                rows.push(FitRow {
+                    estimator: est.name(),
+                    parameter: name,
+                    estimate: estimate[p],
+                    sandwich_se: se.get(p).copied().unwrap_or(f64::NAN),
+                    boot_mean,
+                    boot_bias,
+                    bias_corrected: estimate[p] - boot_bias,
+                    ci_low: quantile(&values, 0.025),
+                    ci_high: quantile(&values, 0.975),
+                });
+            }
+        }
+        Ok(())
+    })();
+    let _ = std::fs::remove_dir_all(&scratch);
+    result?;
+    let meta = FileMetadata {
+        study_toml: spec.text.clone(),
+        study_dir: spec.dir.display().to_string(),
+        seed: spec.seed,
+        realisations: spec.realisations,
+        identity: String::new(),
+        extra: Vec::new(),
+    };
+    let pending = vec![
+        write_rows(out, &rows, &meta)?,
+        write_report(out, spec, &rows)?,
+    ];
+    let files = set::commit(out, pending, &|p| p == FIT_FILE || p == "report.html")?;
+    Ok(FitResult { rows, files })
+}
+
+fn write_rows(
+    out: &Path,
+    rows: &[FitRow],
+    meta: &FileMetadata,
+) -> Result<PendingFile, OutputError> {
+    let schema = Arc::new(Schema::new(vec![
+        Field::new("estimator", DataType::Utf8, false),
+        Field::new("parameter", DataType::Utf8, false),
+        Field::new("estimate", DataType::Float64, false),
+        Field::new("sandwich_se", DataType::Float64, true),
+        Field::new("boot_mean", DataType::Float64, true),
+        Field::new("boot_bias", DataType::Float64, true),
+        Field::new("bias_corrected", DataType::Float64, true),
+        Field::new("ci_low", DataType::Float64, true),
+        Field::new("ci_high", DataType::Float64, true),
+    ]));
+    let col = |f: fn(&FitRow) -> f64| -> ArrayRef {
+        Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| Some(f(r)).filter(|v| v.is_finite())),
+        ))
+    };
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|r| r.estimator),
+        )),
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|r| r.parameter),
+        )),
+        Arc::new(Float64Array::from_iter_values(
+            rows.iter().map(|r| r.estimate),
+        )),
+        col(|r| r.sandwich_se),
+        col(|r| r.boot_mean),
+        col(|r| r.boot_bias),
+        col(|r| r.bias_corrected),
+        col(|r| r.ci_low),
+        col(|r| r.ci_high),
+    ];
+    let batch =
+        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
+    let mut sink = ParquetSink::create(out, FIT_FILE, schema, meta, "fit")?;
+    sink.write(&batch)?;
+    sink.finish()
+}
+
+/// The table `fit` prints and its report shows.
+pub fn table(rows: &[FitRow]) -> String {
+    let mut out = format!(
+        "{:>6} {:>19} {:>13} {:>11} {:>13} {:>13}  {:>27}\n",
+        "est",
+        "parameter",
+        "estimate",
+        "sandwich_se",
+        "boot_bias",
+        "bias_corr.",
+        "95 % bootstrap interval"
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{:>6} {:>19} {:>13.6e} {:>11.3e} {:>13.3e} {:>13.6e}  [{:.6e}, {:.6e}]",
+            r.estimator,
+            r.parameter,
+            r.estimate,
+            r.sandwich_se,
+            r.boot_bias,
+            r.bias_corrected,
+            r.ci_low,
+            r.ci_high
+        );
+    }
+    out
+}
+
+fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFile, OutputError> {
+    use crate::report::escape;
+    let title = format!("{} — chassis-mc fit", spec.log.display());
+    let html = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{t}</title>\n\
+         <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem}}\
+         pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto}}\
+         .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem}}</style>\n\
+         </head>\n<body>\n<h1>{t}</h1>\n<p>log {log}: {n} samples, {used} in the regression; \
+         acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
+         <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
+         estimator's bias; the bootstrap interval is a percentile interval of the estimator in a \
+         world where the fit is the truth, so it is centred on the estimate plus the bias: for a \
+         biased estimator read the bias-corrected estimate with it.</p>\n\
+         <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
+        t = escape(&title),
+        log = escape(&spec.log.display().to_string()),
+        n = spec.cycle.t_s.len(),
+        used = spec.used.iter().filter(|u| **u).count(),
+        acc = spec.acceleration.name(),
+        seed = spec.seed,
+        r = spec.realisations,
+        ver = env!("CARGO_PKG_VERSION"),
+        table = escape(&table(rows)),
+        text = escape(&spec.text),
+    );
+    let tmp = out.join(output::temporary_name("report.html"));
+    std::fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
+    Ok(PendingFile::new(tmp, out.join("report.html")))
+}
+
+/// Write a synthetic log of `study` (one condition) to `path`: the noise-free cycle with
+/// realisation `r`'s noise of every channel that is on (drawn as a run draws it),
+/// columns `time_s`, `speed_m_s`, `force_n`, `grade_rad` and `accel_m_s2` (the model
+/// acceleration plus the output noise: an accelerometer).
+pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitError> {
+    let model = VehicleModel::new(study)?;
+    if model.condition_count() != 1 {
+        return Err(study
+            .error_at(
+                "terrain.scales",
+                format!(
+                    "simulate-log needs a study with one condition; this one has {}",
+                    model.condition_count()
+                ),
+            )
+            .into());
+    }
+    let cycle = model.cycles().remove(0);
+    let noise = model.noise_levels(0);
+    let n = cycle.t_s.len();
+    let draws = |c: Channel| -> Vec<f64> {
+        let mut out = vec![0.0; n];
+        if noise.is_on(c) {
+            let mut s = NormalStream::for_realisation(study.seed(), 0, c.stream(), r);
+            for chunk in out.chunks_mut(crate::noise::BLOCK) {
+                s.fill_block(chunk);
+            }
+            out.iter_mut().for_each(|z| *z *= noise[c]);
+        }
+        out
+    };
+    let (ev, ey, eg, ef) = (
+        draws(Channel::Velocity),
+        draws(Channel::Output),
+        draws(Channel::Grade),
+        draws(Channel::Force),
+    );
+    let mut csv = String::from("time_s,speed_m_s,force_n,grade_rad,accel_m_s2\n");
+    for i in 0..n {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{}",
+            cycle.t_s[i],
+            cycle.v_m_s[i] + ev[i],
+            cycle.f_prop_n[i] + ef[i],
+            cycle.grade_rad[i] + eg[i],
+            cycle.accel_m_s2[i] + ey[i]
+        );
+    }
+    std::fs::write(path, csv).map_err(|e| OutputError::io(path, e))?;
+    Ok(n)
+}
