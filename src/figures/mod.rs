@@ -21,6 +21,7 @@
 mod chart;
 mod cycles;
 mod parameters;
+mod tradeoff;
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -169,6 +170,7 @@ fn draw_into(
     );
     let mut names: Vec<String> = per_parameter?.into_iter().flatten().collect();
     names.extend(cycle_figure?);
+    names.extend(tradeoff::draw_tradeoffs(dir, layout, t)?);
     Ok(names)
 }
 

@@ -171,3 +171,34 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
     assert!(!bare.join("figures").exists());
     assert!(bare.join("summary.parquet").exists());
 }
+
+#[test]
+fn a_terrain_by_sensor_study_draws_its_tradeoff_iso_lines() {
+    // Scales 1 and 2 × σ_v 0.5, 1, 2 (R = 20): per parameter and estimator, a figure of
+    // equal relative RMSE in the (scale, σ_v) plane, whose lines are labelled by level.
+    let text = set_key(
+        &study_text("terrain_vs_sensor.toml"),
+        "scales",
+        "[1.0, 2.0]",
+    );
+    let text = set_key(&text, "velocity_sd", "[0.5, 1.0, 2.0]");
+    let study = chassis_mc::study::Study::from_toml(&text, "tradeoff")
+        .unwrap()
+        .with_overrides(Some(20), None)
+        .unwrap();
+    let (dir, _) = run(&study, None);
+    let mut drawn = 0;
+    for p in PARAMS {
+        for e in ["ols", "bcls", "wbcls"] {
+            let path = dir.path().join(format!("figures/tradeoff_{p}_{e}.svg"));
+            let (_, texts) = svg(&path);
+            assert!(
+                texts.iter().any(|t| t.contains("terrain scale")),
+                "{texts:?}"
+            );
+            assert!(texts.iter().any(|t| t.contains("RMSE =")), "{texts:?}");
+            drawn += 1;
+        }
+    }
+    assert_eq!(drawn, 9);
+}

@@ -1,0 +1,130 @@
+//! The terrain-versus-sensor trade-off: where a study varies both the terrain scale and the
+//! speed noise, per parameter and estimator, iso-lines of the relative RMSE in the
+//! (scale, σ_v) plane — which speed-sensor noise each terrain allows for a given precision.
+
+use std::path::Path;
+
+use super::FigureError;
+use super::chart::{Axes, Series, chart, ramp};
+use crate::model::Layout;
+use crate::output::SummaryTable;
+
+/// Iso-lines drawn per figure.
+const LEVELS: usize = 5;
+
+/// Draw `tradeoff_<parameter>_<estimator>.svg` into `dir` when `scale` and `velocity_sd`
+/// both vary; returns the file names.
+pub(super) fn draw_tradeoffs(
+    dir: &Path,
+    layout: &Layout,
+    t: &SummaryTable,
+) -> Result<Vec<String>, FigureError> {
+    let axis = |name: &str| layout.axes.iter().position(|a| a.name == name);
+    let (Some(sa), Some(va)) = (axis("scale"), axis("velocity_sd")) else {
+        return Ok(Vec::new());
+    };
+    let value = |r: &crate::stats::summary::SummaryRow, a: usize| t.info(r).axes[a].number();
+    let mut scales: Vec<f64> = t.rows.iter().map(|r| value(r, sa)).collect();
+    let mut sds: Vec<f64> = t.rows.iter().map(|r| value(r, va)).collect();
+    for v in [&mut scales, &mut sds] {
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+    }
+    if scales.len() < 2 || sds.len() < 2 {
+        return Ok(Vec::new());
+    }
+    let mut names = Vec::new();
+    for (p, param) in layout.parameters.iter().enumerate() {
+        for (e, est) in layout.estimators.iter().enumerate() {
+            // rel_rmse[scale][sd]
+            let mut grid = vec![vec![f64::NAN; sds.len()]; scales.len()];
+            for r in t
+                .rows
+                .iter()
+                .filter(|r| r.parameter == p && r.estimator == e)
+            {
+                let i = scales.iter().position(|&s| s == value(r, sa)).unwrap_or(0);
+                let j = sds.iter().position(|&s| s == value(r, va)).unwrap_or(0);
+                grid[i][j] = r.rmse.value / r.truth.abs();
+            }
+            let mut all: Vec<f64> = grid
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|v| v.is_finite())
+                .collect();
+            if all.len() < 4 {
+                continue;
+            }
+            all.sort_by(f64::total_cmp);
+            let series: Vec<Series> = (0..LEVELS)
+                .map(|k| {
+                    let q = all[(all.len() - 1) * (2 * k + 1) / (2 * LEVELS)];
+                    let level = round2(q);
+                    Series {
+                        label: format!("RMSE = {:.2} % of the truth", 100.0 * level),
+                        color: ramp(k, LEVELS),
+                        points: scales
+                            .iter()
+                            .zip(&grid)
+                            .filter_map(|(&s, row)| {
+                                crossing(&sds, row, level).map(|sd| (s, sd, f64::NAN))
+                            })
+                            .collect(),
+                        markers: false,
+                    }
+                })
+                .filter(|s| s.points.len() >= 2)
+                .collect();
+            if series.is_empty() {
+                continue;
+            }
+            let name = format!("tradeoff_{}_{}.svg", param.name, est);
+            chart(
+                &dir.join(&name),
+                &Axes {
+                    title: &format!("{} ({est}): equal relative RMSE", param.name),
+                    x_label: "terrain scale",
+                    y_label: "speed noise σ_v [m/s]",
+                    log_y: false,
+                },
+                &series,
+                &[],
+            )?;
+            names.push(name);
+        }
+    }
+    Ok(names)
+}
+
+/// `v` to two significant digits.
+fn round2(v: f64) -> f64 {
+    let e = v.abs().log10().floor() - 1.0;
+    let f = 10f64.powf(e);
+    (v / f).round() * f
+}
+
+/// The σ_v at which `row` (the measure at each of `sds`, ascending) reaches `level`, by
+/// linear interpolation between the first pair of neighbours that brackets it.
+fn crossing(sds: &[f64], row: &[f64], level: f64) -> Option<f64> {
+    sds.windows(2).zip(row.windows(2)).find_map(|(s, m)| {
+        let (lo, hi) = (m[0].min(m[1]), m[0].max(m[1]));
+        (lo <= level && level <= hi && m[0] != m[1])
+            .then(|| s[0] + (level - m[0]) / (m[1] - m[0]) * (s[1] - s[0]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossings_interpolate_between_bracketing_levels() {
+        let sds = [0.5, 1.0, 2.0];
+        let row = [0.01, 0.02, 0.04];
+        assert_eq!(crossing(&sds, &row, 0.015), Some(0.75));
+        assert_eq!(crossing(&sds, &row, 0.03), Some(1.5));
+        assert_eq!(crossing(&sds, &row, 0.05), None);
+        assert_eq!(round2(0.012345), 0.012);
+    }
+}
