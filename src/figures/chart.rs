@@ -99,28 +99,37 @@ pub(super) fn chart(
         .margin_right(LEGEND_WIDTH)
         .x_label_area_size(60)
         .y_label_area_size(100);
+    // Tick labels in plain notation, the axis's power of ten once in its description.
+    let x_exp = shared_exponent(x_lo, x_hi);
+    let y_exp = if axes.log_y {
+        0
+    } else {
+        shared_exponent(y_lo, y_hi)
+    };
+    let x_desc = with_exponent(axes.x_label, x_exp);
+    let y_desc = with_exponent(axes.y_label, y_exp);
     // The two branches differ only in the y coordinate type (linear or logarithmic).
     macro_rules! draw_on {
-        ($y_range:expr, $y_format:literal) => {{
+        ($y_range:expr, $y_format:expr) => {{
             let mut c = builder
                 .build_cartesian_2d(x_lo..x_hi, $y_range)
                 .map_err(|e| draw_error(path, e))?;
             c.configure_mesh()
-                .x_desc(axes.x_label)
-                .y_desc(axes.y_label)
+                .x_desc(x_desc.as_str())
+                .y_desc(y_desc.as_str())
                 .axis_desc_style(("sans-serif", 17))
                 .label_style(("sans-serif", 14))
-                .x_label_formatter(&|v| format!("{v:.3e}"))
-                .y_label_formatter(&|v| format!($y_format, v))
+                .x_label_formatter(&|v| plain(*v, x_exp))
+                .y_label_formatter(&$y_format)
                 .draw()
                 .map_err(|e| draw_error(path, e))?;
             plot_series(&mut c, series, references, (x_lo, x_hi), y_lo, path)?;
         }};
     }
     if axes.log_y {
-        draw_on!((y_lo..y_hi).log_scale(), "{:.1e}");
+        draw_on!((y_lo..y_hi).log_scale(), |v: &f64| format!("{v:.0e}"));
     } else {
-        draw_on!(y_lo..y_hi, "{:.2e}");
+        draw_on!(y_lo..y_hi, |v: &f64| plain(*v, y_exp));
     }
     let mut entries: Vec<(String, Key)> = references
         .iter()
@@ -228,11 +237,47 @@ pub(super) fn legend<DB: DrawingBackend>(
         root.draw(&Text::new(
             label.clone(),
             (x + 28, y - 8),
-            ("sans-serif", 16),
+            ("sans-serif", 14),
         ))
         .map_err(|e| draw_error(path, e))?;
     }
     Ok(())
+}
+
+/// The power of ten shared by the tick labels of an axis over [lo, hi]: 0 where plain
+/// numbers read well (magnitudes 0.01 … 10 000), else that of the larger end.
+pub(super) fn shared_exponent(lo: f64, hi: f64) -> i32 {
+    let m = lo.abs().max(hi.abs());
+    if !(m.is_finite() && m > 0.0) || (1e-2..1e4).contains(&m) {
+        0
+    } else {
+        m.log10().floor() as i32
+    }
+}
+
+/// `v` / 10^`exp` in plain notation, at most four decimals, trailing zeros dropped.
+pub(super) fn plain(v: f64, exp: i32) -> String {
+    let x = v / 10f64.powi(exp);
+    let s = format!("{x:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.to_string() }
+}
+
+/// An axis description with its shared power of ten, e.g. `bias [1/kg] (×10⁻⁷)`.
+pub(super) fn with_exponent(label: &str, exp: i32) -> String {
+    if exp == 0 {
+        return label.to_string();
+    }
+    let sup: String = exp
+        .to_string()
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            d => ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹']
+                [d.to_digit(10).unwrap_or(0) as usize],
+        })
+        .collect();
+    format!("{label} (×10{sup})")
 }
 
 /// A range around `values` with 5 % margins (a factor on log scales); a unit range when
@@ -258,5 +303,22 @@ pub(super) fn padded(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64)
             hi.abs().max(1e-300)
         };
         (lo - 0.05 * span, hi + 0.05 * span)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_share_one_power_of_ten() {
+        assert_eq!(shared_exponent(0.0, 4.2e-3), -3);
+        assert_eq!(shared_exponent(1.0, 2.0), 0);
+        assert_eq!(shared_exponent(-2e5, 1e5), 5);
+        assert_eq!(plain(4.0e-3, -3), "4");
+        assert_eq!(plain(1.25e-7, -7), "1.25");
+        assert_eq!(plain(-0.0, 0), "0");
+        assert_eq!(with_exponent("bias", -7), "bias (×10⁻⁷)");
+        assert_eq!(with_exponent("scale", 0), "scale");
     }
 }

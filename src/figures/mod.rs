@@ -45,7 +45,7 @@ const NOMINAL: f64 = 0.95;
 /// Figure size [px].
 const SIZE: (u32, u32) = (1200, 620);
 /// Width kept on the right of the plot for the legend [px].
-const LEGEND_WIDTH: u32 = 360;
+const LEGEND_WIDTH: u32 = 280;
 /// Most points drawn per cycle line (the cycles are decimated to this).
 const MAX_CYCLE_POINTS: usize = 1500;
 

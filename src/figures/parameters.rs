@@ -223,8 +223,15 @@ pub(super) fn draw_parameter(
     )?;
     names.push(name);
 
-    // (b) bias ± MCSE.
-    let (bias, bias_mcse) = &measure(Measure::Bias);
+    // (b) bias ± MCSE, as a percentage of the truth (the truth is named in the axis, so
+    // the absolute bias is one multiplication away).
+    let (rel, rel_mcse) = measure(Measure::RelBias);
+    let (bias, bias_mcse) = (
+        rel.iter().map(|v| 100.0 * v).collect::<Vec<_>>(),
+        rel_mcse.iter().map(|v| 100.0 * v).collect::<Vec<_>>(),
+    );
+    let (bias, bias_mcse) = (&bias, &bias_mcse);
+    let truth = rows.first().map_or(f64::NAN, |&i| t.rows[i].truth);
     let series: Vec<Series> = keys_seen
         .iter()
         .enumerate()
@@ -239,9 +246,9 @@ pub(super) fn draw_parameter(
     chart(
         &dir.join(&name),
         &Axes {
-            title: &format!("{sym}: bias of the estimates"),
+            title: &format!("{sym}: bias of the estimates (truth {truth:.4e}{unit})"),
             x_label: &x.label,
-            y_label: &format!("bias of {sym}{unit}"),
+            y_label: &format!("bias of {sym} [% of the truth]"),
             log_y: false,
         },
         &series,

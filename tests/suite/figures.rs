@@ -97,7 +97,7 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
                 (
                     format!("bias_{p}.svg"),
                     rows.len() + groups * estimators,
-                    format!("bias of {symbol} {unit}"),
+                    format!("bias of {symbol} [% of the truth]"),
                 ),
             ];
             let bounds = [
