@@ -62,7 +62,8 @@ pub fn page(p: &Page<'_>) -> String {
          <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem;line-height:1.4}}\
          pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto;font-size:.8rem}}\
          .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem;margin:.5rem 0}}\
-         figure{{margin:1rem 0}}figcaption{{font-size:.85rem;color:#444}}\
+         figure{{margin:1rem 0}}figure svg{{max-width:100%;height:auto}}\
+         figcaption{{font-size:.85rem;color:#444}}\
          table.meta td{{padding:.1rem .75rem .1rem 0}}</style>\n</head>\n<body>\n<h1>{}</h1>\n",
         escape(&title),
         escape(&title)
@@ -76,13 +77,14 @@ pub fn page(p: &Page<'_>) -> String {
          <tr><td>seed</td><td>{}</td></tr>\n\
          <tr><td>realisations per condition (R)</td><td>{}</td></tr>\n\
          <tr><td>conditions</td><td>{}</td></tr>\n\
-         <tr><td>identity</td><td><code>{}</code></td></tr>\n</table>\n",
+         <tr><td>identity</td><td><code>{:016x}</code> (FNV-1a of the study as run and the \
+         engine's numbers; a resumed or extended run must match it)</td></tr>\n</table>\n",
         escape(p.study_name),
         escape(env!("CARGO_PKG_VERSION")),
         p.meta.seed,
         p.meta.realisations,
         p.infos.len(),
-        escape(&p.meta.identity)
+        fnv1a(&p.meta.identity)
     );
     // Warnings.
     let warnings = warnings(p.layout, p.infos, p.summary);
@@ -92,12 +94,6 @@ pub fn page(p: &Page<'_>) -> String {
             let _ = writeln!(out, "<p class=\"warning\">{}</p>", escape(w));
         }
     }
-    // The table.
-    let _ = write!(
-        out,
-        "<h2>Per condition</h2>\n<pre>{}</pre>\n",
-        escape(p.table.trim_matches('\n'))
-    );
     // Figures.
     if !p.figures.is_empty() {
         out.push_str("<h2>Figures</h2>\n");
@@ -110,6 +106,13 @@ pub fn page(p: &Page<'_>) -> String {
             );
         }
     }
+    let _ = write!(
+        out,
+        "<h2>Per condition</h2>\n<details><summary>the table printed after the run ({} \
+         conditions)</summary>\n<pre>{}</pre>\n</details>\n",
+        p.infos.len(),
+        escape(p.table.trim_matches('\n'))
+    );
     let _ = write!(
         out,
         "<h2>Study as run</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
@@ -181,6 +184,13 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
         ));
     }
     out
+}
+
+/// FNV-1a (64 bit) of `text`: a short fingerprint to show.
+fn fnv1a(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 fn min_max(v: &[f64]) -> (f64, f64) {
