@@ -13,7 +13,7 @@ use thiserror::Error;
 
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
-use crate::estimate::moments::{Moments, Rows};
+use crate::estimate::moments::Rows;
 use crate::estimate::regression::Regression;
 use crate::model::Model;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
@@ -25,7 +25,7 @@ use crate::study::{KeySpans, Study, StudyError};
 use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
 use crate::vehicle::{DriveCycle, VehicleParams};
-use crate::vehicle::{SpeedUnit, central_differences};
+use crate::vehicle::{SpeedUnit, central_differences, positions};
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";
@@ -246,13 +246,9 @@ impl FitSpec {
                 Acceleration::Differentiated,
             ),
         };
-        let mut x = vec![0.0; t.len()];
-        for i in 1..t.len() {
-            x[i] = x[i - 1] + 0.5 * (t[i] - t[i - 1]) * (v_m_s[i] + v_m_s[i - 1]);
-        }
         let cycle = DriveCycle {
+            x_m: positions(&t, &v_m_s),
             t_s: t,
-            x_m: x,
             v_m_s,
             grade_rad,
             f_prop_n: f,
@@ -326,6 +322,26 @@ impl FitSpec {
             })?;
             estimators.push(est);
         }
+        // A compensating estimator under a differentiated acceleration with AR(1) speed
+        // noise needs evenly spaced samples (docs/model.md#sensors).
+        if acceleration == Acceleration::Differentiated
+            && noise.velocity_correlated()
+            && estimators.iter().any(|e| e.compensates_speed_noise())
+        {
+            let t = &cycle.t_s;
+            let d0 = t[1] - t[0];
+            if t.windows(2)
+                .any(|w| ((w[1] - w[0]) / d0 - 1.0).abs() > 1e-6)
+            {
+                return Err(fail(nz.error(
+                    "velocity_correlation_time",
+                    "with a differentiated acceleration (no acceleration_column) and a \
+                     compensating estimator (bcls, wbcls), correlated speed noise needs evenly \
+                     spaced samples, and this log's are not: no bias compensation is \
+                     implemented for that combination",
+                )));
+            }
+        }
         let forgetting = e
             .optional("forgetting", Params::positive)
             .map_err(fail)?
@@ -379,7 +395,7 @@ fn estimates(
     estimators: &[EstimatorRef],
     settings: &EstimatorSettings,
 ) -> Vec<Option<Vector3<f64>>> {
-    let moments = noise_free_moments(reg);
+    let moments = reg.noise_free_moments();
     let mut rows = Rows::new(reg, &NoiseLevels::default());
     for start in (0..reg.len()).step_by(crate::noise::BLOCK) {
         let len = crate::noise::BLOCK.min(reg.len() - start);
@@ -407,27 +423,6 @@ fn estimates(
             .ok()
         })
         .collect()
-}
-
-/// The sums of `reg`'s own rows.
-fn noise_free_moments(reg: &Regression) -> Moments {
-    let [s_w, s_1w, s_3w, s_ww, s_wy] = reg.speed_sums_noise_free;
-    Moments {
-        s_11: reg.xtx[(0, 0)],
-        s_13: reg.xtx[(0, 2)],
-        s_33: reg.xtx[(2, 2)],
-        s_1y: reg.xty[0],
-        s_3y: reg.xty[2],
-        s_1w,
-        s_3w,
-        s_ww,
-        s_wy,
-        s_w,
-        s_1: reg.sum_f,
-        s_3: reg.sum_c,
-        s_y: reg.sum_y,
-        n: reg.len() as f64,
-    }
 }
 
 /// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁.
@@ -539,7 +534,7 @@ fn bootstrap(
          file = \"{}\"\nmin_speed = {:e}\n\n[noise]\n\
          velocity_sd = [{:e}]\noutput_sd = [{:e}]\ngrade_sd = [{:e}]\nforce_sd = [{:e}]\n\
          velocity_correlation_time = [{:e}]\n\n[estimation]\nestimators = [\"{}\"]\n\
-         forgetting = {:e}\nacceleration = \"{}\"\n",
+         {}acceleration = \"{}\"\n",
         spec.seed,
         spec.realisations,
         theta[1] * mass,
@@ -555,7 +550,11 @@ fn bootstrap(
         noise[Channel::Force],
         noise.velocity_correlation_s,
         estimator.name(),
-        spec.settings.forgetting,
+        if estimator.name() == "rls" {
+            format!("forgetting = {:e}\n", spec.settings.forgetting)
+        } else {
+            String::new()
+        },
         spec.acceleration.name(),
     );
     let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());

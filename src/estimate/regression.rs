@@ -179,6 +179,28 @@ impl Regression {
         (ranges, sums)
     }
 
+    /// The [`Moments`] of the rows as they are (no noise added): what a realisation without
+    /// noise sums, and the sums of a measured log taken as it is.
+    pub fn noise_free_moments(&self) -> Moments {
+        let [s_w, s_1w, s_3w, s_ww, s_wy] = self.speed_sums_noise_free;
+        Moments {
+            s_11: self.xtx[(0, 0)],
+            s_13: self.xtx[(0, 2)],
+            s_33: self.xtx[(2, 2)],
+            s_1y: self.xty[0],
+            s_3y: self.xty[2],
+            s_1w,
+            s_3w,
+            s_ww,
+            s_wy,
+            s_w,
+            s_1: self.sum_f,
+            s_3: self.sum_c,
+            s_y: self.sum_y,
+            n: self.len() as f64,
+        }
+    }
+
     /// Number of samples N.
     pub fn len(&self) -> usize {
         self.f.len()

@@ -303,3 +303,145 @@ fn rls_scan_body<const FORGET: bool>(
         settle,
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic rows y = xθ + wiggle over `n` samples 0.1 s apart.
+    fn rows(n: usize) -> (Vec<f64>, [Vec<f64>; 4]) {
+        let t: Vec<f64> = (0..n).map(|i| 0.1 * i as f64).collect();
+        let f: Vec<f64> = t.iter().map(|t| 2000.0 + 200.0 * (0.3 * t).sin()).collect();
+        let w: Vec<f64> = t
+            .iter()
+            .map(|t| (15.0 + 5.0 * (0.11 * t).cos()).powi(2))
+            .collect();
+        let c: Vec<f64> = t
+            .iter()
+            .map(|t| -9.81 * (0.05 * (0.07 * t).sin()).cos())
+            .collect();
+        let theta = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125];
+        let k = 3.3;
+        let y: Vec<f64> = (0..n)
+            .map(|i| {
+                let wiggle = 0.05 * ((i * 7919 % 101) as f64 / 50.0 - 1.0);
+                theta[0] * f[i] - theta[1] * k * w[i] + theta[2] * c[i] + wiggle
+            })
+            .collect();
+        (t, [f, w, c, y])
+    }
+
+    fn view(cols: &[Vec<f64>; 4]) -> RowsView<'_> {
+        RowsView {
+            f: &cols[0],
+            w: &cols[1],
+            c: &cols[2],
+            y: &cols[3],
+            noise_free_f_c: false,
+        }
+    }
+
+    /// The checks of `rls_scan` by their definition, on the state of the plain recursion
+    /// A_t = λA_{t−1} + x_t x_tᵀ after every row.
+    fn naive(
+        t: &[f64],
+        cols: &[Vec<f64>; 4],
+        lambda: f64,
+        target: f64,
+        band: f64,
+    ) -> ([f64; 9], Option<usize>) {
+        let n = t.len();
+        let whole = n - n % LANES;
+        let mut state = [0.0; 9];
+        let mut settle = None;
+        let mut last_check = f64::NEG_INFINITY;
+        for i in 0..n {
+            let x = products(cols[0][i], -3.3 * cols[1][i], cols[2][i], cols[3][i]);
+            for (s, x) in state.iter_mut().zip(x) {
+                *s = lambda * *s + x;
+            }
+            let checked = if i < whole {
+                (i + 1) % LANES == 0 && (t[i] - last_check >= RLS_CHECK_S || i + 1 == whole)
+            } else {
+                true
+            };
+            if checked {
+                if i < whole {
+                    last_check = t[i];
+                }
+                if !settled(&state, target, band) {
+                    settle = None;
+                } else if settle.is_none() {
+                    settle = Some(i);
+                }
+            }
+        }
+        (state, settle)
+    }
+
+    #[test]
+    fn the_lane_sums_are_the_plain_recursion_and_check_where_it_says() {
+        // λ = 1 and λ < 1, with N a multiple of four, not one, and below four; bands of
+        // 0.01–1 % around the final 1/M estimate, so the settle row falls at different
+        // places (or nowhere). The lanes sum the same products in another order: agreement
+        // to 1e-12 relative (rounding of ~1e3 terms).
+        for n in [3usize, 401, 1203, 1204] {
+            let (t, cols) = rows(n);
+            for lambda in [1.0, 0.995] {
+                let ((a, b), _) = rls_scan(view(&cols), &t, 3.3, lambda, 0.0, 0.0);
+                let final_theta = crate::numeric::linalg::solve_spd(&a, &b).map_or(0.0, |v| v[0]);
+                for band in [1e-4, 1e-3, 1e-2] {
+                    let (_, got) = rls_scan(
+                        view(&cols),
+                        &t,
+                        3.3,
+                        lambda,
+                        final_theta,
+                        band * final_theta,
+                    );
+                    let (state, want) = naive(&t, &cols, lambda, final_theta, band * final_theta);
+                    assert_eq!(got, want, "n {n} λ {lambda} band {band}");
+                    let lanes = [
+                        a[(0, 0)],
+                        a[(0, 1)],
+                        a[(0, 2)],
+                        a[(1, 1)],
+                        a[(1, 2)],
+                        a[(2, 2)],
+                        b[0],
+                        b[1],
+                        b[2],
+                    ];
+                    for (x, y) in lanes.iter().zip(state) {
+                        assert!(
+                            (x - y).abs() <= 1e-12 * y.abs().max(1e-300),
+                            "n {n} λ {lambda}: {x} vs {y}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_dispatched_and_portable_builds_agree_bit_for_bit() {
+        let (t, cols) = rows(1203);
+        for lambda in [1.0, 0.995] {
+            assert_eq!(
+                rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5),
+                rls_scan_body::<true>(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5)
+            );
+        }
+        // λ = 1: the specialised sum is the general one with factors of exactly 1.
+        assert_eq!(
+            rls_scan_body::<false>(view(&cols), &t, 3.3, 1.0, 5e-4, 1e-5),
+            rls_scan_body::<true>(view(&cols), &t, 3.3, 1.0, 5e-4, 1e-5)
+        );
+        for (a, b) in [(0, 1203), (5, 18), (100, 103)] {
+            assert_eq!(
+                segment_moments(view(&cols), a, b, None),
+                segment_moments_body(view(&cols), a, b, None)
+            );
+        }
+    }
+}

@@ -5,7 +5,8 @@
 //! weight takes the speed inside Ω̂ from the measured speed of its neighbouring segments
 //! (not its own), so each weight is independent of the noise of the rows it weights (for
 //! AR(1) speed noise the neighbours are taken three correlation times away, where the
-//! correlation has fallen below 5 %) and the compensated weighted sums stay unbiased. The
+//! correlation has fallen below 5 %) and the compensated weighted sums stay unbiased up to
+//! the O(1/N) effect of the weights' dependence on the realisation's BCLS estimate. The
 //! moments of each segment are summed once per realisation; each iteration only reweights
 //! them.
 

@@ -166,6 +166,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     let (noise, grade_bias, velocity_correlation_s) = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
+    if e.forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
+        return Err(c.fail(
+            "estimation.forgetting",
+            "applies to the rls estimator, which estimation.estimators does not list",
+        ));
+    }
     let forgetting = match e.forgetting {
         Some(l) if !(l > 0.0 && l <= 1.0) => {
             return Err(c.fail(

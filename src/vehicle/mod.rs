@@ -12,7 +12,7 @@ mod speed_trace;
 mod torque;
 
 pub use replay::Replay;
-pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences};
+pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
 pub use torque::{TorqueDrive, simulate};
 
 use std::fmt;

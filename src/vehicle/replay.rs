@@ -7,7 +7,9 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, VehicleParams};
+use super::{
+    CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, VehicleParams, positions,
+};
 use crate::settings::{KeyError, Params};
 use crate::tabular::read_columns;
 
@@ -41,13 +43,9 @@ impl Replay {
             ));
         }
         let (t, v) = (cols.get("t").to_vec(), cols.get("v").to_vec());
-        let mut x = vec![0.0; t.len()];
-        for i in 1..t.len() {
-            x[i] = x[i - 1] + 0.5 * (t[i] - t[i - 1]) * (v[i] + v[i - 1]);
-        }
         let cycle = DriveCycle {
+            x_m: positions(&t, &v),
             t_s: t,
-            x_m: x,
             v_m_s: v,
             grade_rad: cols.get("grade").to_vec(),
             f_prop_n: cols.get("f_prop").to_vec(),

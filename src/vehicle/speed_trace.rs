@@ -119,6 +119,20 @@ impl SpeedTrace {
     }
 }
 
+/// Position \[m\] at each sample from x = 0, by the trapezoid rule on the speeds `v` at
+/// times `t`.
+pub fn positions(t: &[f64], v: &[f64]) -> Vec<f64> {
+    let mut position = 0.0;
+    (0..t.len())
+        .map(|i| {
+            if i > 0 {
+                position += 0.5 * (t[i] - t[i - 1]) * (v[i] + v[i - 1]);
+            }
+            position
+        })
+        .collect()
+}
+
 /// dV/dt by central differences, (V_{i+1} − V_{i−1}) / (t_{i+1} − t_{i−1}), one-sided at
 /// the two ends (at least two samples).
 pub fn central_differences(t: &[f64], v: &[f64]) -> Vec<f64> {
@@ -139,14 +153,7 @@ impl CycleSource for SpeedTrace {
     ) -> Result<DriveCycle, SimulationError> {
         let (t, v) = (&self.t_s, &self.v_m_s);
         let n = t.len();
-        let mut x = Vec::with_capacity(n);
-        let mut position = 0.0;
-        for i in 0..n {
-            if i > 0 {
-                position += 0.5 * (t[i] - t[i - 1]) * (v[i] + v[i - 1]);
-            }
-            x.push(position);
-        }
+        let x = positions(t, v);
         let grade: Vec<f64> = match (&self.grade_rad, road.table) {
             (Some(g), _) => {
                 let g: Vec<f64> = g.iter().map(|g| road.scale * g).collect();

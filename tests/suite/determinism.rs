@@ -47,7 +47,8 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 
 /// Columns added after the hashes below were pinned, each with a value the older engine
 /// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none),
-/// `velocity_correlation_time` (white noise) and `used` (every sample). They are checked
+/// `velocity_correlation_time` (white noise), `used` (every sample), `rls_settle_time`
+/// (null: no estimator reports one) and `acceleration` (the model's). They are checked
 /// separately; the hash covers every other column.
 const ADDED_COLUMNS: [&str; 6] = [
     "duration",
@@ -110,7 +111,13 @@ fn pinned_hashes(text: &str) -> [u64; 3] {
                 .iter()
                 .all(|&t| t == 0.0)
         );
+        assert!(str_col(table, "acceleration").iter().all(|a| a == "model"));
     }
+    assert!(
+        f64_col(&tables[0], "rls_settle_time")
+            .iter()
+            .all(|t| t.is_nan())
+    );
     let used = tables[2]
         .column_by_name("used")
         .unwrap()

@@ -264,6 +264,15 @@ fn forgetting_weights_the_recent_rows_and_spreads_wider() {
         err.contains("estimation.forgetting") && err.contains("(0, 1]"),
         "{err}"
     );
+    // Without rls it applies to nothing: an error, not a silently ignored key.
+    let text = set_key(&study_text("thesis.toml"), "estimators", "[\"ols\"]");
+    let err = chassis_mc::study::Study::from_toml(&format!("{text}forgetting = 0.99\n"), "bad")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("estimation.forgetting") && err.contains("rls"),
+        "{err}"
+    );
 }
 
 #[test]

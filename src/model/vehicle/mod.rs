@@ -174,24 +174,15 @@ impl VehicleModel {
         }
         let reg = &*cond.regression;
         let s2 = cond.noise[Channel::Velocity].powi(2);
-        let [s_w, s_1w, s_3w, s_ww, s_wy] = reg.speed_sums_noise_free;
-        let n = reg.len() as f64;
+        let m = reg.noise_free_moments();
+        // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
         let expected = Moments {
-            s_11: reg.xtx[(0, 0)],
-            s_13: reg.xtx[(0, 2)],
-            s_33: reg.xtx[(2, 2)],
-            s_1y: reg.xty[0],
-            s_3y: reg.xty[2],
-            // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
-            s_1w: s_1w + s2 * reg.sum_f,
-            s_3w: s_3w + s2 * reg.sum_c,
-            s_ww: s_ww + 6.0 * s2 * s_w + 3.0 * s2 * s2 * n,
-            s_wy: s_wy + s2 * reg.sum_y,
-            s_w: s_w + s2 * n,
-            s_1: reg.sum_f,
-            s_3: reg.sum_c,
-            s_y: reg.sum_y,
-            n,
+            s_1w: m.s_1w + s2 * m.s_1,
+            s_3w: m.s_3w + s2 * m.s_3,
+            s_ww: m.s_ww + 6.0 * s2 * m.s_w + 3.0 * s2 * s2 * m.n,
+            s_wy: m.s_wy + s2 * m.s_y,
+            s_w: m.s_w + s2 * m.n,
+            ..m
         };
         let bias = match crate::estimate::estimators::solve(&expected.ols_system(reg.k)) {
             Ok(theta) => [0, 1, 2].map(|p| theta[p] - self.truth[p]),
