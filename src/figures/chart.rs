@@ -7,6 +7,7 @@ use plotters::prelude::*;
 use super::{FigureError, LEGEND_WIDTH, SIZE, draw_error};
 
 /// A series of a chart: one legend entry.
+#[derive(Clone)]
 pub(super) struct Series {
     pub(super) label: String,
     pub(super) color: RGBColor,

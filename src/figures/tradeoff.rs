@@ -35,6 +35,8 @@ pub(super) fn draw_tradeoffs(
     }
     let mut names = Vec::new();
     for (p, param) in layout.parameters.iter().enumerate() {
+        // Per estimator: its iso-lines, and its mean relative RMSE (to pick the best).
+        let mut per_estimator: Vec<(usize, f64, Vec<Series>)> = Vec::new();
         for (e, est) in layout.estimators.iter().enumerate() {
             // rel_rmse[scale][sd]
             let mut grid = vec![vec![f64::NAN; sds.len()]; scales.len()];
@@ -56,13 +58,13 @@ pub(super) fn draw_tradeoffs(
             if all.len() < 4 {
                 continue;
             }
+            let mean = all.iter().sum::<f64>() / all.len() as f64;
             all.sort_by(f64::total_cmp);
             let series: Vec<Series> = (0..LEVELS)
                 .map(|k| {
-                    let q = all[(all.len() - 1) * (2 * k + 1) / (2 * LEVELS)];
-                    let level = round2(q);
+                    let level = round2(all[(all.len() - 1) * (2 * k + 1) / (2 * LEVELS)]);
                     Series {
-                        label: format!("RMSE = {:.2} % of the truth", 100.0 * level),
+                        label: format!("{est}: RMSE = {:.3} % of the truth", 100.0 * level),
                         color: ramp(k, LEVELS),
                         points: scales
                             .iter()
@@ -80,21 +82,54 @@ pub(super) fn draw_tradeoffs(
                 continue;
             }
             let name = format!("tradeoff_{}_{}.svg", param.name, est);
-            chart(
-                &dir.join(&name),
-                &Axes {
-                    title: &format!("{} ({est}): equal relative RMSE", param.name),
-                    x_label: "terrain scale",
-                    y_label: "speed noise σ_v [m/s]",
-                    log_y: false,
-                },
+            draw(
+                dir,
+                &name,
+                &format!("{} ({est}): equal relative RMSE", param.name),
                 &series,
-                &[],
             )?;
+            names.push(name);
+            per_estimator.push((e, mean, series));
+        }
+        // The thesis's question in one picture: OLS's iso-lines (solid ramp) beside the best
+        // estimator's (the lowest mean relative RMSE; drawn with markers).
+        let ols = per_estimator
+            .iter()
+            .find(|(e, _, _)| layout.estimators[*e] == "ols");
+        let best = per_estimator
+            .iter()
+            .filter(|(e, _, _)| layout.estimators[*e] != "ols")
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let (Some(ols), Some(best)) = (ols, best) {
+            let mut series: Vec<Series> = ols.2.iter().map(Series::clone).collect();
+            series.extend(best.2.iter().map(|s| Series {
+                markers: true,
+                ..s.clone()
+            }));
+            let name = format!("tradeoff_{}.svg", param.name);
+            let title = format!(
+                "{}: equal relative RMSE, ols (lines) and {} (points)",
+                param.name, layout.estimators[best.0]
+            );
+            draw(dir, &name, &title, &series)?;
             names.push(name);
         }
     }
     Ok(names)
+}
+
+fn draw(dir: &Path, name: &str, title: &str, series: &[Series]) -> Result<(), FigureError> {
+    chart(
+        &dir.join(name),
+        &Axes {
+            title,
+            x_label: "terrain scale",
+            y_label: "speed noise σ_v [m/s]",
+            log_y: false,
+        },
+        series,
+        &[],
+    )
 }
 
 /// `v` to two significant digits.

@@ -201,4 +201,13 @@ fn a_terrain_by_sensor_study_draws_its_tradeoff_iso_lines() {
         }
     }
     assert_eq!(drawn, 9);
+    // And per parameter one picture of OLS beside the best other estimator.
+    for p in PARAMS {
+        let (points, texts) = svg(&dir.path().join(format!("figures/tradeoff_{p}.svg")));
+        assert!(texts.iter().any(|t| t.contains("ols (lines)")), "{texts:?}");
+        assert!(
+            points > 0,
+            "{p}: the best estimator's iso-lines are drawn as points"
+        );
+    }
 }
