@@ -79,14 +79,7 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     let threads = threads
         .or_else(|| std::thread::available_parallelism().ok().map(usize::from))
         .unwrap_or(1);
-    let meta = FileMetadata {
-        study_toml: study.to_toml(),
-        study_dir: study.dir().display().to_string(),
-        seed: study.seed(),
-        realisations: study.realisations(),
-        identity: String::new(),
-        extra: Vec::new(),
-    };
+    let meta = FileMetadata::of_study(study, String::new());
     let realisation_bytes = bytes_per_realisation(&*model, study, &meta)?
         * study.realisations() as f64
         * infos.len() as f64;

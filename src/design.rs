@@ -510,14 +510,7 @@ fn finish(
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
-    let mut meta = FileMetadata {
-        study_toml: study.to_toml(),
-        study_dir: study.dir().display().to_string(),
-        seed: study.seed(),
-        realisations: study.realisations(),
-        identity: String::new(),
-        extra: Vec::new(),
-    };
+    let mut meta = FileMetadata::of_study(study, String::new());
     meta = meta.with(
         ANSWER_KEY,
         answer.map_or(String::new(), |a| a.value.to_string()),
@@ -663,15 +656,7 @@ fn write_report(
     let svg = std::fs::read_to_string(figure.tmp_path())
         .map_err(|e| OutputError::io(figure.tmp_path(), e))?;
     let svg = svg.find("<svg").map_or(svg.as_str(), |i| &svg[i..]);
-    let title = format!("{} — chassis-mc design", study.name());
-    let mut html = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{}</title>\n\
-         <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem}}\
-         td,th{{padding:.1rem .6rem;text-align:right}}pre{{background:#f6f6f6;padding:.75rem}}</style>\n\
-         </head>\n<body>\n<h1>{}</h1>\n",
-        escape(&title),
-        escape(&title)
-    );
+    let mut html = crate::report::head(&format!("{} — chassis-mc design", study.name()));
     let _ = write!(
         html,
         "<p>{}</p>\n<p>seed {}, {} realisations per Monte Carlo evaluation, chassis-mc {}</p>\n",

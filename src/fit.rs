@@ -747,18 +747,14 @@ fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFi
     use crate::report::escape;
     let title = format!("{} — chassis-mc fit", spec.log.display());
     let html = format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{t}</title>\n\
-         <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem}}\
-         pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto}}\
-         .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem}}</style>\n\
-         </head>\n<body>\n<h1>{t}</h1>\n<p>log {log}: {n} samples, {used} in the regression; \
+        "{head}<p>log {log}: {n} samples, {used} in the regression; \
          acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
          <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
          estimator's bias; the bootstrap interval is a percentile interval of the estimator in a \
          world where the fit is the truth, so it is centred on the estimate plus the bias: for a \
          biased estimator read the bias-corrected estimate with it.</p>\n\
          <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
-        t = escape(&title),
+        head = crate::report::head(&title),
         log = escape(&spec.log.display().to_string()),
         n = spec.cycle.t_s.len(),
         used = spec.used.iter().filter(|u| **u).count(),

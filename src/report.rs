@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 mod html;
 
-pub use html::{Page, escape, page, warnings};
+pub use html::{Page, escape, head, page, warnings};
 
 use crate::model::{ConditionInfo, Layout};
 use crate::stats::summary::SummaryRow;

@@ -192,6 +192,19 @@ pub struct FileMetadata {
 }
 
 impl FileMetadata {
+    /// The metadata of files written for `study` (its text as run, directory, seed and R)
+    /// with `identity`.
+    pub fn of_study(study: &crate::study::Study, identity: String) -> Self {
+        FileMetadata {
+            study_toml: study.to_toml(),
+            study_dir: study.dir().display().to_string(),
+            seed: study.seed(),
+            realisations: study.realisations(),
+            identity,
+            extra: Vec::new(),
+        }
+    }
+
     /// The same metadata with one more key-value pair.
     pub fn with(&self, key: &str, value: String) -> Self {
         let mut m = self.clone();

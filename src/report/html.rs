@@ -52,22 +52,24 @@ fn inline_svg(svg: &str) -> &str {
     }
 }
 
-/// The page, as well-formed XHTML-compatible HTML5.
-pub fn page(p: &Page<'_>) -> String {
-    let mut out = String::new();
-    let title = format!("{} — chassis-mc {}", p.study_name, p.command);
-    let _ = write!(
-        out,
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{}</title>\n\
+/// The start of every report page, up to and including its `<h1>`: the document head with
+/// the one stylesheet of all report pages (`run`, `design`, `fit`).
+pub fn head(title: &str) -> String {
+    let title = escape(title);
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{title}</title>\n\
          <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem;line-height:1.4}}\
          pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto;font-size:.8rem}}\
          .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem;margin:.5rem 0}}\
          figure{{margin:1rem 0}}figure svg{{max-width:100%;height:auto}}\
-         figcaption{{font-size:.85rem;color:#444}}\
-         table.meta td{{padding:.1rem .75rem .1rem 0}}</style>\n</head>\n<body>\n<h1>{}</h1>\n",
-        escape(&title),
-        escape(&title)
-    );
+         figcaption{{font-size:.85rem;color:#444}}td,th{{padding:.1rem .6rem}}\
+         table.meta td{{padding:.1rem .75rem .1rem 0}}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
+    )
+}
+
+/// The page, as well-formed XHTML-compatible HTML5.
+pub fn page(p: &Page<'_>) -> String {
+    let mut out = head(&format!("{} — chassis-mc {}", p.study_name, p.command));
     // Provenance.
     let _ = write!(
         out,

@@ -192,14 +192,7 @@ fn run_prepared(
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     let layout = model.layout().clone();
     let infos = model.infos();
-    let meta = FileMetadata {
-        study_toml: study.to_toml(),
-        study_dir: study.dir().display().to_string(),
-        seed: study.seed(),
-        realisations: study.realisations(),
-        identity: identity(study, model, &infos),
-        extra: Vec::new(),
-    };
+    let meta = FileMetadata::of_study(study, identity(study, model, &infos));
 
     // The model's extra tables (the cycles) do not depend on the realisations: they are
     // written while the realisations are computed.
