@@ -180,9 +180,10 @@ fn candidates_body(words: &[u64], out: &mut [f64], outside: &mut [u64; BLOCK / 6
     }
 }
 
-/// The candidate pass; with AVX2, four candidates per instruction (table lookups by
-/// gather), giving bit for bit the values of the portable version: the same exact bit
-/// operations, one rounded multiplication and the same comparison per candidate.
+/// The candidate pass; with AVX-512 eight and with AVX2 four candidates per instruction
+/// (each layer's table pair read by one 128-bit load), giving bit for bit the values of the
+/// portable version: the same exact bit operations, one rounded multiplication and the same
+/// comparison per candidate.
 fn candidates(words: &[u64], out: &mut [f64], outside: &mut [u64; BLOCK / 64]) {
     #[cfg(target_arch = "x86_64")]
     {
@@ -204,6 +205,19 @@ mod simd {
 
     use super::{BLOCK, ONE_BITS, ZIG_X, candidate};
 
+    /// The pair (X\[layer\], X\[layer + 1\]) of a word, by one 128-bit load: the layer's
+    /// width and its core's edge. (A table lookup by scalar loads: on some CPUs, such as
+    /// AMD Zen 4, a gather instruction costs several times more than these loads.)
+    ///
+    /// # Safety
+    /// `word` points to a readable u64; the layer index (< 256) keeps the load within
+    /// ZIG_X's 257 entries.
+    #[inline(always)]
+    unsafe fn layer_pair(word: *const u64) -> __m128d {
+        // SAFETY: as documented above.
+        unsafe { _mm_loadu_pd(ZIG_X.as_ptr().add((*word & 0xff) as usize)) }
+    }
+
     #[target_feature(enable = "avx512f")]
     pub(super) fn candidates_avx512(
         words: &[u64],
@@ -213,21 +227,28 @@ mod simd {
         let n = words.len();
         assert!(out.len() == n && n <= BLOCK);
         let whole = n - n % 8;
-        let low_byte = _mm512_set1_epi64(0xff);
         let one = _mm512_set1_epi64(ONE_BITS as i64);
         let two = _mm512_set1_pd(2.0);
         let three = _mm512_set1_pd(3.0);
         let mut j = 0;
         while j < whole {
-            // SAFETY: j + 8 <= n for `words` and `out`; gather indices are < 256, within
-            // ZIG_X (257 entries) also for the table shifted by one.
+            // SAFETY: j + 8 <= n for `words` and `out`; `layer_pair` reads within ZIG_X.
             unsafe {
-                let w = _mm512_loadu_si512(words.as_ptr().add(j).cast());
-                let layer = _mm512_and_si512(w, low_byte);
+                let wp = words.as_ptr().add(j);
+                let pair = |k: usize| _mm256_castpd128_pd256(layer_pair(wp.add(k)));
+                // even candidates' pairs in `a`, odd ones' in `b`: unpacking the low and
+                // high halves then gives widths and cores in candidate order
+                let a02 = _mm256_insertf128_pd::<1>(pair(0), layer_pair(wp.add(2)));
+                let a46 = _mm256_insertf128_pd::<1>(pair(4), layer_pair(wp.add(6)));
+                let b13 = _mm256_insertf128_pd::<1>(pair(1), layer_pair(wp.add(3)));
+                let b57 = _mm256_insertf128_pd::<1>(pair(5), layer_pair(wp.add(7)));
+                let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(a02), a46);
+                let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(b13), b57);
+                let width = _mm512_unpacklo_pd(a, b);
+                let core = _mm512_unpackhi_pd(a, b);
+                let w = _mm512_loadu_si512(wp.cast());
                 let bits = _mm512_or_si512(_mm512_srli_epi64::<12>(w), one);
                 let u = _mm512_sub_pd(_mm512_mul_pd(two, _mm512_castsi512_pd(bits)), three);
-                let width = _mm512_i64gather_pd::<8>(layer, ZIG_X.as_ptr());
-                let core = _mm512_i64gather_pd::<8>(layer, ZIG_X.as_ptr().add(1));
                 let x = _mm512_mul_pd(u, width);
                 _mm512_storeu_pd(out.as_mut_ptr().add(j), x);
                 let abs = _mm512_abs_pd(x);
@@ -249,22 +270,23 @@ mod simd {
         let n = words.len();
         assert!(out.len() == n && n <= BLOCK);
         let whole = n - n % 4;
-        let low_byte = _mm256_set1_epi64x(0xff);
         let one = _mm256_set1_epi64x(ONE_BITS as i64);
         let two = _mm256_set1_pd(2.0);
         let three = _mm256_set1_pd(3.0);
         let sign = _mm256_set1_pd(-0.0);
         let mut j = 0;
         while j < whole {
-            // SAFETY: j + 4 <= n for `words` and `out`; gather indices are < 256, within
-            // ZIG_X (257 entries) also for the table shifted by one.
+            // SAFETY: j + 4 <= n for `words` and `out`; `layer_pair` reads within ZIG_X.
             unsafe {
-                let w = _mm256_loadu_si256(words.as_ptr().add(j).cast());
-                let layer = _mm256_and_si256(w, low_byte);
+                let wp = words.as_ptr().add(j);
+                let pair = |k: usize| _mm256_castpd128_pd256(layer_pair(wp.add(k)));
+                let a = _mm256_insertf128_pd::<1>(pair(0), layer_pair(wp.add(2)));
+                let b = _mm256_insertf128_pd::<1>(pair(1), layer_pair(wp.add(3)));
+                let width = _mm256_unpacklo_pd(a, b);
+                let core = _mm256_unpackhi_pd(a, b);
+                let w = _mm256_loadu_si256(wp.cast());
                 let bits = _mm256_or_si256(_mm256_srli_epi64::<12>(w), one);
                 let u = _mm256_sub_pd(_mm256_mul_pd(two, _mm256_castsi256_pd(bits)), three);
-                let width = _mm256_i64gather_pd::<8>(ZIG_X.as_ptr(), layer);
-                let core = _mm256_i64gather_pd::<8>(ZIG_X.as_ptr().add(1), layer);
                 let x = _mm256_mul_pd(u, width);
                 _mm256_storeu_pd(out.as_mut_ptr().add(j), x);
                 let abs = _mm256_andnot_pd(sign, x);
