@@ -298,6 +298,35 @@ pub trait Model: Sync + fmt::Debug {
     /// [`Layout::realisation_stride`]); a pure function of (seed, c, r).
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]);
 
+    /// The draw group of condition `c`: conditions of one group read the same noise draws
+    /// in realisation r (common random numbers), so one draw can serve them all through
+    /// [`Model::realise_group`]. By default each condition is its own group.
+    fn draw_group(&self, c: usize) -> usize {
+        c
+    }
+
+    /// Realisations `first .. first + count` of each of `conditions` (all of one draw
+    /// group) into `slots`, realisation-major: realisation `first + i` of the k-th
+    /// condition at `(i · conditions.len() + k) · stride`. Bit for bit what
+    /// [`Model::realise`] gives for each. By default one after the other; a model overrides
+    /// it to draw once for the group.
+    fn realise_group(
+        &self,
+        seed: u64,
+        conditions: &[usize],
+        first: u64,
+        count: usize,
+        slots: &mut [f64],
+    ) {
+        let stride = self.layout().realisation_stride();
+        let mut slots = slots.chunks_exact_mut(stride);
+        for i in 0..count as u64 {
+            for (&c, slots) in conditions.iter().zip(&mut slots) {
+                self.realise(seed, c, first + i, slots);
+            }
+        }
+    }
+
     /// Every condition's info, in order.
     fn infos(&self) -> Vec<ConditionInfo> {
         (0..self.condition_count())

@@ -16,13 +16,28 @@ use crate::model::Model;
 /// Realisations computed per chunk (one Arrow batch per chunk).
 pub const DEFAULT_CHUNK: u64 = 1024;
 
-/// A contiguous range of realisations of one condition.
+/// Realisations of a draw group computed together by one task, so that each block of every
+/// condition's data is read once for all of them (from cache) rather than once each.
+const GROUP_BATCH: usize = 64;
+
+/// A contiguous range of realisations of one condition, or of several conditions of one
+/// draw group ([`Model::draw_group`]) computed together from one draw per realisation.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Work {
-    /// Condition index.
-    pub condition: usize,
+    /// Condition indices, in the order their chunks reach the sink.
+    pub conditions: Vec<usize>,
     /// Realisation indices.
     pub realisations: Range<u64>,
+}
+
+impl Work {
+    /// Realisations `realisations` of one condition.
+    pub fn one(condition: usize, realisations: Range<u64>) -> Self {
+        Work {
+            conditions: vec![condition],
+            realisations,
+        }
+    }
 }
 
 /// A computed chunk: realisations `first..first + len` of `condition`.
@@ -58,7 +73,8 @@ pub struct Silent;
 
 impl Observer for Silent {}
 
-/// Run every item of `work` in order, chunk by chunk, and pass each chunk to `sink`.
+/// Run every item of `work` in order, chunk by chunk, and pass each chunk to `sink`: per
+/// chunk of realisations, one [`Chunk`] for each of the item's conditions, in its order.
 ///
 /// `work` is consumed lazily, one chunk ahead of the sink, so the plan of a run never
 /// occupies memory in proportion to its realisations.
@@ -79,54 +95,80 @@ where
 {
     let stride = model.layout().realisation_stride();
     let chunk = chunk.max(1);
-    // (condition, first realisation, count, the item's realisations) of every chunk, in order
+    // (first realisation, count, the item) of every chunk, in order
     let plan = work.flat_map(|item| {
-        let Work {
-            condition,
-            realisations,
-        } = item;
+        let realisations = item.realisations.clone();
         (realisations.start..realisations.end)
             .step_by(usize::try_from(chunk).unwrap_or(usize::MAX))
-            .map(move |first| {
-                let len = chunk.min(realisations.end - first);
-                (condition, first, len, realisations.clone())
-            })
+            .map(move |first| (first, chunk.min(realisations.end - first), item.clone()))
     });
-    let compute = |(condition, first, len): (usize, u64, u64), buffer: &mut Vec<f64>| {
+    // The chunk's slots, realisation-major: realisation i of the item's k-th condition at
+    // (i · conditions + k) · stride.
+    let compute = |first: u64, len: u64, conditions: &[usize], buffer: &mut Vec<f64>| {
+        let width = conditions.len() * stride;
         buffer.clear();
-        buffer.resize(len as usize * stride, f64::NAN);
-        buffer
-            .par_chunks_mut(stride)
-            .enumerate()
-            .for_each(|(i, slots)| model.realise(seed, condition, first + i as u64, slots));
-        observer.realisations_done(len);
+        buffer.resize(len as usize * width, f64::NAN);
+        match conditions {
+            [c] => buffer
+                .par_chunks_mut(width)
+                .enumerate()
+                .for_each(|(i, slots)| model.realise(seed, *c, first + i as u64, slots)),
+            _ => buffer
+                .par_chunks_mut(width * GROUP_BATCH)
+                .enumerate()
+                .for_each(|(i, slots)| {
+                    let from = first + (i * GROUP_BATCH) as u64;
+                    model.realise_group(seed, conditions, from, slots.len() / width, slots)
+                }),
+        }
+        observer.realisations_done(len * conditions.len() as u64);
     };
-    let mut current: Vec<f64> = Vec::new();
-    let mut previous: Vec<f64> = Vec::new();
-    // the computed chunk waiting in `previous`: (condition, first, item)
-    let mut done: Option<(usize, u64, Range<u64>)> = None;
-    for (condition, first, len, item) in plan {
-        let waiting = done.take().map(|(condition, first, item)| Chunk {
-            condition,
-            first,
-            item,
-            slots: &previous,
-        });
-        let (_, written) = rayon::join(
-            || compute((condition, first, len), &mut current),
-            || waiting.map_or(Ok(()), &mut sink),
-        );
-        written?;
-        std::mem::swap(&mut current, &mut previous);
-        done = Some((condition, first, item));
-    }
-    if let Some((condition, first, item)) = done {
+    // One condition's realisations out of a chunk computed for several.
+    let mut gathered: Vec<f64> = Vec::new();
+    let mut hand_over = |first: u64, item: &Work, slots: &[f64]| -> Result<(), E> {
+        let [condition] = item.conditions[..] else {
+            let width = item.conditions.len() * stride;
+            for (k, &condition) in item.conditions.iter().enumerate() {
+                gathered.clear();
+                for row in slots.chunks_exact(width) {
+                    gathered.extend_from_slice(&row[k * stride..(k + 1) * stride]);
+                }
+                sink(Chunk {
+                    condition,
+                    first,
+                    item: item.realisations.clone(),
+                    slots: &gathered,
+                })?;
+            }
+            return Ok(());
+        };
         sink(Chunk {
             condition,
             first,
-            item,
-            slots: &previous,
-        })?;
+            item: item.realisations.clone(),
+            slots,
+        })
+    };
+    let mut current: Vec<f64> = Vec::new();
+    let mut previous: Vec<f64> = Vec::new();
+    // the computed chunk waiting in `previous`: (first, item)
+    let mut done: Option<(u64, Work)> = None;
+    for (first, len, item) in plan {
+        let waiting = done.take();
+        let (_, written) = rayon::join(
+            || compute(first, len, &item.conditions, &mut current),
+            || {
+                waiting
+                    .as_ref()
+                    .map_or(Ok(()), |(first, item)| hand_over(*first, item, &previous))
+            },
+        );
+        written?;
+        std::mem::swap(&mut current, &mut previous);
+        done = Some((first, item));
+    }
+    if let Some((first, item)) = done {
+        hand_over(first, &item, &previous)?;
     }
     Ok(())
 }

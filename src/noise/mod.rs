@@ -154,6 +154,51 @@ impl NormalStream {
     }
 }
 
+/// Normals of one stream read as a single sequence, whatever lengths are requested: the
+/// stream is drawn in whole blocks of [`BLOCK`] (buffered), and a request takes the next
+/// values. Readers of different lengths therefore read prefixes of the same sequence —
+/// what conditions sharing one draw need (e.g. drive cycles of different lengths).
+/// (A plain [`NormalStream`] read in shorter blocks gives other values: its rejections
+/// draw from the words after each requested block.)
+#[derive(Debug, Clone)]
+pub struct NormalSequence {
+    stream: NormalStream,
+    block: [f64; BLOCK],
+    /// Next unread value of `block` (`BLOCK` when empty).
+    pos: usize,
+}
+
+impl NormalSequence {
+    /// The sequence of (seed, condition, channel, realisation) (see [`key`]).
+    pub fn for_realisation(seed: u64, condition: u64, channel: u64, realisation: u64) -> Self {
+        NormalSequence {
+            stream: NormalStream::for_realisation(seed, condition, channel, realisation),
+            block: [0.0; BLOCK],
+            pos: BLOCK,
+        }
+    }
+
+    /// The next `out.len()` values of the sequence.
+    pub fn fill(&mut self, out: &mut [f64]) {
+        let mut i = 0;
+        while i < out.len() {
+            if self.pos == BLOCK {
+                if out.len() - i >= BLOCK {
+                    self.stream.fill_block(&mut out[i..i + BLOCK]);
+                    i += BLOCK;
+                    continue;
+                }
+                self.stream.fill_block(&mut self.block);
+                self.pos = 0;
+            }
+            let take = (BLOCK - self.pos).min(out.len() - i);
+            out[i..i + take].copy_from_slice(&self.block[self.pos..self.pos + take]);
+            self.pos += take;
+            i += take;
+        }
+    }
+}
+
 /// The ziggurat candidate of a word: layer from the low 8 bits, a signed uniform
 /// u ∈ [−1, 1) from the top 52 bits (built as a double in [1, 2) from its bit pattern, so
 /// no integer-to-float conversion is needed), x = u·X\[layer\]; `inside` when |x| lies in
@@ -334,6 +379,30 @@ mod tests {
                 assert_eq!(b0, b2);
             }
         }
+    }
+
+    #[test]
+    fn a_sequence_is_the_same_whatever_lengths_are_read() {
+        let mut whole = NormalSequence::for_realisation(3, 1, 2, 5);
+        let mut expected = vec![0.0; 1000];
+        whole.fill(&mut expected);
+        for lengths in [&[1000][..], &[1, 255, 256, 300, 188], &[97, 97, 97, 709]] {
+            let mut s = NormalSequence::for_realisation(3, 1, 2, 5);
+            let mut got = Vec::new();
+            for &n in lengths {
+                let mut part = vec![0.0; n];
+                s.fill(&mut part);
+                got.extend(part);
+            }
+            assert_eq!(got, expected, "{lengths:?}");
+        }
+        // and it is the stream's whole blocks
+        let mut stream = NormalStream::for_realisation(3, 1, 2, 5);
+        let mut blocks = vec![0.0; 4 * BLOCK];
+        for b in blocks.chunks_mut(BLOCK) {
+            stream.fill_block(b);
+        }
+        assert_eq!(blocks[..1000], expected[..]);
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! Computing the realisations a run needs (reusing what earlier runs left) and assembling
 //! them, in order, into the realisation file.
 
+use std::collections::BTreeMap;
+use std::ops::Range;
 use std::path::Path;
 
 use super::{RunError, RunOptions, STAGING, files};
@@ -64,35 +66,54 @@ pub(super) fn realise(
     observer.planned(total, total - computed);
 
     // 2. Compute what is missing into staged parts, each renamed into place when complete
-    //    (so a killed run resumes), and assemble the final file as the rows arrive. One
-    //    pass over every part keeps the executor's compute/write pipeline full; the parts
-    //    are planned lazily, so the plan's memory does not grow with R.
-    let mut pieces = segments
+    //    (so a killed run resumes). The missing ranges of the conditions of one draw group
+    //    are computed together (one draw per realisation serves the group). Without such
+    //    groups the final file is assembled as the rows arrive, which keeps the executor's
+    //    compute/write pipeline full; with them the rows of a group's conditions arrive
+    //    interleaved, and the file is assembled from the parts afterwards. The parts are
+    //    planned lazily, so the plan's memory does not grow with R.
+    let mut groups: Vec<(usize, Range<u64>, Vec<usize>)> = Vec::new();
+    for seg in segments.iter().filter(|s| s.source.is_none()) {
+        let group = model.draw_group(seg.condition);
+        match groups
+            .iter_mut()
+            .find(|(g, range, _)| *g == group && *range == seg.range)
+        {
+            Some((_, _, conditions)) => conditions.push(seg.condition),
+            None => groups.push((group, seg.range.clone(), vec![seg.condition])),
+        }
+    }
+    let streaming = groups
         .iter()
-        .filter(|s| s.source.is_none())
-        .flat_map(|seg| {
-            let (condition, range) = (seg.condition, seg.range.clone());
-            let step = usize::try_from(store::PART_REALISATIONS).unwrap_or(usize::MAX);
-            (range.start..range.end)
-                .step_by(step)
-                .map(move |start| Work {
-                    condition,
-                    realisations: start..(start + store::PART_REALISATIONS).min(range.end),
-                })
-        });
+        .all(|(_, _, conditions)| conditions.len() == 1);
+    let mut pieces = groups.iter().flat_map(|(_, range, conditions)| {
+        let step = usize::try_from(store::PART_REALISATIONS).unwrap_or(usize::MAX);
+        (range.start..range.end)
+            .step_by(step)
+            .map(move |start| Work {
+                conditions: conditions.clone(),
+                realisations: start..(start + store::PART_REALISATIONS).min(range.end),
+            })
+    });
     let file_meta = match options.shard {
         Some(shard) => meta.with(keys::SHARD, shard.to_string()),
         None => meta.clone(),
     };
-    let file = ParquetSink::create(
-        dir,
-        files::REALISATIONS,
-        schema.clone(),
-        &file_meta,
-        "realisations",
-    )?;
-    let mut assembler = store::Assembler::new(&sources, &segments, file);
-    let mut part: Option<ParquetSink> = None; // the part of the current work item
+    let create = || {
+        ParquetSink::create(
+            dir,
+            files::REALISATIONS,
+            schema.clone(),
+            &file_meta,
+            "realisations",
+        )
+    };
+    let mut assembler = match streaming {
+        true => Some(store::Assembler::new(&sources, &segments, create()?)),
+        false => None,
+    };
+    // the open part of each condition being computed
+    let mut parts: BTreeMap<usize, ParquetSink> = BTreeMap::new();
     montecarlo::execute(
         model,
         study.seed(),
@@ -103,28 +124,52 @@ pub(super) fn realise(
             if chunk.first == chunk.item.start {
                 let part_meta =
                     meta.with(keys::PART, store::part_value(chunk.condition, &chunk.item));
-                part = Some(ParquetSink::create(
+                let part = ParquetSink::create(
                     &staging,
                     &store::part_name(chunk.condition, chunk.item.start, 0),
                     schema.clone(),
                     &part_meta,
                     "realisations",
-                )?);
+                )?;
+                parts.insert(chunk.condition, part);
             }
             let batch =
                 output::realisations_batch(layout, &schema, &infos[chunk.condition], &chunk)
                     .map_err(|e| OutputError::arrow(&staging, e))?;
-            part.as_mut().expect("a part is open").write(&batch)?;
-            assembler.computed(chunk.condition, chunk.first, &batch)?;
+            let part = parts.get_mut(&chunk.condition).expect("a part is open");
+            part.write(&batch)?;
+            if !streaming {
+                // A group keeps one part per condition open: a row group per chunk bounds
+                // what each of them buffers.
+                part.flush()?;
+            }
+            if let Some(assembler) = assembler.as_mut() {
+                assembler.computed(chunk.condition, chunk.first, &batch)?;
+            }
             let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
             if chunk.first + rows == chunk.item.end {
-                let done = part.take().expect("a part is open").finish()?;
-                store::commit_part(done, chunk.condition, chunk.item.start)?;
+                let done = parts.remove(&chunk.condition).expect("a part is open");
+                store::commit_part(done.finish()?, chunk.condition, chunk.item.start)?;
                 output::failpoint("part-committed");
             }
             Ok::<(), OutputError>(())
         },
     )?;
-
+    if let Some(assembler) = assembler {
+        return Ok((assembler.finish()?, total - computed, computed));
+    }
+    // 3. With draw groups: every needed row now exists in a part or the earlier file.
+    let mut sources = store::scan_parts(&staging, &meta.identity, &notice)?;
+    sources.extend(store::existing_file(
+        &dir.join(files::REALISATIONS),
+        &meta.identity,
+        &notice,
+    )?);
+    let segments = store::plan(&needed, &sources);
+    assert!(
+        segments.iter().all(|s| s.source.is_some()),
+        "every computed row is in a committed part"
+    );
+    let assembler = store::Assembler::new(&sources, &segments, create()?);
     Ok((assembler.finish()?, total - computed, computed))
 }

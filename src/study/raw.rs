@@ -92,12 +92,13 @@ pub struct RawTerrain {
     pub scale_applies_to: Option<String>,
 }
 
-/// `[noise]`: a list of levels per channel key (`velocity_sd`, …). Validation checks the
-/// keys against the channels and fills in the defaults; they serialise in channel order, so
-/// the study as run reads the same whatever order the file had.
+/// `[noise]`: a list of levels per channel key (`velocity_sd`, …) and the optional keys
+/// (lists, or the `share_across_scales` switch). Validation checks the keys and their types
+/// and fills in the defaults; the channels serialise in channel order, so the study as run
+/// reads the same whatever order the file had.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(transparent)]
-pub struct RawNoise(pub BTreeMap<String, Vec<f64>>);
+pub struct RawNoise(pub BTreeMap<String, toml::Value>);
 
 impl Serialize for RawNoise {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {

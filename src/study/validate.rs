@@ -157,6 +157,20 @@ impl Checker<'_> {
         }
     }
 
+    /// A TOML list of numbers (integers read as floats).
+    pub(super) fn numbers(&self, key: &str, value: &toml::Value) -> Result<Vec<f64>, StudyError> {
+        let reason = || format!("must be a list of numbers, got {value}");
+        let items = value.as_array().ok_or_else(|| self.fail(key, reason()))?;
+        items
+            .iter()
+            .map(|v| match v {
+                toml::Value::Float(x) => Ok(*x),
+                toml::Value::Integer(i) => Ok(*i as f64),
+                _ => Err(self.fail(key, reason())),
+            })
+            .collect()
+    }
+
     /// A non-empty list whose items each pass `item`.
     pub(super) fn list(
         &self,
@@ -225,8 +239,9 @@ pub(super) fn validate(
     if let Some(n) = raw.noise.as_mut() {
         for channel in Channel::ALL {
             if let Some(default) = channel.default_levels() {
-                n.0.entry(channel.key().to_string())
-                    .or_insert_with(|| default.to_vec());
+                n.0.entry(channel.key().to_string()).or_insert_with(|| {
+                    toml::Value::Array(default.iter().map(|&v| toml::Value::Float(v)).collect())
+                });
             }
         }
     }

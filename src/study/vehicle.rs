@@ -81,6 +81,9 @@ pub struct VehicleStudy {
     /// Sources of the acceleration in the output, one condition axis (`[model]` when the
     /// study has no `estimation.acceleration`).
     pub acceleration: Vec<Acceleration>,
+    /// `noise.share_across_scales`: conditions that differ only in terrain scale and
+    /// duration read the same noise draws in each realisation (default false).
+    pub share_across_scales: bool,
 }
 
 pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
@@ -163,7 +166,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     }
     let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
 
-    let (noise, grade_bias, velocity_correlation_s) = validate_noise(n, c)?;
+    let (noise, grade_bias, velocity_correlation_s, share_across_scales) = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
     if e.forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
@@ -196,6 +199,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         estimators,
         settings: EstimatorSettings { forgetting },
         acceleration: validate_acceleration(e.acceleration.as_ref(), c)?,
+        share_across_scales,
     })
 }
 
@@ -298,16 +302,16 @@ fn validate_terrain(
     ))
 }
 
-/// The `[noise]` table: a list of levels per channel, defaults for the optional ones, and no
-/// other key.
+/// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
+/// `share_across_scales`, and no other key.
 fn validate_noise(
     n: &RawNoise,
     c: &Checker<'_>,
-) -> Result<(NoiseAxes, Vec<f64>, Vec<f64>), StudyError> {
+) -> Result<(NoiseAxes, Vec<f64>, Vec<f64>, bool), StudyError> {
     let keys: Vec<&str> = Channel::ALL
         .map(Channel::key)
         .into_iter()
-        .chain([GRADE_BIAS, VELOCITY_CORRELATION])
+        .chain([GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES])
         .collect();
     if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
         return Err(c.fail(
@@ -319,24 +323,35 @@ fn validate_noise(
     for channel in Channel::ALL {
         let key = format!("noise.{}", channel.key());
         levels[channel] = match (n.0.get(channel.key()), channel.default_levels()) {
-            (Some(list), _) => c.list(&key, list, Checker::non_negative)?,
+            (Some(list), _) => c.list(&key, &c.numbers(&key, list)?, Checker::non_negative)?,
             (None, Some(default)) => default.to_vec(),
             (None, None) => return Err(c.fail(&key, "required key is missing")),
         };
     }
     let grade_bias = match n.0.get(GRADE_BIAS) {
-        Some(list) => c.list(&format!("noise.{GRADE_BIAS}"), list, Checker::finite)?,
+        Some(list) => {
+            let key = format!("noise.{GRADE_BIAS}");
+            c.list(&key, &c.numbers(&key, list)?, Checker::finite)?
+        }
         None => vec![0.0],
     };
     let correlation = match n.0.get(VELOCITY_CORRELATION) {
-        Some(list) => c.list(
-            &format!("noise.{VELOCITY_CORRELATION}"),
-            list,
-            Checker::non_negative,
-        )?,
+        Some(list) => {
+            let key = format!("noise.{VELOCITY_CORRELATION}");
+            c.list(&key, &c.numbers(&key, list)?, Checker::non_negative)?
+        }
         None => vec![0.0],
     };
-    Ok((NoiseAxes::new(levels), grade_bias, correlation))
+    let share = match n.0.get(SHARE_ACROSS_SCALES) {
+        None => false,
+        Some(v) => v.as_bool().ok_or_else(|| {
+            c.fail(
+                &format!("noise.{SHARE_ACROSS_SCALES}"),
+                format!("must be true or false, got {v}"),
+            )
+        })?,
+    };
+    Ok((NoiseAxes::new(levels), grade_bias, correlation, share))
 }
 
 /// `estimation.acceleration`: one name or a list of names of [`Acceleration::ALL`].
@@ -387,6 +402,10 @@ fn validate_acceleration(
 /// The `[noise]` key of the speed noise's correlation time \[s\] (an axis; default `[0]`,
 /// white noise).
 const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
+
+/// The `[noise]` key that lets conditions differing only in terrain scale and duration share
+/// each realisation's draws (docs/model.md#shared-noise).
+const SHARE_ACROSS_SCALES: &str = "share_across_scales";
 
 /// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
 const GRADE_BIAS: &str = "grade_bias";

@@ -18,5 +18,6 @@ mod report;
 mod routes;
 mod sensors;
 mod shards_resume;
+mod shared_noise;
 mod terrain_metric;
 mod thesis_table3;

@@ -27,7 +27,7 @@ use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
-use crate::noise::{BLOCK, NormalStream};
+use crate::noise::{BLOCK, NormalSequence, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
@@ -50,7 +50,16 @@ struct Condition {
     /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
     /// realisations and the bound applies (NaN otherwise).
     constant_bounds: Vec<[f64; 3]>,
+    /// The condition's random streams are keyed by this number: its own index, or, with
+    /// `noise.share_across_scales`, its draw group's (docs/model.md#shared-noise).
+    stream_key: u64,
+    /// Its draw group ([`Model::draw_group`]).
+    group: usize,
 }
+
+/// The bit that marks a draw group's key, so that a shared stream is never some condition's
+/// own.
+const SHARED_GROUP: u64 = 1 << 63;
 
 /// The vehicle model with all its conditions prepared (drive cycles simulated).
 #[derive(Debug)]
@@ -62,6 +71,9 @@ pub struct VehicleModel {
     cycles: Vec<ScaleCycle>,
     /// Whether an estimator of the study reads the measured rows.
     needs_rows: bool,
+    /// `noise.share_across_scales`: conditions differing only in scale and duration read
+    /// the same draws, as prefixes of one normal sequence per channel.
+    shared: bool,
     /// The true θ.
     truth: [f64; 3],
 }
@@ -83,9 +95,15 @@ impl VehicleModel {
         if let Some(e) = vs.estimators.iter().find(|e| e.compensates_speed_noise()) {
             uneven_differentiation(study, &vs, &segments, e.name())?;
         }
-        let conditions = grid(&vs)
+        let points = grid(&vs);
+        // Scale and duration are the outermost axes: the conditions of one draw group are
+        // `inner` apart.
+        let inner = points.len() / (vs.scales.len() * durations);
+        let conditions = points
             .par_iter()
-            .map(|point| {
+            .enumerate()
+            .map(|(c, point)| {
+                let group = if vs.share_across_scales { c % inner } else { c };
                 let noise = point.noise;
                 let k = point.scale_index * durations + point.duration_index;
                 let segment = &segments[k];
@@ -134,6 +152,11 @@ impl VehicleModel {
                         .then(|| regression.ar1_coefficients(noise.velocity_correlation_s)),
                     regression,
                     constant_bounds,
+                    stream_key: match vs.share_across_scales {
+                        true => SHARED_GROUP | group as u64,
+                        false => c as u64,
+                    },
+                    group,
                 }
             })
             .collect();
@@ -142,6 +165,7 @@ impl VehicleModel {
             conditions,
             cycles,
             needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
+            shared: vs.share_across_scales,
             truth,
             study: vs,
         })
@@ -216,7 +240,7 @@ impl VehicleModel {
         let mut streams = PerChannel::from_fn(|channel| {
             noise
                 .is_on(channel)
-                .then(|| NormalStream::for_realisation(seed, c as u64, channel.stream(), r))
+                .then(|| Draws::new(self.shared, seed, cond.stream_key, channel, r))
         });
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
         let mut acc = MomentAccumulator::new(reg, noise);
@@ -226,9 +250,7 @@ impl VehicleModel {
         let span_noise = match (&reg.differentiation, &mut streams[Channel::Velocity]) {
             (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
                 let mut e = vec![0.0; d.span_t.len()];
-                for chunk in e.chunks_mut(BLOCK) {
-                    stream.fill_block(chunk);
-                }
+                stream.fill(&mut e);
                 if let Some(ar1) = &cond.ar1 {
                     let mut previous = 0.0;
                     for (z, [phi, scale]) in e.iter_mut().zip(ar1) {
@@ -256,7 +278,7 @@ impl VehicleModel {
                 }
             } else if let (Some(ar1), Some(stream)) = (&cond.ar1, &mut streams[Channel::Velocity]) {
                 let buffer = &mut buffers[Channel::Velocity][..len];
-                stream.fill_block(buffer);
+                stream.fill(buffer);
                 for (z, [phi, scale]) in buffer.iter_mut().zip(&ar1[start..start + len]) {
                     *z = phi * previous + scale * *z;
                     previous = *z;
@@ -271,7 +293,7 @@ impl VehicleModel {
             {
                 *draw = stream.as_mut().map(|s| {
                     if !(channel == Channel::Velocity && speed_drawn) {
-                        s.fill_block(&mut buffer[..len]);
+                        s.fill(&mut buffer[..len]);
                     }
                     &buffer[..len]
                 });
@@ -283,6 +305,41 @@ impl VehicleModel {
             acc.add_block(start, len, draws, derivative);
         }
         acc.finish()
+    }
+}
+
+/// One channel's normals in a realisation: read straight from its stream in the blocks the
+/// kernel asks for, or, shared between conditions, as a [`NormalSequence`] whose values do
+/// not depend on the lengths read.
+#[allow(clippy::large_enum_variant)] // on the stack for one realisation; a box would allocate
+enum Draws {
+    Blocks(NormalStream),
+    Sequence(NormalSequence),
+}
+
+impl Draws {
+    fn new(shared: bool, seed: u64, key: u64, channel: Channel, r: u64) -> Self {
+        match shared {
+            false => Draws::Blocks(NormalStream::for_realisation(
+                seed,
+                key,
+                channel.stream(),
+                r,
+            )),
+            true => Draws::Sequence(NormalSequence::for_realisation(
+                seed,
+                key,
+                channel.stream(),
+                r,
+            )),
+        }
+    }
+
+    fn fill(&mut self, out: &mut [f64]) {
+        match self {
+            Draws::Blocks(s) => s.fill(out),
+            Draws::Sequence(s) => s.fill(out),
+        }
     }
 }
 
@@ -411,21 +468,140 @@ impl Model for VehicleModel {
         }
         ROWS.with_borrow_mut(|rows| self.realise_with(seed, c, r, rows, slots));
     }
+
+    fn draw_group(&self, c: usize) -> usize {
+        self.conditions[c].group
+    }
+
+    fn realise_group(
+        &self,
+        seed: u64,
+        conditions: &[usize],
+        first: u64,
+        count: usize,
+        slots: &mut [f64],
+    ) {
+        let stride = self.layout.realisation_stride();
+        let mut slots = slots.chunks_exact_mut(stride);
+        if !self.one_draw_serves(conditions) {
+            for i in 0..count as u64 {
+                for (&c, slots) in conditions.iter().zip(&mut slots) {
+                    self.realise(seed, c, first + i, slots);
+                }
+            }
+            return;
+        }
+        for moments in self.measure_group(seed, conditions, first, count) {
+            for (&c, (moments, slots)) in conditions.iter().zip(moments.iter().zip(&mut slots)) {
+                self.conclude(c, moments, None, slots);
+            }
+        }
+    }
 }
 
 impl VehicleModel {
     /// [`Model::realise`] with a thread's row buffer.
     fn realise_with(&self, seed: u64, c: usize, r: u64, rows: &mut Rows, slots: &mut [f64]) {
         let cond = &self.conditions[c];
-        let k = cond.regression.k;
         let rows = self.needs_rows.then(|| {
             rows.reset(&cond.regression, &cond.noise);
             rows
         });
-        let (moments, rows) = match rows {
-            Some(rows) => (self.measure(seed, c, r, Some(&mut *rows)), Some(&*rows)),
-            None => (self.measure(seed, c, r, None), None),
-        };
+        match rows {
+            Some(rows) => {
+                let moments = self.measure(seed, c, r, Some(&mut *rows));
+                self.conclude(c, &moments, Some(rows), slots);
+            }
+            None => self.conclude(c, &self.measure(seed, c, r, None), None, slots),
+        }
+    }
+
+    /// Whether [`VehicleModel::measure_group`] computes `conditions` (one draw group): with
+    /// shared draws of white noise, an acceleration not differentiated from the noisy
+    /// speed, and no estimator that reads the rows. Otherwise each condition is realised on
+    /// its own (from the same shared draws, only not at once).
+    fn one_draw_serves(&self, conditions: &[usize]) -> bool {
+        self.shared
+            && !self.needs_rows
+            && conditions.iter().all(|&c| {
+                let cond = &self.conditions[c];
+                cond.ar1.is_none()
+                    && !(cond.regression.differentiation.is_some()
+                        && cond.noise.speed_noise_differentiated())
+            })
+    }
+
+    /// The moments of realisations `first .. first + count` of each of `conditions` (one
+    /// draw group, see [`VehicleModel::one_draw_serves`]), per realisation in the order of
+    /// `conditions`. Each block of every channel's shared sequence is drawn once and
+    /// accumulated into every condition whose rows reach it, the realisations side by side
+    /// so that a condition's block of data is read once for all of them. Bit for bit the
+    /// moments [`VehicleModel::measure`] gives each condition alone.
+    fn measure_group(
+        &self,
+        seed: u64,
+        conditions: &[usize],
+        first: u64,
+        count: usize,
+    ) -> Vec<Vec<Moments>> {
+        let key = self.conditions[conditions[0]].stream_key;
+        let noise = self.conditions[conditions[0]].noise;
+        let lengths: Vec<usize> = conditions
+            .iter()
+            .map(|&c| self.conditions[c].regression.len())
+            .collect();
+        let mut streams: Vec<PerChannel<Option<NormalStream>>> = (first..first + count as u64)
+            .map(|r| {
+                PerChannel::from_fn(|channel| {
+                    noise
+                        .is_on(channel)
+                        .then(|| NormalStream::for_realisation(seed, key, channel.stream(), r))
+                })
+            })
+            .collect();
+        let mut buffers = vec![PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]); count];
+        // accs[i][k]: realisation first + i, condition conditions[k]
+        let mut accs: Vec<Vec<MomentAccumulator>> = (0..count)
+            .map(|_| {
+                conditions
+                    .iter()
+                    .map(|&c| MomentAccumulator::new(&self.conditions[c].regression, noise))
+                    .collect()
+            })
+            .collect();
+        let longest = lengths.iter().copied().max().unwrap_or(0);
+        for start in (0..longest).step_by(BLOCK) {
+            // Whole blocks: the sequence a shared condition reads a prefix of.
+            for (streams, buffers) in streams.iter_mut().zip(&mut buffers) {
+                for (stream, buffer) in streams.0.iter_mut().zip(&mut buffers.0) {
+                    if let Some(s) = stream {
+                        s.fill_block(buffer);
+                    }
+                }
+            }
+            for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
+                let len = BLOCK.min(n - start);
+                for (accs, buffers) in accs.iter_mut().zip(&buffers) {
+                    let mut draws = BlockNoise::default();
+                    for ((stream, buffer), draw) in
+                        streams[0].0.iter().zip(&buffers.0).zip(&mut draws.0)
+                    {
+                        *draw = stream.as_ref().map(|_| &buffer[..len]);
+                    }
+                    accs[k].add_block(start, len, draws, None);
+                }
+            }
+        }
+        accs.into_iter()
+            .map(|accs| accs.iter().map(MomentAccumulator::finish).collect())
+            .collect()
+    }
+
+    /// Estimates, bounds and extras of condition `c` from its realisation's moments (and
+    /// rows, when an estimator reads them) into `slots`.
+    fn conclude(&self, c: usize, moments: &Moments, rows: Option<&Rows>, slots: &mut [f64]) {
+        let cond = &self.conditions[c];
+        let k = cond.regression.k;
         let noisy_xtx = moments.ols_system(k).0;
         let fisher_condition = condition_number(&noisy_xtx);
         let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise);
@@ -443,7 +619,7 @@ impl VehicleModel {
         let layout = &self.layout;
         for (ei, est) in self.study.estimators.iter().enumerate() {
             let estimate = est.estimate(&Realisation {
-                moments: &moments,
+                moments,
                 rows,
                 regression: &cond.regression,
                 noise: &cond.noise,
