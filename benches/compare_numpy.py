@@ -14,6 +14,13 @@ chassis-mc's is its whole `run` (cycle simulation, output and summary included) 
 by the realisations; the reference's is its Monte Carlo loop alone (cycle simulation
 excluded), so the ratio is conservative.
 
+When Numba is installed (it is in benches/requirements.txt) it also times a fused Numba
+loop of the same Monte Carlo — what a performance-minded Python user would write: per
+realisation one pass over the samples that draws the normal, forms the regressors and
+accumulates XᵀX and Xᵀy, then a 3×3 solve — compiled before timing, and checks its means
+and EmpSEs against chassis-mc's the same way (without `--correlation-time` and
+`--differentiated` only).
+
     python3 -m venv .venv && .venv/bin/pip install -r benches/requirements.txt
     cargo build --release
     .venv/bin/python benches/compare_numpy.py [--r-rust 2000] [--r-numpy 200]
@@ -139,6 +146,101 @@ def numpy_monte_carlo(study, cycles, r, seed, tau=0.0, differentiated=False):
     return est
 
 
+def numba_monte_carlo(study, cycles, r, seed):
+    """The fused loop of `numpy_monte_carlo` (white speed noise, model acceleration) under
+    Numba, or None when Numba is not installed: (scales, r, 3) and the seconds taken by
+    the Monte Carlo alone (compiled beforehand on a tiny run)."""
+    try:
+        import numba
+    except ImportError:
+        return None, None
+
+    @numba.njit(cache=False)
+    def run(f, vel, c, y, k, sd, r, seed):
+        np.random.seed(seed)
+        n = vel.shape[0]
+        out = np.empty((r, 3))
+        for j in range(r):
+            a = np.zeros((3, 3))
+            b = np.zeros(3)
+            for i in range(n):
+                vt = vel[i] + sd * np.random.standard_normal()
+                x0, x1, x2 = f[i], -k * vt * vt, c[i]
+                a[0, 0] += x0 * x0
+                a[0, 1] += x0 * x1
+                a[0, 2] += x0 * x2
+                a[1, 1] += x1 * x1
+                a[1, 2] += x1 * x2
+                a[2, 2] += x2 * x2
+                b[0] += x0 * y[i]
+                b[1] += x1 * y[i]
+                b[2] += x2 * y[i]
+            a[1, 0], a[2, 0], a[2, 1] = a[0, 1], a[0, 2], a[1, 2]
+            out[j] = solve3(a, b)
+        return out
+
+    @numba.njit(cache=False)
+    def solve3(a, b):
+        # Gaussian elimination with partial pivoting (Numba's np.linalg needs SciPy's BLAS).
+        m = np.empty((3, 4))
+        m[:, :3], m[:, 3] = a, b
+        for col in range(3):
+            p = col + np.argmax(np.abs(m[col:, col]))
+            if p != col:
+                tmp = m[col].copy()
+                m[col], m[p] = m[p], tmp
+            for row in range(col + 1, 3):
+                m[row] -= m[row, col] / m[col, col] * m[col]
+        x = np.empty(3)
+        for row in range(2, -1, -1):
+            acc = m[row, 3]
+            for q in range(row + 1, 3):
+                acc -= m[row, q] * x[q]
+            x[row] = acc / m[row, row]
+        return x
+
+    v = study["vehicle"]
+    g, k = v["gravity"], 0.5 * v["air_density"] * v["frontal_area"]
+    sd = study["noise"]["velocity_sd"][0]
+    columns = []
+    for s in range(cycles["v"].shape[0]):
+        c = -g * np.cos(cycles["grade"][s])
+        y = cycles["a"][s] + g * np.sin(cycles["grade"][s])
+        columns.append((np.ascontiguousarray(cycles["f"][s]), np.ascontiguousarray(cycles["v"][s]),
+                        c, y))
+    run(*columns[0], k, sd, 1, seed)  # compile
+    est = np.empty((len(columns), r, 3))
+    started = time.perf_counter()
+    for s, (f, vel, c, y) in enumerate(columns):
+        est[s] = run(f, vel, c, y, k, sd, r, seed + 1 + s)
+    return est, time.perf_counter() - started
+
+
+def compare(summary, scales, est, label):
+    """Print the per-scale, per-parameter agreement of `est` with chassis-mc's summary;
+    return the number of comparisons beyond 4 MCSE."""
+    failures = 0
+    print(f"\n{label}")
+    print(f"{'scale':>5} {'parameter':>18} {'mean (chassis-mc)':>18} {'mean (' + label + ')':>14} "
+          f"{'z':>6} {'EmpSE ratio':>11} {'z':>6}")
+    for s, scale in enumerate(scales):
+        for p, name in enumerate(PARAMS):
+            row = summary[(np.isclose(summary.scale, scale)) & (summary.parameter == name)].iloc[0]
+            x = est[s, :, p]
+            n = len(x)
+            mean, sd = x.mean(), x.std(ddof=1)
+            z_mean = (row["mean"] - mean) / np.hypot(row["mean_mcse"], sd / np.sqrt(n))
+            ratio = row["emp_se"] / sd
+            # MCSE of a ratio of independent SD estimates: ratio·√(1/(2(n₁−1)) + 1/(2(n₂−1)))
+            ratio_mcse = ratio * np.sqrt(1 / (2 * (row["n"] - 1)) + 1 / (2 * (n - 1)))
+            z_ratio = (ratio - 1) / ratio_mcse
+            bad = abs(z_mean) > 4 or abs(z_ratio) > 4
+            failures += bad
+            print(f"{scale:5.1f} {name:>18} {row['mean']:18.6e} {mean:14.6e} {z_mean:6.2f} "
+                  f"{ratio:11.4f} {z_ratio:6.2f}{'  <-- disagree' if bad else ''}")
+    return failures
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--r-rust", type=int, default=2000, help="chassis-mc realisations per scale")
@@ -177,36 +279,33 @@ def main():
                             args.differentiated)
     numpy_s = time.perf_counter() - started
 
-    failures = 0
+    plain = args.correlation_time == 0 and not args.differentiated
+    numba_est, numba_s = (numba_monte_carlo(study, cycles, args.r_numpy, args.seed + 1000)
+                          if plain else (None, None))
+
     scales = study["terrain"]["scales"]
-    print(f"{'scale':>5} {'parameter':>18} {'mean (chassis-mc)':>18} {'mean (NumPy)':>14} "
-          f"{'z':>6} {'EmpSE ratio':>11} {'z':>6}")
-    for s, scale in enumerate(scales):
-        for p, name in enumerate(PARAMS):
-            row = summary[(np.isclose(summary.scale, scale)) & (summary.parameter == name)].iloc[0]
-            x = est[s, :, p]
-            n = len(x)
-            mean, sd = x.mean(), x.std(ddof=1)
-            z_mean = (row["mean"] - mean) / np.hypot(row["mean_mcse"], sd / np.sqrt(n))
-            ratio = row["emp_se"] / sd
-            # MCSE of a ratio of independent SD estimates: ratio·√(1/(2(n₁−1)) + 1/(2(n₂−1)))
-            ratio_mcse = ratio * np.sqrt(1 / (2 * (row["n"] - 1)) + 1 / (2 * (n - 1)))
-            z_ratio = (ratio - 1) / ratio_mcse
-            bad = abs(z_mean) > 4 or abs(z_ratio) > 4
-            failures += bad
-            print(f"{scale:5.1f} {name:>18} {row['mean']:18.6e} {mean:14.6e} {z_mean:6.2f} "
-                  f"{ratio:11.4f} {z_ratio:6.2f}{'  <-- disagree' if bad else ''}")
+    failures = compare(summary, scales, est, "NumPy")
+    compared = 1
+    if numba_est is not None:
+        failures += compare(summary, scales, numba_est, "Numba")
+        compared += 1
 
     rust_ms = 1e3 * rust_s / (len(scales) * args.r_rust)
     numpy_ms = 1e3 * numpy_s / (len(scales) * args.r_numpy)
     print(f"\nper realisation, single thread: chassis-mc {rust_ms:.3f} ms (whole run), "
-          f"NumPy {numpy_ms:.3f} ms (Monte Carlo loop only)")
+          f"NumPy {numpy_ms:.3f} ms (Monte Carlo loop only)"
+          + (f", Numba {1e3 * numba_s / (len(scales) * args.r_numpy):.3f} ms (fused loop only)"
+             if numba_s is not None else ""))
     print(f"speed ratio NumPy / chassis-mc: {numpy_ms / rust_ms:.1f}x")
-    total = 3 * len(scales) * 2
+    if numba_s is not None:
+        numba_ms = 1e3 * numba_s / (len(scales) * args.r_numpy)
+        print(f"speed ratio Numba / chassis-mc: {numba_ms / rust_ms:.1f}x")
+    elif plain:
+        print("Numba not installed: no fused-loop reference (pip install numba)")
+    total = 3 * len(scales) * 2 * compared
     if failures:
         sys.exit(f"{failures} of {total} comparisons disagree beyond 4 MCSE")
     print(f"all {total} comparisons agree within 4 MCSE")
-
 
 if __name__ == "__main__":
     main()
