@@ -18,7 +18,10 @@ pub const DEFAULT_CHUNK: u64 = 1024;
 
 /// Realisations of a draw group computed together by one task, so that each block of every
 /// condition's data is read once for all of them (from cache) rather than once each.
-const GROUP_BATCH: usize = 64;
+const GROUP_BATCH: usize = 32;
+
+/// The same for one condition alone (its data is a group's divided by the group's size).
+const SINGLE_BATCH: usize = 8;
 
 /// A contiguous range of realisations of one condition, or of several conditions of one
 /// draw group ([`Model::draw_group`]) computed together from one draw per realisation.
@@ -108,19 +111,18 @@ where
         let width = conditions.len() * stride;
         buffer.clear();
         buffer.resize(len as usize * width, f64::NAN);
-        match conditions {
-            [c] => buffer
-                .par_chunks_mut(width)
-                .enumerate()
-                .for_each(|(i, slots)| model.realise(seed, *c, first + i as u64, slots)),
-            _ => buffer
-                .par_chunks_mut(width * GROUP_BATCH)
-                .enumerate()
-                .for_each(|(i, slots)| {
-                    let from = first + (i * GROUP_BATCH) as u64;
-                    model.realise_group(seed, conditions, from, slots.len() / width, slots)
-                }),
-        }
+        let batch = if conditions.len() == 1 {
+            SINGLE_BATCH
+        } else {
+            GROUP_BATCH
+        };
+        buffer
+            .par_chunks_mut(width * batch)
+            .enumerate()
+            .for_each(|(i, slots)| {
+                let from = first + (i * batch) as u64;
+                model.realise_group(seed, conditions, from, slots.len() / width, slots)
+            });
         observer.realisations_done(len * conditions.len() as u64);
     };
     // One condition's realisations out of a chunk computed for several.

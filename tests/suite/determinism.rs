@@ -220,3 +220,37 @@ fn summary_rows_read_back_equal_the_rows_written() {
         assert_eq!(table.info(read).axes, report.infos[read.condition].axes);
     }
 }
+
+#[test]
+fn realisations_computed_side_by_side_are_each_computed_alone_bit_for_bit() {
+    // The executor computes a condition's realisations in small batches (its data read once
+    // per batch); each must be what `realise` gives it alone: white speed and output noise
+    // (the batched path) and AR(1) speed noise (one by one).
+    use chassis_mc::model::Model;
+    use chassis_mc::model::vehicle::VehicleModel;
+    for extra in [
+        "output_sd = [0.05]",
+        "output_sd = [0.0]\nvelocity_correlation_time = [0.5]",
+    ] {
+        let text = set_key(&study_text("thesis.toml"), "scales", "[1.3]")
+            .replacen("output_sd = [0.0] ", "# ", 1)
+            .replace("[noise]", &format!("[noise]\n{extra}"));
+        let study = chassis_mc::study::Study::from_toml(&text, "batched").unwrap();
+        let model = VehicleModel::new(&study).unwrap();
+        let stride = model.layout().realisation_stride();
+        let (first, n) = (1021u64, 5usize);
+        let mut together = vec![0.0; n * stride];
+        model.realise_group(2018, &[0], first, n, &mut together);
+        for i in 0..n {
+            let mut alone = vec![0.0; stride];
+            model.realise(2018, 0, first + i as u64, &mut alone);
+            let got = &together[i * stride..(i + 1) * stride];
+            assert_eq!(
+                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{extra}: realisation {}",
+                first + i as u64
+            );
+        }
+    }
+}

@@ -516,12 +516,12 @@ impl VehicleModel {
         }
     }
 
-    /// Whether [`VehicleModel::measure_group`] computes `conditions` (one draw group): with
-    /// shared draws of white noise, an acceleration not differentiated from the noisy
-    /// speed, and no estimator that reads the rows. Otherwise each condition is realised on
-    /// its own (from the same shared draws, only not at once).
+    /// Whether [`VehicleModel::measure_group`] computes `conditions` (one draw group, or one
+    /// condition's consecutive realisations): white noise, an acceleration not
+    /// differentiated from the noisy speed, and no estimator that reads the rows. Otherwise
+    /// each realisation of each condition is computed on its own (from the same draws).
     fn one_draw_serves(&self, conditions: &[usize]) -> bool {
-        self.shared
+        (self.shared || conditions.len() == 1)
             && !self.needs_rows
             && conditions.iter().all(|&c| {
                 let cond = &self.conditions[c];
@@ -571,11 +571,16 @@ impl VehicleModel {
             .collect();
         let longest = lengths.iter().copied().max().unwrap_or(0);
         for start in (0..longest).step_by(BLOCK) {
-            // Whole blocks: the sequence a shared condition reads a prefix of.
+            // Shared: whole blocks, the sequence each condition reads a prefix of. Alone (one
+            // condition, its own streams): the blocks `measure` requests.
+            let drawn = match self.shared {
+                true => BLOCK,
+                false => BLOCK.min(longest - start),
+            };
             for (streams, buffers) in streams.iter_mut().zip(&mut buffers) {
                 for (stream, buffer) in streams.0.iter_mut().zip(&mut buffers.0) {
                     if let Some(s) = stream {
-                        s.fill_block(buffer);
+                        s.fill_block(&mut buffer[..drawn]);
                     }
                 }
             }
