@@ -306,7 +306,7 @@ mod avx2 {
 
     use std::arch::x86_64::*;
 
-    use super::{BLOCK_WORDS, DOUBLE_ROUNDS, LANES, WORDS_PER_PASS, initial_state, interleave};
+    use super::{BLOCK_WORDS, DOUBLE_ROUNDS, LANES, WORDS_PER_PASS, initial_state};
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -363,13 +363,42 @@ mod avx2 {
             quarter_round(&mut x, (2, 7, 8, 13), rot16, rot8);
             quarter_round(&mut x, (3, 4, 9, 14), rot16, rot8);
         }
-        let mut words = [[0u32; LANES]; BLOCK_WORDS];
-        for k in 0..BLOCK_WORDS {
-            let v = _mm256_add_epi32(x[k], init[k]);
-            // SAFETY: writes 8 u32 into an array of 8 u32.
-            unsafe { _mm256_storeu_si256(words[k].as_mut_ptr().cast(), v) };
+        let v: [__m256i; BLOCK_WORDS] = std::array::from_fn(|k| _mm256_add_epi32(x[k], init[k]));
+        // As on AVX-512: unpacking state words 2j and 2j + 1 gives word j of blocks 0 1 4 5
+        // (`lo`) and 2 3 6 7 (`hi`); 4 × 4 transposes of words 0–3 and 4–7 of each set give
+        // each block's words in order (the same words as `interleave`).
+        let lo: [__m256i; 8] =
+            std::array::from_fn(|j| _mm256_unpacklo_epi32(v[2 * j], v[2 * j + 1]));
+        let hi: [__m256i; 8] =
+            std::array::from_fn(|j| _mm256_unpackhi_epi32(v[2 * j], v[2 * j + 1]));
+        for (set, blocks) in [(lo, [0, 1, 4, 5]), (hi, [2, 3, 6, 7])] {
+            for half in 0..2 {
+                let rows = transpose4([0, 1, 2, 3].map(|j| set[4 * half + j]));
+                for (row, block) in rows.into_iter().zip(blocks) {
+                    // SAFETY: block < 8 and half < 2, so the four words lie within `out`.
+                    unsafe {
+                        _mm256_storeu_si256(out.as_mut_ptr().add(8 * block + 4 * half).cast(), row)
+                    };
+                }
+            }
         }
-        interleave(&words, out);
+    }
+
+    /// The 4 × 4 transpose of 64-bit elements: row i of the result holds element i of
+    /// every input row.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn transpose4(r: [__m256i; 4]) -> [__m256i; 4] {
+        let t0 = _mm256_unpacklo_epi64(r[0], r[1]); // r0[0] r1[0] r0[2] r1[2]
+        let t1 = _mm256_unpackhi_epi64(r[0], r[1]); // r0[1] r1[1] r0[3] r1[3]
+        let t2 = _mm256_unpacklo_epi64(r[2], r[3]);
+        let t3 = _mm256_unpackhi_epi64(r[2], r[3]);
+        [
+            _mm256_permute2x128_si256::<0x20>(t0, t2),
+            _mm256_permute2x128_si256::<0x20>(t1, t3),
+            _mm256_permute2x128_si256::<0x31>(t0, t2),
+            _mm256_permute2x128_si256::<0x31>(t1, t3),
+        ]
     }
 }
 
