@@ -6,8 +6,8 @@ terrain and forward-Euler grade, RK4 drive cycles (all scales integrated togethe
 noise from NumPy's own generator (PCG64), OLS through the 3×3 normal equations, and the
 thesis bound. It shares no code and no random numbers with chassis-mc, so the two agree
 only statistically: for every scale and parameter the means and empirical SEs must agree
-within 4 combined Monte Carlo standard errors (66 comparisons; a 4-MCSE band has
-two-sided probability 6e-5 each, 0.4 % for all).
+within 4 combined Monte Carlo standard errors (66 comparisons per reference, 198 with the
+two Numba ones; a 4-MCSE band has two-sided probability 6e-5 each, about 1 % for all 198).
 
 It then prints the time per realisation of each, single-threaded, measured in this run:
 chassis-mc's is its whole `run` (cycle simulation, output and summary included) divided
@@ -15,10 +15,12 @@ by the realisations; the reference's is its Monte Carlo loop alone (cycle simula
 excluded), so the ratio is conservative.
 
 When Numba is installed (it is in benches/requirements.txt) it also times a fused Numba
-loop of the same Monte Carlo — what a performance-minded Python user would write: per
-realisation one pass over the samples that draws the normal, forms the regressors and
-accumulates XᵀX and Xᵀy, then a 3×3 solve — compiled before timing, and checks its means
-and EmpSEs against chassis-mc's the same way (without `--correlation-time` and
+loop of the same Monte Carlo: per realisation one pass over the samples that forms the
+regressors and accumulates XᵀX and Xᵀy, then a 3×3 solve, compiled before timing. It runs
+twice, once drawing the normals with Numba's own generator (np.random inside the compiled
+code, slow) and once fed normals from NumPy's Generator (PCG64 and a ziggurat, drawn inside
+the timing): the second is the faster Python one can write without a native extension. Both
+are checked against chassis-mc the same way (without `--correlation-time` and
 `--differentiated` only).
 
     python3 -m venv .venv && .venv/bin/pip install -r benches/requirements.txt
@@ -147,13 +149,15 @@ def numpy_monte_carlo(study, cycles, r, seed, tau=0.0, differentiated=False):
 
 
 def numba_monte_carlo(study, cycles, r, seed):
-    """The fused loop of `numpy_monte_carlo` (white speed noise, model acceleration) under
-    Numba, or None when Numba is not installed: (scales, r, 3) and the seconds taken by
-    the Monte Carlo alone (compiled beforehand on a tiny run)."""
+    """The Monte Carlo of `numpy_monte_carlo` (white speed noise, model acceleration) as a
+    fused Numba loop per realisation, twice: with Numba's own normal generator, and fed
+    normals from NumPy's (PCG64, ziggurat; drawn inside the timing). None when Numba is not
+    installed; else ((estimates, seconds), (estimates, seconds)), estimates (scales, r, 3),
+    seconds for the Monte Carlo alone (compiled beforehand on a tiny run)."""
     try:
         import numba
     except ImportError:
-        return None, None
+        return None
 
     @numba.njit(cache=False)
     def run(f, vel, c, y, k, sd, r, seed):
@@ -161,23 +165,35 @@ def numba_monte_carlo(study, cycles, r, seed):
         n = vel.shape[0]
         out = np.empty((r, 3))
         for j in range(r):
-            a = np.zeros((3, 3))
-            b = np.zeros(3)
-            for i in range(n):
-                vt = vel[i] + sd * np.random.standard_normal()
-                x0, x1, x2 = f[i], -k * vt * vt, c[i]
-                a[0, 0] += x0 * x0
-                a[0, 1] += x0 * x1
-                a[0, 2] += x0 * x2
-                a[1, 1] += x1 * x1
-                a[1, 2] += x1 * x2
-                a[2, 2] += x2 * x2
-                b[0] += x0 * y[i]
-                b[1] += x1 * y[i]
-                b[2] += x2 * y[i]
-            a[1, 0], a[2, 0], a[2, 1] = a[0, 1], a[0, 2], a[1, 2]
-            out[j] = solve3(a, b)
+            out[j] = fused(f, vel, c, y, k, sd, np.random.standard_normal(n))
         return out
+
+    @numba.njit(cache=False)
+    def run_given(f, vel, c, y, k, sd, z):
+        out = np.empty((z.shape[0], 3))
+        for j in range(z.shape[0]):
+            out[j] = fused(f, vel, c, y, k, sd, z[j])
+        return out
+
+    @numba.njit(cache=False)
+    def fused(f, vel, c, y, k, sd, z):
+        # One pass: the regressors of each sample and the sums XᵀX, Xᵀy, then the solve.
+        a = np.zeros((3, 3))
+        b = np.zeros(3)
+        for i in range(vel.shape[0]):
+            vt = vel[i] + sd * z[i]
+            x0, x1, x2 = f[i], -k * vt * vt, c[i]
+            a[0, 0] += x0 * x0
+            a[0, 1] += x0 * x1
+            a[0, 2] += x0 * x2
+            a[1, 1] += x1 * x1
+            a[1, 2] += x1 * x2
+            a[2, 2] += x2 * x2
+            b[0] += x0 * y[i]
+            b[1] += x1 * y[i]
+            b[2] += x2 * y[i]
+        a[1, 0], a[2, 0], a[2, 1] = a[0, 1], a[0, 2], a[1, 2]
+        return solve3(a, b)
 
     @numba.njit(cache=False)
     def solve3(a, b):
@@ -209,12 +225,19 @@ def numba_monte_carlo(study, cycles, r, seed):
         columns.append((np.ascontiguousarray(cycles["f"][s]), np.ascontiguousarray(cycles["v"][s]),
                         c, y))
     run(*columns[0], k, sd, 1, seed)  # compile
-    est = np.empty((len(columns), r, 3))
+    run_given(*columns[0], k, sd, np.zeros((1, columns[0][1].shape[0])))
+    own = np.empty((len(columns), r, 3))
     started = time.perf_counter()
     for s, (f, vel, c, y) in enumerate(columns):
-        est[s] = run(f, vel, c, y, k, sd, r, seed + 1 + s)
-    return est, time.perf_counter() - started
-
+        own[s] = run(f, vel, c, y, k, sd, r, seed + 1 + s)
+    own_s = time.perf_counter() - started
+    given = np.empty((len(columns), r, 3))
+    rng = np.random.default_rng(seed + 100)
+    started = time.perf_counter()
+    for s, (f, vel, c, y) in enumerate(columns):
+        given[s] = run_given(f, vel, c, y, k, sd, rng.standard_normal((r, vel.shape[0])))
+    given_s = time.perf_counter() - started
+    return (own, own_s), (given, given_s)
 
 def compare(summary, scales, est, label):
     """Print the per-scale, per-parameter agreement of `est` with chassis-mc's summary;
@@ -280,28 +303,26 @@ def main():
     numpy_s = time.perf_counter() - started
 
     plain = args.correlation_time == 0 and not args.differentiated
-    numba_est, numba_s = (numba_monte_carlo(study, cycles, args.r_numpy, args.seed + 1000)
-                          if plain else (None, None))
+    numba_runs = (numba_monte_carlo(study, cycles, args.r_numpy, args.seed + 1000)
+                  if plain else None)
 
     scales = study["terrain"]["scales"]
+    per_realisation = lambda seconds: 1e3 * seconds / (len(scales) * args.r_numpy)  # noqa: E731
+    timings = [("NumPy", per_realisation(numpy_s), "Monte Carlo loop only")]
     failures = compare(summary, scales, est, "NumPy")
     compared = 1
-    if numba_est is not None:
-        failures += compare(summary, scales, numba_est, "Numba")
-        compared += 1
+    if numba_runs is not None:
+        for label, (numba_est, numba_s) in zip(("Numba", "Numba+NumPy normals"), numba_runs):
+            failures += compare(summary, scales, numba_est, label)
+            compared += 1
+            timings.append((label, per_realisation(numba_s), "fused loop only"))
+    elif plain:
+        print("\nNumba not installed: no fused-loop reference (pip install numba)")
 
     rust_ms = 1e3 * rust_s / (len(scales) * args.r_rust)
-    numpy_ms = 1e3 * numpy_s / (len(scales) * args.r_numpy)
-    print(f"\nper realisation, single thread: chassis-mc {rust_ms:.3f} ms (whole run), "
-          f"NumPy {numpy_ms:.3f} ms (Monte Carlo loop only)"
-          + (f", Numba {1e3 * numba_s / (len(scales) * args.r_numpy):.3f} ms (fused loop only)"
-             if numba_s is not None else ""))
-    print(f"speed ratio NumPy / chassis-mc: {numpy_ms / rust_ms:.1f}x")
-    if numba_s is not None:
-        numba_ms = 1e3 * numba_s / (len(scales) * args.r_numpy)
-        print(f"speed ratio Numba / chassis-mc: {numba_ms / rust_ms:.1f}x")
-    elif plain:
-        print("Numba not installed: no fused-loop reference (pip install numba)")
+    print(f"\nper realisation, single thread: chassis-mc {rust_ms:.3f} ms (whole run)")
+    for label, ms, what in timings:
+        print(f"  {label:20} {ms:.3f} ms ({what}): {ms / rust_ms:.1f}x chassis-mc's time")
     total = 3 * len(scales) * 2 * compared
     if failures:
         sys.exit(f"{failures} of {total} comparisons disagree beyond 4 MCSE")

@@ -1,7 +1,8 @@
 //! Per-realisation costs on the thesis cycle (N = 60 001 samples), single thread:
 //! raw ChaCha8 words (rand_chacha, one word at a time and in bulk; and chassis-mc's own
 //! vectorised ChaCha8, the same stream), the ziggurat normal generator, rand_distr's StandardNormal, the
-//! moment kernel (draw + accumulate) and a whole realisation (kernel + solves + bounds).
+//! moment kernel (draw + accumulate), a whole realisation (kernel + solves + bounds), and
+//! eight realisations computed side by side as a run computes them.
 //!
 //! Run: `cargo bench --bench kernel`. The targets are ratios measured in one run:
 //! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation; and the kernel's cost per sample
@@ -113,6 +114,16 @@ fn benches(c: &mut Criterion) {
             r += 1;
             model.realise(2018, 0, r, &mut slots);
             black_box(slots[1])
+        })
+    });
+    // As a run computes them: eight realisations of a condition side by side (each block of
+    // its data read once for the eight); the time is per batch of eight.
+    let mut batch = vec![0.0; 8 * model.layout().realisation_stride()];
+    g.bench_function("eight_realisations_side_by_side", |b| {
+        b.iter(|| {
+            r += 8;
+            model.realise_group(2018, &[0], r, 8, &mut batch);
+            black_box(batch[1])
         })
     });
     g.finish();

@@ -17,7 +17,6 @@ use crate::estimate::moments::Rows;
 use crate::estimate::regression::Regression;
 use crate::model::Model;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
-use crate::noise::NormalStream;
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, set};
 use crate::settings::{KeyError, Params};
@@ -793,10 +792,7 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitErro
     let draws = |c: Channel| -> Vec<f64> {
         let mut out = vec![0.0; n];
         if noise.is_on(c) {
-            let mut s = NormalStream::for_realisation(study.seed(), 0, c.stream(), r);
-            for chunk in out.chunks_mut(crate::noise::BLOCK) {
-                s.fill_block(chunk);
-            }
+            model.standard_draws(study.seed(), 0, c, r, &mut out);
             out.iter_mut().for_each(|z| *z *= noise[c]);
         }
         out

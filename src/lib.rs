@@ -28,7 +28,7 @@
 //! | foundation | [`numeric`] | exact order-independent sums, the small SPD solver |
 //! | foundation | [`settings`] | typed reading of the study-file keys an extension owns |
 //! | foundation | [`tabular`] | numeric columns of a user's CSV or Parquet file, errors naming column and line |
-//! | foundation | [`noise`] | ChaCha8 streams keyed by (seed, condition, channel), the ziggurat |
+//! | foundation | [`noise`] | ChaCha8 streams keyed by (seed, condition or draw group, channel), the ziggurat |
 //! | world | [`terrain`] | elevation profiles, grade tables, the terrain metric ς |
 //! | world | [`vehicle`] | vehicle parameters, drive cycles and where they come from (drive modes) |
 //! | estimation | [`estimate`] | noise channels, the regression, per-realisation moments (the kernel), estimators, bounds |

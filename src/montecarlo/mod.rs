@@ -2,10 +2,12 @@
 //! index order, to a sink.
 //!
 //! Each realisation is a pure function of (seed, condition, realisation) — its random
-//! streams are keyed by those integers — so the slots computed here are bit-identical
-//! whatever the thread count. Work is done in chunks of realisations: the chunk is computed
-//! in parallel into one flat buffer (no allocation per realisation), then passed whole to
-//! the sink on the calling thread. Memory is bounded by the chunk size, not by R.
+//! streams are keyed by those integers (by the condition's draw group instead, when
+//! conditions share draws) — so the slots computed here are bit-identical whatever the
+//! thread count. Work is done in chunks of realisations: the chunk is computed in parallel,
+//! a few realisations per task side by side (and every condition of a draw group from one
+//! draw), into one flat buffer (no allocation per realisation), then passed to the sink on
+//! the calling thread. Memory is bounded by the chunk size, not by R.
 
 use std::ops::Range;
 
@@ -16,11 +18,12 @@ use crate::model::Model;
 /// Realisations computed per chunk (one Arrow batch per chunk).
 pub const DEFAULT_CHUNK: u64 = 1024;
 
-/// Realisations of a draw group computed together by one task, so that each block of every
-/// condition's data is read once for all of them (from cache) rather than once each.
+/// Realisations of a draw group computed together by one task (at most), so that each block
+/// of every condition's data is read once for all of them (from cache) rather than once each.
 const GROUP_BATCH: usize = 32;
 
-/// The same for one condition alone (its data is a group's divided by the group's size).
+/// The same for a single condition: its data per block is one condition's, not a whole
+/// group's, so fewer realisations side by side already keep it in cache.
 const SINGLE_BATCH: usize = 8;
 
 /// A contiguous range of realisations of one condition, or of several conditions of one
@@ -31,16 +34,6 @@ pub struct Work {
     pub conditions: Vec<usize>,
     /// Realisation indices.
     pub realisations: Range<u64>,
-}
-
-impl Work {
-    /// Realisations `realisations` of one condition.
-    pub fn one(condition: usize, realisations: Range<u64>) -> Self {
-        Work {
-            conditions: vec![condition],
-            realisations,
-        }
-    }
 }
 
 /// A computed chunk: realisations `first..first + len` of `condition`.
@@ -111,11 +104,14 @@ where
         let width = conditions.len() * stride;
         buffer.clear();
         buffer.resize(len as usize * width, f64::NAN);
-        let batch = if conditions.len() == 1 {
+        // At most the batch size, and at least four tasks per thread so none waits (batching
+        // never changes a realisation's bits).
+        let most = if conditions.len() == 1 {
             SINGLE_BATCH
         } else {
             GROUP_BATCH
         };
+        let batch = (len as usize / (4 * rayon::current_num_threads())).clamp(1, most);
         buffer
             .par_chunks_mut(width * batch)
             .enumerate()

@@ -8,9 +8,11 @@
 //! one whose bytes do not match its checksum) is deleted and redone. A finished realisation
 //! file is reused only if its bytes match the checksum of the directory's manifest
 //! ([`super::set`]).
-//! The final file is assembled in (condition, realisation) order as the run goes: rows
-//! that already exist — in parts, or in the realisation file of an earlier run of the same
-//! study — are copied, computed rows are written as they arrive. Re-running with a larger R therefore computes only the new
+//! The final file is assembled in (condition, realisation) order: rows that already exist —
+//! in parts, or in the realisation file of an earlier run of the same study — are copied,
+//! computed rows are written as they arrive (or, when the conditions of a draw group are
+//! computed together and their rows arrive interleaved, copied from their parts once all
+//! are committed). Re-running with a larger R therefore computes only the new
 //! realisations, and any interrupted run ends identical to an uninterrupted one: each
 //! realisation is a pure function of (seed, condition, realisation).
 

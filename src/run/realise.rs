@@ -1,7 +1,7 @@
 //! Computing the realisations a run needs (reusing what earlier runs left) and assembling
 //! them, in order, into the realisation file.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::path::Path;
 
@@ -73,14 +73,19 @@ pub(super) fn realise(
     //    interleaved, and the file is assembled from the parts afterwards. The parts are
     //    planned lazily, so the plan's memory does not grow with R.
     let mut groups: Vec<(usize, Range<u64>, Vec<usize>)> = Vec::new();
+    let mut group_of: HashMap<(usize, u64, u64), usize> = HashMap::new();
     for seg in segments.iter().filter(|s| s.source.is_none()) {
-        let group = model.draw_group(seg.condition);
-        match groups
-            .iter_mut()
-            .find(|(g, range, _)| *g == group && *range == seg.range)
-        {
-            Some((_, _, conditions)) => conditions.push(seg.condition),
-            None => groups.push((group, seg.range.clone(), vec![seg.condition])),
+        let key = (
+            model.draw_group(seg.condition),
+            seg.range.start,
+            seg.range.end,
+        );
+        match group_of.get(&key) {
+            Some(&i) => groups[i].2.push(seg.condition),
+            None => {
+                group_of.insert(key, groups.len());
+                groups.push((key.0, seg.range.clone(), vec![seg.condition]));
+            }
         }
     }
     let streaming = groups
@@ -112,8 +117,9 @@ pub(super) fn realise(
         true => Some(store::Assembler::new(&sources, &segments, create()?)),
         false => None,
     };
-    // the open part of each condition being computed
+    // the open part of each condition being computed, and the parts committed
     let mut parts: BTreeMap<usize, ParquetSink> = BTreeMap::new();
+    let mut committed: Vec<store::Source> = Vec::new();
     montecarlo::execute(
         model,
         study.seed(),
@@ -149,7 +155,11 @@ pub(super) fn realise(
             let rows = (chunk.slots.len() / layout.realisation_stride()) as u64;
             if chunk.first + rows == chunk.item.end {
                 let done = parts.remove(&chunk.condition).expect("a part is open");
-                store::commit_part(done.finish()?, chunk.condition, chunk.item.start)?;
+                let path = store::commit_part(done.finish()?, chunk.condition, chunk.item.start)?;
+                committed.push(store::Source {
+                    path,
+                    covers: vec![(chunk.condition, chunk.item.clone())],
+                });
                 output::failpoint("part-committed");
             }
             Ok::<(), OutputError>(())
@@ -158,15 +168,11 @@ pub(super) fn realise(
     if let Some(assembler) = assembler {
         return Ok((assembler.finish()?, total - computed, computed));
     }
-    // 3. With draw groups: every needed row now exists in a part or the earlier file.
-    let mut sources = store::scan_parts(&staging, &meta.identity, &notice)?;
-    sources.extend(store::existing_file(
-        &dir.join(files::REALISATIONS),
-        &meta.identity,
-        &notice,
-    )?);
+    // 3. With draw groups: every needed row now exists in a part or the earlier file. (Were
+    //    one missing, the summary's completeness check would name the condition.)
+    sources.extend(committed);
     let segments = store::plan(&needed, &sources);
-    assert!(
+    debug_assert!(
         segments.iter().all(|s| s.source.is_some()),
         "every computed row is in a committed part"
     );

@@ -234,9 +234,21 @@ pub(super) fn validate(
             ));
         }
     };
-    // The study as run lists every channel's levels, defaults included.
+    // The study as run lists every channel's levels, defaults included, every list of
+    // numbers as floats (`[1]` and `[1.0]` are the same study), and `share_across_scales`
+    // only when it is on (absent and false are the same study).
     let mut raw = raw;
     if let Some(n) = raw.noise.as_mut() {
+        for value in n.0.values_mut() {
+            if let toml::Value::Array(items) = value {
+                for item in items.iter_mut() {
+                    if let toml::Value::Integer(i) = *item {
+                        *item = toml::Value::Float(i as f64);
+                    }
+                }
+            }
+        }
+        n.0.retain(|_, v| *v != toml::Value::Boolean(false));
         for channel in Channel::ALL {
             if let Some(default) = channel.default_levels() {
                 n.0.entry(channel.key().to_string()).or_insert_with(|| {

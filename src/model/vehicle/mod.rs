@@ -99,7 +99,7 @@ impl VehicleModel {
         // Scale and duration are the outermost axes: the conditions of one draw group are
         // `inner` apart.
         let inner = points.len() / (vs.scales.len() * durations);
-        let conditions = points
+        let conditions: Vec<Condition> = points
             .par_iter()
             .enumerate()
             .map(|(c, point)| {
@@ -160,6 +160,14 @@ impl VehicleModel {
                 }
             })
             .collect();
+        // Members of a draw group read one set of draws: they must agree on everything but
+        // the cycle (the group's first member is condition `group`).
+        assert!(
+            conditions
+                .iter()
+                .all(|c: &Condition| conditions[c.group].noise == c.noise),
+            "a draw group mixes noise levels: the scale and duration axes must be outermost"
+        );
         Ok(VehicleModel {
             layout,
             conditions,
@@ -213,6 +221,16 @@ impl VehicleModel {
             Err(_) => [f64::NAN; 3],
         };
         (bias, se)
+    }
+
+    /// The standard normal draws of `channel` in realisation `r` of condition `c`, in the
+    /// blocks the kernel reads them (its keys, shared or not): `out.len()` values.
+    pub fn standard_draws(&self, seed: u64, c: usize, channel: Channel, r: u64, out: &mut [f64]) {
+        let key = self.conditions[c].stream_key;
+        let mut draws = Draws::new(self.shared, seed, key, channel, r);
+        for chunk in out.chunks_mut(BLOCK) {
+            draws.fill(chunk);
+        }
     }
 
     /// The noise levels of condition `c`.
