@@ -318,13 +318,7 @@ pub trait Model: Sync + fmt::Debug {
         count: usize,
         slots: &mut [f64],
     ) {
-        let stride = self.layout().realisation_stride();
-        let mut slots = slots.chunks_exact_mut(stride);
-        for i in 0..count as u64 {
-            for (&c, slots) in conditions.iter().zip(&mut slots) {
-                self.realise(seed, c, first + i, slots);
-            }
-        }
+        realise_one_by_one(self, seed, conditions, first, count, slots);
     }
 
     /// Every condition's info, in order.
@@ -342,5 +336,23 @@ pub trait Model: Sync + fmt::Debug {
     /// Batch `index` of extra table `table`, or `None` after the last.
     fn extra_batch(&self, _table: usize, _index: usize) -> Option<Result<RecordBatch, ArrowError>> {
         None
+    }
+}
+
+/// [`Model::realise_group`] by [`Model::realise`], one realisation of one condition at a time.
+pub fn realise_one_by_one<M: Model + ?Sized>(
+    model: &M,
+    seed: u64,
+    conditions: &[usize],
+    first: u64,
+    count: usize,
+    slots: &mut [f64],
+) {
+    let stride = model.layout().realisation_stride();
+    let mut slots = slots.chunks_exact_mut(stride);
+    for i in 0..count as u64 {
+        for (&c, slots) in conditions.iter().zip(&mut slots) {
+            model.realise(seed, c, first + i, slots);
+        }
     }
 }

@@ -20,6 +20,7 @@ pub use cycles_table::{cycles_batch, cycles_schema};
 
 use super::{
     BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo, Status,
+    realise_one_by_one,
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
@@ -499,16 +500,10 @@ impl Model for VehicleModel {
         count: usize,
         slots: &mut [f64],
     ) {
-        let stride = self.layout.realisation_stride();
-        let mut slots = slots.chunks_exact_mut(stride);
         if !self.one_draw_serves(conditions) {
-            for i in 0..count as u64 {
-                for (&c, slots) in conditions.iter().zip(&mut slots) {
-                    self.realise(seed, c, first + i, slots);
-                }
-            }
-            return;
+            return realise_one_by_one(self, seed, conditions, first, count, slots);
         }
+        let mut slots = slots.chunks_exact_mut(self.layout.realisation_stride());
         for moments in self.measure_group(seed, conditions, first, count) {
             for (&c, (moments, slots)) in conditions.iter().zip(moments.iter().zip(&mut slots)) {
                 self.conclude(c, moments, None, slots);
