@@ -89,7 +89,17 @@ pub fn page(p: &Page<'_>) -> String {
         fnv1a(&p.meta.identity)
     );
     // Warnings.
-    let warnings = warnings(p.layout, p.infos, p.summary);
+    let mut warnings = warnings(p.layout, p.infos, p.summary);
+    if shares_draws(&p.meta.study_toml) {
+        warnings.push(
+            "The terrain scales share their noise draws (noise.share_across_scales): their \
+             estimates move together, so a bias flag seen at several scales can be one chance \
+             excursion of the shared draws rather than a pattern; differences between scales \
+             are measured sharply, but their MCSEs are not the per-scale ones \
+             (docs/model.md#shared-noise)."
+                .to_string(),
+        );
+    }
     if !warnings.is_empty() {
         out.push_str("<h2>Read with care</h2>\n");
         for w in &warnings {
@@ -186,6 +196,16 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
         ));
     }
     out
+}
+
+/// Whether the study as run (`study_toml`) shares its draws across terrain scales.
+fn shares_draws(study_toml: &str) -> bool {
+    toml::from_str::<toml::Table>(study_toml).is_ok_and(|t| {
+        t.get("noise")
+            .and_then(|n| n.get("share_across_scales"))
+            .and_then(toml::Value::as_bool)
+            .unwrap_or(false)
+    })
 }
 
 /// FNV-1a (64 bit) of `text`: a short fingerprint to show.

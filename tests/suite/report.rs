@@ -78,6 +78,12 @@ fn the_report_parses_and_names_the_study_seed_r_and_embeds_every_figure() {
         warnings.iter().any(|w| w.starts_with("ols is biased")),
         "{warnings:?}"
     );
+    assert!(
+        !warnings
+            .iter()
+            .any(|w| w.contains("share their noise draws")),
+        "no sharing warning without sharing: {warnings:?}"
+    );
     // The study as run, escaped and complete.
     let pre = texts(&doc, "pre");
     assert!(

@@ -109,6 +109,12 @@ fn a_shared_run_is_the_same_bytes_on_one_thread_and_two() {
         .unwrap();
     let (one, _) = run(&study, Some(1));
     let (two, _) = run(&study, Some(2));
+    // The report tells its reader that the scales' flags are not independent.
+    let report = std::fs::read_to_string(one.path().join("report.html")).unwrap();
+    assert!(
+        report.contains("share their noise draws"),
+        "no sharing warning"
+    );
     for file in ["realisations.parquet", "summary.parquet"] {
         assert_eq!(
             std::fs::read(one.path().join(file)).unwrap(),
