@@ -5,6 +5,7 @@
 //! reported here), then a few realisations of every condition are timed on one thread and
 //! a sample of realisation rows is encoded with the writer's settings. Nothing is written.
 
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use crate::model::{self, ConditionInfo, Layout, Model};
@@ -68,15 +69,11 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     // serving all), a few realisations side by side; each member gets its share.
     let stride = layout.realisation_stride();
     let mut per_realisation = vec![Duration::ZERO; infos.len()];
-    let mut grouped: Vec<Vec<usize>> = Vec::new();
+    let mut grouped: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for c in 0..infos.len() {
-        let g = model.draw_group(c);
-        match grouped.iter_mut().find(|m| model.draw_group(m[0]) == g) {
-            Some(members) => members.push(c),
-            None => grouped.push(vec![c]),
-        }
+        grouped.entry(model.draw_group(c)).or_default().push(c);
     }
-    for members in &grouped {
+    for members in grouped.values() {
         let mut slots = vec![0.0; SIDE_BY_SIDE * members.len() * stride];
         model.realise_group(study.seed(), members, 0, SIDE_BY_SIDE, &mut slots);
         let mut times: Vec<Duration> = (1..=TIMED_PER_CONDITION)

@@ -51,10 +51,7 @@ struct Condition {
     /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
     /// realisations and the bound applies (NaN otherwise).
     constant_bounds: Vec<[f64; 3]>,
-    /// The condition's random streams are keyed by this number: its own index, or, with
-    /// `noise.share_across_scales`, its draw group's (docs/model.md#shared-noise).
-    stream_key: u64,
-    /// Its draw group ([`Model::draw_group`]).
+    /// Its draw group ([`Model::draw_group`]): its own index unless the draws are shared.
     group: usize,
 }
 
@@ -153,10 +150,6 @@ impl VehicleModel {
                         .then(|| regression.ar1_coefficients(noise.velocity_correlation_s)),
                     regression,
                     constant_bounds,
-                    stream_key: match vs.share_across_scales {
-                        true => SHARED_GROUP | group as u64,
-                        false => c as u64,
-                    },
                     group,
                 }
             })
@@ -224,10 +217,21 @@ impl VehicleModel {
         (bias, se)
     }
 
+    /// The number condition `c`'s random streams are keyed by: its index, or, with
+    /// `noise.share_across_scales`, its draw group's, marked (docs/model.md#shared-noise).
+    fn stream_key(&self, c: usize) -> u64 {
+        let group = self.conditions[c].group as u64;
+        if self.shared {
+            SHARED_GROUP | group
+        } else {
+            group
+        }
+    }
+
     /// The standard normal draws of `channel` in realisation `r` of condition `c`, in the
     /// blocks the kernel reads them (its keys, shared or not): `out.len()` values.
     pub fn standard_draws(&self, seed: u64, c: usize, channel: Channel, r: u64, out: &mut [f64]) {
-        let key = self.conditions[c].stream_key;
+        let key = self.stream_key(c);
         let mut draws = Draws::new(self.shared, seed, key, channel, r);
         for chunk in out.chunks_mut(BLOCK) {
             draws.fill(chunk);
@@ -259,7 +263,7 @@ impl VehicleModel {
         let mut streams = PerChannel::from_fn(|channel| {
             noise
                 .is_on(channel)
-                .then(|| Draws::new(self.shared, seed, cond.stream_key, channel, r))
+                .then(|| Draws::new(self.shared, seed, self.stream_key(c), channel, r))
         });
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
         let mut acc = MomentAccumulator::new(reg, noise);
@@ -557,7 +561,7 @@ impl VehicleModel {
         first: u64,
         count: usize,
     ) -> Vec<Vec<Moments>> {
-        let key = self.conditions[conditions[0]].stream_key;
+        let key = self.stream_key(conditions[0]);
         let noise = self.conditions[conditions[0]].noise;
         let lengths: Vec<usize> = conditions
             .iter()
