@@ -4,6 +4,7 @@
 //! - [`channels`]: the noise channels of the measurements, one enum variant each;
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
 //!   (the kernel), with the block sums of `kernels`;
+//! - [`controls`]: the control variates, each moment minus its expectation;
 //! - [`estimators`]: the estimator trait, OLS and BCLS normal equations from the moments;
 //!   [`wbcls`] (weighted BCLS) and [`rls`] (recursive LS with forgetting) from the rows;
 //! - [`bounds`]: the bounds and predicted spreads;
@@ -15,6 +16,7 @@
 
 pub mod bounds;
 pub mod channels;
+pub mod controls;
 pub mod conversions;
 pub mod estimators;
 mod kernels;

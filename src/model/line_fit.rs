@@ -69,6 +69,7 @@ impl LineFitModel {
                         metrics: vec![],
                         truth: truth.clone(),
                         applies: vec![vec![true, sd > 0.0]],
+                        controls: Vec::new(),
                     },
                     shape,
                     sd,
@@ -93,6 +94,7 @@ pub fn layout() -> Layout {
         axes: vec![Axis::text("noise"), Axis::number("noise_sd", "")],
         condition_metrics: vec![],
         figure_x: None,
+        controls: Vec::new(),
         parameters: vec![
             ParameterInfo {
                 name: "intercept",

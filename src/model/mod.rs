@@ -133,6 +133,10 @@ pub struct Layout {
     pub extras: Vec<ExtraInfo>,
     /// Bounds, each with one value per parameter.
     pub bounds: Vec<BoundInfo>,
+    /// Control variates: per-realisation quantities of known mean zero that the summary
+    /// regresses the estimates on (docs/model.md#control-variates); one slot per
+    /// realisation, shared by its estimators' rows.
+    pub controls: Vec<ExtraInfo>,
     /// What figures plot against instead of the first axis that varies, if anything.
     pub figure_x: Option<FigureX>,
     /// What every condition shares, in words (e.g. the route and the drive), for tables.
@@ -157,9 +161,14 @@ impl Layout {
         1 + self.parameters.len() + self.extras.len() + self.bounds.len() * self.parameters.len()
     }
 
-    /// f64 slots of one realisation (all estimators).
+    /// f64 slots of one realisation: every estimator's, then the control variates.
     pub fn realisation_stride(&self) -> usize {
-        self.estimators.len() * self.estimator_stride()
+        self.estimators.len() * self.estimator_stride() + self.controls.len()
+    }
+
+    /// Offset of control variate `j` in a realisation's slots.
+    pub fn control_at(&self, j: usize) -> usize {
+        self.estimators.len() * self.estimator_stride() + j
     }
 
     /// Offset of the status slot of estimator `e` in a realisation's slots.
@@ -252,6 +261,9 @@ pub struct ConditionInfo {
     pub truth: Vec<f64>,
     /// `applies[e][b]`: bound `b` is valid (and reported) for estimator `e`.
     pub applies: Vec<Vec<bool>>,
+    /// `controls[j]`: control variate `j` of the layout is one in this condition (it
+    /// varies and its mean is known); the others are NaN.
+    pub controls: Vec<bool>,
 }
 
 /// A table a model writes besides the realisations and the summary (e.g. the vehicle's

@@ -1,6 +1,8 @@
 //! Numerical foundations used by every stage: exact order-independent sums (so results do
 //! not depend on thread count or shard split) and the stable solution of small symmetric
-//! positive-definite systems (the normal equations).
+//! positive-definite systems (the normal equations); double-double arithmetic for the few
+//! computations that cancel more digits than `f64` has.
 
+pub mod dd;
 pub mod linalg;
 pub mod sum;

@@ -167,6 +167,20 @@ impl ExactSum {
     }
 }
 
+impl ExactSum {
+    /// The sum as a double-double: its rounded value and the rounded remainder (the
+    /// remainder exact to 2⁻¹⁰⁶ relative), for arithmetic that needs more than `f64` keeps.
+    pub fn value_dd(&self) -> crate::numeric::dd::Dd {
+        let hi = self.value();
+        if !hi.is_finite() {
+            return crate::numeric::dd::Dd::from(hi);
+        }
+        let mut rest = self.clone();
+        rest.add(-hi);
+        crate::numeric::dd::Dd::new(hi, rest.value())
+    }
+}
+
 /// `x · 2^k` without intermediate overflow or underflow of the power of two.
 fn scale_by_power_of_two(mut x: f64, mut k: i32) -> f64 {
     while k > 1000 {

@@ -27,7 +27,9 @@ fn field(layout: &Layout, column: SummaryColumn) -> Field {
         SummaryColumn::Estimator | SummaryColumn::Parameter => {
             Field::new(name, DataType::Utf8, false)
         }
-        SummaryColumn::N | SummaryColumn::NFailed => Field::new(name, DataType::Int64, false),
+        SummaryColumn::N | SummaryColumn::NFailed | SummaryColumn::NControls => {
+            Field::new(name, DataType::Int64, false)
+        }
         SummaryColumn::Measure(..) | SummaryColumn::Bound(..) => f64_field(name, true),
     }
 }
@@ -79,6 +81,9 @@ pub fn summary_batch(
                 )),
                 SummaryColumn::NFailed => Arc::new(Int64Array::from_iter_values(
                     rows.iter().map(|r| r.n_failed as i64),
+                )),
+                SummaryColumn::NControls => Arc::new(Int64Array::from_iter_values(
+                    rows.iter().map(|r| r.n_controls as i64),
                 )),
                 SummaryColumn::Measure(..) | SummaryColumn::Bound(..) => {
                     Arc::new(Float64Array::from_iter(
@@ -159,6 +164,7 @@ fn decode(
     let truth = typed(SummaryColumn::Truth, DataType::Float64)?;
     let n = typed(SummaryColumn::N, DataType::Int64)?.as_primitive::<Int64Type>();
     let n_failed = typed(SummaryColumn::NFailed, DataType::Int64)?.as_primitive::<Int64Type>();
+    let n_controls = typed(SummaryColumn::NControls, DataType::Int64)?.as_primitive::<Int64Type>();
     let measures: Vec<(SummaryColumn, &ArrayRef)> = columns
         .iter()
         .filter(|c| matches!(c, SummaryColumn::Measure(..) | SummaryColumn::Bound(..)))
@@ -197,6 +203,10 @@ fn decode(
             rmse: Estimate::undefined(),
             rel_precision: Estimate::undefined(),
             bounds: vec![None; layout.bounds.len()],
+            mean_cv: Estimate::undefined(),
+            bias_cv: Estimate::undefined(),
+            cv_variance_ratio: f64::NAN,
+            n_controls: n_controls.value(i) as u64,
         };
         for (column, array) in &measures {
             column.set_measure(&mut row, number(array, i));
@@ -220,6 +230,8 @@ fn decode(
                 .collect(),
             truth: vec![f64::NAN; layout.parameters.len()],
             applies: vec![vec![false; layout.bounds.len()]; layout.estimators.len()],
+            // Which sums were control variates is not a summary column.
+            controls: vec![false; layout.controls.len()],
         });
         info.truth[p] = row.truth;
         for (b, s) in row.bounds.iter().enumerate() {

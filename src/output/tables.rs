@@ -60,6 +60,9 @@ pub fn realisation_schema(layout: &Layout) -> SchemaRef {
             fields.push(f64_field(format!("{}_{}", b.name, p.name), true));
         }
     }
+    for x in &layout.controls {
+        fields.push(f64_field(x.name, true));
+    }
     fields.push(Field::new("status", DataType::Utf8, false));
     Arc::new(Schema::new(fields))
 }
@@ -111,6 +114,10 @@ pub fn realisations_batch(
             columns.push(nullable(&|e| layout.bound_at(e, b, p)));
         }
     }
+    // The realisation's control variates, repeated on each of its estimators' rows.
+    for j in 0..layout.controls.len() {
+        columns.push(nullable(&|_| layout.control_at(j)));
+    }
     columns.push(Arc::new(StringArray::from_iter_values((0..rows).map(
         |r| Status::from_slot(slot(r, layout.status_at(est(r)))).name(),
     ))));
@@ -128,8 +135,11 @@ pub struct RealisationBatches {
     theta: Vec<f64>,
     /// row-major bounds, B × P per row
     bounds: Vec<f64>,
+    /// row-major control variates, one per layout control per row
+    controls: Vec<f64>,
     n_params: usize,
     n_bound_values: usize,
+    n_controls: usize,
 }
 
 impl RealisationBatches {
@@ -153,6 +163,7 @@ impl RealisationBatches {
                     .map(|p| format!("{}_{}", b.name, p.name)),
             );
         }
+        names.extend(layout.controls.iter().map(|x| x.name.to_string()));
         names
     }
 
@@ -218,9 +229,20 @@ impl RealisationBatches {
                 bound_cols.push(f64_col(&format!("{}_{}", b.name, p.name))?);
             }
         }
+        let control_cols: Vec<Float64Array> = layout
+            .controls
+            .iter()
+            .map(|x| f64_col(x.name))
+            .collect::<Result<_, _>>()?;
         let mut theta = Vec::with_capacity(n * np);
         let mut bounds = Vec::with_capacity(n * bound_cols.len());
+        let mut controls = Vec::with_capacity(n * control_cols.len());
         for i in 0..n {
+            controls.extend(
+                control_cols
+                    .iter()
+                    .map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }),
+            );
             theta.extend(
                 thetas
                     .iter()
@@ -253,8 +275,10 @@ impl RealisationBatches {
             ok,
             theta,
             bounds,
+            controls,
             n_params: np,
             n_bound_values: bound_cols.len(),
+            n_controls: control_cols.len(),
         })
     }
 
@@ -267,6 +291,7 @@ impl RealisationBatches {
             ok: self.ok[i],
             theta: &self.theta[i * self.n_params..(i + 1) * self.n_params],
             bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
+            controls: &self.controls[i * self.n_controls..(i + 1) * self.n_controls],
         })
     }
 }

@@ -255,6 +255,7 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
             ok: s[layout.status_at(e)] == Status::Ok as u8 as f64,
             theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
             bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
+            controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
         })
     };
     let n = infos.len() * r as usize;

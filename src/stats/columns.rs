@@ -10,7 +10,8 @@ use super::measures::Estimate;
 use super::summary::{BoundSummary, SummaryRow};
 use crate::model::Layout;
 
-/// A measure of every summary row, each with its MCSE column `<name>_mcse`.
+/// A measure of every summary row, each with its MCSE column `<name>_mcse` (but the
+/// control-variate variance ratio).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Measure {
     /// Mean of θ̂.
@@ -27,11 +28,17 @@ pub enum Measure {
     Rmse,
     /// Precision relative to the reference estimator [%].
     RelPrecision,
+    /// Mean of θ̂ by the control-variate regression.
+    MeanCv,
+    /// Bias by the control-variate regression.
+    BiasCv,
+    /// Var(θ̂) / residual variance of the control-variate regression (no MCSE).
+    CvVarianceRatio,
 }
 
 impl Measure {
     /// Every measure, in column order.
-    pub const ALL: [Measure; 7] = [
+    pub const ALL: [Measure; 10] = [
         Measure::Mean,
         Measure::Bias,
         Measure::RelBias,
@@ -39,6 +46,9 @@ impl Measure {
         Measure::Mse,
         Measure::Rmse,
         Measure::RelPrecision,
+        Measure::MeanCv,
+        Measure::BiasCv,
+        Measure::CvVarianceRatio,
     ];
 
     /// Column name of the value.
@@ -51,7 +61,15 @@ impl Measure {
             Measure::Mse => "mse",
             Measure::Rmse => "rmse",
             Measure::RelPrecision => "rel_precision",
+            Measure::MeanCv => "mean_cv",
+            Measure::BiasCv => "bias_cv",
+            Measure::CvVarianceRatio => "cv_variance_ratio",
         }
+    }
+
+    /// Whether it has an MCSE column.
+    pub fn has_mcse(self) -> bool {
+        self != Measure::CvVarianceRatio
     }
 
     /// Its value and MCSE in `row`.
@@ -64,11 +82,14 @@ impl Measure {
             Measure::Mse => row.mse,
             Measure::Rmse => row.rmse,
             Measure::RelPrecision => row.rel_precision,
+            Measure::MeanCv => row.mean_cv,
+            Measure::BiasCv => row.bias_cv,
+            Measure::CvVarianceRatio => Estimate::new(row.cv_variance_ratio, f64::NAN),
         }
     }
 
-    fn of_mut(self, row: &mut SummaryRow) -> &mut Estimate {
-        match self {
+    fn set(self, row: &mut SummaryRow, part: Part, v: f64) {
+        let target = match self {
             Measure::Mean => &mut row.mean,
             Measure::Bias => &mut row.bias,
             Measure::RelBias => &mut row.rel_bias,
@@ -76,7 +97,14 @@ impl Measure {
             Measure::Mse => &mut row.mse,
             Measure::Rmse => &mut row.rmse,
             Measure::RelPrecision => &mut row.rel_precision,
-        }
+            Measure::MeanCv => &mut row.mean_cv,
+            Measure::BiasCv => &mut row.bias_cv,
+            Measure::CvVarianceRatio => {
+                row.cv_variance_ratio = v;
+                return;
+            }
+        };
+        part.set(target, v);
     }
 }
 
@@ -204,6 +232,9 @@ pub enum SummaryColumn {
     N,
     /// `n_failed`: realisations where the estimator failed (int64).
     NFailed,
+    /// `n_controls`: control variates in the regression estimates `*_cv` (int64; 0 where
+    /// none applies).
+    NControls,
     /// A measure or its MCSE (f64, null where undefined).
     Measure(Measure, Part),
     /// A measure of bound `b` of the layout, or its MCSE (f64, null where the bound does
@@ -226,8 +257,11 @@ impl SummaryColumn {
         ]);
         for m in Measure::ALL {
             out.push(SummaryColumn::Measure(m, Part::Value));
-            out.push(SummaryColumn::Measure(m, Part::Mcse));
+            if m.has_mcse() {
+                out.push(SummaryColumn::Measure(m, Part::Mcse));
+            }
         }
+        out.push(SummaryColumn::NControls);
         for b in 0..layout.bounds.len() {
             for m in BoundMeasure::ALL {
                 out.push(SummaryColumn::Bound(b, m, Part::Value));
@@ -250,6 +284,7 @@ impl SummaryColumn {
             SummaryColumn::Truth => "truth".into(),
             SummaryColumn::N => "n".into(),
             SummaryColumn::NFailed => "n_failed".into(),
+            SummaryColumn::NControls => "n_controls".into(),
             SummaryColumn::Measure(m, part) => format!("{}{}", m.name(), part.suffix()),
             SummaryColumn::Bound(b, m, part) => {
                 format!("{}{}", m.column(layout.bounds[b].name), part.suffix())
@@ -275,7 +310,7 @@ impl SummaryColumn {
     /// first non-null value). Other columns are ignored.
     pub fn set_measure(self, row: &mut SummaryRow, v: Option<f64>) {
         match self {
-            SummaryColumn::Measure(m, part) => part.set(m.of_mut(row), v.unwrap_or(f64::NAN)),
+            SummaryColumn::Measure(m, part) => m.set(row, part, v.unwrap_or(f64::NAN)),
             SummaryColumn::Bound(b, m, part) => {
                 if let Some(v) = v {
                     let s = row.bounds[b].get_or_insert_with(BoundSummary::undefined);

@@ -2,6 +2,7 @@
 //! and the two-pass summary of a study (with the exact sums of [`crate::numeric::sum`]).
 
 pub mod columns;
+pub mod control;
 pub mod measures;
 pub mod plan;
 pub mod summary;

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use thiserror::Error;
 
+use super::control::{self, ControlAcc, ControlFit};
 use super::measures::{
     self, BoundSums, Estimate, EstimateSums, coverage, emp_over_model, model_se,
     model_se_relative_error, relative_precision, variance_ratio_p,
@@ -33,6 +34,9 @@ pub struct Record<'a> {
     pub theta: &'a [f64],
     /// Bound values, bound-major (`b * P + p`); NaN where the bound is absent.
     pub bounds: &'a [f64],
+    /// The realisation's control variates, one per control of the layout (the same on
+    /// every estimator's row; NaN where one is not a control in the condition).
+    pub controls: &'a [f64],
 }
 
 /// Rows that do not form a complete, consistent set of realisations.
@@ -139,6 +143,14 @@ pub struct SummaryRow {
     pub rel_precision: Estimate,
     /// Per bound of the layout: its measures where it applies.
     pub bounds: Vec<Option<BoundSummary>>,
+    /// Mean of θ̂ by the control-variate regression (NaN where none applies).
+    pub mean_cv: Estimate,
+    /// Bias by the control-variate regression.
+    pub bias_cv: Estimate,
+    /// Var(θ̂) / residual variance of the control-variate regression.
+    pub cv_variance_ratio: f64,
+    /// Control variates in the regression (0: none applies).
+    pub n_controls: u64,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -162,6 +174,8 @@ struct ParamAcc {
     sum_centred_sq: ExactSum,
     sum_sq_dev_sq: ExactSum,
     sum_cross_ref: ExactSum,
+    /// Σ (d − d̄)(c_j − c̄_j) per active control of the condition.
+    sum_cross_controls: Vec<ExactSum>,
     mean: f64,
     mse: f64,
 }
@@ -219,6 +233,8 @@ pub struct Summarizer<'a> {
     current_estimators: Vec<bool>,
     /// Pass two: centred θ̂ of each estimator of the current realisation (NaN when absent).
     current_centred: Vec<f64>,
+    /// [condition]: its control variates.
+    controls: Vec<ControlAcc>,
 }
 
 impl<'a> Summarizer<'a> {
@@ -228,16 +244,26 @@ impl<'a> Summarizer<'a> {
         let e = layout.estimators.len();
         let p = layout.parameters.len();
         let b = layout.bounds.len();
-        let param = ParamAcc {
-            bounds: vec![BoundAcc::default(); b],
-            ..ParamAcc::default()
-        };
+        let controls: Vec<ControlAcc> =
+            infos.iter().map(|i| ControlAcc::new(&i.controls)).collect();
+        let acc = controls
+            .iter()
+            .map(|c| {
+                let param = ParamAcc {
+                    bounds: vec![BoundAcc::default(); b],
+                    sum_cross_controls: vec![ExactSum::new(); c.len()],
+                    ..ParamAcc::default()
+                };
+                vec![vec![param; p]; e]
+            })
+            .collect();
         Summarizer {
             layout,
             infos,
             realisations,
             z,
-            acc: vec![vec![vec![param; p]; e]; infos.len()],
+            acc,
+            controls,
             rows: vec![vec![0; e]; infos.len()],
             failed: vec![vec![0; e]; infos.len()],
             seen: vec![Seen::default(); infos.len()],
@@ -270,6 +296,7 @@ impl<'a> Summarizer<'a> {
             }
             self.current = Some(key);
             self.current_estimators.fill(false);
+            self.controls[r.condition].first(r.controls);
         }
         if std::mem::replace(&mut self.current_estimators[r.estimator], true) {
             return Err(SummaryError::Duplicate {
@@ -328,6 +355,9 @@ impl<'a> Summarizer<'a> {
                 }
             }
         }
+        for c in &mut self.controls {
+            c.end_first();
+        }
         self.current = None;
         Ok(())
     }
@@ -340,6 +370,7 @@ impl<'a> Summarizer<'a> {
         if self.current != Some(key) {
             self.flush_cross();
             self.current = Some(key);
+            self.controls[r.condition].second(r.controls);
         }
         if !r.ok {
             return Ok(());
@@ -353,6 +384,13 @@ impl<'a> Summarizer<'a> {
             let q = d * d - acc.mse;
             acc.sum_sq_dev_sq.add(q * q);
             self.current_centred[r.estimator * np + p] = centred;
+            for (x, c) in acc
+                .sum_cross_controls
+                .iter_mut()
+                .zip(&self.controls[r.condition].centred)
+            {
+                x.add(centred * c);
+            }
             for (b, bacc) in acc.bounds.iter_mut().enumerate() {
                 let bound = r.bounds[b * np + p];
                 if bound.is_nan() {
@@ -406,6 +444,31 @@ impl<'a> Summarizer<'a> {
                                 .then(|| bound_summary(&sums, bacc, acc.n))
                         })
                         .collect();
+                    let cv = (self.failed[c][e] == 0)
+                        .then(|| {
+                            control::fit(
+                                &self.controls[c],
+                                acc.n,
+                                &acc.sum_d,
+                                &acc.sum_centred_sq,
+                                &acc.sum_cross_controls,
+                            )
+                        })
+                        .flatten();
+                    let (mean_cv, bias_cv, cv_variance_ratio, n_controls) = match cv {
+                        Some(ControlFit {
+                            bias,
+                            mcse,
+                            variance_ratio,
+                            used,
+                        }) => (
+                            Estimate::new(truth + bias, mcse),
+                            Estimate::new(bias, mcse),
+                            variance_ratio,
+                            used as u64,
+                        ),
+                        None => (Estimate::undefined(), Estimate::undefined(), f64::NAN, 0),
+                    };
                     out.push(SummaryRow {
                         condition: c,
                         estimator: e,
@@ -425,6 +488,10 @@ impl<'a> Summarizer<'a> {
                             acc.sum_cross_ref.value(),
                         ),
                         bounds,
+                        mean_cv,
+                        bias_cv,
+                        cv_variance_ratio,
+                        n_controls,
                     });
                 }
             }

@@ -59,16 +59,37 @@ const ADDED_COLUMNS: [&str; 6] = [
     "acceleration",
 ];
 
+/// The control variates and the summary's control-variate measures: new results, not
+/// something the older engine implied. The hashes of the old columns skip them; they have
+/// their own pinned hash ([`control_hash`]).
+fn control_column(name: &str) -> bool {
+    name.starts_with("cv_")
+        || name.ends_with("_cv")
+        || name.ends_with("_cv_mcse")
+        || name == "n_controls"
+}
+
 /// XXH64 of every value of a table, column by column in row order (doubles by their bits,
-/// nulls marked), but the [`ADDED_COLUMNS`]: a fingerprint of the content that ignores the
-/// file's encoding and footer.
+/// nulls marked), but the [`ADDED_COLUMNS`] and the control-variate columns: a fingerprint
+/// of the content that ignores the file's encoding and footer.
 fn content_hash(batch: &arrow::array::RecordBatch) -> u64 {
+    hash_columns(batch, &|name| {
+        !ADDED_COLUMNS.contains(&name) && !control_column(name)
+    })
+}
+
+/// The same fingerprint of the control-variate columns alone.
+fn control_hash(batch: &arrow::array::RecordBatch) -> u64 {
+    hash_columns(batch, &control_column)
+}
+
+fn hash_columns(batch: &arrow::array::RecordBatch, keep: &dyn Fn(&str) -> bool) -> u64 {
     use arrow::array::{Array, AsArray};
     use arrow::datatypes::{DataType, Float64Type, Int32Type, Int64Type};
     use std::hash::Hasher;
     let mut h = twox_hash::XxHash64::with_seed(0);
     for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
-        if ADDED_COLUMNS.contains(&field.name().as_str()) {
+        if !keep(field.name()) {
             continue;
         }
         h.write(field.name().as_bytes());
@@ -92,8 +113,9 @@ fn content_hash(batch: &arrow::array::RecordBatch) -> u64 {
     h.finish()
 }
 
-/// The content hashes of realisations, summary and cycles of `text` at R = 64.
-fn pinned_hashes(text: &str) -> [u64; 3] {
+/// The content hashes of realisations, summary and cycles of `text` at R = 64, and of the
+/// control-variate columns of realisations and summary.
+fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
     let study = chassis_mc::study::Study::from_toml(text, "pinned")
         .unwrap()
         .with_overrides(Some(64), None)
@@ -126,8 +148,9 @@ fn pinned_hashes(text: &str) -> [u64; 3] {
         .unwrap();
     assert_eq!(used.true_count(), used.len());
     let found = tables.each_ref().map(content_hash);
-    println!("content hashes: {found:016x?}");
-    found
+    let controls = [control_hash(&tables[0]), control_hash(&tables[1])];
+    println!("content hashes: {found:016x?}, control variates: {controls:016x?}");
+    (found, controls)
 }
 
 #[test]
@@ -142,14 +165,17 @@ fn refactors_keep_the_realisations_bit_for_bit() {
     );
     // Measured on the engine of commit 2221a26 (whose files for this study are byte-identical
     // to those of this commit's parent, checked with `cmp`).
+    let (hashes, controls) = pinned_hashes(&text);
     assert_eq!(
-        pinned_hashes(&text),
+        hashes,
         [
             0x17b2_7824_6de9_f62d,
             0x7392_72e0_43bd_fdf0,
             0x3b43_6d7d_cd67_50b8
         ]
     );
+    // The control variates, pinned on the engine that introduced them.
+    assert_eq!(controls, [0xce8a_4b18_0fcb_6dc3, 0x0ef2_66e5_6de8_855e]);
 }
 
 #[test]
@@ -167,14 +193,17 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
         "velocity_sd",
         "[0.5]\ngrade_sd = [0.0, 0.01]\nforce_sd = [20.0]",
     );
+    let (hashes, controls) = pinned_hashes(&text);
     assert_eq!(
-        pinned_hashes(&text),
+        hashes,
         [
             0xbd7f_7efe_144d_055a,
             0xa77e_26c3_672b_b4d0,
             0xb471_b9a0_3179_654d
         ]
     );
+    // The control variates, pinned on the engine that introduced them.
+    assert_eq!(controls, [0x74b4_388b_221f_0f0f, 0x4496_52e0_e7d1_de0e]);
 }
 
 #[test]

@@ -162,12 +162,14 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
             name: "b",
             description: "",
         }],
+        controls: vec![],
     };
     let infos = vec![ConditionInfo {
         axes: vec![],
         metrics: vec![],
         truth: vec![TRUTH],
         applies: vec![vec![true]],
+        controls: vec![],
     }];
     // A biased estimator (mean 1.3) with SE 2, and a variable bound.
     let z = normals(7, 0, N);
@@ -187,6 +189,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         ok: true,
         theta: std::slice::from_ref(&theta[i]),
         bounds: std::slice::from_ref(&b[i]),
+        controls: &[],
     };
     for &i in &order {
         s.first_pass(&record(i)).unwrap();

@@ -24,6 +24,7 @@ use super::{
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
+use crate::estimate::controls::{CONTROLS, Expectations};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
@@ -53,6 +54,8 @@ struct Condition {
     constant_bounds: Vec<[f64; 3]>,
     /// Its draw group ([`Model::draw_group`]): its own index unless the draws are shared.
     group: usize,
+    /// The expected moments: what the control variates are centred on.
+    expected: Expectations,
 }
 
 /// The bit that marks a draw group's key, so that a shared stream is never some condition's
@@ -133,6 +136,7 @@ impl VehicleModel {
                             .collect()
                     })
                     .collect();
+                let expected = Expectations::new(&regression, &noise);
                 Condition {
                     info: ConditionInfo {
                         axes: axes()
@@ -141,6 +145,7 @@ impl VehicleModel {
                         metrics: segment.metrics.clone(),
                         truth: truth.to_vec(),
                         applies,
+                        controls: expected.applies().to_vec(),
                     },
                     scale_index: point.scale_index,
                     used: segment.used[source].clone(),
@@ -151,6 +156,7 @@ impl VehicleModel {
                     regression,
                     constant_bounds,
                     group,
+                    expected,
                 }
             })
             .collect();
@@ -451,6 +457,14 @@ pub fn layout(study: &VehicleStudy) -> Layout {
                 description: b.description,
             })
             .collect(),
+        controls: CONTROLS
+            .iter()
+            .map(|x| ExtraInfo {
+                name: x.name,
+                unit: x.unit,
+                description: x.description,
+            })
+            .collect(),
     }
 }
 
@@ -674,6 +688,9 @@ impl VehicleModel {
             for (x, extra) in EXTRAS.iter().enumerate() {
                 slots[layout.extra_at(ei, x)] = (extra.value)(&inputs);
             }
+        }
+        for (j, v) in cond.expected.centre(moments).into_iter().enumerate() {
+            slots[layout.control_at(j)] = v;
         }
     }
 }
