@@ -1,6 +1,6 @@
 //! What a reader sees of a run: the table printed after it (per parameter, one line per
-//! condition × estimator with the mean ± MCSE, the empirical SE, the applicable bound and
-//! EmpSE/bound) and `report.html`, the page written next to its files.
+//! condition × estimator with the mean ± MCSE, the control-variate bias ± MCSE, the
+//! empirical SE, the applicable bound and EmpSE/bound) and `report.html`, the page written next to its files.
 
 use std::fmt::Write as _;
 
@@ -51,8 +51,8 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
         }
         let _ = write!(
             header,
-            " {:>5}  {:>27}  {:>10}  {:>20}  {:>16}",
-            "est", "mean ± MCSE", "EmpSE", "bound", "EmpSE/bound"
+            " {:>5}  {:>27}  {:>22}  {:>10}  {:>20}  {:>16}",
+            "est", "mean ± MCSE", "bias (CV) ± MCSE", "EmpSE", "bound", "EmpSE/bound"
         );
         let _ = writeln!(out, "{header}");
         for r in rows.iter().filter(|r| r.parameter == p) {
@@ -72,6 +72,11 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
                 let _ = write!(line, " {m:>11.5e}");
             }
             let mean = format!("{:.6e} ± {:.1e}", r.mean.value, r.mean.mcse);
+            let bias_cv = if r.bias_cv.value.is_finite() {
+                format!("{:.4e} ± {:.1e}", r.bias_cv.value, r.bias_cv.mcse)
+            } else {
+                "—".to_string()
+            };
             let (bound, ratio) = match r
                 .bounds
                 .iter()
@@ -86,8 +91,8 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
             };
             let _ = writeln!(
                 line,
-                " {:>5}  {:>27}  {:>10.3e}  {:>20}  {:>16}",
-                layout.estimators[r.estimator], mean, r.emp_se.value, bound, ratio
+                " {:>5}  {:>27}  {:>22}  {:>10.3e}  {:>20}  {:>16}",
+                layout.estimators[r.estimator], mean, bias_cv, r.emp_se.value, bound, ratio
             );
             out.push_str(&line);
         }
@@ -95,7 +100,9 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
     if let Some(r) = rows.first() {
         let _ = writeln!(
             out,
-            "\n{} realisations per condition{}; bound = the first that applies (see summary.parquet for all).",
+            "\n{} realisations per condition{}; bias (CV) = the bias by control variates \
+             (docs/model.md#control-variates); bound = the first that applies (see \
+             summary.parquet for all).",
             r.n + r.n_failed,
             failed_note(rows)
         );

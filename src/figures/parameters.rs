@@ -232,7 +232,16 @@ pub(super) fn draw_parameter(
     );
     let (bias, bias_mcse) = (&bias, &bias_mcse);
     let truth = rows.first().map_or(f64::NAN, |&i| t.rows[i].truth);
-    let series: Vec<Series> = keys_seen
+    // The control-variate estimate of the same bias (docs/model.md#control-variates), where
+    // it applies: its error bars are usually too small to see.
+    let relative = |m: Measure| {
+        column(&|r| 100.0 * m.of(r).value / r.truth)
+            .into_iter()
+            .zip(column(&|r| 100.0 * m.of(r).mcse / r.truth.abs()))
+            .unzip::<f64, f64, Vec<f64>, Vec<f64>>()
+    };
+    let (bias_cv, bias_cv_mcse) = relative(Measure::BiasCv);
+    let mut series: Vec<Series> = keys_seen
         .iter()
         .enumerate()
         .map(|(k, (e, g))| Series {
@@ -242,6 +251,17 @@ pub(super) fn draw_parameter(
             markers: true,
         })
         .collect();
+    for (k, (e, g)) in keys_seen.iter().enumerate() {
+        let points = points(e, g, &bias_cv, Some(&bias_cv_mcse));
+        if !points.is_empty() {
+            series.push(Series {
+                label: join_label(&[&est_label(e), g, "bias with control variates ± MCSE"]),
+                color: color(keys_seen.len() + k),
+                points,
+                markers: true,
+            });
+        }
+    }
     let name = format!("bias_{}.svg", p.name);
     chart(
         &dir.join(&name),
