@@ -95,8 +95,9 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
                     format!("standard error of {symbol} {unit}"),
                 ),
                 (
+                    // the plain bias and, where it applies, the control-variate bias
                     format!("bias_{p}.svg"),
-                    rows.len() + groups * estimators,
+                    rows.len() + groups * estimators + with("bias_cv") + series_with("bias_cv"),
                     format!("bias of {symbol} [% of the truth]"),
                 ),
             ];

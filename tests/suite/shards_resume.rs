@@ -36,6 +36,13 @@ fn four_shards_and_summarize_equal_the_unsharded_run() {
             "{name} differs"
         );
     }
+    // ...including the control-variate estimates, from the shards' stored controls.
+    let summary = read_table(&sharded.path().join("summary.parquet"));
+    assert!(
+        f64_col(&summary, "bias_cv_mcse")
+            .iter()
+            .all(|m| m.is_finite() && *m > 0.0)
+    );
     // The shards' rows are exactly the unsharded rows.
     let all = read_table(&whole.path().join("realisations.parquet"));
     let mut rows = 0;
