@@ -16,6 +16,8 @@ use arrow::array::RecordBatch;
 use arrow::datatypes::SchemaRef;
 use arrow::error::ArrowError;
 
+use crate::estimate::controls::Control;
+use crate::estimate::conversions::Extra;
 use crate::estimate::estimators::{Estimator, Ols};
 use crate::study::{ModelSpec, Study, StudyError};
 
@@ -107,6 +109,26 @@ pub struct ExtraInfo {
     pub unit: &'static str,
     /// One-line description.
     pub description: &'static str,
+}
+
+impl From<&Extra> for ExtraInfo {
+    fn from(x: &Extra) -> Self {
+        ExtraInfo {
+            name: x.name,
+            unit: x.unit,
+            description: x.description,
+        }
+    }
+}
+
+impl From<&Control> for ExtraInfo {
+    fn from(x: &Control) -> Self {
+        ExtraInfo {
+            name: x.name,
+            unit: x.unit,
+            description: x.description,
+        }
+    }
 }
 
 /// A bound or predicted standard error reported for each parameter.

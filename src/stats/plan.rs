@@ -6,7 +6,7 @@ use super::measures::Estimate;
 use super::summary::SummaryRow;
 
 /// A measure of the summary whose MCSE can be planned.
-pub const MEASURES: [&str; 7] = [
+pub const MEASURES: [&str; 9] = [
     "mean",
     "bias",
     "rel_bias",
@@ -14,6 +14,8 @@ pub const MEASURES: [&str; 7] = [
     "mse",
     "rmse",
     "rel_precision",
+    "mean_cv",
+    "bias_cv",
 ];
 
 /// A target `[PARAMETER:]MEASURE=MCSE` of `--replications-for`.
@@ -67,6 +69,8 @@ pub fn measure(row: &SummaryRow, measure: &str) -> Option<Estimate> {
         "mse" => row.mse,
         "rmse" => row.rmse,
         "rel_precision" => row.rel_precision,
+        "mean_cv" => row.mean_cv,
+        "bias_cv" => row.bias_cv,
         _ => return None,
     })
 }
@@ -91,7 +95,12 @@ pub fn replications_for<'a>(
             let m = measure(r, &target.measure)?;
             m.mcse.is_finite().then(|| {
                 let needed = pilot_r as f64 * (m.mcse / target.mcse).powi(2);
-                (needed.ceil().max(2.0) as u64, r)
+                // A control-variate estimate is defined from q + 3 realisations on.
+                let least = match target.measure.ends_with("_cv") {
+                    true => r.n_controls + 3,
+                    false => 2,
+                };
+                ((needed.ceil() as u64).max(least), r)
             })
         })
         .max_by_key(|(n, _)| *n)
@@ -119,5 +128,6 @@ mod tests {
         );
         assert!(Target::parse("bias=-1").unwrap_err().contains("positive"));
         assert!(Target::parse("bias").unwrap_err().contains("expected"));
+        assert_eq!(Target::parse("bias_cv=1e-12").unwrap().measure, "bias_cv");
     }
 }

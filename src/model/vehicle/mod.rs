@@ -442,14 +442,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             },
         ],
         estimators: estimators.iter().map(|e| e.name()).collect(),
-        extras: EXTRAS
-            .iter()
-            .map(|x| ExtraInfo {
-                name: x.name,
-                unit: x.unit,
-                description: x.description,
-            })
-            .collect(),
+        extras: EXTRAS.iter().map(ExtraInfo::from).collect(),
         bounds: BOUNDS
             .iter()
             .map(|b| BoundInfo {
@@ -457,14 +450,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
                 description: b.description,
             })
             .collect(),
-        controls: CONTROLS
-            .iter()
-            .map(|x| ExtraInfo {
-                name: x.name,
-                unit: x.unit,
-                description: x.description,
-            })
-            .collect(),
+        controls: CONTROLS.iter().map(ExtraInfo::from).collect(),
     }
 }
 
