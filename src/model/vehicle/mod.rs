@@ -136,7 +136,10 @@ impl VehicleModel {
                             .collect()
                     })
                     .collect();
-                let expected = Expectations::new(&regression, &noise);
+                let ar1 = noise
+                    .velocity_correlated()
+                    .then(|| regression.ar1_coefficients(noise.velocity_correlation_s));
+                let expected = Expectations::new(&regression, &noise, ar1.as_deref());
                 Condition {
                     info: ConditionInfo {
                         axes: axes()
@@ -150,9 +153,7 @@ impl VehicleModel {
                     scale_index: point.scale_index,
                     used: segment.used[source].clone(),
                     noise,
-                    ar1: noise
-                        .velocity_correlated()
-                        .then(|| regression.ar1_coefficients(noise.velocity_correlation_s)),
+                    ar1,
                     regression,
                     constant_bounds,
                     group,
