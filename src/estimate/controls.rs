@@ -121,29 +121,8 @@ impl Expectations {
                 sum.add(t);
             }
         }
-        let force = noise.is_on(Channel::Force);
-        let speed = noise.is_on(Channel::Velocity);
-        let grade = noise.is_on(Channel::Grade);
-        let output = noise.is_on(Channel::Output) || grade || noise.speed_noise_differentiated();
-        // Which factors vary: x̃₁ (force), w (speed), x̃₃ (grade), ỹ (output, grade, or
-        // speed through a differentiated acceleration).
-        let varies = [
-            force,
-            force || grade,
-            grade,
-            force || output,
-            grade || output,
-            force || speed,
-            grade || speed,
-            speed,
-            speed || output,
-            speed,
-            force,
-            grade,
-            output,
-        ];
         let mut out = [None; CONTROL_COUNT];
-        for ((o, sum), varies) in out.iter_mut().zip(&sums).zip(varies) {
+        for ((o, sum), varies) in out.iter_mut().zip(&sums).zip(varies(noise)) {
             *o = varies.then(|| sum.value());
         }
         Expectations(out)
@@ -160,6 +139,31 @@ impl Expectations {
         let sums = m.sums();
         std::array::from_fn(|j| self.0[j].map_or(f64::NAN, |e| sums[j] - e))
     }
+}
+
+/// Which of the sums vary under `noise` (and so are control variates): x̃₁ varies with force
+/// noise, w with speed noise, x̃₃ with grade noise, ỹ with output or grade noise or speed
+/// noise through a differentiated acceleration; a product when either factor does.
+pub fn varies(noise: &NoiseLevels) -> [bool; CONTROL_COUNT] {
+    let force = noise.is_on(Channel::Force);
+    let speed = noise.is_on(Channel::Velocity);
+    let grade = noise.is_on(Channel::Grade);
+    let output = noise.is_on(Channel::Output) || grade || noise.speed_noise_differentiated();
+    [
+        force,
+        force || grade,
+        grade,
+        force || output,
+        grade || output,
+        force || speed,
+        grade || speed,
+        speed,
+        speed || output,
+        speed,
+        force,
+        grade,
+        output,
+    ]
 }
 
 /// E[w σ(e_{s+1} − e_{s−1})/Δt] for w = (V + σe_s)², e the stationary AR(1) noise with

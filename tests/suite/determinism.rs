@@ -175,7 +175,7 @@ fn refactors_keep_the_realisations_bit_for_bit() {
         ]
     );
     // The control variates, pinned on the engine that introduced them.
-    assert_eq!(controls, [0xce8a_4b18_0fcb_6dc3, 0x0ef2_66e5_6de8_855e]);
+    assert_eq!(controls, [0x4699_57bc_7d64_813f, 0x0ef2_66e5_6de8_855e]);
 }
 
 #[test]

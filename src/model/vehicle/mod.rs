@@ -24,7 +24,7 @@ use super::{
 };
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, NoiseLevels, PerChannel};
-use crate::estimate::controls::{CONTROLS, Expectations};
+use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
@@ -72,6 +72,8 @@ pub struct VehicleModel {
     cycles: Vec<ScaleCycle>,
     /// Whether an estimator of the study reads the measured rows.
     needs_rows: bool,
+    /// The sums whose control variates the layout carries (indices into [`CONTROLS`]).
+    controls: Vec<usize>,
     /// `noise.share_across_scales`: conditions differing only in scale and duration read
     /// the same draws, as prefixes of one normal sequence per channel.
     shared: bool,
@@ -97,6 +99,7 @@ impl VehicleModel {
             uneven_differentiation(study, &vs, &segments, e.name())?;
         }
         let points = grid(&vs);
+        let controls = study_controls(&vs);
         // Scale and duration are the outermost axes: the conditions of one draw group are
         // `inner` apart.
         let inner = points.len() / (vs.scales.len() * durations);
@@ -148,7 +151,7 @@ impl VehicleModel {
                         metrics: segment.metrics.clone(),
                         truth: truth.to_vec(),
                         applies,
-                        controls: expected.applies().to_vec(),
+                        controls: controls.iter().map(|&j| expected.applies()[j]).collect(),
                     },
                     scale_index: point.scale_index,
                     used: segment.used[source].clone(),
@@ -174,6 +177,7 @@ impl VehicleModel {
             conditions,
             cycles,
             needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
+            controls,
             shared: vs.share_across_scales,
             truth,
             study: vs,
@@ -402,6 +406,15 @@ fn uneven_differentiation(
     Ok(())
 }
 
+/// The sums (indices into [`CONTROLS`]) that are control variates in some condition of
+/// `study`: the columns its realisation table carries.
+fn study_controls(study: &VehicleStudy) -> Vec<usize> {
+    let points = grid(study);
+    (0..CONTROLS.len())
+        .filter(|&j| points.iter().any(|p| varies(&p.noise)[j]))
+        .collect()
+}
+
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(study: &VehicleStudy) -> Layout {
     let terrain = match &study.terrain {
@@ -451,7 +464,10 @@ pub fn layout(study: &VehicleStudy) -> Layout {
                 description: b.description,
             })
             .collect(),
-        controls: CONTROLS.iter().map(ExtraInfo::from).collect(),
+        controls: study_controls(study)
+            .into_iter()
+            .map(|j| ExtraInfo::from(&CONTROLS[j]))
+            .collect(),
     }
 }
 
@@ -676,8 +692,9 @@ impl VehicleModel {
                 slots[layout.extra_at(ei, x)] = (extra.value)(&inputs);
             }
         }
-        for (j, v) in cond.expected.centre(moments).into_iter().enumerate() {
-            slots[layout.control_at(j)] = v;
+        let centred = cond.expected.centre(moments);
+        for (k, &j) in self.controls.iter().enumerate() {
+            slots[layout.control_at(k)] = centred[j];
         }
     }
 }
