@@ -43,9 +43,11 @@ pub struct Cli {
 enum Command {
     /// Run a study and write realisations.parquet, summary.parquet and cycles.parquet.
     #[command(long_about = "Run a study and write, into --out DIR:\n\
-        \n  realisations.parquet  one row per realisation × estimator (θ̂, M̂, Ĉd, bounds, status)\
+        \n  realisations.parquet  one row per realisation × estimator (θ̂, M̂, Ĉd, bounds, control \
+        variates cv_*, status)\
         \n  summary.parquet       one row per condition × estimator × parameter (bias, EmpSE, \
-        RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors)\
+        RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors; and \
+        the bias by control variates, bias_cv, often with a thousandth of the plain MCSE)\
         \n  cycles.parquet        the noise-free drive cycle of each condition\n\n\
         and DIR/figures/*.svg. Files appear only when the run completes, and replace the \
         previous run's files as one set (a run killed at any instant leaves the old set, the \
