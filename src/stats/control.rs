@@ -110,93 +110,131 @@ pub struct ControlFit {
     pub used: usize,
 }
 
-/// The regression estimate of the mean of d = θ̂ − θ over `n` realisations, from Σd, the
-/// centred Σ(d − d̄)², the centred cross-products Σ(d − d̄)(c_j − c̄_j) (`cross`), and the
-/// condition's control sums. `None` when it is undefined: no controls, or n ≤ q + 2.
-pub(super) fn fit(
-    controls: &ControlAcc,
+/// The LDLᵀ factorisation of a condition's Gram matrix of centred controls, leaving out
+/// controls that are combinations of those before them: computed once per condition, used
+/// for every estimator and parameter.
+#[derive(Debug, Clone)]
+pub(super) struct Factor {
+    q: usize,
+    /// Realisations the Gram matrix is over.
     n: u64,
-    sum_d: &ExactSum,
-    sum_centred_sq: &ExactSum,
-    cross: &[ExactSum],
-) -> Option<ControlFit> {
-    let q = controls.len();
-    if q == 0 || n != controls.n {
-        return None;
-    }
-    let nf = Dd::from(n as f64);
-    // LDLᵀ of the Gram matrix, leaving out dependent controls.
-    let g = |a: usize, b: usize| {
-        let (a, b) = (a.min(b), a.max(b));
-        // packed index of (a, b), a ≤ b
-        controls.gram[a * q - a * (a + 1) / 2 + b].value_dd()
-    };
-    let mut l = vec![Dd::default(); q * q];
-    let mut d = vec![Dd::default(); q];
-    let mut kept = vec![false; q];
-    for k in 0..q {
-        let gkk = g(k, k);
-        let mut dk = gkk;
-        for j in (0..k).filter(|&j| kept[j]) {
-            dk = dk - l[k * q + j] * l[k * q + j] * d[j];
+    /// Unit lower triangle, row-major q × q.
+    l: Vec<Dd>,
+    /// The diagonal D.
+    d: Vec<Dd>,
+    /// Which controls are in the regression.
+    kept: Vec<bool>,
+    /// √G_kk, for the resolution floor.
+    root_g: Vec<f64>,
+    /// Σ c_k.
+    sums: Vec<Dd>,
+}
+
+impl ControlAcc {
+    /// The factorisation of the Gram matrix (after pass two); `None` without controls.
+    pub(super) fn factor(&self) -> Option<Factor> {
+        let q = self.len();
+        if q == 0 {
+            return None;
         }
-        if !gkk.is_positive() || !(dk - gkk * Dd::from(DEPENDENT)).is_positive() {
-            continue;
-        }
-        kept[k] = true;
-        d[k] = dk;
-        for i in k + 1..q {
-            let mut s = g(i, k);
+        let g = |a: usize, b: usize| {
+            let (a, b) = (a.min(b), a.max(b));
+            // packed index of (a, b), a ≤ b
+            self.gram[a * q - a * (a + 1) / 2 + b].value_dd()
+        };
+        let mut l = vec![Dd::default(); q * q];
+        let mut d = vec![Dd::default(); q];
+        let mut kept = vec![false; q];
+        for k in 0..q {
+            let gkk = g(k, k);
+            let mut dk = gkk;
             for j in (0..k).filter(|&j| kept[j]) {
-                s = s - l[i * q + j] * l[k * q + j] * d[j];
+                dk = dk - l[k * q + j] * l[k * q + j] * d[j];
             }
-            l[i * q + k] = s / dk;
+            if !gkk.is_positive() || !(dk - gkk * Dd::from(DEPENDENT)).is_positive() {
+                continue;
+            }
+            kept[k] = true;
+            d[k] = dk;
+            for i in k + 1..q {
+                let mut s = g(i, k);
+                for j in (0..k).filter(|&j| kept[j]) {
+                    s = s - l[i * q + j] * l[k * q + j] * d[j];
+                }
+                l[i * q + k] = s / dk;
+            }
         }
+        Some(Factor {
+            q,
+            n: self.n,
+            root_g: (0..q).map(|k| g(k, k).to_f64().sqrt()).collect(),
+            sums: self.sums.iter().map(ExactSum::value_dd).collect(),
+            l,
+            d,
+            kept,
+        })
     }
-    let used = kept.iter().filter(|&&k| k).count();
-    if used == 0 || n < used as u64 + 3 {
-        return None;
-    }
-    // z = L⁻¹ s_cd; the explained sum of squares is Σ z_k² / D_k; β = L⁻ᵀ D⁻¹ z.
-    let mut z: Vec<Dd> = cross.iter().map(ExactSum::value_dd).collect();
-    for i in 0..q {
-        for j in (0..i).filter(|&j| kept[j]) {
-            z[i] = z[i] - l[i * q + j] * z[j];
+}
+
+impl Factor {
+    /// The regression estimate of the mean of d = θ̂ − θ over `n` realisations, from Σd,
+    /// the centred Σ(d − d̄)² and the centred cross-products Σ(d − d̄)(c_j − c̄_j)
+    /// (`cross`). `None` when it is undefined: n is not every realisation of the condition
+    /// (the estimator failed in some, and the Gram matrix is over all), or n ≤ q + 2.
+    pub(super) fn fit(
+        &self,
+        n: u64,
+        sum_d: &ExactSum,
+        sum_centred_sq: &ExactSum,
+        cross: &[ExactSum],
+    ) -> Option<ControlFit> {
+        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
+        let used = kept.iter().filter(|&&k| k).count();
+        if n != self.n || used == 0 || n < used as u64 + 3 {
+            return None;
         }
-    }
-    let mut explained = Dd::default();
-    let mut beta = vec![Dd::default(); q];
-    for k in (0..q).filter(|&k| kept[k]) {
-        explained = explained + z[k] * z[k] / d[k];
-        beta[k] = z[k] / d[k];
-    }
-    for k in (0..q).rev().filter(|&k| kept[k]) {
-        for i in (k + 1..q).filter(|&i| kept[i]) {
-            beta[k] = beta[k] - l[i * q + k] * beta[i];
+        let nf = Dd::from(n as f64);
+        // z = L⁻¹ s_cd; the explained sum of squares is Σ z_k² / D_k; β = L⁻ᵀ D⁻¹ z.
+        let mut z: Vec<Dd> = cross.iter().map(ExactSum::value_dd).collect();
+        for i in 0..q {
+            for j in (0..i).filter(|&j| kept[j]) {
+                z[i] = z[i] - l[i * q + j] * z[j];
+            }
         }
+        let mut explained = Dd::default();
+        let mut beta = vec![Dd::default(); q];
+        for k in (0..q).filter(|&k| kept[k]) {
+            explained = explained + z[k] * z[k] / d[k];
+            beta[k] = z[k] / d[k];
+        }
+        for k in (0..q).rev().filter(|&k| kept[k]) {
+            for i in (k + 1..q).filter(|&i| kept[i]) {
+                beta[k] = beta[k] - l[i * q + k] * beta[i];
+            }
+        }
+        let s_dd = sum_centred_sq.value_dd();
+        let spread: f64 = (0..q)
+            .filter(|&k| kept[k])
+            .map(|k| beta[k].to_f64().abs() * self.root_g[k])
+            .sum();
+        let floor = RESOLUTION * (s_dd.to_f64().sqrt() + spread).powi(2);
+        let rss = (s_dd - explained).to_f64().max(floor);
+        let mut adjustment = Dd::default();
+        for (k, b) in beta.iter().enumerate().filter(|(k, _)| kept[*k]) {
+            adjustment = adjustment + *b * self.sums[k] / nf;
+        }
+        let bias = (sum_d.value_dd() / nf - adjustment).to_f64();
+        let (n, qf) = (n as f64, used as f64);
+        let residual_variance = rss / (n - qf - 1.0);
+        let mcse = (residual_variance / n * (n - 2.0) / (n - qf - 2.0)).sqrt();
+        let variance_ratio = s_dd.to_f64() / (n - 1.0) / residual_variance;
+        Some(ControlFit {
+            bias,
+            mcse,
+            variance_ratio,
+            used,
+        })
     }
-    let s_dd = sum_centred_sq.value_dd();
-    let spread: f64 = (0..q)
-        .filter(|&k| kept[k])
-        .map(|k| beta[k].to_f64().abs() * g(k, k).to_f64().sqrt())
-        .sum();
-    let floor = RESOLUTION * (s_dd.to_f64().sqrt() + spread).powi(2);
-    let rss = (s_dd - explained).to_f64().max(floor);
-    let mut adjustment = Dd::default();
-    for (k, b) in beta.iter().enumerate().filter(|(k, _)| kept[*k]) {
-        adjustment = adjustment + *b * controls.sums[k].value_dd() / nf;
-    }
-    let bias = (sum_d.value_dd() / nf - adjustment).to_f64();
-    let (n, qf) = (n as f64, used as f64);
-    let residual_variance = rss / (n - qf - 1.0);
-    let mcse = (residual_variance / n * (n - 2.0) / (n - qf - 2.0)).sqrt();
-    let variance_ratio = s_dd.to_f64() / (n - 1.0) / residual_variance;
-    Some(ControlFit {
-        bias,
-        mcse,
-        variance_ratio,
-        used,
-    })
 }
 
 #[cfg(test)]
@@ -224,7 +262,7 @@ mod tests {
                 x.add(e * cc);
             }
         }
-        fit(&acc, d.len() as u64, &sum_d, &sq, &cross)
+        acc.factor()?.fit(d.len() as u64, &sum_d, &sq, &cross)
     }
 
     #[test]

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 
 use thiserror::Error;
 
-use super::control::{self, ControlAcc, ControlFit};
+use super::control::{ControlAcc, ControlFit};
 use super::measures::{
     self, BoundSums, Estimate, EstimateSums, coverage, emp_over_model, model_se,
     model_se_relative_error, relative_precision, variance_ratio_p,
@@ -428,6 +428,7 @@ impl<'a> Summarizer<'a> {
         self.flush_cross();
         let mut out = Vec::new();
         let reference = self.layout.reference_estimator();
+        let factors: Vec<_> = self.controls.iter().map(ControlAcc::factor).collect();
         for (c, per_c) in self.acc.iter().enumerate() {
             let info = &self.infos[c];
             for (e, per_e) in per_c.iter().enumerate() {
@@ -444,17 +445,14 @@ impl<'a> Summarizer<'a> {
                                 .then(|| bound_summary(&sums, bacc, acc.n))
                         })
                         .collect();
-                    let cv = (self.failed[c][e] == 0)
-                        .then(|| {
-                            control::fit(
-                                &self.controls[c],
-                                acc.n,
-                                &acc.sum_d,
-                                &acc.sum_centred_sq,
-                                &acc.sum_cross_controls,
-                            )
-                        })
-                        .flatten();
+                    let cv = factors[c].as_ref().and_then(|f| {
+                        f.fit(
+                            acc.n,
+                            &acc.sum_d,
+                            &acc.sum_centred_sq,
+                            &acc.sum_cross_controls,
+                        )
+                    });
                     let (mean_cv, bias_cv, cv_variance_ratio, n_controls) = match cv {
                         Some(ControlFit {
                             bias,
