@@ -11,7 +11,8 @@ use chassis_mc::figures::{self, FigureError};
 use chassis_mc::fit::{FitError, FitSpec, simulate_log};
 use chassis_mc::output::OutputError;
 use chassis_mc::run::{RunError, RunOptions, Shard, run_study, summarize};
-use chassis_mc::stats::plan::{self, Target, replications_for};
+use chassis_mc::stats::plan::{self, Plan, Target, replications_for};
+use chassis_mc::study::MAX_REALISATIONS;
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
 
@@ -140,8 +141,9 @@ enum Command {
         writes, into --out DIR, design.parquet (every value evaluated: predicted and \
         simulated measure with its MCSE, is_answer; the answer also in the footer key \
         chassis_mc.design.answer), figures/design.svg and report.html.\n\n\
-        Example: chassis-mc design studies/thesis.toml --vary drive.duration --from 60 --to \
-        600 --target drag_over_mass:rel_rmse<=0.001 --estimator bcls --out results/design"
+        Example: chassis-mc design studies/design_thesis.toml --vary drive.duration --from 60 \
+        --to 600 --target 'drag_over_mass:rel_rmse<=0.001' --estimator bcls --out \
+        results/design"
     )]
     Design {
         /// The study file (TOML).
@@ -217,7 +219,8 @@ enum Command {
         Per parameter: se_<p>.svg (empirical SE ± MCSE and every bound against the terrain \
         metric ς, the thesis's Figures 4-6 and more), bias_<p>.svg, ratio_<p>.svg (EmpSE / \
         bound with its MCSE around 1) and coverage_<p>.svg (against the nominal 95 %); and \
-        cycles.svg (speed and grade against time)."
+        cycles.svg (speed and grade against time).\n\n\
+        Example: chassis-mc figures results/thesis"
     )]
     Figures {
         /// An output directory of `run` or `summarize`.
@@ -352,19 +355,60 @@ fn plan_replications(
             target.measure,
             target.mcse
         );
+        let pace = |r: f64| {
+            human_duration(std::time::Duration::from_secs_f64(
+                (seconds * r / pilot_r as f64).min(1e18),
+            ))
+        };
+        let at = |row: &chassis_mc::stats::summary::SummaryRow| {
+            format!(
+                "condition {}, {}, {}",
+                row.condition, report.layout.estimators[row.estimator], parameters[row.parameter]
+            )
+        };
         match replications_for(&report.summary, &parameters, pilot_r, target) {
-            Some((needed, row)) => {
+            Plan::Reach { realisations, row } => {
                 let current = plan::measure(row, &target.measure).map_or(f64::NAN, |m| m.mcse);
                 println!(
-                    "replications for {what}: R = {needed} per condition (now {pilot_r}, MCSE \
-                     {current:.3e} at condition {}, {}, {}); about {:.0} s at this run's pace",
-                    row.condition,
-                    report.layout.estimators[row.estimator],
-                    parameters[row.parameter],
-                    seconds * needed as f64 / pilot_r as f64
+                    "replications for {what}: R = {realisations} per condition (now {pilot_r}, \
+                     MCSE {current:.3e} at {}); about {} at this run's pace",
+                    at(row),
+                    pace(realisations as f64)
                 );
             }
-            None => println!("replications for {what}: no finite MCSE in this run to plan from"),
+            Plan::OutOfReach {
+                needed,
+                row,
+                best_mcse,
+            } => {
+                let current = plan::measure(row, &target.measure).map_or(f64::NAN, |m| m.mcse);
+                println!(
+                    "replications for {what}: out of reach: it would take R ≈ {needed:.2e} per \
+                     condition (now {pilot_r}, MCSE {current:.3e} at {}), more than the \
+                     {MAX_REALISATIONS} a study accepts, and about {} at this run's pace; the \
+                     smallest MCSE reachable there is {best_mcse:.3e}",
+                    at(row),
+                    pace(needed)
+                );
+            }
+            Plan::Exact if target.measure == "rel_precision" => println!(
+                "replications for {what}: nothing to plan: rel_precision compares each \
+                 estimator's spread with the first estimator's ({}), whose own is 0 by \
+                 definition, without Monte Carlo error{}",
+                report.layout.estimators[0],
+                match report.layout.estimators.len() {
+                    1 => "; this study has no other estimator",
+                    _ => "",
+                }
+            ),
+            Plan::Exact => println!(
+                "replications for {what}: nothing to plan: {} has no Monte Carlo error here \
+                 (its MCSE is 0 in every row)",
+                target.measure
+            ),
+            Plan::Undefined => {
+                println!("replications for {what}: no finite MCSE in this run to plan from")
+            }
         }
     }
     Ok(())

@@ -36,6 +36,8 @@ pub fn human_rate(per_second: f64) -> String {
 
 /// A duration rounded for people: `42 s`, `3 min 20 s`, `2 h 05 min`, `3.2 days`.
 pub fn human_duration(d: Duration) -> String {
+    /// A Julian year.
+    const SECONDS_PER_YEAR: f64 = 365.25 * 86_400.0;
     let s = d.as_secs_f64();
     if !s.is_finite() {
         return "unknown".into();
@@ -45,7 +47,11 @@ pub fn human_duration(d: Duration) -> String {
         0..60 => format!("{whole} s"),
         60..3600 => format!("{} min {:02} s", whole / 60, whole % 60),
         3600..172_800 => format!("{} h {:02} min", whole / 3600, (whole % 3600) / 60),
-        _ => format!("{:.1} days", s / 86_400.0),
+        172_800..63_115_200 => format!("{:.1} days", s / 86_400.0),
+        _ => match s / SECONDS_PER_YEAR {
+            years if years < 1e4 => format!("{years:.0} years"),
+            years => format!("{years:.1e} years"),
+        },
     }
 }
 

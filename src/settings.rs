@@ -97,12 +97,17 @@ impl<'a> Params<'a> {
         Ok(self.dir.join(s))
     }
 
-    /// A non-empty list of numbers > 0.
+    /// A non-empty list of numbers > 0 (one number stands for the list of that number).
     pub fn positive_list(&self, key: &str) -> Result<Vec<f64>, KeyError> {
         let items = match self.table.get(key) {
             None => return Err(self.error(key, "required key is missing")),
-            Some(toml::Value::Array(items)) if !items.is_empty() => items,
-            Some(_) => return Err(self.error(key, "must be a non-empty list of numbers")),
+            Some(toml::Value::Array(items)) if !items.is_empty() => items.as_slice(),
+            Some(one @ (toml::Value::Float(_) | toml::Value::Integer(_))) => {
+                std::slice::from_ref(one)
+            }
+            Some(_) => {
+                return Err(self.error(key, "must be a number or a non-empty list of numbers"));
+            }
         };
         items
             .iter()

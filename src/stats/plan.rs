@@ -4,6 +4,7 @@
 
 use super::measures::Estimate;
 use super::summary::SummaryRow;
+use crate::study::MAX_REALISATIONS;
 
 /// A measure of the summary whose MCSE can be planned.
 pub const MEASURES: [&str; 9] = [
@@ -75,16 +76,43 @@ pub fn measure(row: &SummaryRow, measure: &str) -> Option<Estimate> {
     })
 }
 
+/// What a pilot run says about reaching a target MCSE.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Plan<'a> {
+    /// `realisations` per condition reach the target; `row` is the one that needs the most.
+    Reach {
+        /// Realisations per condition.
+        realisations: u64,
+        /// The row that needs them.
+        row: &'a SummaryRow,
+    },
+    /// More realisations than a study accepts ([`MAX_REALISATIONS`]) would be needed.
+    OutOfReach {
+        /// The realisations per condition the target would need.
+        needed: f64,
+        /// The row that needs them.
+        row: &'a SummaryRow,
+        /// The smallest MCSE of that row reachable with [`MAX_REALISATIONS`].
+        best_mcse: f64,
+    },
+    /// Every row the target covers has an MCSE of exactly 0 (e.g. `rel_precision` of the
+    /// reference estimator against itself): the measure has no Monte Carlo error to plan.
+    Exact,
+    /// No row the target covers has a finite MCSE.
+    Undefined,
+}
+
 /// The realisations `target` needs: the largest over the rows it covers (of parameters
-/// named in `parameters`), and the row that needs them. `None` when it covers no row with a
-/// finite MCSE.
+/// named in `parameters`), and the row that needs them. Rows whose MCSE is exactly 0 carry
+/// no Monte Carlo error and need none.
 pub fn replications_for<'a>(
     rows: &'a [SummaryRow],
     parameters: &[&str],
     pilot_r: u64,
     target: &Target,
-) -> Option<(u64, &'a SummaryRow)> {
-    rows.iter()
+) -> Plan<'a> {
+    let covered: Vec<(f64, &SummaryRow)> = rows
+        .iter()
         .filter(|r| {
             target
                 .parameter
@@ -93,17 +121,36 @@ pub fn replications_for<'a>(
         })
         .filter_map(|r| {
             let m = measure(r, &target.measure)?;
-            m.mcse.is_finite().then(|| {
-                let needed = pilot_r as f64 * (m.mcse / target.mcse).powi(2);
-                // A control-variate estimate is defined from q + 3 realisations on.
-                let least = match target.measure.ends_with("_cv") {
-                    true => r.n_controls + 3,
-                    false => 2,
-                };
-                ((needed.ceil() as u64).max(least), r)
-            })
+            m.mcse.is_finite().then_some((m.mcse, r))
         })
-        .max_by_key(|(n, _)| *n)
+        .collect();
+    if covered.is_empty() {
+        return Plan::Undefined;
+    }
+    let Some((mcse, row)) = covered
+        .into_iter()
+        .filter(|(m, _)| *m > 0.0)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+    else {
+        return Plan::Exact;
+    };
+    let needed = pilot_r as f64 * (mcse / target.mcse).powi(2);
+    if needed > MAX_REALISATIONS as f64 {
+        return Plan::OutOfReach {
+            needed,
+            row,
+            best_mcse: mcse * (pilot_r as f64 / MAX_REALISATIONS as f64).sqrt(),
+        };
+    }
+    // A control-variate estimate is defined from q + 3 realisations on.
+    let least = match target.measure.ends_with("_cv") {
+        true => row.n_controls + 3,
+        false => 2,
+    };
+    Plan::Reach {
+        realisations: (needed.ceil() as u64).max(least),
+        row,
+    }
 }
 
 #[cfg(test)]

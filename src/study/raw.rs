@@ -7,8 +7,9 @@
 
 use std::collections::BTreeMap;
 
+use serde::de::{self, IntoDeserializer, SeqAccess, Visitor};
 use serde::ser::SerializeMap;
-use serde::{Deserialize, Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::estimate::channels::Channel;
 
@@ -86,7 +87,11 @@ pub struct RawTerrain {
     pub params: toml::Table,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length: Option<u64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "some_one_or_many",
+        skip_serializing_if = "Option::is_none"
+    )]
     pub scales: Option<Vec<f64>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_applies_to: Option<String>,
@@ -125,7 +130,9 @@ pub struct RawLineFit {
     pub t_step: f64,
     pub t_end: f64,
     pub assumed_sd: f64,
+    #[serde(deserialize_with = "one_or_many")]
     pub noise: Vec<String>,
+    #[serde(deserialize_with = "one_or_many")]
     pub noise_sd: Vec<f64>,
 }
 
@@ -133,10 +140,74 @@ pub struct RawLineFit {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawEstimation {
+    #[serde(deserialize_with = "one_or_many")]
     pub estimators: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forgetting: Option<f64>,
     /// A name or a list of names (an axis).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceleration: Option<toml::Value>,
+}
+
+/// A list, or one value standing for the list of that value (`scales = 1.0` is
+/// `scales = [1.0]`); the study as run always lists it.
+pub(super) fn one_or_many<'de, D, T>(d: D) -> Result<Vec<T>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    struct OneOrMany<T>(std::marker::PhantomData<T>);
+
+    impl<'de, T: Deserialize<'de>> OneOrMany<T> {
+        fn one<E: de::Error>(value: impl IntoDeserializer<'de, E>) -> Result<Vec<T>, E> {
+            T::deserialize(value.into_deserializer()).map(|t| vec![t])
+        }
+    }
+
+    impl<'de, T: Deserialize<'de>> Visitor<'de> for OneOrMany<T> {
+        type Value = Vec<T>;
+
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a list, or one value")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<T>, A::Error> {
+            let mut items = Vec::new();
+            while let Some(item) = seq.next_element()? {
+                items.push(item);
+            }
+            Ok(items)
+        }
+
+        fn visit_f64<E: de::Error>(self, v: f64) -> Result<Vec<T>, E> {
+            Self::one(v)
+        }
+
+        fn visit_i64<E: de::Error>(self, v: i64) -> Result<Vec<T>, E> {
+            Self::one(v)
+        }
+
+        fn visit_u64<E: de::Error>(self, v: u64) -> Result<Vec<T>, E> {
+            Self::one(v)
+        }
+
+        fn visit_bool<E: de::Error>(self, v: bool) -> Result<Vec<T>, E> {
+            Self::one(v)
+        }
+
+        fn visit_str<E: de::Error>(self, v: &str) -> Result<Vec<T>, E> {
+            Self::one(v.to_string())
+        }
+    }
+
+    d.deserialize_any(OneOrMany(std::marker::PhantomData))
+}
+
+/// [`one_or_many`] for an optional key.
+fn some_one_or_many<'de, D, T>(d: D) -> Result<Option<Vec<T>>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    one_or_many(d).map(Some)
 }

@@ -19,11 +19,14 @@ pub(super) fn serde_error(
     let span = err.span();
     let located = span.as_ref().and_then(|s| spans.key_at(s));
     let line = span.as_ref().map(|s| spans.line_of(s.start));
-    // "missing field `x`" points at the enclosing table: name the missing key itself.
+    // "missing field `x`" points at the enclosing table: name the missing key itself. A key
+    // missing at the top level comes with an empty span at the start of the document, which
+    // is inside no table (it would otherwise seem to lie in the first key).
     if let Some(field) = message
         .strip_prefix("missing field `")
         .and_then(|rest| rest.strip_suffix('`'))
     {
+        let located = located.filter(|_| span.as_ref().is_some_and(|s| !s.is_empty()));
         let key = match &located {
             Some((table, _)) if !table.is_empty() => format!("{table}.{field}"),
             _ => field.to_string(),
@@ -36,12 +39,26 @@ pub(super) fn serde_error(
         };
     }
     match located {
-        Some((key, key_line)) => StudyError {
-            file: origin.to_string(),
-            key: Some(key),
-            line: Some(key_line),
-            reason: message,
-        },
+        Some((key, key_line)) => {
+            // A key of another table (`min_speed` under [vehicle]): say where it belongs.
+            let (table, field) = key.rsplit_once('.').unwrap_or(("", &key));
+            let reason = match vehicle::elsewhere(table, field, None) {
+                Some(place) if message.starts_with("unknown field") => {
+                    let table = match table {
+                        "" => "at the top level".to_string(),
+                        t => format!("in [{t}]"),
+                    };
+                    format!("unknown field `{field}` {table}: {place}")
+                }
+                _ => message,
+            };
+            StudyError {
+                file: origin.to_string(),
+                key: Some(key),
+                line: Some(key_line),
+                reason,
+            }
+        }
         None => StudyError {
             file: origin.to_string(),
             key: line.and_then(|l| key_on_line(text, l)),
@@ -157,10 +174,14 @@ impl Checker<'_> {
         }
     }
 
-    /// A TOML list of numbers (integers read as floats).
+    /// A TOML list of numbers (integers read as floats); one number stands for the list of
+    /// that number.
     pub(super) fn numbers(&self, key: &str, value: &toml::Value) -> Result<Vec<f64>, StudyError> {
-        let reason = || format!("must be a list of numbers, got {value}");
-        let items = value.as_array().ok_or_else(|| self.fail(key, reason()))?;
+        let reason = || format!("must be a number or a list of numbers, got {value}");
+        let items = match value {
+            toml::Value::Array(items) => items.as_slice(),
+            one => std::slice::from_ref(one),
+        };
         items
             .iter()
             .map(|v| match v {
@@ -235,11 +256,14 @@ pub(super) fn validate(
         }
     };
     // The study as run lists every channel's levels, defaults included, every list of
-    // numbers as floats (`[1]` and `[1.0]` are the same study), and `share_across_scales`
+    // numbers as floats (`1`, `[1]` and `[1.0]` are the same study), and `share_across_scales`
     // only when it is on (absent and false are the same study).
     let mut raw = raw;
     if let Some(n) = raw.noise.as_mut() {
         for value in n.0.values_mut() {
+            if matches!(value, toml::Value::Float(_) | toml::Value::Integer(_)) {
+                *value = toml::Value::Array(vec![value.clone()]);
+            }
             if let toml::Value::Array(items) = value {
                 for item in items.iter_mut() {
                     if let toml::Value::Integer(i) = *item {
@@ -256,6 +280,22 @@ pub(super) fn validate(
                 });
             }
         }
+    }
+    // Likewise the durations axis.
+    if let Some(durations) = raw
+        .drive
+        .as_mut()
+        .and_then(|d| d.params.get_mut("durations"))
+    {
+        let items = match &*durations {
+            toml::Value::Array(items) => items.clone(),
+            one => vec![one.clone()],
+        };
+        let float = |v: toml::Value| match v {
+            toml::Value::Integer(i) => toml::Value::Float(i as f64),
+            other => other,
+        };
+        *durations = toml::Value::Array(items.into_iter().map(float).collect());
     }
     Ok(Study {
         name: raw.name.clone(),

@@ -37,6 +37,8 @@ pub fn rises_of(y: impl Fn(f64) -> f64, length: usize) -> Vec<f64> {
 pub struct ProfileEntry {
     /// The value of `terrain.profile`.
     pub name: &'static str,
+    /// The profile's own keys of `[terrain]` (besides the keys every profile has).
+    pub keys: &'static [&'static str],
     /// Read the profile's own keys of `[terrain]` (all of them: an unknown key is an error).
     pub parse: fn(&Params<'_>) -> Result<Arc<dyn Profile>, KeyError>,
 }
@@ -45,14 +47,17 @@ pub struct ProfileEntry {
 pub static PROFILES: [ProfileEntry; 3] = [
     ProfileEntry {
         name: "cos2",
+        keys: Cos2::KEYS,
         parse: Cos2::parse,
     },
     ProfileEntry {
         name: "sines",
+        keys: Sines::KEYS,
         parse: Sines::parse,
     },
     ProfileEntry {
         name: "file",
+        keys: FileProfile::KEYS,
         parse: FileProfile::parse,
     },
 ];
@@ -67,8 +72,10 @@ pub struct Cos2 {
 }
 
 impl Cos2 {
+    const KEYS: &'static [&'static str] = &["height", "period"];
+
     fn parse(p: &Params<'_>) -> Result<Arc<dyn Profile>, KeyError> {
-        p.only(&["height", "period"])?;
+        p.only(Self::KEYS)?;
         Ok(Arc::new(Cos2 {
             height_m: p.non_negative("height")?,
             period_m: p.positive("period")?,
@@ -113,8 +120,10 @@ pub struct Cos2Component {
 }
 
 impl Sines {
+    const KEYS: &'static [&'static str] = &["components"];
+
     fn parse(p: &Params<'_>) -> Result<Arc<dyn Profile>, KeyError> {
-        p.only(&["components"])?;
+        p.only(Self::KEYS)?;
         let components = p.tables("components", |c| {
             c.only(&["height", "period", "phase"])?;
             Ok(Cos2Component {
@@ -172,14 +181,16 @@ pub enum FileValues {
 }
 
 impl FileProfile {
+    const KEYS: &'static [&'static str] = &[
+        "file",
+        "distance_column",
+        "elevation_column",
+        "grade_column",
+        "grade_unit",
+    ];
+
     fn parse(p: &Params<'_>) -> Result<Arc<dyn Profile>, KeyError> {
-        p.only(&[
-            "file",
-            "distance_column",
-            "elevation_column",
-            "grade_column",
-            "grade_unit",
-        ])?;
+        p.only(Self::KEYS)?;
         let file = p.file("file")?;
         let distance = p.string("distance_column")?;
         let (column, unit) = match (p.has("elevation_column"), p.has("grade_column")) {

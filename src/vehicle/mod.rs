@@ -119,6 +119,8 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
 pub struct DriveMode {
     /// The value of `drive.mode`.
     pub name: &'static str,
+    /// The mode's own keys of `[drive]` (besides `mode` and the keys every mode has).
+    pub keys: &'static [&'static str],
     /// Read the mode's own keys of `[drive]` (all of them but `mode`: an unknown key is an
     /// error).
     pub parse: fn(&Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError>,
@@ -128,14 +130,17 @@ pub struct DriveMode {
 pub static DRIVE_MODES: [DriveMode; 3] = [
     DriveMode {
         name: "torque",
+        keys: TorqueDrive::KEYS,
         parse: TorqueDrive::parse,
     },
     DriveMode {
         name: "speed_trace",
+        keys: SpeedTrace::KEYS,
         parse: SpeedTrace::parse,
     },
     DriveMode {
         name: "replay",
+        keys: Replay::KEYS,
         parse: Replay::parse,
     },
 ];

@@ -24,10 +24,13 @@ pub struct Replay {
 }
 
 impl Replay {
+    /// The mode's keys of `[drive]`.
+    pub const KEYS: &'static [&'static str] = &["file"];
+
     /// Read `[drive]` of mode `replay`: `file`, whose columns are `t`, `v`, `f_prop`,
     /// `grade` and `accel` (SI units).
     pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
-        p.only(&["file"])?;
+        p.only(Self::KEYS)?;
         let file = p.file("file")?;
         let names = ["t", "v", "f_prop", "grade", "accel"];
         let cols = read_columns(&file, &names, 3).map_err(|e| p.error("file", e.to_string()))?;

@@ -58,17 +58,20 @@ pub struct SpeedTrace {
 }
 
 impl SpeedTrace {
+    /// The mode's keys of `[drive]`.
+    pub const KEYS: &'static [&'static str] = &[
+        "trace",
+        "time_column",
+        "speed_column",
+        "speed_unit",
+        "grade_column",
+        "grade_unit",
+    ];
+
     /// Read `[drive]` of mode `speed_trace`: `trace`, `time_column`, `speed_column`,
     /// `speed_unit`, and optionally `grade_column` with `grade_unit`; then the file.
     pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
-        p.only(&[
-            "trace",
-            "time_column",
-            "speed_column",
-            "speed_unit",
-            "grade_column",
-            "grade_unit",
-        ])?;
+        p.only(Self::KEYS)?;
         let file = p.file("trace")?;
         let time = p.string("time_column")?;
         let speed = p.string("speed_column")?;

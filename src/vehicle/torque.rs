@@ -47,17 +47,20 @@ impl TorqueDrive {
 }
 
 impl TorqueDrive {
+    /// The mode's keys of `[drive]`.
+    pub const KEYS: &'static [&'static str] = &[
+        "duration",
+        "time_step",
+        "initial_speed",
+        "torque_mean",
+        "torque_amplitude",
+        "torque_frequency",
+    ];
+
     /// Read `[drive]`: `duration` (a whole multiple of `time_step`), `time_step`,
     /// `initial_speed` and the torque keys.
     pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
-        p.only(&[
-            "duration",
-            "time_step",
-            "initial_speed",
-            "torque_mean",
-            "torque_amplitude",
-            "torque_frequency",
-        ])?;
+        p.only(Self::KEYS)?;
         let duration_s = p.positive("duration")?;
         let time_step_s = p.positive("time_step")?;
         let steps = (duration_s / time_step_s).round();

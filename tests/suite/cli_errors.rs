@@ -49,6 +49,59 @@ fn cases() -> Vec<Case> {
             line: Some(line_of(&t, "[vehicle]")),
             reason: "required key is missing",
         },
+        // A top-level key missing is named alone, not as a key of the first table.
+        Case {
+            name: "missing top-level name",
+            study: t
+                .lines()
+                .filter(|l| !l.starts_with("name ="))
+                .collect::<Vec<_>>()
+                .join("\n"),
+            key: "name",
+            line: None,
+            reason: "required key is missing",
+        },
+        Case {
+            name: "missing top-level seed",
+            study: t
+                .lines()
+                .filter(|l| !l.starts_with("seed ="))
+                .collect::<Vec<_>>()
+                .join("\n"),
+            key: "seed",
+            line: None,
+            reason: "required key is missing",
+        },
+        // An unknown key's list names every key the table has, not only the drive mode's.
+        Case {
+            name: "unknown key lists all keys of drive",
+            study: t.replace("[drive]", "[drive]\nbogus = 1"),
+            key: "drive.bogus",
+            line: Some(line_of(&t, "[drive]") + 1),
+            reason: "expected one of [\"mode\", \"min_speed\", \"exclude_braking\", \"durations\", \"duration\"",
+        },
+        // A key of another table says where it belongs.
+        Case {
+            name: "a drive key under terrain",
+            study: t.replace("[terrain]", "[terrain]\nexclude_braking = true"),
+            key: "terrain.exclude_braking",
+            line: Some(line_of(&t, "[terrain]") + 1),
+            reason: "unknown field `exclude_braking` in [terrain]: it belongs in [drive]",
+        },
+        Case {
+            name: "a drive key under vehicle",
+            study: t.replace("[vehicle]", "[vehicle]\nmin_speed = 1.0"),
+            key: "vehicle.min_speed",
+            line: Some(line_of(&t, "[vehicle]") + 1),
+            reason: "unknown field `min_speed` in [vehicle]: it belongs in [drive]",
+        },
+        Case {
+            name: "another profile's key",
+            study: t.replace("[terrain]", "[terrain]\nfile = \"x.csv\""),
+            key: "terrain.file",
+            line: Some(line_of(&t, "[terrain]") + 1),
+            reason: "it is a key of profile \"file\", and this [terrain] is profile \"cos2\"",
+        },
         Case {
             name: "wrong type",
             study: set("mass", "\"heavy\""),
@@ -446,4 +499,31 @@ fn progress_reaches_a_log_file_when_stderr_is_not_a_terminal() {
         stderr.contains("progress: 550/550 realisations (100.0 %)") && !stderr.contains('\r'),
         "{stderr}"
     );
+}
+
+#[test]
+fn one_number_stands_for_a_list_of_one_wherever_a_list_is_meant() {
+    // Axes (noise levels, scales, durations) and the estimator list: a bare value is the
+    // same study, identity included, as the list of that value.
+    let t = study_text("thesis.toml");
+    let lists = set_key(
+        &set_key(&set_key(&t, "scales", "[1.0]"), "velocity_sd", "[1.0]"),
+        "estimators",
+        "[\"ols\"]",
+    )
+    .replace("[drive]", "[drive]\ndurations = [60.0]");
+    let bare = set_key(
+        &set_key(&set_key(&t, "scales", "1"), "velocity_sd", "1.0"),
+        "estimators",
+        "\"ols\"",
+    )
+    .replace("[drive]", "[drive]\ndurations = 60");
+    let a = chassis_mc::study::Study::from_toml(&lists, "lists.toml").unwrap();
+    let b = chassis_mc::study::Study::from_toml(&bare, "bare.toml").unwrap();
+    assert_eq!(a.to_toml(), b.to_toml());
+    assert_eq!(a.identity(), b.identity());
+    // A value of the wrong type still names the key.
+    let wrong = set_key(&t, "velocity_sd", "\"fast\"");
+    let err = chassis_mc::study::Study::from_toml(&wrong, "wrong.toml").unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("noise.velocity_sd"), "{err}");
 }

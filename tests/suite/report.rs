@@ -161,3 +161,45 @@ fn plan_and_check(measure: &str) {
         "{measure}: MCSE / target = {ratio}"
     );
 }
+
+#[test]
+fn replications_for_says_when_a_target_is_out_of_reach_or_has_nothing_to_plan() {
+    // A pilot of R = 20 on one scale, OLS only. bias_cv's MCSE there is ~1e-8 (Cr, docs/
+    // model.md#control-variates): 1e-30 would need ~1e46 realisations, far past 2^40.
+    // rel_precision compares estimators with the first: with OLS alone it is 0 exactly.
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("pilot.toml");
+    std::fs::write(
+        &path,
+        set_key(&study_text("thesis.toml"), "scales", "[1.0]"),
+    )
+    .unwrap();
+    let out = tmp.path().join("out");
+    let args: Vec<&std::ffi::OsStr> = vec![
+        "run".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--realisations".as_ref(),
+        "20".as_ref(),
+        "--quiet".as_ref(),
+        "--no-figures".as_ref(),
+        "--replications-for".as_ref(),
+        "bias_cv=1e-30".as_ref(),
+        "--replications-for".as_ref(),
+        "rel_precision=0.1".as_ref(),
+    ];
+    let (code, stdout, stderr) = cli(&args, tmp.path());
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    let cv = lines.iter().find(|l| l.contains("bias_cv")).unwrap();
+    assert!(cv.contains("out of reach"), "{cv}");
+    assert!(
+        cv.contains("1099511627776"),
+        "names the largest R accepted: {cv}"
+    );
+    assert!(!cv.contains("R = "), "recommends no R: {cv}");
+    let rp = lines.iter().find(|l| l.contains("rel_precision")).unwrap();
+    assert!(rp.contains("nothing to plan"), "{rp}");
+    assert!(!rp.contains("R = "), "recommends no R: {rp}");
+}
