@@ -476,18 +476,9 @@ pub struct FitResult {
     pub files: Vec<PathBuf>,
 }
 
-/// The parametric bootstrap of one estimator's fit: the vehicle with θ = `theta` driven
-/// along the smoothed measured speed and the measured grade, the assumed noise re-drawn,
-/// re-estimated `spec.realisations` times. Returns each realisation's θ̂ (failed ones left
-/// out).
-fn bootstrap(
-    spec: &FitSpec,
-    estimator: EstimatorRef,
-    theta: &Vector3<f64>,
-    scratch: &Path,
-) -> Result<Vec<Vector3<f64>>, FitError> {
-    let c = &spec.cycle;
-    // The smoothed speed: a centred moving average over ±SMOOTHING_S.
+/// The measured speed smoothed by a centred moving average over ±[`SMOOTHING_S`], not
+/// below 0.
+fn smoothed_speed(c: &DriveCycle) -> Vec<f64> {
     let n = c.t_s.len();
     let (mut lo, mut hi) = (0, 0);
     let mut sum = 0.0;
@@ -503,15 +494,72 @@ fn bootstrap(
         }
         smooth.push((sum / (hi - lo) as f64).max(0.0));
     }
-    // The bootstrap world's truth: the smoothed speed, the logged force and grade, and the
-    // acceleration that makes every row fit θ exactly (so the excitation is the log's own).
-    // With a differentiated acceleration the output comes from the speed's differences, so
-    // the force is the one that makes those fit θ instead.
+    smooth
+}
+
+/// The speed of the vehicle with θ = `theta` driven by the log's force on the log's grade:
+/// over each stretch of samples that a used row reads (the rows and their neighbours), from
+/// the smoothed speed `smooth` at the stretch's first sample, by RK4 with the force and
+/// grade linear between samples; `smooth` elsewhere. The speed is as smooth as the force,
+/// so its central differences carry no measurement noise (docs/model.md#fit).
+fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<f64> {
+    let c = &spec.cycle;
     let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
-    let central = central_differences(&c.t_s, &smooth);
-    let mut csv = String::from("t,v,f_prop,grade,accel\n");
+    let n = c.t_s.len();
+    let used = &spec.used;
+    let read = |i: usize| used[i] || (i > 0 && used[i - 1]) || (i + 1 < n && used[i + 1]);
+    // The fitted vehicle's acceleration at speed v under force f on grade gr; drag opposes
+    // the motion (v|v|), so a stretch cannot run away below standstill.
+    let accel = |v: f64, f: f64, gr: f64| {
+        theta[0] * f - theta[1] * k * v * v.abs() - theta[2] * g * gr.cos() - g * gr.sin()
+    };
+    let mut v = smooth.to_vec();
+    for i in 0..n - 1 {
+        if !(read(i) && read(i + 1)) {
+            continue;
+        }
+        // The stretch starts at i when i − 1 is not read; v[i] is then smooth[i].
+        let h = c.t_s[i + 1] - c.t_s[i];
+        let (f0, f1) = (c.f_prop_n[i], c.f_prop_n[i + 1]);
+        let (g0, g1) = (c.grade_rad[i], c.grade_rad[i + 1]);
+        let (fm, gm) = (0.5 * (f0 + f1), 0.5 * (g0 + g1));
+        let k1 = accel(v[i], f0, g0);
+        let k2 = accel(v[i] + 0.5 * h * k1, fm, gm);
+        let k3 = accel(v[i] + 0.5 * h * k2, fm, gm);
+        let k4 = accel(v[i] + h * k3, f1, g1);
+        v[i + 1] = v[i] + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    v
+}
+
+/// The parametric bootstrap of one estimator's fit: the vehicle with θ = `theta` replayed
+/// on the log's rows (docs/model.md#fit), the assumed noise re-drawn, re-estimated
+/// `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
+fn bootstrap(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+    scratch: &Path,
+) -> Result<Vec<Vector3<f64>>, FitError> {
+    let c = &spec.cycle;
+    let n = c.t_s.len();
+    let smooth = smoothed_speed(c);
+    // The bootstrap world's truth, on the log's own rows, fitting θ exactly. With an
+    // accelerometer: the smoothed speed, the logged force and grade, and the acceleration
+    // that makes every row fit θ (so the excitation is the log's own). With a
+    // differentiated acceleration the output is the speed's central difference, and the
+    // regression's noise comes from the rows at each end of a used stretch (the interior
+    // telescopes) unless the force is rough: the speed is the fitted vehicle's, simulated
+    // under the logged force, and the force the one that makes its differences fit θ.
+    let speed = match spec.acceleration {
+        Acceleration::Model => smooth,
+        Acceleration::Differentiated => simulated_speed(spec, theta, &smooth),
+    };
+    let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
+    let central = central_differences(&c.t_s, &speed);
+    let mut csv = String::from("t,v,f_prop,grade,accel,used\n");
     for i in 0..n {
-        let (v, gr) = (smooth[i], c.grade_rad[i]);
+        let (v, gr) = (speed[i], c.grade_rad[i]);
         let resistance = theta[1] * k * v * v + theta[2] * g * gr.cos() + g * gr.sin();
         let (f, a) = match spec.acceleration {
             Acceleration::Model => {
@@ -520,7 +568,12 @@ fn bootstrap(
             }
             Acceleration::Differentiated => ((central[i] + resistance) / theta[0], central[i]),
         };
-        let _ = writeln!(csv, "{},{v},{f},{gr},{a}", c.t_s[i]);
+        let _ = writeln!(
+            csv,
+            "{},{v},{f},{gr},{a},{}",
+            c.t_s[i],
+            u8::from(spec.used[i])
+        );
     }
     let trace = scratch.join(format!("trace-{}.csv", estimator.name()));
     std::fs::write(&trace, csv).map_err(|e| OutputError::io(&trace, e))?;
@@ -530,7 +583,7 @@ fn bootstrap(
         "name = \"fit bootstrap\"\nseed = {}\nrealisations = {}\n\n[vehicle]\nmass = {mass:e}\n\
          drag_coefficient = {:e}\nrolling_resistance = {:e}\nfrontal_area = {:e}\n\
          air_density = {:e}\ngravity = {:e}\n\n[drive]\nmode = \"replay\"\n\
-         file = \"{}\"\nmin_speed = {:e}\n\n[noise]\n\
+         file = \"{}\"\nused_column = \"used\"\n\n[noise]\n\
          velocity_sd = [{:e}]\noutput_sd = [{:e}]\ngrade_sd = [{:e}]\nforce_sd = [{:e}]\n\
          velocity_correlation_time = [{:e}]\n\n[estimation]\nestimators = [\"{}\"]\n\
          {}acceleration = \"{}\"\n",
@@ -542,7 +595,6 @@ fn bootstrap(
         spec.vehicle.air_density_kg_m3,
         spec.vehicle.gravity_m_s2,
         trace.file_name().unwrap_or_default().to_string_lossy(),
-        spec.min_speed,
         noise[Channel::Velocity],
         noise[Channel::Output],
         noise[Channel::Grade],
