@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
@@ -532,15 +533,15 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
     v
 }
 
-/// The parametric bootstrap of one estimator's fit: the vehicle with θ = `theta` replayed
-/// on the log's rows (docs/model.md#fit), the assumed noise re-drawn, re-estimated
-/// `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
-fn bootstrap(
+/// The world of the parametric bootstrap of one estimator's fit: the vehicle with
+/// θ = `theta` replayed on the log's rows (docs/model.md#fit) with the assumed noise, as a
+/// one-condition model of `estimator` (its trace written to and read from `scratch`).
+fn world(
     spec: &FitSpec,
     estimator: EstimatorRef,
     theta: &Vector3<f64>,
     scratch: &Path,
-) -> Result<Vec<Vector3<f64>>, FitError> {
+) -> Result<VehicleModel, FitError> {
     let c = &spec.cycle;
     let n = c.t_s.len();
     let smooth = smoothed_speed(c);
@@ -610,7 +611,12 @@ fn bootstrap(
     );
     let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
     let study = Study::from_toml_in(&text, &origin, scratch)?;
-    let model = VehicleModel::new(&study)?;
+    Ok(VehicleModel::new(&study)?)
+}
+
+/// The bootstrap in `model` (from [`world`]): the assumed noise re-drawn and the estimator
+/// re-run `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
+fn resample(spec: &FitSpec, model: &VehicleModel) -> Vec<Vector3<f64>> {
     let layout = model.layout();
     let stride = layout.realisation_stride();
     use rayon::prelude::*;
@@ -623,7 +629,7 @@ fn bootstrap(
             t.iter().all(|v| v.is_finite()).then_some(t)
         })
         .collect();
-    Ok(thetas.into_iter().flatten().collect())
+    thetas.into_iter().flatten().collect()
 }
 
 /// The q-quantile of sorted `v` (linear interpolation).
@@ -641,46 +647,65 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let reg = spec.regression();
     let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
+    // Every refusal before anything is created.
+    let mut thetas = Vec::with_capacity(fits.len());
+    for (est, theta) in spec.estimators.iter().zip(fits) {
+        let Some(theta) = theta else {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the normal equations of the log are singular",
+                    est.name()
+                ),
+            }
+            .into());
+        };
+        if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
+                     positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
+                    est.name(),
+                    theta[0],
+                    theta[1],
+                    theta[2]
+                ),
+            }
+            .into());
+        }
+        thetas.push((*est, theta));
+    }
+    // The bootstrap worlds, their traces in a scratch directory of their own (a study's
+    // data file is read when it is validated).
+    static SCRATCH: AtomicU64 = AtomicU64::new(0);
+    let scratch = std::env::temp_dir().join(format!(
+        "chassis-mc-fit-{}-{}",
+        std::process::id(),
+        SCRATCH.fetch_add(1, Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
+    let worlds: Result<Vec<VehicleModel>, FitError> = thetas
+        .iter()
+        .map(|(est, theta)| world(spec, *est, theta, &scratch))
+        .collect();
+    let _ = std::fs::remove_dir_all(&scratch);
+    let worlds = worlds?;
+
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
-    let scratch = out.join(output::temporary_name("fit-bootstrap"));
-    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
     let mut rows = Vec::new();
-    let result = (|| -> Result<(), FitError> {
-        for (est, theta) in spec.estimators.iter().zip(&fits) {
-            let Some(theta) = theta else {
-                return Err(StudyError {
-                    file: spec.origin.clone(),
-                    key: Some("estimation.estimators".into()),
-                    line: None,
-                    reason: format!(
-                        "{}: the normal equations of the log are singular",
-                        est.name()
-                    ),
-                }
-                .into());
-            };
-            if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
-                return Err(StudyError {
-                    file: spec.origin.clone(),
-                    key: Some("estimation.estimators".into()),
-                    line: None,
-                    reason: format!(
-                        "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
-                         positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
-                        est.name(),
-                        theta[0],
-                        theta[1],
-                        theta[2]
-                    ),
-                }
-                .into());
-            }
+    {
+        for ((est, theta), model) in thetas.iter().zip(&worlds) {
             let se = reg
                 .sandwich_se(&[theta[0], theta[1], theta[2]], &spec.noise)
                 .unwrap_or([f64::NAN; 3]);
-            let boot = bootstrap(spec, *est, theta, &scratch)?;
+            let boot = resample(spec, model);
             let estimate = with_derived(theta);
             for (p, name) in FIT_PARAMETERS.iter().enumerate() {
                 let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
@@ -700,10 +725,7 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 });
             }
         }
-        Ok(())
-    })();
-    let _ = std::fs::remove_dir_all(&scratch);
-    result?;
+    }
     let meta = FileMetadata {
         study_toml: spec.text.clone(),
         study_dir: spec.dir.display().to_string(),

@@ -264,3 +264,34 @@ fn a_replay_regresses_only_the_rows_its_used_column_marks() {
         all[2]
     );
 }
+
+#[test]
+fn a_refused_fit_creates_nothing() {
+    // A log whose every row is the same (constant speed, force and grade) has singular
+    // normal equations: `fit` refuses it with exit status 2 and creates neither --out nor
+    // anything in it (no lock file).
+    let tmp = tempfile::tempdir().unwrap();
+    let mut csv = String::from("time_s,speed_m_s,force_n,grade_rad,accel_m_s2\n");
+    for i in 0..50 {
+        csv.push_str(&format!("{},10,500,0,0.1\n", 0.1 * i as f64));
+    }
+    std::fs::write(tmp.path().join("flat.csv"), csv).unwrap();
+    std::fs::write(tmp.path().join("flat.toml"), fit_file("flat.csv", 20)).unwrap();
+    let out = tmp.path().join("out");
+    let (code, _, stderr) = cli(
+        &[
+            "fit".as_ref(),
+            tmp.path().join("flat.toml").as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        tmp.path(),
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("singular"), "{stderr}");
+    assert!(
+        !out.exists(),
+        "--out was created: {:?}",
+        std::fs::read_dir(&out).ok().map(|d| d.count())
+    );
+}
