@@ -9,13 +9,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use thiserror::Error;
 
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
 use crate::estimate::moments::Rows;
 use crate::estimate::regression::Regression;
+use crate::figures::FigureError;
 use crate::model::Model;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
@@ -29,6 +30,10 @@ use crate::vehicle::{SpeedUnit, central_differences, positions};
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";
+
+/// The figure of `fit`: each estimator's estimate and 95 % bootstrap interval of M, Cd and
+/// Cr, against the `[reference]` values when given.
+pub const FIT_FIGURE: &str = "fit.svg";
 
 /// Half-width \[s\] of the centred moving average that smooths the measured speed into the
 /// bootstrap's true speed trace.
@@ -44,6 +49,9 @@ pub enum FitError {
     /// Writing the output failed.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// Drawing the figure failed.
+    #[error(transparent)]
+    Figure(#[from] FigureError),
 }
 
 /// A validated fit file.
@@ -75,6 +83,9 @@ pub struct FitSpec {
     pub seed: u64,
     /// Bootstrap realisations.
     pub realisations: u64,
+    /// `[reference]`: values to draw the fit against (e.g. the truth of a synthetic log),
+    /// per row of [`FIT_PARAMETERS`] (θ's derived from the M, Cd and Cr given).
+    pub reference: [Option<f64>; 5],
     /// The fit file's text.
     pub text: String,
 }
@@ -132,6 +143,7 @@ impl FitSpec {
                 "vehicle",
                 "noise",
                 "estimation",
+                "reference",
             ]
             .contains(&key.as_str())
             {
@@ -349,6 +361,29 @@ impl FitSpec {
         if forgetting > 1.0 {
             return Err(fail(e.error("forgetting", "must lie in (0, 1]")));
         }
+        // [reference] (optional): M, Cd and Cr to draw the fit against.
+        let reference = match table.get("reference") {
+            None => [None; 5],
+            Some(_) => {
+                let r = Params::new(root("reference")?, "reference");
+                r.only(&["mass", "drag_coefficient", "rolling_resistance"])
+                    .map_err(fail)?;
+                let mass = r.optional("mass", Params::positive).map_err(fail)?;
+                let cd = r
+                    .optional("drag_coefficient", Params::non_negative)
+                    .map_err(fail)?;
+                let cr = r
+                    .optional("rolling_resistance", Params::non_negative)
+                    .map_err(fail)?;
+                [
+                    mass.map(|m| 1.0 / m),
+                    mass.zip(cd).map(|(m, cd)| cd / m),
+                    cr,
+                    mass,
+                    cd,
+                ]
+            }
+        };
         Ok(FitSpec {
             origin: origin.to_string(),
             dir: dir.to_path_buf(),
@@ -363,6 +398,7 @@ impl FitSpec {
             settings: EstimatorSettings { forgetting },
             seed: seed as u64,
             realisations: realisations as u64,
+            reference,
             text: text.to_string(),
         })
     }
@@ -436,6 +472,20 @@ fn with_derived(theta: &Vector3<f64>) -> [f64; 5] {
     ]
 }
 
+/// The standard errors of [`with_derived`] from θ's covariance `cov`: θ's own, and M's and
+/// Cd's by the delta method (M = 1/θ₁: ∂M/∂θ₁ = −1/θ₁²; Cd = θ₂/θ₁: ∇ = [−θ₂/θ₁², 1/θ₁, 0]).
+fn derived_se(theta: &Vector3<f64>, cov: &Matrix3<f64>) -> [f64; 5] {
+    let (t1, t2) = (theta[0], theta[1]);
+    let cd = Vector3::new(-t2 / (t1 * t1), 1.0 / t1, 0.0);
+    [
+        cov[(0, 0)].sqrt(),
+        cov[(1, 1)].sqrt(),
+        cov[(2, 2)].sqrt(),
+        cov[(0, 0)].sqrt() / (t1 * t1),
+        (cd.transpose() * cov * cd)[(0, 0)].sqrt(),
+    ]
+}
+
 /// Names of the rows of `fit.parquet`, in order: θ, then M and Cd.
 pub const FIT_PARAMETERS: [&str; 5] = [
     PARAMETERS[0],
@@ -454,7 +504,7 @@ pub struct FitRow {
     pub parameter: &'static str,
     /// The estimate from the log.
     pub estimate: f64,
-    /// Its sandwich SE (θ only; NaN for M and Cd).
+    /// Its sandwich SE (for M and Cd by the delta method from θ's sandwich covariance).
     pub sandwich_se: f64,
     /// Mean of the bootstrap estimates.
     pub boot_mean: f64,
@@ -466,6 +516,8 @@ pub struct FitRow {
     pub ci_low: f64,
     /// 97.5 % quantile of the bootstrap estimates.
     pub ci_high: f64,
+    /// The fit file's `[reference]` value, if it gives one.
+    pub reference: Option<f64>,
 }
 
 /// What `fit` found.
@@ -700,30 +752,29 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
     let mut rows = Vec::new();
-    {
-        for ((est, theta), model) in thetas.iter().zip(&worlds) {
-            let se = reg
-                .sandwich_se(&[theta[0], theta[1], theta[2]], &spec.noise)
-                .unwrap_or([f64::NAN; 3]);
-            let boot = resample(spec, model);
-            let estimate = with_derived(theta);
-            for (p, name) in FIT_PARAMETERS.iter().enumerate() {
-                let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
-                values.sort_by(f64::total_cmp);
-                let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
-                let boot_bias = boot_mean - estimate[p];
-                rows.push(FitRow {
-                    estimator: est.name(),
-                    parameter: name,
-                    estimate: estimate[p],
-                    sandwich_se: se.get(p).copied().unwrap_or(f64::NAN),
-                    boot_mean,
-                    boot_bias,
-                    bias_corrected: estimate[p] - boot_bias,
-                    ci_low: quantile(&values, 0.025),
-                    ci_high: quantile(&values, 0.975),
-                });
-            }
+    for ((est, theta), model) in thetas.iter().zip(&worlds) {
+        let se = reg
+            .sandwich_covariance(&[theta[0], theta[1], theta[2]], &spec.noise)
+            .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
+        let boot = resample(spec, model);
+        let estimate = with_derived(theta);
+        for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+            let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
+            values.sort_by(f64::total_cmp);
+            let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
+            let boot_bias = boot_mean - estimate[p];
+            rows.push(FitRow {
+                estimator: est.name(),
+                parameter: name,
+                estimate: estimate[p],
+                sandwich_se: se[p],
+                boot_mean,
+                boot_bias,
+                bias_corrected: estimate[p] - boot_bias,
+                ci_low: quantile(&values, 0.025),
+                ci_high: quantile(&values, 0.975),
+                reference: spec.reference[p],
+            });
         }
     }
     let meta = FileMetadata {
@@ -734,11 +785,17 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         identity: String::new(),
         extra: Vec::new(),
     };
+    let svg = figure(&rows)?;
+    let figure_tmp = out.join(output::temporary_name(FIT_FIGURE));
+    std::fs::write(&figure_tmp, &svg).map_err(|e| OutputError::io(&figure_tmp, e))?;
     let pending = vec![
         write_rows(out, &rows, &meta)?,
-        write_report(out, spec, &rows)?,
+        PendingFile::new(figure_tmp, out.join(FIT_FIGURE)),
+        write_report(out, spec, &rows, &svg)?,
     ];
-    let files = set::commit(out, pending, &|p| p == FIT_FILE || p == "report.html")?;
+    let files = set::commit(out, pending, &|p| {
+        p == FIT_FILE || p == FIT_FIGURE || p == "report.html"
+    })?;
     Ok(FitResult { rows, files })
 }
 
@@ -757,6 +814,7 @@ fn write_rows(
         Field::new("bias_corrected", DataType::Float64, true),
         Field::new("ci_low", DataType::Float64, true),
         Field::new("ci_high", DataType::Float64, true),
+        Field::new("reference", DataType::Float64, true),
     ]));
     let col = |f: fn(&FitRow) -> f64| -> ArrayRef {
         Arc::new(Float64Array::from_iter(
@@ -779,6 +837,7 @@ fn write_rows(
         col(|r| r.bias_corrected),
         col(|r| r.ci_low),
         col(|r| r.ci_high),
+        col(|r| r.reference.unwrap_or(f64::NAN)),
     ];
     let batch =
         RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
@@ -787,45 +846,242 @@ fn write_rows(
     sink.finish()
 }
 
-/// The table `fit` prints and its report shows.
+/// The rows of the table and the figure, in the order a vehicle engineer reads them: M, Cd
+/// and Cr, then θ's 1/M and Cd/M. Index into [`FIT_PARAMETERS`] and label with units.
+const SHOWN: [(usize, &str); 5] = [
+    (3, "M [kg]"),
+    (4, "Cd"),
+    (2, "Cr"),
+    (0, "1/M [1/kg]"),
+    (1, "Cd/M [1/kg]"),
+];
+
+/// `value` to the digits that `spread` (its SE) supports: down to the second significant
+/// digit of the spread (four significant digits of the value when the spread is unknown),
+/// in plain notation for magnitudes 0.001 … 100 000 and scientific otherwise.
+pub fn format_value(value: f64, spread: f64) -> String {
+    if !value.is_finite() {
+        return "–".into();
+    }
+    let magnitude = |x: f64| x.abs().log10().floor() as i32;
+    let last = if spread.is_finite() && spread > 0.0 {
+        magnitude(spread) - 1
+    } else if value != 0.0 {
+        magnitude(value) - 3
+    } else {
+        0
+    };
+    let text = if value == 0.0 || (1e-3..1e5).contains(&value.abs()) {
+        format!("{value:.*}", (-last).clamp(0, 12) as usize)
+    } else {
+        format!(
+            "{value:.*e}",
+            (magnitude(value) - last).clamp(0, 12) as usize
+        )
+    };
+    // A negative value rounded to zero is shown as zero.
+    match text.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| matches!(c, '0' | '.')) => rest.to_string(),
+        _ => text,
+    }
+}
+
+/// The table `fit` prints and its report shows: per estimator M, Cd, Cr, 1/M and Cd/M,
+/// each to the digits its sandwich SE supports (docs/model.md#fit).
 pub fn table(rows: &[FitRow]) -> String {
-    let mut out = format!(
-        "{:>6} {:>19} {:>13} {:>11} {:>13} {:>13}  {:>27}\n",
-        "est",
-        "parameter",
-        "estimate",
-        "sandwich_se",
-        "boot_bias",
-        "bias_corr.",
-        "95 % bootstrap interval"
-    );
-    for r in rows {
-        let _ = writeln!(
-            out,
-            "{:>6} {:>19} {:>13.6e} {:>11.3e} {:>13.3e} {:>13.6e}  [{:.6e}, {:.6e}]",
-            r.estimator,
-            r.parameter,
-            r.estimate,
-            r.sandwich_se,
-            r.boot_bias,
-            r.bias_corrected,
-            r.ci_low,
-            r.ci_high
-        );
+    let with_reference = rows.iter().any(|r| r.reference.is_some());
+    let mut lines = vec![[
+        "estimator".to_string(),
+        "parameter".into(),
+        "estimate".into(),
+        "SE (sandwich)".into(),
+        "bootstrap bias".into(),
+        "bias-corrected".into(),
+        "95 % bootstrap interval".into(),
+        if with_reference {
+            "reference".into()
+        } else {
+            String::new()
+        },
+    ]];
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    for est in estimators {
+        for (p, label) in SHOWN {
+            let Some(r) = rows
+                .iter()
+                .find(|r| r.estimator == est && r.parameter == FIT_PARAMETERS[p])
+            else {
+                continue;
+            };
+            let f = |v: f64| format_value(v, r.sandwich_se);
+            lines.push([
+                est.to_string(),
+                label.to_string(),
+                f(r.estimate),
+                format_value(r.sandwich_se, r.sandwich_se),
+                f(r.boot_bias),
+                f(r.bias_corrected),
+                format!("[{}, {}]", f(r.ci_low), f(r.ci_high)),
+                r.reference
+                    .map_or(String::new(), |v| format_value(v, r.sandwich_se)),
+            ]);
+        }
+    }
+    let widths: Vec<usize> = (0..8)
+        .map(|c| {
+            lines
+                .iter()
+                .map(|l| l[c].chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for line in &lines {
+        let mut text = String::new();
+        for (c, cell) in line.iter().enumerate() {
+            let pad = widths[c] - cell.chars().count();
+            if c < 2 {
+                let _ = write!(text, "{cell}{}  ", " ".repeat(pad));
+            } else {
+                let _ = write!(text, "{}{cell}  ", " ".repeat(pad));
+            }
+        }
+        out.push_str(text.trim_end());
+        out.push('\n');
     }
     out
 }
 
-fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFile, OutputError> {
+/// The figure of [`FIT_FIGURE`] as SVG text: one panel per parameter (M, Cd, Cr), one line
+/// per estimator with its 95 % bootstrap interval and its estimate (a dot), the reference
+/// value dashed when given.
+fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
+    use plotters::prelude::*;
+    const PANELS: usize = 3;
+    let path = Path::new(FIT_FIGURE);
+    let fail = |e: &dyn std::fmt::Display| FigureError::Draw {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    let n = estimators.len();
+    let mut svg = String::new();
+    {
+        let height = 150 + 45 * n as u32;
+        let root = SVGBackend::with_string(&mut svg, (1200, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| fail(&e))?;
+        let (top, bottom) = root.split_vertically(height - 30);
+        for (panel, &(p, label)) in top.split_evenly((1, PANELS)).iter().zip(&SHOWN) {
+            let mine: Vec<&FitRow> = estimators
+                .iter()
+                .filter_map(|e| {
+                    rows.iter()
+                        .find(|r| r.estimator == *e && r.parameter == FIT_PARAMETERS[p])
+                })
+                .collect();
+            let values = mine
+                .iter()
+                .flat_map(|r| [r.estimate, r.ci_low, r.ci_high])
+                .chain(mine.iter().filter_map(|r| r.reference))
+                .filter(|v| v.is_finite());
+            let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            let (lo, hi) = match (lo.is_finite(), hi > lo) {
+                (true, true) => (lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo)),
+                (true, false) => (
+                    lo - 0.5 * lo.abs().max(1e-12),
+                    lo + 0.5 * lo.abs().max(1e-12),
+                ),
+                _ => (0.0, 1.0),
+            };
+            // Tick labels to the digits of about a tenth of the axis (plotters picks ~4 ticks).
+            let tick_digits = 2.5 * (hi - lo);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(label, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(lo..hi, -0.5..n as f64 - 0.5)
+                .map_err(|e| fail(&e))?;
+            chart
+                .configure_mesh()
+                .disable_y_mesh()
+                .x_labels(4)
+                .y_labels(n)
+                .x_label_formatter(&|v| format_value(*v, tick_digits))
+                .y_label_formatter(&|v| {
+                    let i = v.round();
+                    if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
+                        estimators[n - 1 - i as usize].to_string()
+                    } else {
+                        String::new()
+                    }
+                })
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(|e| fail(&e))?;
+            if let Some(r) = mine.iter().find_map(|r| r.reference) {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(r, -0.5), (r, n as f64 - 0.5)],
+                        6,
+                        4,
+                        BLACK.mix(0.6).stroke_width(1),
+                    ))
+                    .map_err(|e| fail(&e))?;
+            }
+            for (i, r) in mine.iter().enumerate() {
+                let y = (n - 1 - i) as f64;
+                let color = Palette99::pick(i).to_rgba();
+                let style = color.stroke_width(2);
+                let cap = 0.12;
+                chart
+                    .draw_series([
+                        PathElement::new(vec![(r.ci_low, y), (r.ci_high, y)], style),
+                        PathElement::new(vec![(r.ci_low, y - cap), (r.ci_low, y + cap)], style),
+                        PathElement::new(vec![(r.ci_high, y - cap), (r.ci_high, y + cap)], style),
+                    ])
+                    .map_err(|e| fail(&e))?;
+                chart
+                    .draw_series([Circle::new((r.estimate, y), 5, color.filled())])
+                    .map_err(|e| fail(&e))?;
+            }
+        }
+        bottom
+            .draw(&Text::new(
+                "dot: estimate; bar: 95 % bootstrap interval; dashed: the fit file's [reference]",
+                (20, 8),
+                ("sans-serif", 14),
+            ))
+            .map_err(|e| fail(&e))?;
+        root.present().map_err(|e| fail(&e))?;
+    }
+    Ok(svg)
+}
+
+fn write_report(
+    out: &Path,
+    spec: &FitSpec,
+    rows: &[FitRow],
+    svg: &str,
+) -> Result<PendingFile, OutputError> {
     use crate::report::escape;
     let title = format!("{} — chassis-mc fit", spec.log.display());
+    let svg = svg.find("<svg").map_or(svg, |i| &svg[i..]);
     let html = format!(
         "{head}<p>log {log}: {n} samples, {used} in the regression; \
          acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
          <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
-         estimator's bias; the bootstrap interval is a percentile interval of the estimator in a \
-         world where the fit is the truth, so it is centred on the estimate plus the bias: for a \
-         biased estimator read the bias-corrected estimate with it.</p>\n\
+         estimator's bias (for M and Cd it is the delta method's); the bootstrap interval is a \
+         percentile interval of the estimator in a world where the fit is the truth, so it is \
+         centred on the estimate plus the bias: for a biased estimator read the bias-corrected \
+         estimate with it.</p>\n\
+         <figure>\n{svg}\n<figcaption>{figure}: estimate and 95 % bootstrap interval per \
+         estimator{against}</figcaption>\n</figure>\n\
          <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
         head = crate::report::head(&title),
         log = escape(&spec.log.display().to_string()),
@@ -835,6 +1091,12 @@ fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFi
         seed = spec.seed,
         r = spec.realisations,
         ver = env!("CARGO_PKG_VERSION"),
+        figure = FIT_FIGURE,
+        against = if spec.reference.iter().any(Option::is_some) {
+            ", against the fit file's [reference] (dashed)"
+        } else {
+            ""
+        },
         table = escape(&table(rows)),
         text = escape(&spec.text),
     );
