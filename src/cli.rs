@@ -178,11 +178,14 @@ enum Command {
         grade_column, grade_unit, optional acceleration_column [m/s^2] (else the speed is \
         differentiated), min_speed), [vehicle] (the known frontal_area, air_density, gravity), \
         [noise] (the assumed sensor noise: velocity_sd, output_sd, grade_sd, force_sd, \
-        velocity_correlation_time), [estimation] estimators, seed and realisations. Each \
-        estimator's estimate gets its sandwich SE and a parametric bootstrap: the fitted \
-        vehicle driven along the measured (smoothed) speed and grade, the assumed noise \
-        re-drawn, re-estimated R times (boot_mean, boot_bias, bias_corrected, 95 % percentile \
-        interval). Writes DIR/fit.parquet and DIR/report.html and prints the table.\n\n\
+        velocity_correlation_time), [estimation] estimators, seed and realisations, and \
+        optionally [reference] (mass, drag_coefficient, rolling_resistance to show the fit \
+        against). Each estimator's estimate gets its sandwich SE and a parametric bootstrap: \
+        the fitted vehicle replayed on the log's rows (along the smoothed measured speed, or \
+        simulated under the logged force when the speed is differentiated), the assumed \
+        noise re-drawn, re-estimated R times (boot_mean, boot_bias, bias_corrected, 95 % \
+        percentile interval). Writes DIR/fit.parquet, DIR/fit.svg and DIR/report.html and \
+        prints the table.\n\n\
         Example: chassis-mc fit studies/fit_example.toml --out results/fit"
     )]
     Fit {

@@ -5,16 +5,18 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use thiserror::Error;
 
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
 use crate::estimate::moments::Rows;
 use crate::estimate::regression::Regression;
+use crate::figures::FigureError;
 use crate::model::Model;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
@@ -28,6 +30,10 @@ use crate::vehicle::{SpeedUnit, central_differences, positions};
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";
+
+/// The figure of `fit`: each estimator's estimate and 95 % bootstrap interval of M, Cd and
+/// Cr, against the `[reference]` values when given.
+pub const FIT_FIGURE: &str = "fit.svg";
 
 /// Half-width \[s\] of the centred moving average that smooths the measured speed into the
 /// bootstrap's true speed trace.
@@ -43,6 +49,9 @@ pub enum FitError {
     /// Writing the output failed.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// Drawing the figure failed.
+    #[error(transparent)]
+    Figure(#[from] FigureError),
 }
 
 /// A validated fit file.
@@ -74,6 +83,9 @@ pub struct FitSpec {
     pub seed: u64,
     /// Bootstrap realisations.
     pub realisations: u64,
+    /// `[reference]`: values to draw the fit against (e.g. the truth of a synthetic log),
+    /// per row of [`FIT_PARAMETERS`] (θ's derived from the M, Cd and Cr given).
+    pub reference: [Option<f64>; 5],
     /// The fit file's text.
     pub text: String,
 }
@@ -131,6 +143,7 @@ impl FitSpec {
                 "vehicle",
                 "noise",
                 "estimation",
+                "reference",
             ]
             .contains(&key.as_str())
             {
@@ -348,6 +361,29 @@ impl FitSpec {
         if forgetting > 1.0 {
             return Err(fail(e.error("forgetting", "must lie in (0, 1]")));
         }
+        // [reference] (optional): M, Cd and Cr to draw the fit against.
+        let reference = match table.get("reference") {
+            None => [None; 5],
+            Some(_) => {
+                let r = Params::new(root("reference")?, "reference");
+                r.only(&["mass", "drag_coefficient", "rolling_resistance"])
+                    .map_err(fail)?;
+                let mass = r.optional("mass", Params::positive).map_err(fail)?;
+                let cd = r
+                    .optional("drag_coefficient", Params::non_negative)
+                    .map_err(fail)?;
+                let cr = r
+                    .optional("rolling_resistance", Params::non_negative)
+                    .map_err(fail)?;
+                [
+                    mass.map(|m| 1.0 / m),
+                    mass.zip(cd).map(|(m, cd)| cd / m),
+                    cr,
+                    mass,
+                    cd,
+                ]
+            }
+        };
         Ok(FitSpec {
             origin: origin.to_string(),
             dir: dir.to_path_buf(),
@@ -362,6 +398,7 @@ impl FitSpec {
             settings: EstimatorSettings { forgetting },
             seed: seed as u64,
             realisations: realisations as u64,
+            reference,
             text: text.to_string(),
         })
     }
@@ -435,6 +472,20 @@ fn with_derived(theta: &Vector3<f64>) -> [f64; 5] {
     ]
 }
 
+/// The standard errors of [`with_derived`] from θ's covariance `cov`: θ's own, and M's and
+/// Cd's by the delta method (M = 1/θ₁: ∂M/∂θ₁ = −1/θ₁²; Cd = θ₂/θ₁: ∇ = [−θ₂/θ₁², 1/θ₁, 0]).
+fn derived_se(theta: &Vector3<f64>, cov: &Matrix3<f64>) -> [f64; 5] {
+    let (t1, t2) = (theta[0], theta[1]);
+    let cd = Vector3::new(-t2 / (t1 * t1), 1.0 / t1, 0.0);
+    [
+        cov[(0, 0)].sqrt(),
+        cov[(1, 1)].sqrt(),
+        cov[(2, 2)].sqrt(),
+        cov[(0, 0)].sqrt() / (t1 * t1),
+        (cd.transpose() * cov * cd)[(0, 0)].sqrt(),
+    ]
+}
+
 /// Names of the rows of `fit.parquet`, in order: θ, then M and Cd.
 pub const FIT_PARAMETERS: [&str; 5] = [
     PARAMETERS[0],
@@ -453,7 +504,7 @@ pub struct FitRow {
     pub parameter: &'static str,
     /// The estimate from the log.
     pub estimate: f64,
-    /// Its sandwich SE (θ only; NaN for M and Cd).
+    /// Its sandwich SE (for M and Cd by the delta method from θ's sandwich covariance).
     pub sandwich_se: f64,
     /// Mean of the bootstrap estimates.
     pub boot_mean: f64,
@@ -465,6 +516,8 @@ pub struct FitRow {
     pub ci_low: f64,
     /// 97.5 % quantile of the bootstrap estimates.
     pub ci_high: f64,
+    /// The fit file's `[reference]` value, if it gives one.
+    pub reference: Option<f64>,
 }
 
 /// What `fit` found.
@@ -476,18 +529,9 @@ pub struct FitResult {
     pub files: Vec<PathBuf>,
 }
 
-/// The parametric bootstrap of one estimator's fit: the vehicle with θ = `theta` driven
-/// along the smoothed measured speed and the measured grade, the assumed noise re-drawn,
-/// re-estimated `spec.realisations` times. Returns each realisation's θ̂ (failed ones left
-/// out).
-fn bootstrap(
-    spec: &FitSpec,
-    estimator: EstimatorRef,
-    theta: &Vector3<f64>,
-    scratch: &Path,
-) -> Result<Vec<Vector3<f64>>, FitError> {
-    let c = &spec.cycle;
-    // The smoothed speed: a centred moving average over ±SMOOTHING_S.
+/// The measured speed smoothed by a centred moving average over ±[`SMOOTHING_S`], not
+/// below 0.
+fn smoothed_speed(c: &DriveCycle) -> Vec<f64> {
     let n = c.t_s.len();
     let (mut lo, mut hi) = (0, 0);
     let mut sum = 0.0;
@@ -503,15 +547,72 @@ fn bootstrap(
         }
         smooth.push((sum / (hi - lo) as f64).max(0.0));
     }
-    // The bootstrap world's truth: the smoothed speed, the logged force and grade, and the
-    // acceleration that makes every row fit θ exactly (so the excitation is the log's own).
-    // With a differentiated acceleration the output comes from the speed's differences, so
-    // the force is the one that makes those fit θ instead.
+    smooth
+}
+
+/// The speed of the vehicle with θ = `theta` driven by the log's force on the log's grade:
+/// over each stretch of samples that a used row reads (the rows and their neighbours), from
+/// the smoothed speed `smooth` at the stretch's first sample, by RK4 with the force and
+/// grade linear between samples; `smooth` elsewhere. The speed is as smooth as the force,
+/// so its central differences carry no measurement noise (docs/model.md#fit).
+fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<f64> {
+    let c = &spec.cycle;
     let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
-    let central = central_differences(&c.t_s, &smooth);
-    let mut csv = String::from("t,v,f_prop,grade,accel\n");
+    let n = c.t_s.len();
+    let used = &spec.used;
+    let read = |i: usize| used[i] || (i > 0 && used[i - 1]) || (i + 1 < n && used[i + 1]);
+    // The fitted vehicle's acceleration at speed v under force f on grade gr; drag opposes
+    // the motion (v|v|), so a stretch cannot run away below standstill.
+    let accel = |v: f64, f: f64, gr: f64| {
+        theta[0] * f - theta[1] * k * v * v.abs() - theta[2] * g * gr.cos() - g * gr.sin()
+    };
+    let mut v = smooth.to_vec();
+    for i in 0..n - 1 {
+        if !(read(i) && read(i + 1)) {
+            continue;
+        }
+        // The stretch starts at i when i − 1 is not read; v[i] is then smooth[i].
+        let h = c.t_s[i + 1] - c.t_s[i];
+        let (f0, f1) = (c.f_prop_n[i], c.f_prop_n[i + 1]);
+        let (g0, g1) = (c.grade_rad[i], c.grade_rad[i + 1]);
+        let (fm, gm) = (0.5 * (f0 + f1), 0.5 * (g0 + g1));
+        let k1 = accel(v[i], f0, g0);
+        let k2 = accel(v[i] + 0.5 * h * k1, fm, gm);
+        let k3 = accel(v[i] + 0.5 * h * k2, fm, gm);
+        let k4 = accel(v[i] + h * k3, f1, g1);
+        v[i + 1] = v[i] + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    v
+}
+
+/// The world of the parametric bootstrap of one estimator's fit: the vehicle with
+/// θ = `theta` replayed on the log's rows (docs/model.md#fit) with the assumed noise, as a
+/// one-condition model of `estimator` (its trace written to and read from `scratch`).
+fn world(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+    scratch: &Path,
+) -> Result<VehicleModel, FitError> {
+    let c = &spec.cycle;
+    let n = c.t_s.len();
+    let smooth = smoothed_speed(c);
+    // The bootstrap world's truth, on the log's own rows, fitting θ exactly. With an
+    // accelerometer: the smoothed speed, the logged force and grade, and the acceleration
+    // that makes every row fit θ (so the excitation is the log's own). With a
+    // differentiated acceleration the output is the speed's central difference, and the
+    // regression's noise comes from the rows at each end of a used stretch (the interior
+    // telescopes) unless the force is rough: the speed is the fitted vehicle's, simulated
+    // under the logged force, and the force the one that makes its differences fit θ.
+    let speed = match spec.acceleration {
+        Acceleration::Model => smooth,
+        Acceleration::Differentiated => simulated_speed(spec, theta, &smooth),
+    };
+    let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
+    let central = central_differences(&c.t_s, &speed);
+    let mut csv = String::from("t,v,f_prop,grade,accel,used\n");
     for i in 0..n {
-        let (v, gr) = (smooth[i], c.grade_rad[i]);
+        let (v, gr) = (speed[i], c.grade_rad[i]);
         let resistance = theta[1] * k * v * v + theta[2] * g * gr.cos() + g * gr.sin();
         let (f, a) = match spec.acceleration {
             Acceleration::Model => {
@@ -520,7 +621,12 @@ fn bootstrap(
             }
             Acceleration::Differentiated => ((central[i] + resistance) / theta[0], central[i]),
         };
-        let _ = writeln!(csv, "{},{v},{f},{gr},{a}", c.t_s[i]);
+        let _ = writeln!(
+            csv,
+            "{},{v},{f},{gr},{a},{}",
+            c.t_s[i],
+            u8::from(spec.used[i])
+        );
     }
     let trace = scratch.join(format!("trace-{}.csv", estimator.name()));
     std::fs::write(&trace, csv).map_err(|e| OutputError::io(&trace, e))?;
@@ -530,7 +636,7 @@ fn bootstrap(
         "name = \"fit bootstrap\"\nseed = {}\nrealisations = {}\n\n[vehicle]\nmass = {mass:e}\n\
          drag_coefficient = {:e}\nrolling_resistance = {:e}\nfrontal_area = {:e}\n\
          air_density = {:e}\ngravity = {:e}\n\n[drive]\nmode = \"replay\"\n\
-         file = \"{}\"\nmin_speed = {:e}\n\n[noise]\n\
+         file = \"{}\"\nused_column = \"used\"\n\n[noise]\n\
          velocity_sd = [{:e}]\noutput_sd = [{:e}]\ngrade_sd = [{:e}]\nforce_sd = [{:e}]\n\
          velocity_correlation_time = [{:e}]\n\n[estimation]\nestimators = [\"{}\"]\n\
          {}acceleration = \"{}\"\n",
@@ -542,7 +648,6 @@ fn bootstrap(
         spec.vehicle.air_density_kg_m3,
         spec.vehicle.gravity_m_s2,
         trace.file_name().unwrap_or_default().to_string_lossy(),
-        spec.min_speed,
         noise[Channel::Velocity],
         noise[Channel::Output],
         noise[Channel::Grade],
@@ -558,7 +663,12 @@ fn bootstrap(
     );
     let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
     let study = Study::from_toml_in(&text, &origin, scratch)?;
-    let model = VehicleModel::new(&study)?;
+    Ok(VehicleModel::new(&study)?)
+}
+
+/// The bootstrap in `model` (from [`world`]): the assumed noise re-drawn and the estimator
+/// re-run `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
+fn resample(spec: &FitSpec, model: &VehicleModel) -> Vec<Vector3<f64>> {
     let layout = model.layout();
     let stride = layout.realisation_stride();
     use rayon::prelude::*;
@@ -571,7 +681,7 @@ fn bootstrap(
             t.iter().all(|v| v.is_finite()).then_some(t)
         })
         .collect();
-    Ok(thetas.into_iter().flatten().collect())
+    thetas.into_iter().flatten().collect()
 }
 
 /// The q-quantile of sorted `v` (linear interpolation).
@@ -589,69 +699,84 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let reg = spec.regression();
     let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
+    // Every refusal before anything is created.
+    let mut thetas = Vec::with_capacity(fits.len());
+    for (est, theta) in spec.estimators.iter().zip(fits) {
+        let Some(theta) = theta else {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the normal equations of the log are singular",
+                    est.name()
+                ),
+            }
+            .into());
+        };
+        if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
+                     positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
+                    est.name(),
+                    theta[0],
+                    theta[1],
+                    theta[2]
+                ),
+            }
+            .into());
+        }
+        thetas.push((*est, theta));
+    }
+    // The bootstrap worlds, their traces in a scratch directory of their own (a study's
+    // data file is read when it is validated).
+    static SCRATCH: AtomicU64 = AtomicU64::new(0);
+    let scratch = std::env::temp_dir().join(format!(
+        "chassis-mc-fit-{}-{}",
+        std::process::id(),
+        SCRATCH.fetch_add(1, Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
+    let worlds: Result<Vec<VehicleModel>, FitError> = thetas
+        .iter()
+        .map(|(est, theta)| world(spec, *est, theta, &scratch))
+        .collect();
+    let _ = std::fs::remove_dir_all(&scratch);
+    let worlds = worlds?;
+
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
-    let scratch = out.join(output::temporary_name("fit-bootstrap"));
-    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
     let mut rows = Vec::new();
-    let result = (|| -> Result<(), FitError> {
-        for (est, theta) in spec.estimators.iter().zip(&fits) {
-            let Some(theta) = theta else {
-                return Err(StudyError {
-                    file: spec.origin.clone(),
-                    key: Some("estimation.estimators".into()),
-                    line: None,
-                    reason: format!(
-                        "{}: the normal equations of the log are singular",
-                        est.name()
-                    ),
-                }
-                .into());
-            };
-            if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
-                return Err(StudyError {
-                    file: spec.origin.clone(),
-                    key: Some("estimation.estimators".into()),
-                    line: None,
-                    reason: format!(
-                        "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
-                         positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
-                        est.name(),
-                        theta[0],
-                        theta[1],
-                        theta[2]
-                    ),
-                }
-                .into());
-            }
-            let se = reg
-                .sandwich_se(&[theta[0], theta[1], theta[2]], &spec.noise)
-                .unwrap_or([f64::NAN; 3]);
-            let boot = bootstrap(spec, *est, theta, &scratch)?;
-            let estimate = with_derived(theta);
-            for (p, name) in FIT_PARAMETERS.iter().enumerate() {
-                let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
-                values.sort_by(f64::total_cmp);
-                let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
-                let boot_bias = boot_mean - estimate[p];
-                rows.push(FitRow {
-                    estimator: est.name(),
-                    parameter: name,
-                    estimate: estimate[p],
-                    sandwich_se: se.get(p).copied().unwrap_or(f64::NAN),
-                    boot_mean,
-                    boot_bias,
-                    bias_corrected: estimate[p] - boot_bias,
-                    ci_low: quantile(&values, 0.025),
-                    ci_high: quantile(&values, 0.975),
-                });
-            }
+    for ((est, theta), model) in thetas.iter().zip(&worlds) {
+        let se = reg
+            .sandwich_covariance(&[theta[0], theta[1], theta[2]], &spec.noise)
+            .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
+        let boot = resample(spec, model);
+        let estimate = with_derived(theta);
+        for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+            let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
+            values.sort_by(f64::total_cmp);
+            let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
+            let boot_bias = boot_mean - estimate[p];
+            rows.push(FitRow {
+                estimator: est.name(),
+                parameter: name,
+                estimate: estimate[p],
+                sandwich_se: se[p],
+                boot_mean,
+                boot_bias,
+                bias_corrected: estimate[p] - boot_bias,
+                ci_low: quantile(&values, 0.025),
+                ci_high: quantile(&values, 0.975),
+                reference: spec.reference[p],
+            });
         }
-        Ok(())
-    })();
-    let _ = std::fs::remove_dir_all(&scratch);
-    result?;
+    }
     let meta = FileMetadata {
         study_toml: spec.text.clone(),
         study_dir: spec.dir.display().to_string(),
@@ -660,11 +785,17 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         identity: String::new(),
         extra: Vec::new(),
     };
+    let svg = figure(&rows)?;
+    let figure_tmp = out.join(output::temporary_name(FIT_FIGURE));
+    std::fs::write(&figure_tmp, &svg).map_err(|e| OutputError::io(&figure_tmp, e))?;
     let pending = vec![
         write_rows(out, &rows, &meta)?,
-        write_report(out, spec, &rows)?,
+        PendingFile::new(figure_tmp, out.join(FIT_FIGURE)),
+        write_report(out, spec, &rows, &svg)?,
     ];
-    let files = set::commit(out, pending, &|p| p == FIT_FILE || p == "report.html")?;
+    let files = set::commit(out, pending, &|p| {
+        p == FIT_FILE || p == FIT_FIGURE || p == "report.html"
+    })?;
     Ok(FitResult { rows, files })
 }
 
@@ -683,6 +814,7 @@ fn write_rows(
         Field::new("bias_corrected", DataType::Float64, true),
         Field::new("ci_low", DataType::Float64, true),
         Field::new("ci_high", DataType::Float64, true),
+        Field::new("reference", DataType::Float64, true),
     ]));
     let col = |f: fn(&FitRow) -> f64| -> ArrayRef {
         Arc::new(Float64Array::from_iter(
@@ -705,6 +837,7 @@ fn write_rows(
         col(|r| r.bias_corrected),
         col(|r| r.ci_low),
         col(|r| r.ci_high),
+        col(|r| r.reference.unwrap_or(f64::NAN)),
     ];
     let batch =
         RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
@@ -713,45 +846,242 @@ fn write_rows(
     sink.finish()
 }
 
-/// The table `fit` prints and its report shows.
+/// The rows of the table and the figure, in the order a vehicle engineer reads them: M, Cd
+/// and Cr, then θ's 1/M and Cd/M. Index into [`FIT_PARAMETERS`] and label with units.
+const SHOWN: [(usize, &str); 5] = [
+    (3, "M [kg]"),
+    (4, "Cd"),
+    (2, "Cr"),
+    (0, "1/M [1/kg]"),
+    (1, "Cd/M [1/kg]"),
+];
+
+/// `value` to the digits that `spread` (its SE) supports: down to the second significant
+/// digit of the spread (four significant digits of the value when the spread is unknown),
+/// in plain notation for magnitudes 0.001 … 100 000 and scientific otherwise.
+pub fn format_value(value: f64, spread: f64) -> String {
+    if !value.is_finite() {
+        return "–".into();
+    }
+    let magnitude = |x: f64| x.abs().log10().floor() as i32;
+    let last = if spread.is_finite() && spread > 0.0 {
+        magnitude(spread) - 1
+    } else if value != 0.0 {
+        magnitude(value) - 3
+    } else {
+        0
+    };
+    let text = if value == 0.0 || (1e-3..1e5).contains(&value.abs()) {
+        format!("{value:.*}", (-last).clamp(0, 12) as usize)
+    } else {
+        format!(
+            "{value:.*e}",
+            (magnitude(value) - last).clamp(0, 12) as usize
+        )
+    };
+    // A negative value rounded to zero is shown as zero.
+    match text.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| matches!(c, '0' | '.')) => rest.to_string(),
+        _ => text,
+    }
+}
+
+/// The table `fit` prints and its report shows: per estimator M, Cd, Cr, 1/M and Cd/M,
+/// each to the digits its sandwich SE supports (docs/model.md#fit).
 pub fn table(rows: &[FitRow]) -> String {
-    let mut out = format!(
-        "{:>6} {:>19} {:>13} {:>11} {:>13} {:>13}  {:>27}\n",
-        "est",
-        "parameter",
-        "estimate",
-        "sandwich_se",
-        "boot_bias",
-        "bias_corr.",
-        "95 % bootstrap interval"
-    );
-    for r in rows {
-        let _ = writeln!(
-            out,
-            "{:>6} {:>19} {:>13.6e} {:>11.3e} {:>13.3e} {:>13.6e}  [{:.6e}, {:.6e}]",
-            r.estimator,
-            r.parameter,
-            r.estimate,
-            r.sandwich_se,
-            r.boot_bias,
-            r.bias_corrected,
-            r.ci_low,
-            r.ci_high
-        );
+    let with_reference = rows.iter().any(|r| r.reference.is_some());
+    let mut lines = vec![[
+        "estimator".to_string(),
+        "parameter".into(),
+        "estimate".into(),
+        "SE (sandwich)".into(),
+        "bootstrap bias".into(),
+        "bias-corrected".into(),
+        "95 % bootstrap interval".into(),
+        if with_reference {
+            "reference".into()
+        } else {
+            String::new()
+        },
+    ]];
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    for est in estimators {
+        for (p, label) in SHOWN {
+            let Some(r) = rows
+                .iter()
+                .find(|r| r.estimator == est && r.parameter == FIT_PARAMETERS[p])
+            else {
+                continue;
+            };
+            let f = |v: f64| format_value(v, r.sandwich_se);
+            lines.push([
+                est.to_string(),
+                label.to_string(),
+                f(r.estimate),
+                format_value(r.sandwich_se, r.sandwich_se),
+                f(r.boot_bias),
+                f(r.bias_corrected),
+                format!("[{}, {}]", f(r.ci_low), f(r.ci_high)),
+                r.reference
+                    .map_or(String::new(), |v| format_value(v, r.sandwich_se)),
+            ]);
+        }
+    }
+    let widths: Vec<usize> = (0..8)
+        .map(|c| {
+            lines
+                .iter()
+                .map(|l| l[c].chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for line in &lines {
+        let mut text = String::new();
+        for (c, cell) in line.iter().enumerate() {
+            let pad = widths[c] - cell.chars().count();
+            if c < 2 {
+                let _ = write!(text, "{cell}{}  ", " ".repeat(pad));
+            } else {
+                let _ = write!(text, "{}{cell}  ", " ".repeat(pad));
+            }
+        }
+        out.push_str(text.trim_end());
+        out.push('\n');
     }
     out
 }
 
-fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFile, OutputError> {
+/// The figure of [`FIT_FIGURE`] as SVG text: one panel per parameter (M, Cd, Cr), one line
+/// per estimator with its 95 % bootstrap interval and its estimate (a dot), the reference
+/// value dashed when given.
+fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
+    use plotters::prelude::*;
+    const PANELS: usize = 3;
+    let path = Path::new(FIT_FIGURE);
+    let fail = |e: &dyn std::fmt::Display| FigureError::Draw {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    let n = estimators.len();
+    let mut svg = String::new();
+    {
+        let height = 150 + 45 * n as u32;
+        let root = SVGBackend::with_string(&mut svg, (1200, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| fail(&e))?;
+        let (top, bottom) = root.split_vertically(height - 30);
+        for (panel, &(p, label)) in top.split_evenly((1, PANELS)).iter().zip(&SHOWN) {
+            let mine: Vec<&FitRow> = estimators
+                .iter()
+                .filter_map(|e| {
+                    rows.iter()
+                        .find(|r| r.estimator == *e && r.parameter == FIT_PARAMETERS[p])
+                })
+                .collect();
+            let values = mine
+                .iter()
+                .flat_map(|r| [r.estimate, r.ci_low, r.ci_high])
+                .chain(mine.iter().filter_map(|r| r.reference))
+                .filter(|v| v.is_finite());
+            let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            let (lo, hi) = match (lo.is_finite(), hi > lo) {
+                (true, true) => (lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo)),
+                (true, false) => (
+                    lo - 0.5 * lo.abs().max(1e-12),
+                    lo + 0.5 * lo.abs().max(1e-12),
+                ),
+                _ => (0.0, 1.0),
+            };
+            // Tick labels to the digits of about a tenth of the axis (plotters picks ~4 ticks).
+            let tick_digits = 2.5 * (hi - lo);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(label, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(lo..hi, -0.5..n as f64 - 0.5)
+                .map_err(|e| fail(&e))?;
+            chart
+                .configure_mesh()
+                .disable_y_mesh()
+                .x_labels(4)
+                .y_labels(n)
+                .x_label_formatter(&|v| format_value(*v, tick_digits))
+                .y_label_formatter(&|v| {
+                    let i = v.round();
+                    if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
+                        estimators[n - 1 - i as usize].to_string()
+                    } else {
+                        String::new()
+                    }
+                })
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(|e| fail(&e))?;
+            if let Some(r) = mine.iter().find_map(|r| r.reference) {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(r, -0.5), (r, n as f64 - 0.5)],
+                        6,
+                        4,
+                        BLACK.mix(0.6).stroke_width(1),
+                    ))
+                    .map_err(|e| fail(&e))?;
+            }
+            for (i, r) in mine.iter().enumerate() {
+                let y = (n - 1 - i) as f64;
+                let color = Palette99::pick(i).to_rgba();
+                let style = color.stroke_width(2);
+                let cap = 0.12;
+                chart
+                    .draw_series([
+                        PathElement::new(vec![(r.ci_low, y), (r.ci_high, y)], style),
+                        PathElement::new(vec![(r.ci_low, y - cap), (r.ci_low, y + cap)], style),
+                        PathElement::new(vec![(r.ci_high, y - cap), (r.ci_high, y + cap)], style),
+                    ])
+                    .map_err(|e| fail(&e))?;
+                chart
+                    .draw_series([Circle::new((r.estimate, y), 5, color.filled())])
+                    .map_err(|e| fail(&e))?;
+            }
+        }
+        bottom
+            .draw(&Text::new(
+                "dot: estimate; bar: 95 % bootstrap interval; dashed: the fit file's [reference]",
+                (20, 8),
+                ("sans-serif", 14),
+            ))
+            .map_err(|e| fail(&e))?;
+        root.present().map_err(|e| fail(&e))?;
+    }
+    Ok(svg)
+}
+
+fn write_report(
+    out: &Path,
+    spec: &FitSpec,
+    rows: &[FitRow],
+    svg: &str,
+) -> Result<PendingFile, OutputError> {
     use crate::report::escape;
     let title = format!("{} — chassis-mc fit", spec.log.display());
+    let svg = svg.find("<svg").map_or(svg, |i| &svg[i..]);
     let html = format!(
         "{head}<p>log {log}: {n} samples, {used} in the regression; \
          acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
          <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
-         estimator's bias; the bootstrap interval is a percentile interval of the estimator in a \
-         world where the fit is the truth, so it is centred on the estimate plus the bias: for a \
-         biased estimator read the bias-corrected estimate with it.</p>\n\
+         estimator's bias (for M and Cd it is the delta method's); the bootstrap interval is a \
+         percentile interval of the estimator in a world where the fit is the truth, so it is \
+         centred on the estimate plus the bias: for a biased estimator read the bias-corrected \
+         estimate with it.</p>\n\
+         <figure>\n{svg}\n<figcaption>{figure}: estimate and 95 % bootstrap interval per \
+         estimator{against}</figcaption>\n</figure>\n\
          <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
         head = crate::report::head(&title),
         log = escape(&spec.log.display().to_string()),
@@ -761,6 +1091,12 @@ fn write_report(out: &Path, spec: &FitSpec, rows: &[FitRow]) -> Result<PendingFi
         seed = spec.seed,
         r = spec.realisations,
         ver = env!("CARGO_PKG_VERSION"),
+        figure = FIT_FIGURE,
+        against = if spec.reference.iter().any(Option::is_some) {
+            ", against the fit file's [reference] (dashed)"
+        } else {
+            ""
+        },
         table = escape(&table(rows)),
         text = escape(&spec.text),
     );

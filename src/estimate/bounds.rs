@@ -63,6 +63,16 @@ impl Regression {
         theta: &[f64; 3],
         noise: &NoiseLevels,
     ) -> Result<[f64; 3], SolveError> {
+        let cov = self.sandwich_covariance(theta, noise)?;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// The covariance matrix of [`Regression::sandwich_se`].
+    pub fn sandwich_covariance(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Result<Matrix3<f64>, SolveError> {
         let bread = inverse_spd(&self.xtx)?;
         let meat = if noise.speed_noise_differentiated() {
             self.weighted_gram(&self.row_variance(theta, noise, false))
@@ -75,8 +85,7 @@ impl Regression {
             }
             meat
         };
-        let cov = bread * meat * bread;
-        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+        Ok(bread * meat * bread)
     }
 
     /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples

@@ -112,6 +112,12 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
     fn needs_drivetrain(&self) -> bool {
         false
     }
+
+    /// The samples of the cycle the regression may use, when the cycle itself says
+    /// (`None`: all); `min_speed`, `exclude_braking` and `durations` select among them.
+    fn used(&self) -> Option<&[bool]> {
+        None
+    }
 }
 
 /// A drive mode as study files name it (`[drive] mode = ...`).

@@ -1,8 +1,8 @@
 //! The drive mode `replay`: a cycle given sample by sample — time, speed, propulsion force,
 //! grade and acceleration, all in SI units — taken as the truth without simulating or
-//! differentiating anything (docs/model.md#replay). `fit`'s bootstrap replays the fitted
-//! vehicle on a measured log with it; any recorded cycle whose signals are consistent can
-//! be replayed.
+//! differentiating anything (docs/model.md#replay), optionally with the samples the
+//! regression may use. `fit`'s bootstrap replays the fitted vehicle on a measured log with
+//! it; any recorded cycle whose signals are consistent can be replayed.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -21,18 +21,23 @@ pub struct Replay {
     pub file: PathBuf,
     /// The cycle (its position integrated from the speed by the trapezoid rule).
     pub cycle: DriveCycle,
+    /// The samples the regression may use (`used_column`; `None`: all of them).
+    pub used: Option<Vec<bool>>,
 }
 
 impl Replay {
     /// The mode's keys of `[drive]`.
-    pub const KEYS: &'static [&'static str] = &["file"];
+    pub const KEYS: &'static [&'static str] = &["file", "used_column"];
 
     /// Read `[drive]` of mode `replay`: `file`, whose columns are `t`, `v`, `f_prop`,
-    /// `grade` and `accel` (SI units).
+    /// `grade` and `accel` (SI units), and optionally `used_column`, the name of a column
+    /// of 1 (the regression may use the sample) and 0 (it may not).
     pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
         p.only(Self::KEYS)?;
         let file = p.file("file")?;
-        let names = ["t", "v", "f_prop", "grade", "accel"];
+        let used_column = p.optional("used_column", |p, k| p.string(k))?;
+        let mut names = vec!["t", "v", "f_prop", "grade", "accel"];
+        names.extend(used_column);
         let cols = read_columns(&file, &names, 3).map_err(|e| p.error("file", e.to_string()))?;
         cols.strictly_increasing("t")
             .map_err(|e| p.error("file", e.to_string()))?;
@@ -54,7 +59,25 @@ impl Replay {
             f_prop_n: cols.get("f_prop").to_vec(),
             accel_m_s2: cols.get("accel").to_vec(),
         };
-        Ok(Arc::new(Replay { file, cycle }))
+        let used = match used_column {
+            Some(name) => {
+                let values = cols.get(name);
+                if let Some(i) = values.iter().position(|&u| u != 0.0 && u != 1.0) {
+                    return Err(p.error(
+                        "used_column",
+                        format!(
+                            "{}: column \"{name}\", {}: must be 0 or 1, got {}",
+                            file.display(),
+                            cols.place(i),
+                            values[i]
+                        ),
+                    ));
+                }
+                Some(values.iter().map(|&u| u == 1.0).collect())
+            }
+            None => None,
+        };
+        Ok(Arc::new(Replay { file, cycle, used }))
     }
 }
 
@@ -73,5 +96,9 @@ impl CycleSource for Replay {
 
     fn needs_terrain(&self) -> bool {
         false
+    }
+
+    fn used(&self) -> Option<&[bool]> {
+        self.used.as_deref()
     }
 }

@@ -1,7 +1,10 @@
 //! `fit` on synthetic logs of a known vehicle, and `simulate-log`.
 
 use super::common::*;
-use chassis_mc::fit::{FitSpec, fit, simulate_log};
+use chassis_mc::fit::{FIT_FIGURE, FIT_PARAMETERS, FitSpec, fit, simulate_log};
+use chassis_mc::model::Model;
+use chassis_mc::model::vehicle::VehicleModel;
+use chassis_mc::study::Study;
 
 const TRUTH: [f64; 3] = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125];
 
@@ -126,7 +129,7 @@ fn the_shipped_log_is_what_simulate_log_writes() {
         tmp.path(),
     );
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("drag_coefficient"), "{stdout}");
+    assert!(stdout.contains("M [kg]"), "{stdout}");
     assert!(tmp.path().join("out/fit.parquet").is_file());
 }
 
@@ -146,4 +149,200 @@ fn a_fit_file_error_names_the_key_and_line() {
     let err = FitSpec::parse(&text, "bad.toml", tmp.path()).unwrap_err();
     assert_eq!(err.key.as_deref(), Some("log.min_speed"), "{err}");
     assert_eq!(err.line, Some(13), "{err}");
+}
+
+/// The truth of studies/fit_log.toml per row of `FIT_PARAMETERS`: θ, then M and Cd.
+const FIT_TRUTH: [f64; 5] = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125, 1800.0, 0.35];
+
+#[test]
+fn without_an_accelerometer_the_bootstrap_interval_is_as_wide_as_the_spread_across_logs() {
+    // 40 synthetic logs of studies/fit_log.toml (`simulate-log --realisation r`), fitted by
+    // BCLS with the speed differentiated (no acceleration_column), each with its own
+    // bootstrap seed and R = 200. For every parameter the median 95 % interval width must
+    // lie within 0.7–1.4 × 2·1.96·SD, SD the spread of the estimates across the logs.
+    // Tolerance: the SD of 40 logs has a relative SE of 1/√78 = 11 %; one log's
+    // percentile width has ≈ 0.96/√R = 6.8 % (the 2.5 % and 97.5 % quantiles' SEs,
+    // 2.67σ/√R each), so the median of 40 about 1.3 %: the ratio's SE is ≈ 11 %, and
+    // the band is ln(0.7) = −3.1 and ln(1.4) = +2.9 of them around a correct 1.0 (the
+    // issue's world gave 17–29×). Coverage: at least 34 of 40 (the acceptance's 17 of
+    // 20); P(X ≤ 33) = 0.003 for X ~ Bin(40, 0.95), 0.02 at the percentile interval's
+    // 93 %. Measured (commit of this test): widths 0.98–1.09 ×, coverage 38–39 of 40
+    // with R = 400 (docs/model.md#fit).
+    const LOGS: u64 = 40;
+    let tmp = tempfile::tempdir().unwrap();
+    let base = study("fit_log.toml", 1);
+    // per parameter: (estimate, ci_low, ci_high) of each log
+    let mut found: [Vec<(f64, f64, f64)>; 5] = Default::default();
+    for r in 0..LOGS {
+        let log = tmp.path().join(format!("log{r}.csv"));
+        simulate_log(&base, r, &log).unwrap();
+        let text = fit_file_seeded(&log.display().to_string(), 200, 7000 + r)
+            .replace("acceleration_column = \"accel_m_s2\"\n", "")
+            .replace("[\"ols\", \"bcls\"]", "[\"bcls\"]");
+        let spec = FitSpec::parse(&text, "fit test", tmp.path()).unwrap();
+        assert_eq!(spec.acceleration.name(), "differentiated");
+        let result = fit(&spec, &tmp.path().join(format!("out{r}"))).unwrap();
+        for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+            let row = result.rows.iter().find(|x| x.parameter == *name).unwrap();
+            found[p].push((row.estimate, row.ci_low, row.ci_high));
+        }
+    }
+    let mut failures = Vec::new();
+    for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+        let n = LOGS as f64;
+        let mean = found[p].iter().map(|x| x.0).sum::<f64>() / n;
+        let sd = (found[p].iter().map(|x| (x.0 - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let mut widths: Vec<f64> = found[p].iter().map(|x| x.2 - x.1).collect();
+        widths.sort_by(f64::total_cmp);
+        let m = widths.len() / 2;
+        let median = 0.5 * (widths[m - 1] + widths[m]);
+        let ratio = median / (2.0 * 1.96 * sd);
+        let covered = found[p]
+            .iter()
+            .filter(|x| x.1 <= FIT_TRUTH[p] && FIT_TRUTH[p] <= x.2)
+            .count();
+        eprintln!("{name}: median width / (3.92 SD) = {ratio:.3}, covers {covered} of {LOGS}");
+        if !(0.7..=1.4).contains(&ratio) || covered < 34 {
+            failures.push(format!("{name}: ratio {ratio:.3}, covers {covered}"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+#[test]
+fn a_replay_regresses_only_the_rows_its_used_column_marks() {
+    // A replayed cycle that obeys the thesis car's equation except on rows 10–19, whose
+    // acceleration is off by 1 m/s²: with those rows marked 0 in used_column, noise-free
+    // OLS recovers θ to rounding; without used_column it does not.
+    let tmp = tempfile::tempdir().unwrap();
+    let (k, g) = (0.5 * 1.2 * 5.5, 9.81);
+    let mut csv = String::from("t,v,f_prop,grade,accel,used\n");
+    for i in 0..60 {
+        let t = 0.5 * i as f64;
+        let v = 10.0 + 3.0 * (0.2 * t).sin();
+        let f = 1500.0 + 400.0 * (0.37 * t).cos();
+        let gr = 0.03 * (0.11 * t).sin();
+        let mut a = TRUTH[0] * f - TRUTH[1] * k * v * v - TRUTH[2] * g * gr.cos() - g * gr.sin();
+        let bad = (10..20).contains(&i);
+        if bad {
+            a += 1.0;
+        }
+        csv.push_str(&format!("{t},{v},{f},{gr},{a},{}\n", u8::from(!bad)));
+    }
+    std::fs::write(tmp.path().join("trace.csv"), csv).unwrap();
+    let theta = |used: &str| {
+        let text = format!(
+            "name = \"replay\"\nseed = 1\nrealisations = 1\n\n[vehicle]\nmass = 1800.0\n\
+             drag_coefficient = 0.35\nrolling_resistance = 0.0125\nfrontal_area = 5.5\n\
+             air_density = 1.2\ngravity = 9.81\n\n[drive]\nmode = \"replay\"\n\
+             file = \"trace.csv\"\n{used}\n[noise]\nvelocity_sd = [0.0]\noutput_sd = [0.0]\n\n\
+             [estimation]\nestimators = [\"ols\"]\n"
+        );
+        let study = Study::from_toml_in(&text, "replay.toml", tmp.path()).unwrap();
+        let model = VehicleModel::new(&study).unwrap();
+        let layout = model.layout();
+        let mut slots = vec![0.0; layout.realisation_stride()];
+        model.realise(1, 0, 0, &mut slots);
+        [0, 1, 2].map(|p| slots[layout.theta_at(0, p)])
+    };
+    // Rounding: the normal equations of 50 rows with entries up to ~2e6 solved in f64
+    // leave a relative error far below 1e-8.
+    let marked = theta("used_column = \"used\"\n");
+    for p in 0..3 {
+        assert!(
+            (marked[p] / TRUTH[p] - 1.0).abs() < 1e-8,
+            "{}: {} vs {}",
+            PARAMS[p],
+            marked[p],
+            TRUTH[p]
+        );
+    }
+    let all = theta("");
+    assert!(
+        (all[2] / TRUTH[2] - 1.0).abs() > 0.01,
+        "the corrupted rows were used and still Cr = {}",
+        all[2]
+    );
+}
+
+#[test]
+fn a_refused_fit_creates_nothing() {
+    // A log whose every row is the same (constant speed, force and grade) has singular
+    // normal equations: `fit` refuses it with exit status 2 and creates neither --out nor
+    // anything in it (no lock file).
+    let tmp = tempfile::tempdir().unwrap();
+    let mut csv = String::from("time_s,speed_m_s,force_n,grade_rad,accel_m_s2\n");
+    for i in 0..50 {
+        csv.push_str(&format!("{},10,500,0,0.1\n", 0.1 * i as f64));
+    }
+    std::fs::write(tmp.path().join("flat.csv"), csv).unwrap();
+    std::fs::write(tmp.path().join("flat.toml"), fit_file("flat.csv", 20)).unwrap();
+    let out = tmp.path().join("out");
+    let (code, _, stderr) = cli(
+        &[
+            "fit".as_ref(),
+            tmp.path().join("flat.toml").as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        tmp.path(),
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("singular"), "{stderr}");
+    assert!(
+        !out.exists(),
+        "--out was created: {:?}",
+        std::fs::read_dir(&out).ok().map(|d| d.count())
+    );
+}
+
+#[test]
+fn the_fit_report_gives_m_and_cd_a_finite_se_and_a_figure() {
+    // The shipped example (R = 200): M's and Cd's sandwich SEs are finite — M's is
+    // SE(1/M)/θ₁² (the delta method, exactly), Cd's within 0.8–1.25 × the half-width of
+    // its bootstrap interval over 1.96 (one percentile width's relative SE is ≈ 0.96/√R
+    // = 6.8 %, so the band is ≥ 3 of those wide; measured 0.98 on this log) — and
+    // report.html holds the figure (fit.svg inlined: a panel per M, Cd and Cr, an
+    // estimate per estimator and panel) and no NaN.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("studies/fit_example.toml"))
+        .unwrap()
+        .replace("realisations = 400", "realisations = 200");
+    let spec = FitSpec::parse(&text, "fit_example.toml", &root().join("studies")).unwrap();
+    let out = tmp.path().join("out");
+    let result = fit(&spec, &out).unwrap();
+    for est in ["ols", "bcls"] {
+        let row = |p: &str| {
+            result
+                .rows
+                .iter()
+                .find(|r| r.estimator == est && r.parameter == p)
+                .unwrap()
+        };
+        let (inv, mass, cd) = (row("inv_mass"), row("mass"), row("drag_coefficient"));
+        assert!(
+            mass.sandwich_se.is_finite() && cd.sandwich_se > 0.0,
+            "{mass:?} {cd:?}"
+        );
+        let delta = inv.sandwich_se / (inv.estimate * inv.estimate);
+        assert!((mass.sandwich_se / delta - 1.0).abs() < 1e-12, "{mass:?}");
+        let ratio = cd.sandwich_se / ((cd.ci_high - cd.ci_low) / (2.0 * 1.96));
+        assert!(
+            (0.8..=1.25).contains(&ratio),
+            "{est}: Cd SE / bootstrap {ratio}"
+        );
+        assert_eq!(mass.reference, Some(1800.0));
+    }
+    let svg = std::fs::read_to_string(out.join(FIT_FIGURE)).unwrap();
+    let report = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for caption in [">\nM [kg]\n<", ">\nCd\n<", ">\nCr\n<"] {
+        assert!(svg.contains(caption), "no panel {caption:?}");
+    }
+    assert_eq!(
+        svg.matches("<circle").count(),
+        2 * 3,
+        "an estimate per estimator and panel"
+    );
+    assert!(report.contains("<svg"), "report.html has no figure");
+    assert!(!report.contains("NaN"), "report.html shows NaN");
 }

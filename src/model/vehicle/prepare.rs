@@ -113,7 +113,10 @@ pub(super) fn segments(
                     format!("is {t} s but the drive cycle lasts {length} s"),
                 ));
             }
-            let used = cycle.used(&vs.selection, duration);
+            let mut used = cycle.used(&vs.selection, duration);
+            if let Some(own) = vs.drive.used() {
+                used.iter_mut().zip(own).for_each(|(u, &o)| *u &= o);
+            }
             let mut used_per_source = Vec::new();
             let mut regressions = Vec::new();
             for &source in &vs.acceleration {
