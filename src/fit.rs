@@ -279,7 +279,7 @@ impl FitSpec {
             )));
         }
 
-        // [noise]: the assumed sensor noise (scalars).
+        // [noise]: the assumed sensor noise (a number each, or a study's list of one).
         let nz = Params::new(root("noise")?, "noise");
         let keys: Vec<&str> = Channel::ALL
             .map(Channel::key)
@@ -293,12 +293,12 @@ impl FitSpec {
         };
         for c in Channel::ALL {
             noise[c] = nz
-                .optional(c.key(), Params::non_negative)
+                .optional(c.key(), Params::single_non_negative)
                 .map_err(fail)?
                 .unwrap_or(0.0);
         }
         noise.velocity_correlation_s = nz
-            .optional("velocity_correlation_time", Params::non_negative)
+            .optional("velocity_correlation_time", Params::single_non_negative)
             .map_err(fail)?
             .unwrap_or(0.0);
 

@@ -176,6 +176,28 @@ impl<'a> Params<'a> {
         }
     }
 
+    /// A number ≥ 0 given alone or as a list of one (as a study's axis of one level is
+    /// written): for a key that takes one value where a study takes a list.
+    pub fn single_non_negative(&self, key: &str) -> Result<f64, KeyError> {
+        match self.table.get(key) {
+            Some(toml::Value::Array(items)) => match items.as_slice() {
+                [one] => {
+                    let table = toml::Table::from_iter([(key.to_string(), one.clone())]);
+                    Params {
+                        table: &table,
+                        ..*self
+                    }
+                    .non_negative(key)
+                }
+                _ => Err(self.error(
+                    key,
+                    format!("takes one value here, got a list of {}", items.len()),
+                )),
+            },
+            _ => self.non_negative(key),
+        }
+    }
+
     /// A number ≥ 0.
     pub fn non_negative(&self, key: &str) -> Result<f64, KeyError> {
         let v = self.number(key)?;

@@ -346,3 +346,21 @@ fn the_fit_report_gives_m_and_cd_a_finite_se_and_a_figure() {
     assert!(report.contains("<svg"), "report.html has no figure");
     assert!(!report.contains("NaN"), "report.html shows NaN");
 }
+
+#[test]
+fn a_fit_file_takes_a_study_s_list_of_one_noise_level() {
+    // A study lists noise levels (`velocity_sd = [0.1]`); a fit assumes one, written either
+    // way. Two levels are an error naming the key.
+    let tmp = tempfile::tempdir().unwrap();
+    let log = root()
+        .join("studies/data/fit_log.csv")
+        .display()
+        .to_string();
+    let number = FitSpec::parse(&fit_file(&log, 20), "a.toml", tmp.path()).unwrap();
+    let listed = fit_file(&log, 20).replace("velocity_sd = 0.1", "velocity_sd = [0.1]");
+    let listed = FitSpec::parse(&listed, "b.toml", tmp.path()).unwrap();
+    assert_eq!(format!("{:?}", number.noise), format!("{:?}", listed.noise));
+    let two = fit_file(&log, 20).replace("velocity_sd = 0.1", "velocity_sd = [0.1, 0.2]");
+    let err = FitSpec::parse(&two, "c.toml", tmp.path()).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("noise.velocity_sd"), "{err}");
+}
