@@ -9,11 +9,100 @@ mod html;
 
 pub use html::{Page, escape, head, page, warnings};
 
-use crate::model::{ConditionInfo, Layout};
-use crate::stats::summary::SummaryRow;
+use crate::model::{AxisValue, ConditionInfo, Layout};
+use crate::stats::summary::{BoundSummary, SummaryRow};
+
+/// Most conditions a table lists one by one; a larger study's tables list a selection
+/// ([`listed_conditions`]) and point at summary.parquet for the rest.
+pub const MAX_LISTED_CONDITIONS: usize = 100;
+
+/// The bound a table leads with for row `r`: the first of the layout's valid bounds
+/// ([`BoundInfo::valid`](crate::model::BoundInfo::valid)) reported for it, else the first
+/// reported at all (then not valid); `None` where none is.
+pub fn lead_bound<'a>(layout: &Layout, r: &'a SummaryRow) -> Option<(usize, &'a BoundSummary)> {
+    let reported = || {
+        r.bounds
+            .iter()
+            .enumerate()
+            .filter_map(|(b, s)| s.as_ref().map(|s| (b, s)))
+    };
+    reported()
+        .find(|(b, _)| layout.bounds[*b].valid)
+        .or_else(|| reported().next())
+}
+
+/// The conditions the tables list, in study order: every one up to
+/// [`MAX_LISTED_CONDITIONS`]; beyond, the grid's corners (every varying axis at its first
+/// or last value) and, per parameter and estimator, the conditions of the largest |bias|,
+/// the largest and smallest EmpSE / bound (the bound the table leads with) and the largest
+/// and smallest relative EmpSE.
+pub fn listed_conditions(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    rows: &[SummaryRow],
+) -> Vec<usize> {
+    if infos.len() <= MAX_LISTED_CONDITIONS {
+        return (0..infos.len()).collect();
+    }
+    let mut picked = std::collections::BTreeSet::new();
+    // Each varying axis's first and last value, in study order.
+    let ends: Vec<(usize, [&AxisValue; 2])> = (0..layout.axes.len())
+        .filter_map(|a| {
+            let first = &infos[0].axes[a];
+            let last = infos
+                .iter()
+                .rev()
+                .map(|i| &i.axes[a])
+                .find(|v| *v != first)?;
+            Some((a, [first, last]))
+        })
+        .collect();
+    // At most 16 corners; with more varying axes, the first and last condition.
+    if ends.len() <= 4 {
+        for corner in 0..1usize << ends.len() {
+            let found = infos.iter().position(|i| {
+                ends.iter()
+                    .enumerate()
+                    .all(|(k, (a, v))| &i.axes[*a] == v[(corner >> k) & 1])
+            });
+            picked.extend(found);
+        }
+    } else {
+        picked.extend([0, infos.len() - 1]);
+    }
+    for p in 0..layout.parameters.len() {
+        for e in 0..layout.estimators.len() {
+            let of = |r: &&SummaryRow| r.parameter == p && r.estimator == e;
+            let candidates: Vec<&SummaryRow> = rows.iter().filter(of).collect();
+            let measures: [&dyn Fn(&SummaryRow) -> f64; 3] = [
+                &|r| r.rel_bias.value.abs(),
+                &|r| lead_bound(layout, r).map_or(f64::NAN, |(_, s)| s.emp_over.value),
+                &|r| r.emp_se.value / r.truth.abs(),
+            ];
+            for (m, measure) in measures.iter().enumerate() {
+                let finite = || {
+                    candidates
+                        .iter()
+                        .map(|r| (r.condition, measure(r)))
+                        .filter(|(_, v)| v.is_finite())
+                };
+                let by = |a: &(usize, f64), b: &(usize, f64)| a.1.total_cmp(&b.1);
+                picked.extend(finite().max_by(by).map(|(c, _)| c));
+                // The smallest |bias| is rarely news; the smallest ratio and spread are.
+                if m > 0 {
+                    picked.extend(finite().min_by(by).map(|(c, _)| c));
+                }
+            }
+        }
+    }
+    picked.into_iter().collect()
+}
 
 /// Format `rows` as plain-text tables, one per parameter. Axes that take one value in
-/// every condition are named once above the tables instead of repeated in every line.
+/// every condition are named once above the tables instead of repeated in every line. Each
+/// line leads with the bound that applies ([`lead_bound`]), named in the header when it is
+/// the same in every line. A study of more than [`MAX_LISTED_CONDITIONS`] conditions lists
+/// the selection of [`listed_conditions`].
 pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> String {
     let mut out = String::new();
     let varies: Vec<bool> = (0..layout.axes.len())
@@ -33,6 +122,18 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
     if !fixed.is_empty() {
         let _ = writeln!(out, "In every condition: {}.", fixed.join(", "));
     }
+    let listed = listed_conditions(layout, infos, rows);
+    if listed.len() < infos.len() {
+        let _ = writeln!(
+            out,
+            "{} of {} conditions listed: the grid's corners and, per parameter and estimator, \
+             those of the largest |bias|, the largest and smallest EmpSE/bound and relative \
+             EmpSE. Every condition is in summary.parquet.",
+            listed.len(),
+            infos.len()
+        );
+    }
+    let is_listed = |c: usize| listed.binary_search(&c).is_ok();
     for (p, param) in layout.parameters.iter().enumerate() {
         let truth = rows
             .iter()
@@ -43,6 +144,42 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
             "\n{} — {} [{}], truth {:.6e}",
             param.name, param.description, param.unit, truth
         );
+        let shown: Vec<&SummaryRow> = rows
+            .iter()
+            .filter(|r| r.parameter == p && is_listed(r.condition))
+            .collect();
+        let leads: Vec<Option<usize>> = shown
+            .iter()
+            .map(|r| lead_bound(layout, r).map(|(b, _)| b))
+            .collect();
+        // The bound's name in the header when every line leads with the same one.
+        let common = match leads.first() {
+            Some(&Some(b)) if leads.iter().all(|l| *l == Some(b)) => Some(b),
+            _ => None,
+        };
+        let bound_name = |b: usize| {
+            let bound = &layout.bounds[b];
+            if bound.valid {
+                bound.name.to_string()
+            } else {
+                format!("{} (not valid)", bound.name)
+            }
+        };
+        let (bound_header, ratio_header) = match common {
+            Some(b) => (bound_name(b), format!("EmpSE/{}", layout.bounds[b].name)),
+            None => ("bound".to_string(), "EmpSE/bound".to_string()),
+        };
+        let name_width = leads
+            .iter()
+            .flatten()
+            .map(|&b| bound_name(b).chars().count())
+            .max()
+            .unwrap_or(0);
+        let bound_width = match common {
+            Some(_) => bound_header.chars().count().max(10),
+            None => 11 + name_width,
+        };
+        let ratio_width = ratio_header.chars().count().max(16);
         let mut header = format!("{:>4}", "cond");
         for (a, _) in layout.axes.iter().zip(&varies).filter(|(_, v)| **v) {
             let _ = write!(header, " {:>11}", a.name);
@@ -52,19 +189,19 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
         }
         let _ = write!(
             header,
-            " {:>5}  {:>27}  {:>22}  {:>10}  {:>20}  {:>16}",
-            "est", "mean ± MCSE", "bias (CV) ± MCSE", "EmpSE", "bound", "EmpSE/bound"
+            " {:>5}  {:>27}  {:>22}  {:>10}  {:>bound_width$}  {:>ratio_width$}",
+            "est", "mean ± MCSE", "bias (CV) ± MCSE", "EmpSE", bound_header, ratio_header
         );
         let _ = writeln!(out, "{header}");
-        for r in rows.iter().filter(|r| r.parameter == p) {
+        for r in shown {
             let info = &infos[r.condition];
             let mut line = format!("{:>4}", r.condition);
             for (a, _) in info.axes.iter().zip(&varies).filter(|(_, v)| **v) {
                 match a {
-                    crate::model::AxisValue::Number(v) => {
+                    AxisValue::Number(v) => {
                         let _ = write!(line, " {v:>11.4}");
                     }
-                    crate::model::AxisValue::Text(t) => {
+                    AxisValue::Text(t) => {
                         let _ = write!(line, " {t:>11}");
                     }
                 }
@@ -78,21 +215,19 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
             } else {
                 "—".to_string()
             };
-            let (bound, ratio) = match r
-                .bounds
-                .iter()
-                .enumerate()
-                .find_map(|(b, s)| s.as_ref().map(|s| (b, s)))
-            {
+            let (bound, ratio) = match lead_bound(layout, r) {
                 Some((b, s)) => (
-                    format!("{:.3e} {}", s.se.value, short_bound(layout.bounds[b].name)),
+                    match common {
+                        Some(_) => format!("{:.3e}", s.se.value),
+                        None => format!("{:.3e} {}", s.se.value, bound_name(b)),
+                    },
                     format!("{:.4} ± {:.4}", s.emp_over.value, s.emp_over.mcse),
                 ),
                 None => ("—".to_string(), "—".to_string()),
             };
             let _ = writeln!(
                 line,
-                " {:>5}  {:>27}  {:>22}  {:>10.3e}  {:>20}  {:>16}",
+                " {:>5}  {:>27}  {:>22}  {:>10.3e}  {:>bound_width$}  {:>ratio_width$}",
                 layout.estimators[r.estimator], mean, bias_cv, r.emp_se.value, bound, ratio
             );
             out.push_str(&line);
@@ -102,8 +237,8 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
         let _ = writeln!(
             out,
             "\n{} realisations per condition{}; bias (CV) = the bias by control variates \
-             (docs/model.md#control-variates); bound = the first that applies (see \
-             summary.parquet for all).",
+             (docs/model.md#control-variates); the bound is the first valid one that applies \
+             (README \"What the numbers mean\"; summary.parquet has every bound).",
             r.n + r.n_failed,
             failed_note(rows)
         );
@@ -127,14 +262,6 @@ fn failed_note(rows: &[SummaryRow]) -> String {
 fn short_metric(name: &str) -> &str {
     match name {
         "terrain_ms_grid" => "ς_grid",
-        other => other,
-    }
-}
-
-fn short_bound(name: &str) -> &str {
-    match name {
-        "thesis_bound" => "(thesis)",
-        "crlb_output" => "(CRLB)",
         other => other,
     }
 }

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::chart::{Axes, Reference, Series, chart, color};
+use super::chart::{Axes, Reference, Series, chart_with_note, color};
 use super::{FigureError, NOMINAL};
 use crate::model::{AxisKind, AxisValue, ConditionInfo, Layout};
 use crate::output::{self, SummaryTable};
@@ -97,6 +97,91 @@ pub(super) fn group_labels(layout: &Layout, t: &SummaryTable, x: &XAxis) -> Vec<
     parts.into_iter().map(|p| p.join(", ")).collect()
 }
 
+/// Most series of one figure: as many as the palette has distinct colours (each is a legend
+/// entry of 20 px; these leave room for a note under the legend).
+const MAX_SERIES: usize = 16;
+
+/// Which rows a figure of `per_group` series per group draws, and a note saying what it
+/// leaves out. Every row while all groups fit in [`MAX_SERIES`] series; beyond, the groups at
+/// the first, middle and last value of each axis other than x, then its first and last,
+/// then its last, until they fit.
+pub(super) fn shown_rows(
+    layout: &Layout,
+    t: &SummaryTable,
+    x: &XAxis,
+    per_group: usize,
+) -> (Vec<bool>, Option<String>) {
+    let max_groups = (MAX_SERIES / per_group.max(1)).max(1);
+    // The values of each other axis that varies, in study order.
+    let mut levels: Vec<(usize, Vec<&AxisValue>)> = Vec::new();
+    for (a, axis) in layout.axes.iter().enumerate() {
+        if Some(axis.name) == x.replaces {
+            continue;
+        }
+        let mut values: Vec<&AxisValue> = Vec::new();
+        for r in &t.rows {
+            let v = &t.info(r).axes[a];
+            if !values.contains(&v) {
+                values.push(v);
+            }
+        }
+        if values.len() > 1 {
+            levels.push((a, values));
+        }
+    }
+    let total: usize = levels.iter().map(|l| l.1.len()).product();
+    if total <= max_groups {
+        return (vec![true; t.rows.len()], None);
+    }
+    let mut kept: Vec<Vec<&AxisValue>> = levels.iter().map(|l| l.1.clone()).collect();
+    while kept.iter().map(Vec::len).product::<usize>() > max_groups {
+        let Some(i) = (0..kept.len()).max_by_key(|&i| kept[i].len()) else {
+            break;
+        };
+        let k = &kept[i];
+        let n = k.len();
+        kept[i] = match n {
+            1 => break,
+            2 => vec![k[1]],
+            3 => vec![k[0], k[2]],
+            _ => vec![k[0], k[n / 2], k[n - 1]],
+        };
+    }
+    let shown = t
+        .rows
+        .iter()
+        .map(|r| {
+            levels
+                .iter()
+                .zip(&kept)
+                .all(|((a, _), k)| k.contains(&&t.info(r).axes[*a]))
+        })
+        .collect();
+    let which: Vec<String> = levels
+        .iter()
+        .zip(&kept)
+        .map(|((a, _), k)| {
+            let values: Vec<String> = k.iter().map(ToString::to_string).collect();
+            format!("{} ∈ {{{}}}", layout.axes[*a].name, values.join(", "))
+        })
+        .collect();
+    let note = format!(
+        "Showing {} of {total} groups: {}. Every condition is in summary.parquet.",
+        kept.iter().map(Vec::len).product::<usize>(),
+        which.join(", ")
+    );
+    (shown, Some(note))
+}
+
+/// A bound's name in a legend, marked where it is not a valid bound.
+fn bound_label(b: &crate::model::BoundInfo) -> String {
+    if b.valid {
+        b.name.to_string()
+    } else {
+        format!("{} (not valid)", b.name)
+    }
+}
+
 fn join_label(parts: &[&str]) -> String {
     parts
         .iter()
@@ -146,19 +231,35 @@ pub(super) fn draw_parameter(
     };
     let many_estimators = layout.estimators.len() > 1;
     let mut names = Vec::new();
-    let rows: Vec<usize> = (0..t.rows.len())
-        .filter(|&i| t.rows[i].parameter == pi)
-        .collect();
     let sym = symbol(p.description);
     let unit = unit_suffix(p.unit);
-    // Series keys (estimator, group) in first-seen order.
-    let mut keys_seen: Vec<(String, String)> = Vec::new();
-    for &i in &rows {
-        let k = (estimator[i].clone(), groups[i].clone());
-        if !keys_seen.contains(&k) {
-            keys_seen.push(k);
+    let bounds_reported = (0..layout.bounds.len())
+        .filter(|&b| {
+            t.rows
+                .iter()
+                .any(|r| r.parameter == pi && r.bounds[b].is_some())
+        })
+        .count();
+    let with_cv = t
+        .rows
+        .iter()
+        .any(|r| r.parameter == pi && r.bias_cv.value.is_finite());
+    // The rows of a figure with `per_group` series per group, its series keys (estimator,
+    // group) in first-seen order, and the note saying which groups it leaves out.
+    let select = |per_group: usize| {
+        let (shown, note) = shown_rows(layout, t, x, per_group);
+        let rows: Vec<usize> = (0..t.rows.len())
+            .filter(|&i| t.rows[i].parameter == pi && shown[i])
+            .collect();
+        let mut keys: Vec<(String, String)> = Vec::new();
+        for &i in &rows {
+            let k = (estimator[i].clone(), groups[i].clone());
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
         }
-    }
+        (rows, keys, note)
+    };
     let est_label = |e: &str| {
         if many_estimators {
             e.to_string()
@@ -167,8 +268,13 @@ pub(super) fn draw_parameter(
         }
     };
 
-    // The points (x, y, error bar) of one estimator and group where y is finite.
-    let points = |e: &String, g: &String, y: &[f64], err: Option<&[f64]>| -> Vec<(f64, f64, f64)> {
+    // The points (x, y, error bar) among `rows` of one estimator and group where y is finite.
+    let points = |rows: &[usize],
+                  e: &String,
+                  g: &String,
+                  y: &[f64],
+                  err: Option<&[f64]>|
+     -> Vec<(f64, f64, f64)> {
         rows.iter()
             .filter(|&&i| &estimator[i] == e && &groups[i] == g && y[i].is_finite())
             .map(|&i| (x.values[i], y[i], err.map_or(f64::NAN, |err| err[i])))
@@ -176,13 +282,14 @@ pub(super) fn draw_parameter(
     };
 
     // (a) EmpSE with MCSE and every bound, against x.
+    let (rows, keys_seen, note) = select(layout.estimators.len() + bounds_reported);
     let (emp_se, emp_se_mcse) = &measure(Measure::EmpSe);
     let mut series = Vec::new();
     for (k, (e, g)) in keys_seen.iter().enumerate() {
         series.push(Series {
             label: join_label(&["EmpSE ± MCSE", &est_label(e), g]),
             color: color(k),
-            points: points(e, g, emp_se, Some(emp_se_mcse)),
+            points: points(&rows, e, g, emp_se, Some(emp_se_mcse)),
             markers: true,
         });
     }
@@ -195,13 +302,13 @@ pub(super) fn draw_parameter(
             if seen_groups.contains(&g) {
                 continue;
             }
-            let points = points(e, g, se, None);
+            let points = points(&rows, e, g, se, None);
             if points.is_empty() {
                 continue;
             }
             seen_groups.push(g);
             series.push(Series {
-                label: join_label(&[b.name, g]),
+                label: join_label(&[&bound_label(b), g]),
                 color: color(c),
                 points,
                 markers: false,
@@ -210,7 +317,7 @@ pub(super) fn draw_parameter(
         }
     }
     let name = format!("se_{}.svg", p.name);
-    chart(
+    chart_with_note(
         &dir.join(&name),
         &Axes {
             title: &format!("{sym}: empirical SE and bounds"),
@@ -220,6 +327,7 @@ pub(super) fn draw_parameter(
         },
         &series,
         &[],
+        note.as_deref(),
     )?;
     names.push(name);
 
@@ -231,6 +339,7 @@ pub(super) fn draw_parameter(
         rel_mcse.iter().map(|v| 100.0 * v).collect::<Vec<_>>(),
     );
     let (bias, bias_mcse) = (&bias, &bias_mcse);
+    let (rows, keys_seen, note) = select(layout.estimators.len() * (1 + usize::from(with_cv)));
     let truth = rows.first().map_or(f64::NAN, |&i| t.rows[i].truth);
     // The control-variate estimate of the same bias (docs/model.md#control-variates), where
     // it applies: its error bars are usually too small to see.
@@ -247,15 +356,15 @@ pub(super) fn draw_parameter(
         .map(|(k, (e, g))| Series {
             label: join_label(&[&est_label(e), g, "bias ± MCSE"]),
             color: color(k),
-            points: points(e, g, bias, Some(bias_mcse)),
+            points: points(&rows, e, g, bias, Some(bias_mcse)),
             markers: true,
         })
         .collect();
     for (k, (e, g)) in keys_seen.iter().enumerate() {
-        let points = points(e, g, &bias_cv, Some(&bias_cv_mcse));
+        let points = points(&rows, e, g, &bias_cv, Some(&bias_cv_mcse));
         if !points.is_empty() {
             series.push(Series {
-                label: join_label(&[&est_label(e), g, "bias with control variates ± MCSE"]),
+                label: join_label(&[&est_label(e), g, "bias (CV) ± MCSE"]),
                 color: color(keys_seen.len() + k),
                 points,
                 markers: true,
@@ -263,7 +372,7 @@ pub(super) fn draw_parameter(
         }
     }
     let name = format!("bias_{}.svg", p.name);
-    chart(
+    chart_with_note(
         &dir.join(&name),
         &Axes {
             title: &format!("{sym}: bias of the estimates (truth {truth:.4e}{unit})"),
@@ -276,6 +385,7 @@ pub(super) fn draw_parameter(
             y: 0.0,
             label: "no bias".into(),
         }],
+        note.as_deref(),
     )?;
     names.push(name);
 
@@ -304,17 +414,18 @@ pub(super) fn draw_parameter(
             "coverage [-]".to_string(),
         ),
     ] {
+        let (rows, keys_seen, note) = select(layout.estimators.len() * bounds_reported);
         let mut series = Vec::new();
         let mut c = 0;
         for (bi, b) in layout.bounds.iter().enumerate() {
             let (value, mcse) = &bound(bi, which);
             for (e, g) in &keys_seen {
-                let points = points(e, g, value, Some(mcse));
+                let points = points(&rows, e, g, value, Some(mcse));
                 if points.is_empty() {
                     continue;
                 }
                 series.push(Series {
-                    label: join_label(&[b.name, &est_label(e), g]),
+                    label: join_label(&[&bound_label(b), &est_label(e), g]),
                     color: color(c),
                     points,
                     markers: true,
@@ -323,7 +434,7 @@ pub(super) fn draw_parameter(
             }
         }
         let name = format!("{figure}_{}.svg", p.name);
-        chart(
+        chart_with_note(
             &dir.join(&name),
             &Axes {
                 title: &title,
@@ -333,6 +444,7 @@ pub(super) fn draw_parameter(
             },
             &series,
             &[reference],
+            note.as_deref(),
         )?;
         names.push(name);
         output::failpoint("figure-drawn");

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::FigureError;
-use super::chart::{Axes, Series, chart, ramp};
+use super::chart::{Axes, Series, chart_with_note, ramp};
 use crate::model::Layout;
 use crate::output::SummaryTable;
 
@@ -13,7 +13,8 @@ use crate::output::SummaryTable;
 const LEVELS: usize = 5;
 
 /// Draw `tradeoff_<parameter>_<estimator>.svg` into `dir` when `scale` and `velocity_sd`
-/// both vary; returns the file names.
+/// both vary; returns the file names. Where other axes vary too (e.g. `duration`), the
+/// iso-lines are those at each other axis's last value in study order, named in the figure.
 pub(super) fn draw_tradeoffs(
     dir: &Path,
     layout: &Layout,
@@ -24,6 +25,32 @@ pub(super) fn draw_tradeoffs(
         return Ok(Vec::new());
     };
     let value = |r: &crate::stats::summary::SummaryRow, a: usize| t.info(r).axes[a].number();
+    // Every other axis held at its last value (a plane of the grid, not a mix of planes).
+    let held: Vec<(usize, &crate::model::AxisValue)> = (0..layout.axes.len())
+        .filter(|&a| a != sa && a != va)
+        .filter_map(|a| {
+            let first = &t.info(t.rows.first()?).axes[a];
+            let last = &t.info(t.rows.last()?).axes[a];
+            t.rows
+                .iter()
+                .any(|r| &t.info(r).axes[a] != first)
+                .then_some((a, last))
+        })
+        .collect();
+    let in_plane = |r: &&crate::stats::summary::SummaryRow| {
+        held.iter().all(|(a, v)| &t.info(r).axes[*a] == *v)
+    };
+    let note = (!held.is_empty()).then(|| {
+        let at: Vec<String> = held
+            .iter()
+            .map(|(a, v)| format!("{} = {v}", layout.axes[*a].name))
+            .collect();
+        format!(
+            "At {} (the last value of each other axis); every condition is in summary.parquet.",
+            at.join(", ")
+        )
+    });
+    let note = note.as_deref();
     let mut scales: Vec<f64> = t.rows.iter().map(|r| value(r, sa)).collect();
     let mut sds: Vec<f64> = t.rows.iter().map(|r| value(r, va)).collect();
     for v in [&mut scales, &mut sds] {
@@ -44,6 +71,7 @@ pub(super) fn draw_tradeoffs(
                 .rows
                 .iter()
                 .filter(|r| r.parameter == p && r.estimator == e)
+                .filter(in_plane)
             {
                 let i = scales.iter().position(|&s| s == value(r, sa)).unwrap_or(0);
                 let j = sds.iter().position(|&s| s == value(r, va)).unwrap_or(0);
@@ -87,6 +115,7 @@ pub(super) fn draw_tradeoffs(
                 &name,
                 &format!("{} ({est}): equal relative RMSE", param.name),
                 &series,
+                note,
             )?;
             names.push(name);
             per_estimator.push((e, mean, series));
@@ -111,15 +140,21 @@ pub(super) fn draw_tradeoffs(
                 "{}: equal relative RMSE, ols (lines) and {} (points)",
                 param.name, layout.estimators[best.0]
             );
-            draw(dir, &name, &title, &series)?;
+            draw(dir, &name, &title, &series, note)?;
             names.push(name);
         }
     }
     Ok(names)
 }
 
-fn draw(dir: &Path, name: &str, title: &str, series: &[Series]) -> Result<(), FigureError> {
-    chart(
+fn draw(
+    dir: &Path,
+    name: &str,
+    title: &str,
+    series: &[Series],
+    note: Option<&str>,
+) -> Result<(), FigureError> {
+    chart_with_note(
         &dir.join(name),
         &Axes {
             title,
@@ -129,6 +164,7 @@ fn draw(dir: &Path, name: &str, title: &str, series: &[Series]) -> Result<(), Fi
         },
         series,
         &[],
+        note,
     )
 }
 

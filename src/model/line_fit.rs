@@ -113,10 +113,13 @@ pub fn layout() -> Layout {
             BoundInfo {
                 name: "assumed_sigma",
                 description: "sqrt(diag(σ_a² (XᵀX)⁻¹)) with the assumed σ_a (the thesis's 7.5)",
+                // The thesis's example of a wrong σ: a bound only when σ_a is the truth.
+                valid: false,
             },
             BoundInfo {
                 name: "true_sigma",
                 description: "sqrt(diag(σ² (XᵀX)⁻¹)) with the true noise SD: the exact OLS SE; the CRLB only for Gaussian noise",
+                valid: true,
             },
         ],
     }

@@ -138,6 +138,10 @@ pub struct BoundInfo {
     pub name: &'static str,
     /// What it is and when it is valid.
     pub description: &'static str,
+    /// Whether, where it applies, it is a valid bound or prediction of the estimates'
+    /// spread; false for one reported for fidelity only (the thesis's bound under speed
+    /// noise, README "What the numbers mean"). Tables lead with a valid one.
+    pub valid: bool,
 }
 
 /// Everything the executor, statistics and output need to know about a model's rows.

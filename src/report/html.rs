@@ -63,7 +63,9 @@ pub fn head(title: &str) -> String {
          .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem;margin:.5rem 0}}\
          figure{{margin:1rem 0}}figure svg{{max-width:100%;height:auto}}\
          figcaption{{font-size:.85rem;color:#444}}td,th{{padding:.1rem .6rem}}\
-         table.meta td{{padding:.1rem .75rem .1rem 0}}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
+         table.meta td{{padding:.1rem .75rem .1rem 0}}\
+         table.vehicle{{border-collapse:collapse;font-size:.85rem}}\
+         table.vehicle td{{text-align:right;border-top:1px solid #ddd}}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
     )
 }
 
@@ -106,6 +108,7 @@ pub fn page(p: &Page<'_>) -> String {
             let _ = writeln!(out, "<p class=\"warning\">{}</p>", escape(w));
         }
     }
+    out.push_str(&vehicle_parameters(p.layout, p.infos, p.summary));
     // Figures.
     if !p.figures.is_empty() {
         out.push_str("<h2>Figures</h2>\n");
@@ -118,11 +121,16 @@ pub fn page(p: &Page<'_>) -> String {
             );
         }
     }
+    let listed = super::listed_conditions(p.layout, p.infos, p.summary).len();
+    let what = if listed < p.infos.len() {
+        format!("{listed} of {} conditions", p.infos.len())
+    } else {
+        format!("{} conditions", p.infos.len())
+    };
     let _ = write!(
         out,
-        "<h2>Per condition</h2>\n<details><summary>the table printed after the run ({} \
-         conditions)</summary>\n<pre>{}</pre>\n</details>\n",
-        p.infos.len(),
+        "<h2>Per condition</h2>\n<details><summary>the table printed after the run \
+         ({what})</summary>\n<pre>{}</pre>\n</details>\n",
         escape(p.table.trim_matches('\n'))
     );
     let _ = write!(
@@ -130,6 +138,140 @@ pub fn page(p: &Page<'_>) -> String {
         "<h2>Study as run</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&p.meta.study_toml)
     );
+    out
+}
+
+/// A quantity a vehicle engineer reads, derived from θ = [1/M, Cd/M, Cr]: its relative bias
+/// (± MCSE) and relative spread, in % of its true value, from the summary of θ.
+struct Derived {
+    bias: f64,
+    /// The MCSE of `bias`; for Cd an upper bound (the MCSEs of its two means added).
+    bias_mcse: f64,
+    /// The relative spread, or for Cd the interval it lies in.
+    spread: (f64, f64),
+}
+
+/// M, Cd and Cr of one condition × estimator from its rows of 1/M, Cd/M and Cr, to first
+/// order in the estimates' deviations (the delta method; docs/model.md#vehicle-parameters):
+/// M̂ = 1/θ̂₁ has relative bias θ₁/μ₁ − 1 and relative spread ≈ θ₁S₁/μ₁²; Ĉd = θ̂₂/θ̂₁ has
+/// relative bias (μ₂/μ₁)/(θ₂/θ₁) − 1 and a relative spread between |S₁/μ₁ − S₂/μ₂| and
+/// S₁/μ₁ + S₂/μ₂ times (μ₂/μ₁)/(θ₂/θ₁) (where in that interval depends on the correlation of
+/// θ̂₁ and θ̂₂, which the summary does not carry); Cr is θ₃ itself.
+fn derived(inv_mass: &SummaryRow, drag: &SummaryRow, cr: &SummaryRow) -> [Derived; 3] {
+    let (t1, m1, s1, e1) = (
+        inv_mass.truth,
+        inv_mass.mean.value,
+        inv_mass.emp_se.value,
+        inv_mass.mean.mcse,
+    );
+    let (t2, m2, s2, e2) = (
+        drag.truth,
+        drag.mean.value,
+        drag.emp_se.value,
+        drag.mean.mcse,
+    );
+    let ratio = (m2 / m1) / (t2 / t1);
+    let (r1, r2) = (s1 / m1, s2 / m2);
+    [
+        Derived {
+            bias: 100.0 * (t1 / m1 - 1.0),
+            bias_mcse: 100.0 * t1 * e1 / (m1 * m1),
+            spread: (100.0 * t1 * s1 / (m1 * m1), 100.0 * t1 * s1 / (m1 * m1)),
+        },
+        Derived {
+            bias: 100.0 * (ratio - 1.0),
+            bias_mcse: 100.0 * ratio * (e1 / m1.abs() + e2 / m2.abs()),
+            spread: (
+                100.0 * ratio * (r1 - r2).abs(),
+                100.0 * ratio * (r1.abs() + r2.abs()),
+            ),
+        },
+        Derived {
+            bias: 100.0 * cr.rel_bias.value,
+            bias_mcse: 100.0 * cr.rel_bias.mcse,
+            spread: (
+                100.0 * cr.emp_se.value / cr.truth.abs(),
+                100.0 * cr.emp_se.value / cr.truth.abs(),
+            ),
+        },
+    ]
+}
+
+/// The section "Vehicle parameters": M [kg], Cd and Cr per listed condition × estimator,
+/// with their relative bias and spread ([`derived`]); empty for a model without 1/M, Cd/M
+/// and Cr.
+fn vehicle_parameters(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]) -> String {
+    let index = |name: &str| layout.parameters.iter().position(|p| p.name == name);
+    let (Some(pm), Some(pd), Some(pr)) = (
+        index("inv_mass"),
+        index("drag_over_mass"),
+        index("rolling_resistance"),
+    ) else {
+        return String::new();
+    };
+    let row = |c: usize, e: usize, p: usize| {
+        summary
+            .iter()
+            .find(|r| r.condition == c && r.estimator == e && r.parameter == p)
+    };
+    let Some(first) = infos.first() else {
+        return String::new();
+    };
+    let varying: Vec<usize> = (0..layout.axes.len())
+        .filter(|&a| infos.iter().any(|i| i.axes[a] != first.axes[a]))
+        .collect();
+    let truth = &first.truth;
+    let mut out = String::new();
+    let _ = write!(
+        out,
+        "<h2>Vehicle parameters</h2>\n<p>What the estimates of θ = [1/M, Cd/M, Cr] mean for \
+         the mass M = 1/θ₁ (truth {:.1} kg), the drag coefficient Cd = θ₂/θ₁ (truth {:.4}) and \
+         the rolling-resistance coefficient Cr (truth {:.5}): bias ± MCSE and spread (the SD \
+         of the estimates), in % of the true value. For M and Cd these are first-order (delta \
+         method) conversions of the summary of 1/M and Cd/M; the spread of Cd lies in the \
+         interval shown, where depending on the correlation of 1/M̂ and Cd/M̂, and the ± of \
+         its bias is an upper bound (docs/model.md#vehicle-parameters). Every realisation's \
+         M̂ and Ĉd are in realisations.parquet (mass_hat, cd_hat).</p>\n",
+        1.0 / truth[pm],
+        truth[pd] / truth[pm],
+        truth[pr]
+    );
+    out.push_str("<table class=\"vehicle\">\n<tr>");
+    for &a in &varying {
+        let _ = write!(out, "<th>{}</th>", escape(layout.axes[a].name));
+    }
+    out.push_str(
+        "<th>estimator</th><th>M bias [%]</th><th>M spread [%]</th><th>Cd bias [%]</th>\
+         <th>Cd spread [%]</th><th>Cr bias [%]</th><th>Cr spread [%]</th></tr>\n",
+    );
+    for c in super::listed_conditions(layout, infos, summary) {
+        for e in 0..layout.estimators.len() {
+            let (Some(m), Some(d), Some(r)) = (row(c, e, pm), row(c, e, pd), row(c, e, pr)) else {
+                continue;
+            };
+            out.push_str("<tr>");
+            for &a in &varying {
+                let _ = write!(out, "<td>{}</td>", escape(&infos[c].axes[a].to_string()));
+            }
+            let _ = write!(out, "<td>{}</td>", escape(layout.estimators[e]));
+            for (k, x) in derived(m, d, r).iter().enumerate() {
+                let bias = format!(
+                    "{:+.3} ± {}{:.3}",
+                    x.bias,
+                    if k == 1 { "≤" } else { "" },
+                    x.bias_mcse
+                );
+                let spread = if x.spread.0 == x.spread.1 {
+                    format!("{:.3}", x.spread.0)
+                } else {
+                    format!("{:.3}–{:.3}", x.spread.0, x.spread.1)
+                };
+                let _ = write!(out, "<td>{bias}</td><td>{spread}</td>");
+            }
+            out.push_str("</tr>\n");
+        }
+    }
+    out.push_str("</table>\n");
     out
 }
 

@@ -202,4 +202,259 @@ fn replications_for_says_when_a_target_is_out_of_reach_or_has_nothing_to_plan() 
     let rp = lines.iter().find(|l| l.contains("rel_precision")).unwrap();
     assert!(rp.contains("nothing to plan"), "{rp}");
     assert!(!rp.contains("R = "), "recommends no R: {rp}");
+
+/// The cells of the rows of the table of class `class` in `doc` (header rows excluded).
+fn table_rows(doc: &roxmltree::Document<'_>, class: &str) -> Vec<Vec<String>> {
+    let table = doc
+        .descendants()
+        .find(|n| n.has_tag_name("table") && n.attribute("class") == Some(class))
+        .unwrap_or_else(|| panic!("no table of class {class}"));
+    table
+        .children()
+        .filter(|n| n.has_tag_name("tr"))
+        .map(|tr| {
+            tr.children()
+                .filter(|c| c.has_tag_name("td"))
+                .map(|c| c.text().unwrap_or("").to_string())
+                .collect::<Vec<_>>()
+        })
+        .filter(|cells| !cells.is_empty())
+        .collect()
+}
+
+fn parse_report(text: &str) -> roxmltree::Document<'_> {
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..Default::default()
+    };
+    roxmltree::Document::parse_with_options(text, options).unwrap()
+}
+
+#[test]
+fn printed_table_leads_with_a_valid_bound_and_names_it_in_the_header() {
+    // Speed noise only: thesis_bound is reported but never valid; eiv_sandwich applies to
+    // OLS and BCLS, and WBCLS reports eiv_crlb_linearized but not the sandwich (README "What
+    // the numbers mean").
+    let (_dir, report) = run(&study("bias_compensation.toml", 5), None);
+    let text = chassis_mc::report::table(&report.layout, &report.infos, &report.summary);
+    let headers: Vec<&str> = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("cond"))
+        .collect();
+    assert_eq!(headers.len(), 3, "{text}");
+    for h in &headers {
+        assert!(h.contains("EmpSE/eiv_sandwich"), "{h}");
+        assert!(!h.contains("thesis"), "{h}");
+    }
+    assert!(!text.contains("(thesis)"), "{text}");
+    // Each line's ratio is the summary's EmpSE / eiv_sandwich of that row.
+    let b = report
+        .layout
+        .bounds
+        .iter()
+        .position(|b| b.name == "eiv_sandwich")
+        .unwrap();
+    let first = &report.summary[0];
+    let s = first.bounds[b].as_ref().unwrap();
+    let expected = format!("{:.4} ± {:.4}", s.emp_over.value, s.emp_over.mcse);
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with(&format!("{} ", first.condition)))
+        .unwrap();
+    assert!(line.ends_with(&expected), "{line} vs {expected}");
+
+    // Estimators whose valid bounds differ: the header says "bound", each line names its own.
+    let mixed = set_key(
+        &study_text("bias_compensation.toml"),
+        "estimators",
+        "[\"ols\", \"wbcls\"]",
+    );
+    let mixed = set_key(&set_key(&mixed, "scales", "[1.0]"), "velocity_sd", "[1.0]");
+    let study = chassis_mc::study::Study::from_toml(&mixed, "mixed")
+        .unwrap()
+        .with_overrides(Some(5), None)
+        .unwrap();
+    let (_dir, report) = run(&study, None);
+    let text = chassis_mc::report::table(&report.layout, &report.infos, &report.summary);
+    for line in text.lines().filter(|l| l.contains(" ols ")) {
+        assert!(line.contains("eiv_sandwich"), "{line}");
+    }
+    let wbcls: Vec<&str> = text.lines().filter(|l| l.contains("wbcls")).collect();
+    assert_eq!(wbcls.len(), 3, "{text}");
+    for line in wbcls {
+        assert!(line.contains("eiv_crlb_linearized"), "{line}");
+    }
+    assert!(text.contains("EmpSE/bound"), "{text}");
+}
+
+#[test]
+fn report_gives_mass_drag_coefficient_and_rolling_resistance_with_bias_and_spread() {
+    // One scale, σ_v = 1 and 2 m/s, OLS and BCLS, R = 200: the report's M, Cd and Cr
+    // against the same realisations' mass_hat, cd_hat and θ̂₃ (realisations.parquet).
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[1.0, 2.0]");
+    let study = chassis_mc::study::Study::from_toml(&text, "vehicle")
+        .unwrap()
+        .with_overrides(Some(200), None)
+        .unwrap();
+    let (dir, _) = run(&study, None);
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    let doc = parse_report(&html);
+    let headers = texts(&doc, "th");
+    for h in [
+        "M bias [%]",
+        "M spread [%]",
+        "Cd bias [%]",
+        "Cd spread [%]",
+        "Cr bias [%]",
+        "Cr spread [%]",
+    ] {
+        assert!(headers.iter().any(|t| t == h), "{h} missing in {headers:?}");
+    }
+    let rows = table_rows(&doc, "vehicle");
+    assert_eq!(rows.len(), 2 * 2, "conditions × estimators: {rows:?}");
+
+    let r = read_table(&dir.path().join("realisations.parquet"));
+    let (sd, est) = (f64_col(&r, "velocity_sd"), str_col(&r, "estimator"));
+    let (mass, cd, cr) = (
+        f64_col(&r, "mass_hat"),
+        f64_col(&r, "cd_hat"),
+        f64_col(&r, "theta_rolling_resistance"),
+    );
+    let (m_true, cd_true, cr_true) = (1800.0, 0.35, 0.0125); // studies/bias_compensation.toml
+    let mean_sd = |v: &[f64]| {
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, var.sqrt())
+    };
+    let number = |cell: &str| -> f64 { cell.trim().parse().unwrap() };
+    let bias_of = |cell: &str| number(cell.split(" ± ").next().unwrap());
+    // Cells print three decimals of a percentage: ±0.0005 of rounding.
+    let rounding = 0.0005;
+    for row in &rows {
+        let (level, estimator) = (number(&row[0]), &row[1]);
+        let pick = |v: &[f64]| -> Vec<f64> {
+            (0..v.len())
+                .filter(|&i| sd[i] == level && &est[i] == estimator)
+                .map(|i| v[i])
+                .collect()
+        };
+        let (m_mean, m_sd) = mean_sd(&pick(&mass));
+        let (cd_mean, cd_sd) = mean_sd(&pick(&cd));
+        let (cr_mean, cr_sd) = mean_sd(&pick(&cr));
+        // The report converts the summary of θ to first order (docs/model.md#vehicle-parameters);
+        // what it leaves out is of relative order (S/μ)² in the mean and S/μ in the SD,
+        // with S/μ the relative spread (0.2–0.5 % here): twice that as slack.
+        let r_m = m_sd / m_mean;
+        let r_cd = cd_sd / cd_mean;
+        let second = 2.0 * 100.0 * (r_m * r_m + r_m * r_cd);
+        let m_bias = 100.0 * (m_mean / m_true - 1.0);
+        assert!(
+            (bias_of(&row[2]) - m_bias).abs() <= second + rounding,
+            "{row:?}: M bias {m_bias}"
+        );
+        let m_spread = 100.0 * m_sd / m_true;
+        assert!(
+            (number(&row[3]) - m_spread).abs() <= 2.0 * r_m * m_spread + rounding,
+            "{row:?}: M spread {m_spread}"
+        );
+        let cd_bias = 100.0 * (cd_mean / cd_true - 1.0);
+        assert!(
+            (bias_of(&row[4]) - cd_bias).abs() <= second + rounding,
+            "{row:?}: Cd bias {cd_bias}"
+        );
+        // The spread of Cd: an interval that holds the realisations' own.
+        let cd_spread = 100.0 * cd_sd / cd_true;
+        let (lo, hi) = row[5].split_once('–').unwrap();
+        let slack = 2.0 * (r_m + r_cd) * cd_spread + rounding;
+        assert!(
+            number(lo) - slack <= cd_spread && cd_spread <= number(hi) + slack,
+            "{row:?}: Cd spread {cd_spread}"
+        );
+        // Cr is θ₃ itself: exact up to rounding.
+        assert!(
+            (bias_of(&row[6]) - 100.0 * (cr_mean / cr_true - 1.0)).abs() <= rounding + 1e-9,
+            "{row:?}"
+        );
+        assert!(
+            (number(&row[7]) - 100.0 * cr_sd / cr_true).abs() <= rounding + 1e-9,
+            "{row:?}"
+        );
+    }
+}
+
+#[test]
+fn report_stays_small_on_a_grid_of_hundreds_of_conditions() {
+    // The thesis cycle cut to 60 s: 11 scales × 3 durations × 10 speed-noise levels = 330
+    // conditions, OLS and BCLS, R = 4. Before the tables listed a selection and the figures
+    // a bounded number of series, this grid's report.html was 9.6 MB (and 33 MB at 1100
+    // conditions, README "report.html"); now the page does not grow with the grid beyond
+    // the drive-cycle figure: at most 16 series per figure and the tables' selection.
+    let text = set_key(&study_text("thesis.toml"), "duration", "60.0");
+    let text = text.replace("[drive]\n", "[drive]\ndurations = [20.0, 40.0, 60.0]\n");
+    let text = set_key(
+        &text,
+        "velocity_sd",
+        "[0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]",
+    );
+    let text = set_key(&text, "estimators", "[\"ols\", \"bcls\"]");
+    let study = chassis_mc::study::Study::from_toml(&text, "grid")
+        .unwrap()
+        .with_overrides(Some(4), None)
+        .unwrap();
+    let (dir, report) = run(&study, None);
+    assert_eq!(report.infos.len(), 330);
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    let cycles = std::fs::read_to_string(dir.path().join("figures/cycles.svg")).unwrap_or_default();
+    let without_cycles = html.len() - cycles.len().min(html.len());
+    assert!(
+        without_cycles < 2_000_000,
+        "report.html without cycles.svg: {without_cycles} bytes"
+    );
+    let doc = parse_report(&html);
+    // The tables list a selection of the conditions, and say so.
+    let listed = table_rows(&doc, "vehicle").len() / 2;
+    assert!(
+        (8..=chassis_mc::report::MAX_LISTED_CONDITIONS).contains(&listed),
+        "{listed} conditions listed"
+    );
+    assert!(html.contains(&format!("{listed} of 330 conditions")));
+    // Every figure but the cycles' has at most 16 series (legend entries besides the
+    // reference line), and says which groups it shows.
+    for entry in std::fs::read_dir(dir.path().join("figures")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name == "cycles.svg" {
+            continue;
+        }
+        let svg = std::fs::read_to_string(&path).unwrap();
+        let doc = roxmltree::Document::parse(&svg).unwrap();
+        // Legend keys sit in the right-hand margin (from x = 940 px; the plot ends at 920).
+        let legend_keys = doc
+            .descendants()
+            .filter(|n| {
+                (n.has_tag_name("circle") && n.attribute("fill").is_some_and(|f| f != "none"))
+                    || n.has_tag_name("polyline")
+            })
+            .filter(|n| {
+                let x = n
+                    .attribute("cx")
+                    .or_else(|| n.attribute("points").and_then(|p| p.split(',').next()))
+                    .and_then(|x| x.trim().parse::<f64>().ok())
+                    .unwrap_or(0.0);
+                x > 930.0
+            })
+            .count();
+        assert!(
+            legend_keys <= 16 + 1,
+            "{name}: {legend_keys} legend entries"
+        );
+        if name.starts_with("se_") || name.starts_with("ratio_") {
+            assert!(
+                svg.contains("groups:"),
+                "{name}: no note of the groups shown"
+            );
+        }
+    }
 }
