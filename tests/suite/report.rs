@@ -202,6 +202,7 @@ fn replications_for_says_when_a_target_is_out_of_reach_or_has_nothing_to_plan() 
     let rp = lines.iter().find(|l| l.contains("rel_precision")).unwrap();
     assert!(rp.contains("nothing to plan"), "{rp}");
     assert!(!rp.contains("R = "), "recommends no R: {rp}");
+}
 
 /// The cells of the rows of the table of class `class` in `doc` (header rows excluded).
 fn table_rows(doc: &roxmltree::Document<'_>, class: &str) -> Vec<Vec<String>> {
