@@ -97,9 +97,10 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// Its estimate from the realisation.
     fn estimate(&self, r: &Realisation<'_>) -> Estimate;
 
-    /// Whether it compensates the speed noise's bias with the noise's moments (BCLS and
-    /// its kin): such an estimator stays unbiased under a differentiated acceleration with
-    /// AR(1) speed noise only when the samples are evenly spaced.
+    /// Whether it compensates the noise's bias with the noise's moments (BCLS and its kin,
+    /// every channel: docs/model.md#bcls): such an estimator stays unbiased under a
+    /// differentiated acceleration with AR(1) speed noise only when the samples are evenly
+    /// spaced.
     fn compensates_speed_noise(&self) -> bool {
         false
     }
