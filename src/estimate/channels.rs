@@ -5,8 +5,9 @@
 //! and how its draw perturbs a measured sample — is a `match` arm in this file, so the
 //! compiler lists every place a new channel needs. The condition axes, the study keys under
 //! `[noise]`, the streams and the kernel are derived from [`Channel::ALL`]; the
-//! equation-error variance Ω of the bounds (`bounds.rs`) is the one other place a channel
-//! appears, because its first-order variance is physics, not wiring.
+//! equation-error variance Ω of the bounds (`bounds.rs`) and BCLS's correction of the sums
+//! (`Moments::compensate` in `estimators.rs`, an exhaustive match) are the other places a
+//! channel appears, because they are physics, not wiring.
 
 use std::ops::{Index, IndexMut};
 

@@ -42,6 +42,34 @@ pub struct Moments {
     pub s_y: f64,
     /// N.
     pub n: f64,
+    /// The sums of the grade term s̃ = g sin θ̃ of ỹ (`None` where they are not summed: the
+    /// fast path, which has no grade noise; only the grade noise's compensation reads them).
+    pub grade: Option<GradeSums>,
+}
+
+/// The sums of a realisation that involve the measured grade term s̃ = g sin θ̃ of ỹ on its
+/// own: BCLS's correction of grade noise needs them (docs/model.md#bcls), because ỹ's grade
+/// term and the rest of ỹ are scaled differently by the noise.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GradeSums {
+    /// Σ s̃.
+    pub s_s: f64,
+    /// Σ x̃₁ s̃.
+    pub s_1s: f64,
+    /// Σ x̃₃ s̃.
+    pub s_3s: f64,
+    /// Σ w s̃.
+    pub s_ws: f64,
+}
+
+impl GradeSums {
+    /// Add `q` times every sum of `b`.
+    pub(crate) fn add_scaled(&mut self, b: &GradeSums, q: f64) {
+        self.s_s += q * b.s_s;
+        self.s_1s += q * b.s_1s;
+        self.s_3s += q * b.s_3s;
+        self.s_ws += q * b.s_ws;
+    }
 }
 
 impl Moments {
@@ -60,11 +88,18 @@ impl Moments {
         self.s_1 += b.s_1;
         self.s_3 += b.s_3;
         self.s_y += b.s_y;
+        if let Some(g) = &b.grade {
+            let a = self.grade.get_or_insert_with(GradeSums::default);
+            a.s_s += g.s_s;
+            a.s_1s += g.s_1s;
+            a.s_3s += g.s_3s;
+            a.s_ws += g.s_ws;
+        }
     }
 }
 
-/// Row `i` of the measured regression, (x̃₁, w = Ṽ², x̃₃, ỹ), with each channel's
-/// standard-normal draw `draw(channel)` (0 when it is off), and the noise of a
+/// Row `i` of the measured regression, (x̃₁, w = Ṽ², x̃₃, ỹ, s̃ = g sin θ̃), with each
+/// channel's standard-normal draw `draw(channel)` (0 when it is off), and the noise of a
 /// differentiated acceleration \[m/s²\] where there is one.
 #[inline]
 fn measured_row(
@@ -73,7 +108,7 @@ fn measured_row(
     i: usize,
     draw: impl Fn(Channel) -> f64,
     derivative: Option<f64>,
-) -> [f64; 4] {
+) -> [f64; 5] {
     let mut s = Sample {
         f: reg.f[i],
         v: reg.v[i],
@@ -87,11 +122,12 @@ fn measured_row(
     let x1 = s.f;
     let w = s.v * s.v;
     let x3 = -reg.g * s.cos_grade;
-    let mut y = reg.accel[i] + reg.g * s.sin_grade + s.output_noise;
+    let grade = reg.g * s.sin_grade;
+    let mut y = reg.accel[i] + grade + s.output_noise;
     if let Some(d) = derivative {
         y += d;
     }
-    [x1, w, x3, y]
+    [x1, w, x3, y, grade]
 }
 
 /// The measured rows of one realisation, for estimators that need more than the sums
@@ -107,11 +143,13 @@ pub struct Rows {
     c: Option<Vec<f64>>,
     /// ỹ \[m/s²\] (`None`: noise-free).
     y: Option<Vec<f64>>,
-    /// Whether f, c and y are copied in this realisation (else the regression's stand in).
-    copies: [bool; 3],
+    /// s̃ = g sin θ̃ \[m/s²\] (`None`: noise-free).
+    s: Option<Vec<f64>>,
+    /// Whether f, c, y and s are copied in this realisation (else the regression's stand in).
+    copies: [bool; 4],
 }
 
-/// The measured rows as columns: x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ.
+/// The measured rows as columns: x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ, s̃ = g sin θ̃.
 #[derive(Debug, Clone, Copy)]
 pub struct RowsView<'a> {
     /// x̃₁ = F̃ \[N\].
@@ -122,6 +160,8 @@ pub struct RowsView<'a> {
     pub c: &'a [f64],
     /// ỹ \[m/s²\].
     pub y: &'a [f64],
+    /// s̃ = g sin θ̃, the grade term of ỹ \[m/s²\].
+    pub s: &'a [f64],
     /// True when x̃₁ and x̃₃ are the regression's noise-free columns.
     pub noise_free_f_c: bool,
 }
@@ -165,8 +205,11 @@ impl Rows {
         self.w.reserve(n);
         column(&mut self.f, general);
         column(&mut self.c, general);
-        column(&mut self.y, general || noise.is_on(Channel::Output));
-        self.copies = [general, general, general || noise.is_on(Channel::Output)];
+        let output = general || noise.is_on(Channel::Output);
+        let grade = general && noise.is_on(Channel::Grade);
+        column(&mut self.y, output);
+        column(&mut self.s, grade);
+        self.copies = [general, general, output, grade];
     }
 
     /// The columns, with `reg`'s (the regression the rows were measured on) where the noise
@@ -181,6 +224,7 @@ impl Rows {
             w: &self.w,
             c: pick(&self.c, self.copies[1], &reg.c),
             y: pick(&self.y, self.copies[2], &reg.y),
+            s: pick(&self.s, self.copies[3], &reg.g_sin),
             noise_free_f_c: !self.copies[0],
         }
     }
@@ -219,7 +263,7 @@ impl Rows {
             unreachable!("the general path copies every column");
         };
         for (j, i) in range.enumerate() {
-            let [x1, w, x3, yi] = measured_row(
+            let [x1, w, x3, yi, si] = measured_row(
                 reg,
                 levels,
                 i,
@@ -230,6 +274,9 @@ impl Rows {
             self.w.push(w);
             c.push(x3);
             y.push(yi);
+            if let (Some(s), true) = (&mut self.s, self.copies[3]) {
+                s.push(si);
+            }
         }
     }
 }
@@ -279,7 +326,7 @@ impl<'r> MomentAccumulator<'r> {
 
     /// Like [`new`](Self::new) but always on the general path (for cross-checks).
     #[cfg(test)]
-    fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
+    pub(crate) fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
         MomentAccumulator {
             use_fast_path: false,
             ..Self::new(reg, noise)
@@ -350,11 +397,12 @@ impl<'r> MomentAccumulator<'r> {
         let reg = self.reg;
         let levels = self.noise;
         let mut b = Moments::default();
+        let mut grade = GradeSums::default();
         // A channel that is off draws zeros.
         let zeros = &ZEROS[..len];
         let draws = draws.0.map(|d| d.unwrap_or(zeros));
         for (j, i) in (start..start + len).enumerate() {
-            let [x1, w, x3, y] = measured_row(
+            let [x1, w, x3, y, s] = measured_row(
                 reg,
                 &levels,
                 i,
@@ -374,7 +422,12 @@ impl<'r> MomentAccumulator<'r> {
             b.s_1 += x1;
             b.s_3 += x3;
             b.s_y += y;
+            grade.s_s += s;
+            grade.s_1s += x1 * s;
+            grade.s_3s += x3 * s;
+            grade.s_ws += w * s;
         }
+        b.grade = Some(grade);
         self.general.add(&b);
     }
 
@@ -402,6 +455,7 @@ impl<'r> MomentAccumulator<'r> {
             s_3: reg.sum_c,
             s_y: reg.sum_y + sd_y * s.s_eta,
             n,
+            grade: None,
         }
     }
 }
@@ -491,6 +545,10 @@ mod tests {
             }
         }
         // BCLS with σ_v = 0 is OLS.
-        assert_eq!(acc.finish().bcls_system(reg.k, 0.0), (a, b));
+        assert_eq!(
+            acc.finish()
+                .bcls_system(reg.k, reg.g, &NoiseLevels::default()),
+            (a, b)
+        );
     }
 }

@@ -25,7 +25,7 @@ use std::sync::OnceLock;
 use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
-use super::moments::Moments;
+use super::moments::{GradeSums, Moments};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
@@ -48,6 +48,8 @@ pub struct Regression {
     pub y: Vec<f64>,
     /// Model acceleration dV/dt \[m/s²\] (y without the grade term).
     pub accel: Vec<f64>,
+    /// The grade term g sin θ of y \[m/s²\] (y = dV/dt + this).
+    pub g_sin: Vec<f64>,
     /// sin θ of each sample.
     pub sin_grade: Vec<f64>,
     /// cos θ of each sample.
@@ -70,6 +72,8 @@ pub struct Regression {
     /// over blocks, exactly as a realisation without speed noise would sum them: such a
     /// realisation starts from these instead of recomputing them.
     pub(crate) speed_sums_noise_free: [f64; 5],
+    /// The sums of the grade term s = g sin θ: Σs, ΣFs, Σcs, ΣV²s, exactly rounded.
+    grade_sums_noise_free: GradeSums,
     /// The logged speed samples a differentiated acceleration reads (`None`: the
     /// regression's output holds the model acceleration).
     pub differentiation: Option<Differentiation>,
@@ -88,11 +92,12 @@ impl Regression {
         let f = cycle.f_prop_n.clone();
         let c: Vec<f64> = cos_grade.iter().map(|cs| -g * cs).collect();
         let v = cycle.v_m_s.clone();
+        let g_sin: Vec<f64> = sin_grade.iter().map(|s| g * s).collect();
         let y: Vec<f64> = cycle
             .accel_m_s2
             .iter()
-            .zip(&sin_grade)
-            .map(|(a, s)| a + g * s)
+            .zip(&g_sin)
+            .map(|(a, gs)| a + gs)
             .collect();
         let dot = |a: &[f64], b: &[f64]| exact_sum(a.iter().zip(b).map(|(p, q)| p * q));
         let x2: Vec<f64> = v.iter().map(|v| -k * v * v).collect();
@@ -106,6 +111,12 @@ impl Regression {
             xty[i] = dot(cols[i], &y);
         }
         let sum = |a: &[f64]| exact_sum(a.iter().copied());
+        let grade_sums_noise_free = GradeSums {
+            s_s: sum(&g_sin),
+            s_1s: dot(&f, &g_sin),
+            s_3s: dot(&c, &g_sin),
+            s_ws: exact_sum(v.iter().zip(&g_sin).map(|(v, s)| v * v * s)),
+        };
         let mut speed_sums_noise_free = [0.0; 5];
         for start in (0..v.len()).step_by(BLOCK) {
             let range = start..(start + BLOCK).min(v.len());
@@ -125,10 +136,12 @@ impl Regression {
             segments: OnceLock::new(),
             t: cycle.t_s.clone(),
             speed_sums_noise_free,
+            grade_sums_noise_free,
             sum_f: sum(&f),
             sum_c: sum(&c),
             sum_y: sum(&y),
             accel: cycle.accel_m_s2.clone(),
+            g_sin,
             sin_grade,
             cos_grade,
             f,
@@ -198,6 +211,7 @@ impl Regression {
             s_3: self.sum_c,
             s_y: self.sum_y,
             n: self.len() as f64,
+            grade: Some(self.grade_sums_noise_free),
         }
     }
 

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::moments::{Moments, RowsView};
+use super::moments::{GradeSums, Moments, RowsView};
 
 const LANES: usize = 4;
 
@@ -25,21 +25,23 @@ pub const RLS_CHECK_S: f64 = 0.25;
 
 /// The moments of rows `start..end` (N = the row count). With `constant`, the sums of
 /// x̃₁ and x̃₃ alone (Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃) are taken from it instead of being
-/// summed: the caller passes them where those columns are noise-free.
+/// summed: the caller passes them where those columns are noise-free. With `grade`, the
+/// sums of the grade term ([`GradeSums`]) as well (`None` without).
 pub fn segment_moments(
     rows: RowsView<'_>,
     start: usize,
     end: usize,
     constant: Option<&Moments>,
+    grade: bool,
 ) -> Moments {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { segment_moments_avx2(rows, start, end, constant) };
+            return unsafe { segment_moments_avx2(rows, start, end, constant, grade) };
         }
     }
-    segment_moments_body(rows, start, end, constant)
+    segment_moments_body(rows, start, end, constant, grade)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -49,8 +51,9 @@ fn segment_moments_avx2(
     start: usize,
     end: usize,
     constant: Option<&Moments>,
+    grade: bool,
 ) -> Moments {
-    segment_moments_body(rows, start, end, constant)
+    segment_moments_body(rows, start, end, constant, grade)
 }
 
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
@@ -115,12 +118,46 @@ fn regressor_sums(f: &[f64], c: &[f64]) -> [f64; 5] {
     acc.map(reduce)
 }
 
+/// The sums of the grade term s̃: [Σs̃, Σx̃₁s̃, Σx̃₃s̃, Σws̃].
+#[inline(always)]
+fn grade_sums(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
+    let n = f.len();
+    let whole = n - n % LANES;
+    let mut acc = [[0.0; LANES]; 4];
+    for i in (0..whole).step_by(LANES) {
+        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
+        let w: [f64; LANES] = w[i..i + LANES].try_into().unwrap();
+        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
+        let s: [f64; LANES] = s[i..i + LANES].try_into().unwrap();
+        let terms = [s, mul(x1, s), mul(x3, s), mul(w, s)];
+        for (a, t) in acc.iter_mut().zip(terms) {
+            for l in 0..LANES {
+                a[l] += t[l];
+            }
+        }
+    }
+    for i in whole..n {
+        let (x1, w, x3, s) = (f[i], w[i], c[i], s[i]);
+        for (a, t) in acc.iter_mut().zip([s, x1 * s, x3 * s, w * s]) {
+            a[0] += t;
+        }
+    }
+    let [s_s, s_1s, s_3s, s_ws] = acc.map(reduce);
+    GradeSums {
+        s_s,
+        s_1s,
+        s_3s,
+        s_ws,
+    }
+}
+
 #[inline(always)]
 fn segment_moments_body(
     rows: RowsView<'_>,
     start: usize,
     end: usize,
     constant: Option<&Moments>,
+    grade: bool,
 ) -> Moments {
     let (f, w, c, y) = (
         &rows.f[start..end],
@@ -128,6 +165,7 @@ fn segment_moments_body(
         &rows.c[start..end],
         &rows.y[start..end],
     );
+    let grade = grade.then(|| grade_sums(f, w, c, &rows.s[start..end]));
     let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = noisy_sums(f, w, c, y);
     let [s_11, s_13, s_33, s_1, s_3] = match constant {
         Some(m) => [m.s_11, m.s_13, m.s_33, m.s_1, m.s_3],
@@ -148,6 +186,7 @@ fn segment_moments_body(
         s_3,
         s_y,
         n: (end - start) as f64,
+        grade,
     }
 }
 
@@ -337,6 +376,7 @@ mod tests {
             w: &cols[1],
             c: &cols[2],
             y: &cols[3],
+            s: &cols[3],
             noise_free_f_c: false,
         }
     }
@@ -438,10 +478,12 @@ mod tests {
             rls_scan_body::<true>(view(&cols), &t, 3.3, 1.0, 5e-4, 1e-5)
         );
         for (a, b) in [(0, 1203), (5, 18), (100, 103)] {
-            assert_eq!(
-                segment_moments(view(&cols), a, b, None),
-                segment_moments_body(view(&cols), a, b, None)
-            );
+            for grade in [false, true] {
+                assert_eq!(
+                    segment_moments(view(&cols), a, b, None, grade),
+                    segment_moments_body(view(&cols), a, b, None, grade)
+                );
+            }
         }
     }
 }

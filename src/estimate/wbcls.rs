@@ -49,9 +49,10 @@ impl Estimator for Wbcls {
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let rows = r.rows();
-        let k = r.regression.k;
+        let (k, g) = (r.regression.k, r.regression.g);
         let sd = r.noise[Channel::Velocity];
-        let mut theta = match solve(&r.moments.bcls_system(k, sd)) {
+        let grade = r.noise.is_on(Channel::Grade);
+        let mut theta = match solve(&r.moments.bcls_system(k, g, r.noise)) {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),
         };
@@ -60,7 +61,7 @@ impl Estimator for Wbcls {
             .iter()
             .zip(constant)
             .map(|(&(a, b), constant)| {
-                segment_moments(rows, a, b, rows.noise_free_f_c.then_some(constant))
+                segment_moments(rows, a, b, rows.noise_free_f_c.then_some(constant), grade)
             })
             .collect();
         let local = neighbour_means(&moments, sd * sd, segments_left_out(r.noise));
@@ -78,7 +79,7 @@ impl Estimator for Wbcls {
                 }
                 total.add_scaled(m, 1.0 / variance);
             }
-            theta = match solve(&total.bcls_system(k, sd)) {
+            theta = match solve(&total.bcls_system(k, g, r.noise)) {
                 Ok(theta) => theta,
                 failed => return Estimate::theta(failed),
             };
@@ -173,6 +174,11 @@ impl Moments {
         self.s_3 += q * m.s_3;
         self.s_y += q * m.s_y;
         self.n += q * m.n;
+        if let Some(g) = &m.grade {
+            self.grade
+                .get_or_insert_with(Default::default)
+                .add_scaled(g, q);
+        }
     }
 }
 

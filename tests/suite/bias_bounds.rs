@@ -128,12 +128,19 @@ fn grade_noise_is_output_like_and_force_noise_attenuates_inverse_mass() {
         let rel = sandwich[i] / emp_se[i] - 1.0;
         assert!(rel.abs() <= 0.15, "{what}: sandwich off by {rel:+.3}");
     }
-    // Without speed noise BCLS is OLS.
-    let ols: Vec<usize> = rows(&s, "ols").collect();
-    let bcls: Vec<usize> = rows(&s, "bcls").collect();
-    let theta = f64_col(&s, "mean");
-    for (a, b) in ols.iter().zip(&bcls) {
-        assert_eq!(theta[*a], theta[*b]);
+    // BCLS compensates the grade and the force noise (docs/model.md#bcls): unbiased within
+    // 4 MCSE in every noisy condition (9 comparisons), where OLS is off by > 20 MCSE under
+    // the force noise.
+    for i in rows(&s, "bcls").filter(|&i| grade[i] > 0.0 || force[i] > 0.0) {
+        assert!(
+            bias[i].abs() <= 4.0 * mcse[i],
+            "BCLS, {} with grade_sd {} force_sd {}: {} ± {}",
+            param[i],
+            grade[i],
+            force[i],
+            bias[i],
+            mcse[i]
+        );
     }
 }
 

@@ -195,8 +195,8 @@ impl VehicleModel {
     /// The first-order prediction of estimator `e`'s (index in the study's list) bias and
     /// standard error in condition `c`, per parameter: the bias of the ratio of expectations
     /// (the normal equations' expected sums under the condition's speed noise, solved;
-    /// zero for an estimator that compensates it; other channels' biases are not
-    /// predicted), and the SE of the first bound the estimator reports among `crlb_output`,
+    /// zero for an estimator that compensates the noise, every channel's; other channels'
+    /// biases of OLS are not predicted), and the SE of the first bound the estimator reports among `crlb_output`,
     /// `eiv_sandwich` and `eiv_crlb_linearized` (NaN where none applies).
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
