@@ -48,7 +48,7 @@ enum Command {
         \n  summary.parquet       one row per condition × estimator × parameter (bias, EmpSE, \
         RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors; and \
         the bias by control variates, bias_cv, often with a thousandth of the plain MCSE)\
-        \n  cycles.parquet        the noise-free drive cycle of each condition\n\n\
+        \n  cycles.parquet        each distinct noise-free drive cycle once\n\n\
         and DIR/figures/*.svg. Files appear only when the run completes, and replace the \
         previous run's files as one set (a run killed at any instant leaves the old set, the \
         new one, or a set that is reported incomplete and completed by the next run); your \

@@ -171,7 +171,12 @@ fn refactors_keep_the_realisations_bit_for_bit() {
         [
             0x17b2_7824_6de9_f62d,
             0x7392_72e0_43bd_fdf0,
-            0x3b43_6d7d_cd67_50b8
+            // cycles.parquet holds each distinct cycle once, keyed by scale (and
+            // acceleration): re-pinned when it stopped repeating the cycle per condition
+            // (its blocks equal the old table's rows of each scale's first condition, and
+            // every condition's old `used` column is its block's within its duration —
+            // checked with DuckDB over an 1100-condition grid).
+            0x4e72_a879_eb9a_ef79
         ]
     );
     // The control variates, pinned on the engine that introduced them.
@@ -199,7 +204,8 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
         [
             0xbd7f_7efe_144d_055a,
             0xa77e_26c3_672b_b4d0,
-            0xb471_b9a0_3179_654d
+            // The same two cycles as above (noise does not change them), stored once.
+            0x4e72_a879_eb9a_ef79
         ]
     );
     // The control variates, pinned on the engine that introduced them.

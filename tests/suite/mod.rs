@@ -7,6 +7,7 @@ mod design;
 mod determinism;
 mod figures;
 mod fit;
+mod grid_cost;
 mod layering;
 mod line_fit;
 mod mcse;

@@ -23,10 +23,6 @@ pub(super) struct ScaleCycle {
 /// The regression rows of one (scale, duration).
 #[derive(Debug)]
 pub(super) struct Segment {
-    /// Which samples of the scale's cycle the regression uses, per acceleration source (in
-    /// study order): a differentiated acceleration leaves out the cycle's first and last
-    /// sample, which have no neighbour on one side.
-    pub used: Vec<Arc<Vec<bool>>>,
     /// The regression of those samples per acceleration source, and within it one per
     /// grade bias (the measured grade θ + b).
     pub regressions: Vec<Vec<Arc<Regression>>>,
@@ -80,6 +76,27 @@ pub(super) fn scale_cycles(
         .collect()
 }
 
+/// Which samples of `cycle` a regression with acceleration `source` uses: those the row
+/// selection keeps within the first `duration_s` seconds (all of the cycle when `None`); a
+/// differentiated acceleration also leaves out the cycle's first and last sample, which
+/// have no neighbour on one side. So a duration's samples are those of the whole cycle with
+/// t − t₀ ≤ the duration: what cycles.parquet records (README, "Output files").
+pub(super) fn used_samples(
+    cycle: &DriveCycle,
+    vs: &VehicleStudy,
+    duration_s: Option<f64>,
+    source: Acceleration,
+) -> Vec<bool> {
+    let mut used = cycle.used(&vs.selection, duration_s);
+    if source == Acceleration::Differentiated {
+        used[0] = false;
+        if let Some(last) = used.last_mut() {
+            *last = false;
+        }
+    }
+    used
+}
+
 /// The number of levels of the duration axis (1 without `durations`).
 pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
     vs.durations.as_ref().map_or(1, Vec::len)
@@ -113,17 +130,9 @@ pub(super) fn segments(
                     format!("is {t} s but the drive cycle lasts {length} s"),
                 ));
             }
-            let used = cycle.used(&vs.selection, duration);
-            let mut used_per_source = Vec::new();
             let mut regressions = Vec::new();
             for &source in &vs.acceleration {
-                let mut used = used.clone();
-                if source == Acceleration::Differentiated {
-                    used[0] = false;
-                    if let Some(last) = used.last_mut() {
-                        *last = false;
-                    }
-                }
+                let used = used_samples(cycle, vs, duration, source);
                 let rows = used.iter().filter(|u| **u).count();
                 if rows < 3 {
                     return Err(study.error_at(
@@ -161,11 +170,9 @@ pub(super) fn segments(
                         })
                         .collect(),
                 );
-                used_per_source.push(Arc::new(used));
             }
-            let selected = cycle.select(&used);
+            let selected = cycle.select(&cycle.used(&vs.selection, duration));
             Ok(Segment {
-                used: used_per_source,
                 regressions,
                 metrics: vec![cycles[s].terrain_ms_grid, selected.terrain_mean_square()],
                 duration_s: duration.unwrap_or(length),

@@ -1,0 +1,192 @@
+//! What a study costs as its grid of conditions grows: cycles.parquet holds each distinct
+//! cycle once (every condition's samples derived from it exactly), and the cycles figure
+//! does not grow with the number of conditions.
+
+use arrow::array::{Array, BooleanArray};
+use chassis_mc::model::Model;
+use chassis_mc::model::vehicle::VehicleModel;
+
+use super::common::*;
+
+/// Samples of the thesis cycle: 600 s at 0.01 s, both ends included.
+const THESIS_SAMPLES: usize = 60_001;
+
+/// The thesis study with `scales`, `durations`, `velocity_sd` and the acceleration sources
+/// `acceleration`, standstill below 3 m/s left out.
+fn grid_text(scales: &str, durations: &str, velocity_sd: &str, acceleration: &str) -> String {
+    let text = set_key(&study_text("thesis.toml"), "scales", scales);
+    let text = set_key(&text, "velocity_sd", velocity_sd);
+    let text = text.replace(
+        "[drive]",
+        &format!("[drive]\nmin_speed = 3.0\nexclude_braking = true\ndurations = {durations}"),
+    );
+    text.replace(
+        "[estimation]",
+        &format!("[estimation]\nacceleration = {acceleration}"),
+    )
+}
+
+fn used_col(batch: &arrow::array::RecordBatch) -> Vec<bool> {
+    let a = batch
+        .column_by_name("used")
+        .unwrap()
+        .as_any()
+        .downcast_ref::<BooleanArray>()
+        .unwrap();
+    (0..a.len()).map(|i| a.value(i)).collect()
+}
+
+#[test]
+fn cycles_parquet_holds_each_distinct_cycle_once_and_every_condition_recovers_its_samples() {
+    // 2 scales × 3 durations × 2 speed-noise levels × 2 acceleration sources: 24 conditions,
+    // and 4 distinct (scale, source) cycles.
+    let text = grid_text(
+        "[1.0, 2.0]",
+        "[60.0, 300.0, 600.0]",
+        "[0.5, 1.0]",
+        "[\"model\", \"differentiated\"]",
+    );
+    let study = chassis_mc::study::Study::from_toml(&text, "grid")
+        .unwrap()
+        .with_overrides(Some(2), None)
+        .unwrap();
+    let (dir, report) = run(&study, None);
+    assert_eq!(report.infos.len(), 24);
+    let cycles = read_table(&dir.path().join("cycles.parquet"));
+    assert_eq!(
+        cycles.num_rows(),
+        4 * THESIS_SAMPLES,
+        "each distinct cycle once"
+    );
+    let (scale, source) = (f64_col(&cycles, "scale"), str_col(&cycles, "acceleration"));
+    let (t, v, f, grade) = (
+        f64_col(&cycles, "t"),
+        f64_col(&cycles, "v"),
+        f64_col(&cycles, "f_prop"),
+        f64_col(&cycles, "grade"),
+    );
+    let used = used_col(&cycles);
+    // Blocks in order: scale-major, the sources in study order; both sources of a scale
+    // have the same cycle, and `used` is the row selection over the whole cycle (a
+    // differentiated acceleration also leaves out the first and last sample).
+    for (b, (s, a)) in [
+        (1.0, "model"),
+        (1.0, "differentiated"),
+        (2.0, "model"),
+        (2.0, "differentiated"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let rows = b * THESIS_SAMPLES..(b + 1) * THESIS_SAMPLES;
+        let first = rows.start;
+        for (i, row) in rows.enumerate() {
+            assert_eq!((scale[row], source[row].as_str()), (s, a), "row {row}");
+            let twin = (b / 2) * 2 * THESIS_SAMPLES + i;
+            assert_eq!(
+                [t[row], v[row], grade[row]],
+                [t[twin], v[twin], grade[twin]]
+            );
+            let edge = a == "differentiated" && (i == 0 || i == THESIS_SAMPLES - 1);
+            assert_eq!(
+                used[row],
+                v[row] >= 3.0 && f[row] >= 0.0 && !edge,
+                "row {row}"
+            );
+        }
+        assert_eq!(t[first], 0.0, "a simulated cycle starts at t = 0");
+    }
+    // Each condition's samples, joined on (scale, acceleration) and cut at its duration
+    // (t − t₀ ≤ duration, t₀ = 0 here),
+    // are the rows its regression has: their number is what a realisation sums over, and
+    // their mean θ² is the summary's terrain_ms_cycle to the bit (both exact sums) for the
+    // model's acceleration (the metric ignores the differentiated edges, which lie outside
+    // every duration but the whole cycle's).
+    let model = VehicleModel::new(&study).unwrap();
+    let summary = read_table(&dir.path().join("summary.parquet"));
+    let (s_condition, s_ms) = (
+        i32_col(&summary, "condition"),
+        f64_col(&summary, "terrain_ms_cycle"),
+    );
+    let layout = model.layout();
+    let axis = |name: &str| layout.axes.iter().position(|a| a.name == name).unwrap();
+    for (c, info) in report.infos.iter().enumerate() {
+        let (s, d) = (
+            info.axes[axis("scale")].number(),
+            info.axes[axis("duration")].number(),
+        );
+        let a = info.axes[axis("acceleration")].to_string();
+        let rows: Vec<usize> = (0..cycles.num_rows())
+            .filter(|&i| scale[i] == s && source[i] == a && used[i] && t[i] <= d)
+            .collect();
+        let n = model.moments(study.seed(), c, 0).n;
+        assert_eq!(
+            rows.len() as f64,
+            n,
+            "condition {c} (scale {s}, {a}, {d} s)"
+        );
+        if a == "model" {
+            let grades: Vec<f64> = rows.iter().map(|&i| grade[i]).collect();
+            let row = s_condition.iter().position(|&k| k == c as i32).unwrap();
+            assert_eq!(
+                chassis_mc::terrain::mean_square(&grades).to_bits(),
+                s_ms[row].to_bits(),
+                "condition {c}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_cycles_table_and_figure_do_not_grow_with_the_conditions() {
+    // 14 scales, more than the figure draws: one condition each, then 3 durations × 3
+    // noise levels each (126 conditions). cycles.parquet holds the same rows, and
+    // cycles.svg is the same file byte for byte: 12 of the scales (the first and the last
+    // among them), each at most MAX_CYCLE_POINTS bins.
+    let scales = "[1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0, 2.1, 2.2, 2.3]";
+    let small = grid_text(scales, "[600.0]", "[1.0]", "\"model\"");
+    let large = grid_text(
+        scales,
+        "[60.0, 300.0, 600.0]",
+        "[0.2, 0.5, 1.0]",
+        "\"model\"",
+    );
+    let outputs: Vec<(tempfile::TempDir, usize)> = [small, large]
+        .iter()
+        .map(|text| {
+            let study = chassis_mc::study::Study::from_toml(text, "grid")
+                .unwrap()
+                .with_overrides(Some(2), None)
+                .unwrap();
+            let (dir, report) = run(&study, None);
+            (dir, report.infos.len())
+        })
+        .collect();
+    assert_eq!((outputs[0].1, outputs[1].1), (14, 126));
+    let [a, b] = [&outputs[0].0, &outputs[1].0].map(|d| d.path().to_path_buf());
+    let cycles = read_table(&a.join("cycles.parquet"));
+    assert_eq!(cycles.num_rows(), 14 * THESIS_SAMPLES);
+    assert_eq!(
+        cycles.columns(),
+        read_table(&b.join("cycles.parquet")).columns()
+    );
+    let figure = std::fs::read_to_string(a.join("figures/cycles.svg")).unwrap();
+    assert_eq!(
+        figure,
+        std::fs::read_to_string(b.join("figures/cycles.svg")).unwrap()
+    );
+    // The SVG writes each text on a line of its own.
+    let texts: Vec<&str> = figure.lines().map(str::trim).collect();
+    let scales_drawn = texts
+        .iter()
+        .filter(|t| t.starts_with("terrain scale "))
+        .count();
+    assert_eq!(scales_drawn, 12, "legend entries");
+    for label in [
+        "terrain scale 1",
+        "terrain scale 2.3",
+        "left out of the regression",
+    ] {
+        assert!(texts.contains(&label), "cycles.svg lacks {label}");
+    }
+}
