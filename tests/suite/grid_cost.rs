@@ -190,3 +190,42 @@ fn the_cycles_table_and_figure_do_not_grow_with_the_conditions() {
         assert!(texts.contains(&label), "cycles.svg lacks {label}");
     }
 }
+
+#[test]
+fn a_shorter_durations_regression_shares_the_longer_ones_rows_bit_for_bit() {
+    // The 60 s conditions of a study that also has 300 s and 600 s (their regressions the
+    // first rows of the 600 s ones, sharing its columns) against a study with 60 s alone
+    // (built on their own): the same realisations to the bit, for both acceleration sources
+    // and a grade bias. The 60 s conditions come first in both (duration is the outer axis).
+    let tables: Vec<arrow::array::RecordBatch> = ["[60.0, 300.0, 600.0]", "[60.0]"]
+        .iter()
+        .map(|durations| {
+            let text = grid_text(
+                "[1.5]",
+                durations,
+                "[0.5, 1.0]",
+                "[\"model\", \"differentiated\"]",
+            );
+            let text = text.replace("[noise]", "[noise]\ngrade_bias = [0.0, 0.001]");
+            let study = chassis_mc::study::Study::from_toml(&text, "durations")
+                .unwrap()
+                .with_overrides(Some(3), None)
+                .unwrap();
+            let (dir, _) = run(&study, None);
+            read_table(&dir.path().join("realisations.parquet"))
+        })
+        .collect();
+    let first = |table: &arrow::array::RecordBatch| {
+        let conditions = i32_col(table, "condition");
+        let rows = conditions.iter().filter(|&&c| c < 8).count();
+        assert!(
+            conditions[..rows].iter().all(|&c| c < 8),
+            "rows in condition order"
+        );
+        table.slice(0, rows)
+    };
+    let (a, b) = (first(&tables[0]), first(&tables[1]));
+    assert_eq!(b.num_rows(), tables[1].num_rows(), "8 conditions of 60 s");
+    assert_eq!(a.num_rows(), 8 * 3);
+    assert_eq!(a.columns(), b.columns());
+}
