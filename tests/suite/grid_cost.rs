@@ -229,3 +229,102 @@ fn a_shorter_durations_regression_shares_the_longer_ones_rows_bit_for_bit() {
     assert_eq!(a.num_rows(), 8 * 3);
     assert_eq!(a.columns(), b.columns());
 }
+
+/// Every file under `dir` (the lock and manifest, which hold no results, left out), by
+/// its path inside `dir`, with its size.
+fn written_files(dir: &std::path::Path) -> std::collections::BTreeMap<String, f64> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut pending = vec![dir.to_path_buf()];
+    while let Some(d) = pending.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                pending.push(path);
+            } else if !path.file_name().unwrap().to_string_lossy().starts_with('.') {
+                let name = path
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                out.insert(name, std::fs::metadata(&path).unwrap().len() as f64);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn check_estimates_every_file_a_run_writes_within_a_stated_factor() {
+    // 2 scales × 2 durations × 2 noise levels, OLS and BCLS. `check` writes the summary,
+    // cycles, figures and report as a run does, from a summary of 8 realisations per
+    // condition, and models realisations.parquet from sample files (bytes fixed, per row
+    // group, per realisation). Its files have the run's rows, row groups and figure
+    // elements; only the values differ, and a zstd-compressed double's size depends on its
+    // value only through its sign, exponent and leading bits. So within 1.25× either way
+    // (measured: 0.90–1.00 on this study, the 1100-condition grid and the thesis study at
+    // R = 2000 and 100 000). Which trade-off figures exist depends on the results (their
+    // iso-lines), so the list of files is compared at R = 8, where check's summary is the
+    // run's own; the Parquet files also at R = 300.
+    const FACTOR: f64 = 1.25;
+    let text = grid_text("[1.0, 2.0]", "[300.0, 600.0]", "[0.5, 1.0]", "\"model\"");
+    let text = set_key(&text, "estimators", "[\"ols\", \"bcls\"]");
+    for r in [8, 300] {
+        let study = chassis_mc::study::Study::from_toml(&text, "grid")
+            .unwrap()
+            .with_overrides(Some(r), None)
+            .unwrap();
+        let estimated = chassis_mc::check::check(&study, None).unwrap();
+        let (dir, _) = run(&study, None);
+        let written = written_files(dir.path());
+        let names: std::collections::BTreeSet<&String> =
+            estimated.files.iter().map(|f| &f.name).collect();
+        assert_eq!(names.len(), estimated.files.len(), "each file once");
+        if r == 8 {
+            assert_eq!(
+                names,
+                written.keys().collect(),
+                "check names every file a run writes"
+            );
+        }
+        for f in &estimated.files {
+            if r != 8 && !f.name.ends_with(".parquet") {
+                continue;
+            }
+            let ratio = f.bytes / written[&f.name];
+            println!("R = {r}, {}: ratio {ratio:.3}", f.name);
+            assert!(
+                (1.0 / FACTOR..=FACTOR).contains(&ratio),
+                "R = {r}, {}: estimated {} B, written {} B",
+                f.name,
+                f.bytes,
+                written[&f.name]
+            );
+        }
+    }
+}
+
+#[test]
+fn check_does_not_count_more_threads_than_cores() {
+    // 1000 threads on this machine's cores run no faster than as many threads as cores:
+    // the estimate divides the realisations' single-thread time by the cores at most.
+    let study = chassis_mc::study::Study::from_toml(&study_text("thesis.toml"), "thesis")
+        .unwrap()
+        .with_overrides(Some(100_000), None)
+        .unwrap();
+    let many = chassis_mc::check::check(&study, Some(1000)).unwrap();
+    assert_eq!(many.threads, 1000);
+    let mut as_many_as_cores = many.clone();
+    as_many_as_cores.threads = many.cores;
+    assert_eq!(
+        many.estimated_run_time(),
+        as_many_as_cores.estimated_run_time()
+    );
+    // 1.1 million realisations of ≥ 0.05 ms each (the kernel's 60 001 draws alone take
+    // longer: README, Performance) cannot take less than 55 s of single-thread work.
+    let floor = 1.1e6 * 0.05e-3 / many.cores as f64;
+    assert!(
+        many.estimated_run_time().as_secs_f64() > floor,
+        "{:?}",
+        many.estimated_run_time()
+    );
+}
