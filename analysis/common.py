@@ -92,16 +92,24 @@ def terrain_metrics(run_dir):
     """Per condition: ς over the terrain table (`terrain_ms_grid`, from summary.parquet; the
     table itself is not in the output) and ς over the drive cycle (`terrain_ms_cycle`, the
     mean of θ² over the samples the regression uses, thesis eq. 43), computed here from the
-    grades in cycles.parquet (its `used` rows) with a compensated sum."""
+    grades in cycles.parquet with a compensated sum.
+
+    cycles.parquet holds each distinct cycle once, keyed by `scale` and `acceleration`; a
+    condition's samples are its cycle's `used` rows within its duration (t − t₀ ≤ duration,
+    t₀ the cycle's first time; README, "Output files")."""
     run_dir = pathlib.Path(run_dir)
     with duckdb.connect() as con:
         con.execute("SET threads = 1")
         return con.execute(
             "SELECT s.condition, any_value(s.terrain_ms_grid) AS terrain_ms_grid, "
-            "any_value(c.ms) AS terrain_ms_cycle "
-            "FROM read_parquet($summary) s JOIN ("
-            "  SELECT condition, fsum(grade * grade) / count(*) AS ms "
-            "  FROM read_parquet($cycles) WHERE used GROUP BY condition) c USING (condition) "
+            "fsum(c.grade * c.grade) / count(*) AS terrain_ms_cycle "
+            "FROM (SELECT DISTINCT condition, scale, acceleration, duration, terrain_ms_grid "
+            "      FROM read_parquet($summary)) s "
+            "JOIN (SELECT scale, acceleration, grade, used, "
+            "             t - min(t) OVER (PARTITION BY scale, acceleration) AS elapsed "
+            "      FROM read_parquet($cycles)) c "
+            "  ON c.scale = s.scale AND c.acceleration = s.acceleration "
+            "  AND c.used AND c.elapsed <= s.duration "
             "GROUP BY s.condition ORDER BY s.condition",
             {"summary": str(run_dir / "summary.parquet"),
              "cycles": str(run_dir / "cycles.parquet")},

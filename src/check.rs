@@ -1,16 +1,22 @@
 //! What a study would do, without running it: its conditions, how many realisations, and
-//! an estimate of the run time on this machine and of the output size.
+//! an estimate of the run time on this machine and of the size of every file a run writes.
 //!
 //! The model is prepared as `run` prepares it (so every study error a run would report is
-//! reported here), then a few realisations of every condition are timed on one thread and
-//! a sample of realisation rows is encoded with the writer's settings. Nothing is written.
+//! reported here), then a few realisations of every condition are timed on one thread.
+//! The sizes: realisations.parquet from sample files of a few conditions (its bytes per
+//! realisation, per row group and fixed); every other file — summary, cycles, figures,
+//! report — written for real, as a run writes them, from a summary of a few realisations
+//! per condition, into a temporary directory that is removed again. Nothing is written to
+//! the study's output directory.
 
 use std::collections::BTreeMap;
+use std::fs;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::model::{self, ConditionInfo, Layout, Model};
-use crate::output::{self, FileMetadata, OutputError};
-use crate::run::RunError;
+use crate::output::{self, FileMetadata, OutputError, ParquetSink, ROW_GROUP_ROWS};
+use crate::run::{self, RunError};
 use crate::study::Study;
 
 /// Timings per draw group (after one untimed warm-up), each of [`SIDE_BY_SIDE`] realisations
@@ -20,8 +26,24 @@ const TIMED_PER_CONDITION: u64 = 7;
 /// Realisations computed side by side in each timing, as a run computes them.
 const SIDE_BY_SIDE: usize = 4;
 
-/// Realisations of condition 0 encoded to measure the bytes per realisation.
-const SIZE_SAMPLE: u64 = 256;
+/// Realisations of each sampled condition encoded to measure realisations.parquet (and half
+/// as many, for the part of a row group that does not grow with its rows).
+const SIZE_SAMPLE: u64 = 128;
+
+/// Conditions sampled for realisations.parquet: the first, the middle and the last.
+const SIZE_CONDITIONS: usize = 3;
+
+/// Realisations per condition of the summary that the other files are written from.
+const OUTPUT_SAMPLE: u64 = 8;
+
+/// A file a run writes, with its estimated size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileEstimate {
+    /// Its path inside the output directory, e.g. `figures/cycles.svg`.
+    pub name: String,
+    /// Estimated bytes.
+    pub bytes: f64,
+}
 
 /// What `check` found.
 #[derive(Debug, Clone)]
@@ -36,25 +58,37 @@ pub struct StudyCheck {
     pub prepare: Duration,
     /// Median single-thread time of one realisation, per condition.
     pub per_realisation: Vec<Duration>,
-    /// Worker threads the estimate assumes.
+    /// Worker threads asked for (all cores when not given).
     pub threads: usize,
-    /// Estimated bytes of realisations.parquet.
-    pub realisation_bytes: f64,
-    /// Estimated bytes of the model's extra tables (the cycles).
-    pub extra_bytes: f64,
+    /// Cores of this machine: the realisations run on at most this many threads at once.
+    pub cores: usize,
+    /// Time to write the summary, cycles, figures and report of a few realisations per
+    /// condition (the figures and report cost as much at any R).
+    pub outputs: Duration,
+    /// Every file a run writes, with its estimated size, realisations.parquet first.
+    pub files: Vec<FileEstimate>,
 }
 
 impl StudyCheck {
-    /// Estimated wall time of the Monte Carlo on `threads` threads: the single-thread time of
-    /// every realisation divided by the threads, plus preparing the model (a lower bound when
-    /// the cores are shared).
+    /// Estimated wall time of the run: the single-thread time of every realisation divided
+    /// by the threads that run at once (the threads asked for, at most the cores), plus
+    /// preparing the model and writing the other outputs (a lower bound when the cores are
+    /// shared).
     pub fn estimated_run_time(&self) -> Duration {
         let serial: f64 = self
             .per_realisation
             .iter()
             .map(|d| d.as_secs_f64() * self.realisations as f64)
             .sum();
-        Duration::from_secs_f64(serial / self.threads as f64 + self.prepare.as_secs_f64())
+        let parallel = self.threads.min(self.cores).max(1) as f64;
+        Duration::from_secs_f64(
+            serial / parallel + self.prepare.as_secs_f64() + self.outputs.as_secs_f64(),
+        )
+    }
+
+    /// Estimated bytes of every file together.
+    pub fn total_bytes(&self) -> f64 {
+        self.files.iter().map(|f| f.bytes).sum()
     }
 }
 
@@ -90,14 +124,17 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
             per_realisation[c] = each;
         }
     }
-    let threads = threads
-        .or_else(|| std::thread::available_parallelism().ok().map(usize::from))
-        .unwrap_or(1);
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let threads = threads.unwrap_or(cores);
+    let scratch = Scratch::new()?;
     let meta = FileMetadata::of_study(study, String::new());
-    let realisation_bytes = bytes_per_realisation(&*model, study, &meta)?
-        * study.realisations() as f64
-        * infos.len() as f64;
-    let extra_bytes = extra_table_bytes(&*model, &meta)?;
+    let mut files = vec![FileEstimate {
+        name: run::files::REALISATIONS.to_string(),
+        bytes: realisations_bytes(&*model, study, &meta, &scratch.0)?,
+    }];
+    let started = Instant::now();
+    files.extend(other_files(&*model, study, &meta, &scratch.0)?);
+    let outputs = started.elapsed();
     Ok(StudyCheck {
         layout,
         infos,
@@ -105,47 +142,139 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
         prepare,
         per_realisation,
         threads,
-        realisation_bytes,
-        extra_bytes,
+        cores,
+        outputs,
+        files,
     })
 }
 
-/// Encoded bytes per realisation (all its estimator rows) in a sample of condition 0.
-fn bytes_per_realisation(
+/// A temporary directory, removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new() -> Result<Self, OutputError> {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let dir =
+            std::env::temp_dir().join(format!("chassis-mc-check-{}-{nanos}", std::process::id()));
+        fs::create_dir_all(&dir).map_err(|e| OutputError::io(&dir, e))?;
+        Ok(Scratch(dir))
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Estimated bytes of realisations.parquet, which holds a row group per condition (and
+/// per [`ROW_GROUP_ROWS`] rows within one): fixed bytes F, per row group g, per
+/// realisation b. Measured on sample files of [`SIZE_CONDITIONS`] conditions: each
+/// condition's n realisations as a row group (A), the same twice (A₂ = A + Σ(g + b n)),
+/// and n/2 realisations each (B = F + Σ(g + b n/2)).
+fn realisations_bytes(
     model: &dyn Model,
     study: &Study,
     meta: &FileMetadata,
+    dir: &Path,
 ) -> Result<f64, RunError> {
     let layout = model.layout();
-    let n = SIZE_SAMPLE.min(study.realisations()).max(1);
+    let count = model.condition_count();
+    let mut sampled: Vec<usize> = (0..SIZE_CONDITIONS)
+        .map(|k| k * (count - 1) / (SIZE_CONDITIONS - 1).max(1))
+        .collect();
+    sampled.dedup();
+    let n = SIZE_SAMPLE.min(study.realisations()).max(2) & !1;
     let stride = layout.realisation_stride();
-    let mut slots = vec![0.0; n as usize * stride];
-    for (r, s) in slots.chunks_mut(stride).enumerate() {
-        model.realise(study.seed(), 0, r as u64, s);
-    }
     let schema = output::realisation_schema(layout);
-    let chunk = crate::montecarlo::Chunk {
-        condition: 0,
-        first: 0,
-        item: 0..n,
-        slots: &slots,
+    let batches = sampled
+        .iter()
+        .map(|&c| {
+            let mut slots = vec![0.0; n as usize * stride];
+            for (r, s) in slots.chunks_mut(stride).enumerate() {
+                model.realise(study.seed(), c, r as u64, s);
+            }
+            let chunk = crate::montecarlo::Chunk {
+                condition: c,
+                first: 0,
+                item: 0..n,
+                slots: &slots,
+            };
+            output::realisations_batch(layout, &schema, model.condition_info(c), &chunk)
+                .map_err(|e| OutputError::arrow(dir, e))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let rows = |batch: &arrow::array::RecordBatch, m: u64| {
+        batch.slice(0, m as usize * layout.estimators.len())
     };
-    let batch = output::realisations_batch(layout, &schema, model.condition_info(0), &chunk)
-        .map_err(|e| OutputError::arrow(std::path::Path::new("sample"), e))?;
-    let bytes = output::encoded_len(&batch, meta, "realisations")?;
-    Ok(bytes as f64 / n as f64)
+    let size = |name: &str, groups: &[arrow::array::RecordBatch]| -> Result<f64, OutputError> {
+        let mut sink = ParquetSink::create(dir, name, schema.clone(), meta, "realisations")?;
+        for g in groups {
+            sink.write(g)?;
+            sink.flush()?;
+        }
+        let file = sink.finish()?;
+        let len = fs::metadata(file.tmp_path()).map_err(|e| OutputError::io(file.tmp_path(), e))?;
+        Ok(len.len() as f64)
+    };
+    let whole: Vec<_> = batches.iter().map(|b| rows(b, n)).collect();
+    let twice: Vec<_> = whole.iter().chain(&whole).cloned().collect();
+    let half: Vec<_> = batches.iter().map(|b| rows(b, n / 2)).collect();
+    let (a, a2, b) = (size("a", &whole)?, size("a2", &twice)?, size("b", &half)?);
+    let k = sampled.len() as f64;
+    let fixed = 2.0 * a - a2;
+    let group_n = (a2 - a) / k; // g + b n
+    let group_half = (b - fixed) / k; // g + b n / 2
+    let per_realisation = ((group_n - group_half) / (n / 2) as f64).max(0.0);
+    let per_group = (group_n - per_realisation * n as f64).max(0.0);
+    let r = study.realisations();
+    let rows_per_condition = r * layout.estimators.len() as u64;
+    let groups = rows_per_condition.div_ceil(ROW_GROUP_ROWS as u64).max(1);
+    Ok(fixed + count as f64 * (groups as f64 * per_group + per_realisation * r as f64))
 }
 
-/// Encoded bytes of the model's extra tables, from their first batch.
-fn extra_table_bytes(model: &dyn Model, meta: &FileMetadata) -> Result<f64, RunError> {
-    let mut total = 0.0;
-    for (t, table) in model.extra_tables().iter().enumerate() {
-        let batches = (0..).map_while(|i| model.extra_batch(t, i)).count();
-        if let Some(first) = model.extra_batch(t, 0) {
-            let first =
-                first.map_err(|e| OutputError::arrow(std::path::Path::new(table.file), e))?;
-            total += output::encoded_len(&first, meta, table.table)? as f64 * batches as f64;
-        }
-    }
-    Ok(total)
+/// Every other file a run writes, written as a run writes them into `dir` from a summary of
+/// [`OUTPUT_SAMPLE`] realisations per condition, with its size: the same rows and figures
+/// as the run's, with other numbers in them.
+fn other_files(
+    model: &dyn Model,
+    study: &Study,
+    meta: &FileMetadata,
+    dir: &Path,
+) -> Result<Vec<FileEstimate>, RunError> {
+    let sample = study
+        .clone()
+        .with_overrides(Some(OUTPUT_SAMPLE.min(study.realisations()).max(2)), None)?;
+    let summary = run::summarise_in_memory(&sample, model)?;
+    let layout = model.layout();
+    let infos = model.infos();
+    let mut pending = run::write_summary(dir, layout, &infos, &summary, meta)?;
+    pending.extend(run::write_extra_tables(model, dir, meta)?);
+    pending.extend(run::draw_figures(dir, &pending)?);
+    pending.push(run::write_report(
+        dir,
+        "run",
+        study.name(),
+        meta,
+        (layout, &infos, &summary),
+        &pending,
+    )?);
+    pending
+        .iter()
+        .map(|file| {
+            let len = fs::metadata(file.tmp_path())
+                .map_err(|e| OutputError::io(file.tmp_path(), e))?
+                .len();
+            let name = file
+                .final_path()
+                .strip_prefix(dir)
+                .unwrap_or(file.final_path());
+            Ok(FileEstimate {
+                name: name.to_string_lossy().into_owned(),
+                bytes: len as f64,
+            })
+        })
+        .collect()
 }

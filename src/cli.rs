@@ -49,7 +49,7 @@ enum Command {
         \n  summary.parquet       one row per condition × estimator × parameter (bias, EmpSE, \
         RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors; and \
         the bias by control variates, bias_cv, often with a thousandth of the plain MCSE)\
-        \n  cycles.parquet        the noise-free drive cycle of each condition\n\n\
+        \n  cycles.parquet        each distinct noise-free drive cycle once\n\n\
         and DIR/figures/*.svg. Files appear only when the run completes, and replace the \
         previous run's files as one set (a run killed at any instant leaves the old set, the \
         new one, or a set that is reported incomplete and completed by the next run); your \
@@ -655,18 +655,36 @@ fn check_report(study: &Study, c: &chassis_mc::check::StudyCheck) -> String {
     );
     let _ = writeln!(
         out,
-        "estimated run time on {} threads: about {} (drive cycles {:.2} s; a lower bound when \
-         the cores are shared; figures and summary add a little)",
+        "estimated run time on {} threads ({} cores): about {} (preparing the model {:.2} s, summary, \
+         figures and report {:.2} s; a lower bound when the cores are shared)",
         c.threads,
+        c.cores,
         human_duration(c.estimated_run_time()),
-        c.prepare.as_secs_f64()
+        c.prepare.as_secs_f64(),
+        c.outputs.as_secs_f64()
     );
     let _ = writeln!(
         out,
-        "estimated output: realisations.parquet about {}, other tables about {}",
-        human_bytes(c.realisation_bytes),
-        human_bytes(c.extra_bytes)
+        "estimated output: about {} in all",
+        human_bytes(c.total_bytes())
     );
+    // The figures on one line, every other file on its own.
+    let (figures, files): (Vec<_>, Vec<_>) = c.files.iter().partition(|f| {
+        f.name
+            .starts_with(&format!("{}/", chassis_mc::figures::FIGURES))
+    });
+    for f in files {
+        let _ = writeln!(out, "  {:<28} {:>10}", f.name, human_bytes(f.bytes));
+    }
+    if !figures.is_empty() {
+        let name = format!(
+            "{}/ ({} SVG files)",
+            chassis_mc::figures::FIGURES,
+            figures.len()
+        );
+        let bytes = figures.iter().map(|f| f.bytes).sum();
+        let _ = writeln!(out, "  {name:<28} {:>10}", human_bytes(bytes));
+    }
     out
 }
 

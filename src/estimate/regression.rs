@@ -20,7 +20,9 @@
 //! | grade, σ_θ \[rad\] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 //! | force, σ_F \[N\] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
-use std::sync::OnceLock;
+use std::fmt;
+use std::ops::Deref;
+use std::sync::{Arc, OnceLock};
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -30,6 +32,49 @@ use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
 
+/// A column of a regression: the first `len` values of storage shared with the regression
+/// of a longer duration of the same cycle, whose rows begin with these
+/// ([`Regression::prefix`]; docs/model.md#row-selection). Reads as a slice.
+#[derive(Clone, PartialEq)]
+pub struct Column<T = f64> {
+    values: Arc<[T]>,
+    len: usize,
+}
+
+impl<T> Column<T> {
+    /// The first `n` values, sharing the storage.
+    pub fn prefix(&self, n: usize) -> Column<T> {
+        assert!(n <= self.len, "a prefix of {n} of {} values", self.len);
+        Column {
+            values: self.values.clone(),
+            len: n,
+        }
+    }
+}
+
+impl<T> From<Vec<T>> for Column<T> {
+    fn from(values: Vec<T>) -> Self {
+        let len = values.len();
+        Column {
+            values: values.into(),
+            len,
+        }
+    }
+}
+
+impl<T> Deref for Column<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.values[..self.len]
+    }
+}
+
+impl<T: fmt::Debug> fmt::Debug for Column<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        (**self).fmt(f)
+    }
+}
+
 /// Row ranges and the noise-free sums of x₁ and x₃ over each (see [`Regression::segments`]).
 type Segments = (Vec<(usize, usize)>, Vec<Moments>);
 
@@ -37,23 +82,23 @@ type Segments = (Vec<(usize, usize)>, Vec<Moments>);
 #[derive(Debug, Clone)]
 pub struct Regression {
     /// Sample times \[s\] (for noise correlated in time).
-    pub t: Vec<f64>,
+    pub t: Column,
     /// Column 1: F_prop \[N\].
-    pub f: Vec<f64>,
+    pub f: Column,
     /// Column 3: c = −g cos θ \[m/s²\].
-    pub c: Vec<f64>,
+    pub c: Column,
     /// Speed V \[m/s\] (column 2 is −k V²).
-    pub v: Vec<f64>,
+    pub v: Column,
     /// Output y = dV/dt + g sin θ \[m/s²\].
-    pub y: Vec<f64>,
+    pub y: Column,
     /// Model acceleration dV/dt \[m/s²\] (y without the grade term).
-    pub accel: Vec<f64>,
+    pub accel: Column,
     /// The grade term g sin θ of y \[m/s²\] (y = dV/dt + this).
-    pub g_sin: Vec<f64>,
+    pub g_sin: Column,
     /// sin θ of each sample.
-    pub sin_grade: Vec<f64>,
+    pub sin_grade: Column,
     /// cos θ of each sample.
-    pub cos_grade: Vec<f64>,
+    pub cos_grade: Column,
     /// k = ½ ρ A \[kg/m\].
     pub k: f64,
     /// g \[m/s²\].
@@ -89,9 +134,7 @@ impl Regression {
         let k = vehicle.drag_factor_kg_m();
         let sin_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.sin()).collect();
         let cos_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.cos()).collect();
-        let f = cycle.f_prop_n.clone();
         let c: Vec<f64> = cos_grade.iter().map(|cs| -g * cs).collect();
-        let v = cycle.v_m_s.clone();
         let g_sin: Vec<f64> = sin_grade.iter().map(|s| g * s).collect();
         let y: Vec<f64> = cycle
             .accel_m_s2
@@ -99,9 +142,69 @@ impl Regression {
             .zip(&g_sin)
             .map(|(a, gs)| a + gs)
             .collect();
+        Self::with_sums(
+            RowColumns {
+                t: cycle.t_s.clone().into(),
+                f: cycle.f_prop_n.clone().into(),
+                c: c.into(),
+                v: cycle.v_m_s.clone().into(),
+                y: y.into(),
+                accel: cycle.accel_m_s2.clone().into(),
+                g_sin: g_sin.into(),
+                sin_grade: sin_grade.into(),
+                cos_grade: cos_grade.into(),
+            },
+            k,
+            g,
+        )
+    }
+
+    /// The regression of its first `n` rows, sharing its columns: bit for bit the regression
+    /// of those rows built alone (the same values, summed the same way). A duration's rows
+    /// are the first rows of the whole cycle's (docs/model.md#row-selection), so the
+    /// regressions of every duration of a cycle hold its columns once.
+    pub fn prefix(&self, n: usize) -> Regression {
+        let columns = RowColumns {
+            t: self.t.prefix(n),
+            f: self.f.prefix(n),
+            c: self.c.prefix(n),
+            v: self.v.prefix(n),
+            y: self.y.prefix(n),
+            accel: self.accel.prefix(n),
+            g_sin: self.g_sin.prefix(n),
+            sin_grade: self.sin_grade.prefix(n),
+            cos_grade: self.cos_grade.prefix(n),
+        };
+        let mut reg = Self::with_sums(columns, self.k, self.g);
+        reg.differentiation = self.differentiation.as_ref().map(|d| {
+            // The span runs to the sample after the last row.
+            let span_t = d.span_t.prefix(d.sample[n - 1] + 2);
+            Differentiation {
+                uniform_steps: uniform_steps(&span_t),
+                span_t,
+                sample: d.sample.prefix(n),
+                inv_dt: d.inv_dt.prefix(n),
+            }
+        });
+        reg
+    }
+
+    /// The regression of `columns`, its constant sums computed.
+    fn with_sums(columns: RowColumns, k: f64, g: f64) -> Self {
+        let RowColumns {
+            t,
+            f,
+            c,
+            v,
+            y,
+            accel,
+            g_sin,
+            sin_grade,
+            cos_grade,
+        } = columns;
         let dot = |a: &[f64], b: &[f64]| exact_sum(a.iter().zip(b).map(|(p, q)| p * q));
         let x2: Vec<f64> = v.iter().map(|v| -k * v * v).collect();
-        let cols = [&f, &x2, &c];
+        let cols: [&[f64]; 3] = [&f, &x2, &c];
         let mut xtx = Matrix3::zeros();
         let mut xty = Vector3::zeros();
         for i in 0..3 {
@@ -134,13 +237,13 @@ impl Regression {
         Regression {
             differentiation: None,
             segments: OnceLock::new(),
-            t: cycle.t_s.clone(),
+            t,
             speed_sums_noise_free,
             grade_sums_noise_free,
             sum_f: sum(&f),
             sum_c: sum(&c),
             sum_y: sum(&y),
-            accel: cycle.accel_m_s2.clone(),
+            accel,
             g_sin,
             sin_grade,
             cos_grade,
@@ -239,11 +342,11 @@ impl Regression {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Differentiation {
     /// Times of the span's samples \[s\].
-    pub span_t: Vec<f64>,
+    pub span_t: Column,
     /// Each row's sample in the span (its neighbours are the samples before and after).
-    pub sample: Vec<usize>,
+    pub sample: Column<usize>,
     /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
-    pub inv_dt: Vec<f64>,
+    pub inv_dt: Column,
     /// True when the span's steps are equal to 1e-6 relative (then AR(1) noise is as
     /// correlated with the sample before as with the one after, which BCLS relies on).
     pub uniform_steps: bool,
@@ -279,14 +382,12 @@ impl Regression {
             .for_each(|g| *g += grade_offset);
         let start = rows[0] - 1;
         let span_t = t[start..=rows[rows.len() - 1] + 1].to_vec();
-        let steps: Vec<f64> = span_t.windows(2).map(|w| w[1] - w[0]).collect();
-        let uniform_steps = steps.iter().all(|d| (d / steps[0] - 1.0).abs() <= 1e-6);
         let mut reg = Regression::new(&selected, vehicle);
         reg.differentiation = Some(Differentiation {
-            span_t,
-            sample: rows.iter().map(|&i| i - start).collect(),
-            inv_dt,
-            uniform_steps,
+            uniform_steps: uniform_steps(&span_t),
+            span_t: span_t.into(),
+            sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
+            inv_dt: inv_dt.into(),
         });
         reg
     }
@@ -296,6 +397,25 @@ impl Regression {
     pub fn noise_times(&self) -> &[f64] {
         self.differentiation.as_ref().map_or(&self.t, |d| &d.span_t)
     }
+}
+
+/// Whether the steps between the times `t` are equal to 1e-6 relative.
+fn uniform_steps(t: &[f64]) -> bool {
+    let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.iter().all(|d| (d / steps[0] - 1.0).abs() <= 1e-6)
+}
+
+/// The per-row columns of a regression, before its sums.
+struct RowColumns {
+    t: Column,
+    f: Column,
+    c: Column,
+    v: Column,
+    y: Column,
+    accel: Column,
+    g_sin: Column,
+    sin_grade: Column,
+    cos_grade: Column,
 }
 
 /// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at samples `t`:

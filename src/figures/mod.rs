@@ -15,7 +15,9 @@
 //! | `ratio_<p>.svg` | EmpSE / bound ± MCSE against ς, with the line at 1, log scale |
 //! | `coverage_<p>.svg` | coverage of θ̂ ± 1.96·bound ± MCSE, with the nominal 95 % |
 //!
-//! and `cycles.svg`: speed and grade against time, one line per distinct terrain scale.
+//! and `cycles.svg`: speed and grade against time, one line per distinct terrain scale (at
+//! most 12), the samples the regression leaves out in grey; read in batches, so its memory
+//! does not grow with the number of conditions.
 //! Each plotted condition × estimator (× bound) is one circle marker.
 
 mod chart;
@@ -34,7 +36,7 @@ use crate::output::lock::DirLock;
 use crate::output::{self, OutputError, PendingFile, SummaryTable, files, keys, set};
 use crate::study::{Study, StudyError};
 
-use cycles::{Table, draw_cycles};
+use cycles::draw_cycles;
 use parameters::{draw_parameter, group_labels, x_axis};
 
 /// Directory of the figures inside an output directory.
@@ -121,19 +123,10 @@ pub fn draw_staged(
     )?;
     let layout = crate::model::layout_of(&study);
     let summary = output::read_summary(summary_path, &layout)?;
-    let cycles = match cycles_path {
-        // Only what the cycles figure draws (the file also holds x, f_prop and accel).
-        Some(path) => Some(Table::read_columns(
-            path,
-            &["condition", "t", "v", "grade"],
-        )?),
-        None => None,
-    };
-
     let staging = dir.join(output::temporary_name(FIGURES));
     let _ = fs::remove_dir_all(&staging);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    let names = draw_into(&staging, &layout, &summary, cycles.as_ref());
+    let names = draw_into(&staging, &layout, &summary, cycles_path);
     let target = dir.join(FIGURES);
     // Each drawn figure is removed again if it is never committed.
     let names = names.inspect_err(|_| {
@@ -149,7 +142,7 @@ fn draw_into(
     dir: &Path,
     layout: &Layout,
     t: &SummaryTable,
-    cycles: Option<&Table>,
+    cycles: Option<&Path>,
 ) -> Result<Vec<String>, FigureError> {
     let x = x_axis(layout, t);
     let groups = group_labels(layout, t, &x);

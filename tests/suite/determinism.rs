@@ -171,7 +171,12 @@ fn refactors_keep_the_realisations_bit_for_bit() {
         [
             0x17b2_7824_6de9_f62d,
             0x7392_72e0_43bd_fdf0,
-            0x3b43_6d7d_cd67_50b8
+            // cycles.parquet holds each distinct cycle once, keyed by scale (and
+            // acceleration): re-pinned when it stopped repeating the cycle per condition
+            // (its blocks equal the old table's rows of each scale's first condition, and
+            // every condition's old `used` column is its block's within its duration —
+            // checked with DuckDB over an 1100-condition grid).
+            0x4e72_a879_eb9a_ef79
         ]
     );
     // The control variates, pinned on the engine that introduced them.
@@ -205,7 +210,8 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
         [
             0x9aa1_6a1a_8307_4a02,
             0xab11_75a9_1c2e_0758,
-            0xb471_b9a0_3179_654d
+            // The same two cycles as above (noise does not change them), stored once.
+            0x4e72_a879_eb9a_ef79
         ]
     );
     // The control variates, pinned on the engine that introduced them (the summary's moved

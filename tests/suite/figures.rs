@@ -147,6 +147,8 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
             "cycles.svg: `{label}` missing"
         );
     }
+    // Every sample is used (no min_speed, no braking): nothing is drawn as left out.
+    assert!(!texts.iter().any(|t| t == "left out of the regression"));
 
     // `figures DIR` redraws the same files from the Parquet outputs.
     let before = std::fs::read(out.join("figures/se_inv_mass.svg")).unwrap();

@@ -8,6 +8,7 @@ mod design;
 mod determinism;
 mod figures;
 mod fit;
+mod grid_cost;
 mod help_examples;
 mod layering;
 mod line_fit;

@@ -32,8 +32,9 @@ fn a_grade_offset_biases_ols_as_the_first_order_prediction() {
     let truth = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125];
     let (g, k) = (9.81, 0.5 * 1.2 * 5.5);
     let cycles = read_table(&dir.path().join("cycles.parquet"));
-    let (cond, v, grade, f) = (
-        i32_col(&cycles, "condition"),
+    // One block per scale (cycles.parquet keys its cycles by scale and acceleration).
+    let (cycle_scale, v, grade, f) = (
+        f64_col(&cycles, "scale"),
         f64_col(&cycles, "v"),
         f64_col(&cycles, "grade"),
         f64_col(&cycles, "f_prop"),
@@ -52,7 +53,7 @@ fn a_grade_offset_biases_ols_as_the_first_order_prediction() {
         let b = offsets[o];
         let mut xtx = Matrix3::zeros();
         let mut xtd = Vector3::zeros();
-        for i in (0..cond.len()).filter(|&i| cond[i] == c as i32) {
+        for i in (0..v.len()).filter(|&i| cycle_scale[i] == [1.0, 2.0][scale]) {
             let x = Vector3::new(f[i], -k * v[i] * v[i], -g * grade[i].cos());
             xtx += x * x.transpose();
             xtd += x * (g * b * (grade[i].cos() - truth[2] * grade[i].sin()));

@@ -33,7 +33,7 @@ use crate::noise::{BLOCK, NormalSequence, NormalStream};
 use crate::numeric::linalg::condition_number;
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
-use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
+use prepare::{ScaleCycle, duration_count, scale_cycles, segments, used_samples};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
@@ -43,8 +43,6 @@ pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resist
 struct Condition {
     info: ConditionInfo,
     scale_index: usize,
-    /// Which samples of its cycle the regression uses.
-    used: Arc<Vec<bool>>,
     noise: NoiseLevels,
     regression: Arc<Regression>,
     /// AR(1) coefficients of correlated speed noise (`None` when white).
@@ -154,7 +152,6 @@ impl VehicleModel {
                         controls: controls.iter().map(|&j| expected.applies()[j]).collect(),
                     },
                     scale_index: point.scale_index,
-                    used: segment.used[source].clone(),
                     noise,
                     ar1,
                     regression,
@@ -487,12 +484,21 @@ impl Model for VehicleModel {
         }]
     }
 
+    /// cycles.parquet: block `index` is the cycle of scale `index / sources` with
+    /// acceleration source `index % sources` (study order), whatever the other axes.
     fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
-        let condition = self.conditions.get(index).filter(|_| table == 0)?;
+        let sources = &self.study.acceleration;
+        let scale = self
+            .cycles
+            .get(index / sources.len())
+            .filter(|_| table == 0)?;
+        let source = sources[index % sources.len()];
+        let used = used_samples(&scale.cycle, &self.study, None, source);
         Some(cycles_batch(
-            index,
-            &self.cycles[condition.scale_index].cycle,
-            &condition.used,
+            self.study.scales[index / sources.len()],
+            source.name(),
+            &scale.cycle,
+            &used,
         ))
     }
 

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::study::{Study, StudyError, VehicleStudy};
-use crate::terrain::MAX_GRADE_RAD;
+use crate::terrain::{MAX_GRADE_RAD, mean_square};
 use crate::vehicle::{DriveCycle, Road};
 
 /// The drive cycle of one terrain scale.
@@ -23,10 +23,6 @@ pub(super) struct ScaleCycle {
 /// The regression rows of one (scale, duration).
 #[derive(Debug)]
 pub(super) struct Segment {
-    /// Which samples of the scale's cycle the regression uses, per acceleration source (in
-    /// study order): a differentiated acceleration leaves out the cycle's first and last
-    /// sample, which have no neighbour on one side.
-    pub used: Vec<Arc<Vec<bool>>>,
     /// The regression of those samples per acceleration source, and within it one per
     /// grade bias (the measured grade θ + b).
     pub regressions: Vec<Vec<Arc<Regression>>>,
@@ -80,6 +76,31 @@ pub(super) fn scale_cycles(
         .collect()
 }
 
+/// Which samples of `cycle` a regression with acceleration `source` uses: those the row
+/// selection keeps within the first `duration_s` seconds (all of the cycle when `None`); a
+/// differentiated acceleration also leaves out the cycle's first and last sample, which
+/// have no neighbour on one side. So a duration's samples are those of the whole cycle with
+/// t − t₀ ≤ the duration: what cycles.parquet records (README, "Output files").
+pub(super) fn used_samples(
+    cycle: &DriveCycle,
+    vs: &VehicleStudy,
+    duration_s: Option<f64>,
+    source: Acceleration,
+) -> Vec<bool> {
+    let mut used = cycle.used(&vs.selection, duration_s);
+    // A cycle that brings its own selection (a replayed log's used rows) narrows it.
+    if let Some(own) = vs.drive.used() {
+        used.iter_mut().zip(own).for_each(|(u, &o)| *u &= o);
+    }
+    if source == Acceleration::Differentiated {
+        used[0] = false;
+        if let Some(last) = used.last_mut() {
+            *last = false;
+        }
+    }
+    used
+}
+
 /// The number of levels of the duration axis (1 without `durations`).
 pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
     vs.durations.as_ref().map_or(1, Vec::len)
@@ -93,89 +114,159 @@ pub(super) fn segments(
     vs: &VehicleStudy,
     cycles: &[ScaleCycle],
 ) -> Result<Vec<Segment>, StudyError> {
-    let n = duration_count(vs);
-    (0..cycles.len() * n)
-        .into_par_iter()
-        .map(|k| {
-            let (s, d) = (k / n, k % n);
-            let cycle = &cycles[s].cycle;
-            let length = cycle.length_s();
-            let duration = vs.durations.as_ref().map(|ds| ds[d]);
-            let key = match duration {
-                Some(_) => format!("drive.durations[{d}]"),
-                None => "drive.min_speed".to_string(),
-            };
-            if let Some(t) = duration
-                && t > length
-            {
-                return Err(study.error_at(
-                    &key,
-                    format!("is {t} s but the drive cycle lasts {length} s"),
-                ));
-            }
-            let mut used = cycle.used(&vs.selection, duration);
-            if let Some(own) = vs.drive.used() {
-                used.iter_mut().zip(own).for_each(|(u, &o)| *u &= o);
-            }
-            let mut used_per_source = Vec::new();
-            let mut regressions = Vec::new();
-            for &source in &vs.acceleration {
-                let mut used = used.clone();
-                if source == Acceleration::Differentiated {
-                    used[0] = false;
-                    if let Some(last) = used.last_mut() {
-                        *last = false;
-                    }
-                }
-                let rows = used.iter().filter(|u| **u).count();
-                if rows < 3 {
-                    return Err(study.error_at(
-                        &key,
-                        format!(
-                            "leaves {rows} samples of the cycle at scale {} for the regression \
-                             (min_speed, exclude_braking and durations select them{}); at least 3 are needed",
-                            vs.scales[s],
-                            if source == Acceleration::Differentiated {
-                                "; a differentiated acceleration also leaves out the first and last sample"
-                            } else {
-                                ""
-                            }
-                        ),
-                    ));
-                }
-                let selected = cycle.select(&used);
-                regressions.push(
-                    vs.grade_bias
-                        .iter()
-                        .map(|&b| {
-                            Arc::new(match source {
-                                Acceleration::Differentiated => {
-                                    Regression::differentiated(cycle, &used, b, &vs.vehicle)
-                                }
-                                Acceleration::Model if b == 0.0 => {
-                                    Regression::new(&selected, &vs.vehicle)
-                                }
-                                Acceleration::Model => {
-                                    let mut measured = selected.clone();
-                                    measured.grade_rad.iter_mut().for_each(|g| *g += b);
-                                    Regression::new(&measured, &vs.vehicle)
-                                }
-                            })
-                        })
-                        .collect(),
-                );
-                used_per_source.push(Arc::new(used));
-            }
-            let selected = cycle.select(&used);
-            Ok(Segment {
-                used: used_per_source,
-                regressions,
-                metrics: vec![cycles[s].terrain_ms_grid, selected.terrain_mean_square()],
-                duration_s: duration.unwrap_or(length),
-            })
-        })
+    let per_scale = cycles
+        .par_iter()
+        .enumerate()
+        .map(|(s, cycle)| scale_segments(study, vs, s, cycle))
         .collect::<Vec<_>>()
         // The first error in study order, whatever the thread count.
         .into_iter()
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(per_scale.into_iter().flatten().collect())
+}
+
+/// The segments of scale `s`, one per duration in study order. The regressions of the
+/// longest duration are built once; a shorter duration's rows are their first rows
+/// (t − t₀ ≤ T, docs/model.md#row-selection), so its regressions are prefixes sharing
+/// their columns, and memory does not grow with the number of durations.
+fn scale_segments(
+    study: &Study,
+    vs: &VehicleStudy,
+    s: usize,
+    scale: &ScaleCycle,
+) -> Result<Vec<Segment>, StudyError> {
+    let cycle = &scale.cycle;
+    let length = cycle.length_s();
+    let n = duration_count(vs);
+    let duration = |d: usize| vs.durations.as_ref().map(|ds| ds[d]);
+    // used[d][a]: the samples of duration d with acceleration source a, checked in study
+    // order.
+    let mut used: Vec<Vec<Vec<bool>>> = Vec::with_capacity(n);
+    for d in 0..n {
+        let key = match duration(d) {
+            Some(_) => format!("drive.durations[{d}]"),
+            None => "drive.min_speed".to_string(),
+        };
+        if let Some(t) = duration(d)
+            && t > length
+        {
+            return Err(study.error_at(
+                &key,
+                format!("is {t} s but the drive cycle lasts {length} s"),
+            ));
+        }
+        let mut per_source = Vec::new();
+        for &source in &vs.acceleration {
+            let u = used_samples(cycle, vs, duration(d), source);
+            let rows = u.iter().filter(|u| **u).count();
+            if rows < 3 {
+                return Err(study.error_at(
+                    &key,
+                    format!(
+                        "leaves {rows} samples of the cycle at scale {} for the regression \
+                         (min_speed, exclude_braking and durations select them{}); at least 3 are needed",
+                        vs.scales[s],
+                        if source == Acceleration::Differentiated {
+                            "; a differentiated acceleration also leaves out the first and last sample"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
+            per_source.push(u);
+        }
+        used.push(per_source);
+    }
+    let longest = (0..n)
+        .max_by(|&a, &b| {
+            let length_of = |d| duration(d).unwrap_or(length);
+            length_of(a).total_cmp(&length_of(b))
+        })
+        .expect("at least one duration");
+    let full: Vec<Vec<Arc<Regression>>> = vs
+        .acceleration
+        .iter()
+        .zip(&used[longest])
+        .map(|(&source, u)| regressions(vs, cycle, u, source))
+        .collect();
+    Ok((0..n)
+        .map(|d| {
+            let regressions = vs
+                .acceleration
+                .iter()
+                .enumerate()
+                .map(|(a, &source)| {
+                    let (mine, theirs) = (&used[d][a], &used[longest][a]);
+                    if !is_prefix(mine, theirs) {
+                        // Times out of order (a trace): built on their own.
+                        return regressions(vs, cycle, mine, source);
+                    }
+                    let rows = mine.iter().filter(|u| **u).count();
+                    full[a]
+                        .iter()
+                        .map(|r| match rows == r.len() {
+                            true => r.clone(),
+                            false => Arc::new(r.prefix(rows)),
+                        })
+                        .collect()
+                })
+                .collect();
+            let selection = cycle.used(&vs.selection, duration(d));
+            let grades: Vec<f64> = cycle
+                .grade_rad
+                .iter()
+                .zip(&selection)
+                .filter(|(_, u)| **u)
+                .map(|(g, _)| *g)
+                .collect();
+            Segment {
+                regressions,
+                metrics: vec![scale.terrain_ms_grid, mean_square(&grades)],
+                duration_s: duration(d).unwrap_or(length),
+            }
+        })
+        .collect())
+}
+
+/// The regression of the samples `used` of `cycle` with acceleration `source`, one per
+/// grade bias (the measured grade θ + b).
+fn regressions(
+    vs: &VehicleStudy,
+    cycle: &DriveCycle,
+    used: &[bool],
+    source: Acceleration,
+) -> Vec<Arc<Regression>> {
+    let selected = cycle.select(used);
+    vs.grade_bias
+        .iter()
+        .map(|&b| {
+            Arc::new(match source {
+                Acceleration::Differentiated => {
+                    Regression::differentiated(cycle, used, b, &vs.vehicle)
+                }
+                Acceleration::Model if b == 0.0 => Regression::new(&selected, &vs.vehicle),
+                Acceleration::Model => {
+                    let mut measured = selected.clone();
+                    measured.grade_rad.iter_mut().for_each(|g| *g += b);
+                    Regression::new(&measured, &vs.vehicle)
+                }
+            })
+        })
         .collect()
+}
+
+/// Whether the samples marked in `short` are the first of those marked in `long`.
+fn is_prefix(short: &[bool], long: &[bool]) -> bool {
+    let mut remaining = short.iter().filter(|u| **u).count();
+    for (s, l) in short.iter().zip(long) {
+        if remaining == 0 {
+            return true;
+        }
+        if s != l {
+            return false;
+        }
+        remaining -= usize::from(*s);
+    }
+    remaining == 0
 }
