@@ -212,7 +212,7 @@ fn scale_segments(
                         .collect()
                 })
                 .collect();
-            let selection = cycle.used(&vs.selection, duration(d));
+            let selection = used_samples(cycle, vs, duration(d), Acceleration::Model);
             let grades: Vec<f64> = cycle
                 .grade_rad
                 .iter()
