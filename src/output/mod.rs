@@ -132,6 +132,21 @@ pub enum OutputError {
         /// The pid of the process holding the lock, if it could be read.
         pid: Option<u32>,
     },
+    /// The directory's manifest or journal names a path outside the directory (absolute,
+    /// with `..`, or through a symbolic link): the directory is refused, nothing is done.
+    #[error(
+        "{file}{}: {reason}; refusing this directory (chassis-mc writes only plain names \
+         inside it)",
+        line.map(|l| format!(": line {l}")).unwrap_or_default()
+    )]
+    Unsafe {
+        /// The manifest or journal.
+        file: PathBuf,
+        /// The line naming the path.
+        line: Option<usize>,
+        /// What is wrong with the path.
+        reason: String,
+    },
     /// A run was interrupted while replacing the directory's output files, so they may
     /// come from two runs.
     #[error(
@@ -145,6 +160,15 @@ pub enum OutputError {
 }
 
 impl OutputError {
+    /// Whether the error is the input's fault (exit status 2: a bad argument, a directory
+    /// that cannot be used as it is) rather than a failure while running (1).
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            OutputError::Locked { .. } | OutputError::Unsafe { .. }
+        )
+    }
+
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
         OutputError::Io {
             path: path.to_path_buf(),

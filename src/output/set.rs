@@ -122,6 +122,11 @@ impl Manifest {
             else {
                 return Err(bad());
             };
+            confined(file).map_err(|reason| OutputError::Unsafe {
+                file: path.to_path_buf(),
+                line: Some(i + 2),
+                reason,
+            })?;
             entries.push(Entry {
                 path: file.to_string(),
                 checksum: Checksum {
@@ -248,6 +253,9 @@ pub fn commit(
     write_synced(&dir.join(&manifest_tmp), manifest.render().as_bytes())?;
     ops.push(Op::Rename(manifest_tmp, MANIFEST.to_string()));
 
+    // Nothing is written if a step would reach outside `dir` (a manifest entry or a new
+    // file under a directory that is a symbolic link).
+    check_steps(dir, &ops, None)?;
     let mut journal = format!("{JOURNAL_HEADER}\n");
     for op in &ops {
         journal += &match op {
@@ -285,7 +293,7 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
     let mut ops = Vec::new();
     for (i, line) in lines.enumerate() {
         let fields: Vec<&str> = line.split('\t').collect();
-        ops.push(match fields.as_slice() {
+        let op = match fields.as_slice() {
             ["rename", from, to] => Op::Rename(from.to_string(), to.to_string()),
             ["delete", file] => Op::Delete(file.to_string()),
             _ => {
@@ -294,14 +302,85 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
                     format!("line {}: malformed step", i + 2),
                 ));
             }
-        });
+        };
+        ops.push(op);
     }
     apply(dir, &ops)?;
     Ok(true)
 }
 
-/// Carry out `ops` (each step idempotent), then remove the journal.
+impl Op {
+    /// The paths (relative to the output directory) the step names.
+    fn paths(&self) -> Vec<&str> {
+        match self {
+            Op::Rename(from, to) => vec![from, to],
+            Op::Delete(path) => vec![path],
+        }
+    }
+}
+
+/// Why `path`, read from a manifest or a journal, is not a plain relative path inside the
+/// output directory: an absolute path, an empty, `.` or `..` component, or a backslash (a
+/// separator elsewhere) would let the file name a place outside it.
+fn confined(path: &str) -> Result<(), String> {
+    let plain = !path.is_empty()
+        && !path.contains('\\')
+        && path
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
+        && Path::new(path)
+            .components()
+            .all(|c| matches!(c, std::path::Component::Normal(_)));
+    match plain {
+        true => Ok(()),
+        false => Err(format!(
+            "`{path}` is not a plain relative path inside the output directory (absolute \
+             paths and `..` are refused)"
+        )),
+    }
+}
+
+/// Why `dir/path` may lie outside `dir` although `path` is [`confined`]: a directory on
+/// the way is a symbolic link. (The file itself may be a link: renaming over it or deleting
+/// it replaces the link, not what it points to.)
+fn link_escape(dir: &Path, path: &str) -> Option<String> {
+    let mut at = dir.to_path_buf();
+    let components: Vec<&str> = path.split('/').collect();
+    for c in &components[..components.len().saturating_sub(1)] {
+        at.push(c);
+        if fs::symlink_metadata(&at).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Some(format!(
+                "`{path}` passes through the symbolic link {}, which may lead outside the \
+                 output directory",
+                at.display()
+            ));
+        }
+    }
+    None
+}
+
+/// Check every step of `ops` before any is carried out: each must stay inside `dir`. An
+/// error names the `journal` and the step's line in it, else the file the step names.
+fn check_steps(dir: &Path, ops: &[Op], journal: Option<&Path>) -> Result<(), OutputError> {
+    for (i, op) in ops.iter().enumerate() {
+        for path in op.paths() {
+            if let Some(reason) = confined(path).err().or_else(|| link_escape(dir, path)) {
+                return Err(OutputError::Unsafe {
+                    file: journal.map_or_else(|| dir.join(path), Path::to_path_buf),
+                    line: journal.map(|_| i + 2),
+                    reason,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Carry out `ops` (each step idempotent), then remove the journal. Every step is checked
+/// first: none is carried out if one would reach outside `dir`.
 fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
+    let journal = dir.join(JOURNAL);
+    check_steps(dir, ops, Some(&journal))?;
     let mut touched = BTreeSet::new();
     for op in ops {
         match op {
@@ -336,7 +415,6 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
     for d in &touched {
         sync_dir(d)?;
     }
-    let journal = dir.join(JOURNAL);
     fs::remove_file(&journal).map_err(|e| OutputError::io(&journal, e))?;
     sync_dir(dir)?;
     // A directory of figures emptied by the deletions goes too (a user's file keeps it).
@@ -460,6 +538,30 @@ mod tests {
         let recorded = pending.checksum().unwrap();
         assert_eq!(recorded, checksum(pending.tmp_path()).unwrap());
         assert!(recorded.len > 0);
+    }
+
+    #[test]
+    fn only_plain_relative_paths_are_confined() {
+        for ok in [
+            "report.html",
+            "figures/se_inv_mass.svg",
+            ".summary.parquet.tmp-12",
+            "a..b",
+        ] {
+            assert!(confined(ok).is_ok(), "{ok}");
+        }
+        for bad in [
+            "",
+            "/etc/passwd",
+            "../x",
+            "figures/../../x",
+            "./x",
+            "a//b",
+            "a/",
+            "a\\b",
+        ] {
+            assert!(confined(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]
