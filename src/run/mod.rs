@@ -215,7 +215,7 @@ fn run_prepared(
             &layout,
             &infos,
             study.realisations(),
-            &[pending[0].tmp_path()],
+            &[output::OpenedFile::open(pending[0].tmp_path())?],
         )?;
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
         pending.extend(extra);

@@ -129,3 +129,124 @@ fn journal_and_manifest_paths_never_reach_outside_the_directory() {
         assert!(!out.join(JOURNAL).exists(), "refused before the journal");
     }
 }
+
+/// Wait until `path` exists (a paused process has reached its pause point).
+fn wait_for(path: &Path, child: &mut std::process::Child) {
+    let started = std::time::Instant::now();
+    while !path.exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("exited ({status}) before reaching its pause point");
+        }
+        assert!(
+            started.elapsed() < std::time::Duration::from_secs(120),
+            "never paused"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+#[test]
+fn summarize_reads_one_consistent_set_while_a_run_replaces_it() {
+    // `summarize D --out E` holds no lock on D, so a run may replace D's realisation file
+    // while the summary reads it. Paused at two instants — between its two passes, and
+    // between opening its input and checking it against the manifest — while a run with
+    // another seed replaces the file, the summary must be that of one run, byte for byte:
+    // of the file it opened (which a rename over its path does not change), or of the new
+    // one when the check saw the commit and opened again. Mixed, it would differ (its
+    // EmpSE from one run's mean and the other's values).
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("d");
+    let seed = |s: &'static str| ["--realisations", "30", "--no-figures", "--seed", s];
+    succeeds(run_cmd(&d, &seed("1")));
+    let seed_1 = read(&d.join("summary.parquet"));
+    // (point, the seed D holds when paused, the seed a run writes meanwhile)
+    for (point, new_seed) in [("between-passes", "2"), ("input-opened", "1")] {
+        let go = tmp.path().join(format!("go-{point}"));
+        let out = tmp.path().join(format!("summary-{point}"));
+        let mut summarize = chassis(&["summarize".as_ref(), d.as_os_str(), "--out".as_ref()]);
+        let mut child = summarize
+            .arg(&out)
+            .args(["--no-figures", "--quiet"])
+            .env("CHASSIS_MC_PAUSE", format!("{point}:{}", go.display()))
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        wait_for(&tmp.path().join(format!("go-{point}.paused")), &mut child);
+        succeeds(run_cmd(&d, &seed(new_seed)));
+        std::fs::write(&go, b"").unwrap();
+        let o = child.wait_with_output().unwrap();
+        assert!(o.status.success(), "{point}: {}", stderr(&o));
+        // Paused between the passes, it finishes the seed-1 file it opened; paused before
+        // its check, it sees the commit and reads the new seed-1 file.
+        assert!(
+            read(&out.join("summary.parquet")) == seed_1,
+            "{point}: the summary is not that of the seed-1 run"
+        );
+    }
+}
+
+/// XOR one byte at `offset` (from the end when negative).
+fn flip(path: &Path, offset: i64) {
+    let mut bytes = read(path);
+    let at = if offset < 0 {
+        (bytes.len() as i64 + offset) as usize
+    } else {
+        offset as usize
+    };
+    bytes[at] ^= 0x01;
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// The figures of `dir` with their bytes.
+fn figures_of(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut found: Vec<_> = std::fs::read_dir(dir.join("figures"))
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                read(&e.path()),
+            )
+        })
+        .collect();
+    found.sort();
+    found
+}
+
+#[test]
+fn figures_and_summarize_refuse_a_damaged_input_naming_it() {
+    // One flipped byte of summary.parquet (offset 100 changed every figure; offset 3000
+    // one MCSE; others raised raw Parquet errors) or cycles.parquet: `figures` names the
+    // file as damaged, exits 2 and leaves the figures as they were. The same for a
+    // realisation file given to `summarize`.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("d");
+    succeeds(run_cmd(&d, &["--realisations", "20"]));
+    let before = figures_of(&d);
+    let figures = || chassis(&["figures".as_ref(), d.as_os_str()]);
+    for (name, offsets) in [
+        ("summary.parquet", &[100, 3000, -100, -10][..]),
+        ("cycles.parquet", &[100, -10][..]),
+    ] {
+        let path = d.join(name);
+        let len = read(&path).len() as i64;
+        for &offset in offsets.iter().chain([len / 2].iter()) {
+            flip(&path, offset);
+            let shown = format!("{}: damaged", path.display());
+            refused(figures(), &[&shown, "summarize"]);
+            assert!(
+                figures_of(&d) == before,
+                "{name} at {offset}: figures changed"
+            );
+            flip(&path, offset); // restored
+        }
+    }
+    succeeds(figures());
+    assert!(figures_of(&d) == before);
+
+    let realisations = d.join("realisations.parquet");
+    flip(&realisations, 3000);
+    let shown = format!("{}: damaged", realisations.display());
+    refused(chassis(&["summarize".as_ref(), d.as_os_str()]), &[&shown]);
+}
