@@ -162,6 +162,21 @@ pub enum OutputError {
         /// How to make it whole again.
         remedy: String,
     },
+    /// An unsharded run into a directory that holds shards (`shard=K/`): it would replace
+    /// them, and they are a user's computation.
+    #[error(
+        "{dir}: holds the shards {} of a sharded run, which an unsharded run into it would \
+         replace; combine them with `chassis-mc summarize {}`, move them away, or choose \
+         another --out",
+        shards.join(", "),
+        dir.display()
+    )]
+    ShardsPresent {
+        /// The directory.
+        dir: PathBuf,
+        /// Each shard directory, with its seed and realisations when its file says them.
+        shards: Vec<String>,
+    },
     /// A run was interrupted while replacing the directory's output files, so they may
     /// come from two runs.
     #[error(
@@ -180,7 +195,10 @@ impl OutputError {
     pub fn is_bad_input(&self) -> bool {
         matches!(
             self,
-            OutputError::Locked { .. } | OutputError::Unsafe { .. } | OutputError::Damaged { .. }
+            OutputError::Locked { .. }
+                | OutputError::Unsafe { .. }
+                | OutputError::Damaged { .. }
+                | OutputError::ShardsPresent { .. }
         )
     }
 

@@ -315,12 +315,6 @@ pub fn commit(
             entries.push(e.clone());
         }
     }
-    // Shard directories keep their own manifests; they go only if replaced.
-    for e in shard_sets(dir)? {
-        if replaced(&e.path) {
-            ops.push(Op::Delete(e.path));
-        }
-    }
     entries.sort_by(|a, b| a.path.cmp(&b.path));
     let manifest = Manifest { entries };
     let manifest_tmp = temporary_name(MANIFEST);
@@ -498,37 +492,6 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
         }
     }
     Ok(())
-}
-
-/// The files of the shard directories (`shard=K/`) inside `dir`, each with its manifest and
-/// lock, by path relative to `dir`: a run that is not sharded replaces them too.
-fn shard_sets(dir: &Path) -> Result<Vec<Entry>, OutputError> {
-    let mut entries = Vec::new();
-    let Ok(listing) = fs::read_dir(dir) else {
-        return Ok(entries);
-    };
-    for item in listing {
-        let item = item.map_err(|e| OutputError::io(dir, e))?;
-        let name = item.file_name().to_string_lossy().into_owned();
-        if !name.starts_with("shard=") || !item.path().is_dir() {
-            continue;
-        }
-        let Some(manifest) = Manifest::read(&item.path())? else {
-            continue;
-        };
-        let unknown = Checksum { len: 0, hash: 0 };
-        let bookkeeping = [MANIFEST, super::lock::LOCK].map(|f| Entry {
-            path: f.to_string(),
-            checksum: unknown,
-        });
-        for e in manifest.entries.into_iter().chain(bookkeeping) {
-            entries.push(Entry {
-                path: format!("{name}/{}", e.path),
-                checksum: e.checksum,
-            });
-        }
-    }
-    Ok(entries)
 }
 
 /// The set of a directory written before manifests existed: its top-level tables.

@@ -187,6 +187,9 @@ fn run_prepared(
             dir.display()
         ));
     }
+    if options.shard.is_none() {
+        refuse_shards(&dir)?;
+    }
     remove_temporaries(&dir)?;
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
@@ -245,6 +248,39 @@ fn run_prepared(
         reused,
         computed,
     })
+}
+
+/// Fail if `dir` holds shards (`shard=K/` with a realisation file or a manifest): an
+/// unsharded run would replace the set they belong to, and the engine never deletes them.
+fn refuse_shards(dir: &Path) -> Result<(), OutputError> {
+    let mut shards = Vec::new();
+    for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
+        let entry = entry.map_err(|e| OutputError::io(dir, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        let file = path.join(files::REALISATIONS);
+        if !name.starts_with("shard=") || !(file.is_file() || path.join(set::MANIFEST).is_file()) {
+            continue;
+        }
+        let footer = output::read_metadata(&file).unwrap_or_default();
+        shards.push(
+            match (
+                footer.get(output::keys::SEED),
+                footer.get(output::keys::REALISATIONS),
+            ) {
+                (Some(seed), Some(r)) => format!("{name} (seed {seed}, {r} realisations)"),
+                _ => name,
+            },
+        );
+    }
+    shards.sort();
+    match shards.is_empty() {
+        true => Ok(()),
+        false => Err(OutputError::ShardsPresent {
+            dir: dir.to_path_buf(),
+            shards,
+        }),
+    }
 }
 
 /// Lock `dir` for this process (creating it), telling `observer` when the lock of a killed

@@ -250,3 +250,36 @@ fn figures_and_summarize_refuse_a_damaged_input_naming_it() {
     let shown = format!("{}: damaged", realisations.display());
     refused(chassis(&["summarize".as_ref(), d.as_os_str()]), &[&shown]);
 }
+
+#[test]
+fn an_unsharded_run_never_deletes_shards() {
+    // Shards with seed 5, then an unsharded run with seed 6 into the same directory: it
+    // deleted both shard files. Now it refuses, naming them and what differs, and they
+    // stay byte for byte; `summarize` still combines them (and keeps them).
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("d");
+    for k in ["0/2", "1/2"] {
+        let args = ["--realisations", "20", "--seed", "5", "--shard", k];
+        succeeds(run_cmd(&d, &args));
+    }
+    let shard = |k: u32| d.join(format!("shard={k}/realisations.parquet"));
+    let before = [read(&shard(0)), read(&shard(1))];
+    for seed in ["6", "5"] {
+        refused(
+            run_cmd(&d, &["--realisations", "20", "--seed", seed]),
+            &[
+                "shard=0 (seed 5, 20 realisations)",
+                "shard=1 (seed 5, 20 realisations)",
+                "summarize",
+            ],
+        );
+        assert!([read(&shard(0)), read(&shard(1))] == before, "seed {seed}");
+    }
+    assert!(!d.join("summary.parquet").exists(), "nothing written");
+    succeeds(chassis(&[
+        "summarize".as_ref(),
+        d.as_os_str(),
+        "--quiet".as_ref(),
+    ]));
+    assert!([read(&shard(0)), read(&shard(1))] == before);
+}
