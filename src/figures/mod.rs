@@ -120,9 +120,9 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
     let pending = draw_staged(dir, &summary, cycles)?;
     let written = set::commit(dir, pending, &|path| {
         path.starts_with(&format!("{FIGURES}/"))
-    })?;
-    let _ = fs::remove_dir(dir.join(output::temporary_name(FIGURES)));
-    Ok(written)
+    });
+    let _ = fs::remove_dir_all(dir.join(output::temporary_name(FIGURES)));
+    Ok(written?)
 }
 
 /// Draw every figure of the summary at `summary_path` (and the cycles at `cycles_path`)

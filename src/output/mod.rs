@@ -177,6 +177,19 @@ pub enum OutputError {
         /// Each shard directory, with its seed and realisations when its file says them.
         shards: Vec<String>,
     },
+    /// Files the engine would write over are not its own (not in its manifest, not
+    /// recognisably written by chassis-mc): a user's files are never overwritten.
+    #[error(
+        "{dir}: would overwrite {}, which chassis-mc did not write (they are not in its \
+         manifest); move them away or choose another --out (nothing of yours was changed)",
+        files.join(", ")
+    )]
+    NotOwned {
+        /// The directory.
+        dir: PathBuf,
+        /// The files, relative to it.
+        files: Vec<String>,
+    },
     /// A run was interrupted while replacing the directory's output files, so they may
     /// come from two runs.
     #[error(
@@ -199,6 +212,7 @@ impl OutputError {
                 | OutputError::Unsafe { .. }
                 | OutputError::Damaged { .. }
                 | OutputError::ShardsPresent { .. }
+                | OutputError::NotOwned { .. }
         )
     }
 

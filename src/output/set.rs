@@ -8,7 +8,10 @@
 //! - the **manifest** ([`MANIFEST`]) lists every file of the current set with its length
 //!   and an XXH64 checksum of its bytes. Only files it lists are ever replaced or deleted
 //!   by the engine; a user's own files in the directory (also under `figures/`) are left
-//!   alone. The checksum is verified before a file is reused (e.g. when extending R).
+//!   alone, and one at a path the new set writes stops the commit ([`ensure_owned`]). The
+//!   checksum is verified before a file is reused (e.g. when extending R) and, through the
+//!   reader's own open handle, before a file is read ([`open_checked`]). Every path it
+//!   names is a plain relative name inside the directory, or the directory is refused.
 //! - the **journal** ([`JOURNAL`]) makes the replacement atomic. Every new file is first
 //!   written completely under a temporary name and synced; then the journal — the list of
 //!   renames and deletions that turn the old set into the new one, the new manifest last —
@@ -305,6 +308,8 @@ pub fn commit(
         finals.push(file.final_path().to_path_buf());
     }
     let new_paths: BTreeSet<String> = entries.iter().map(|e| e.path.clone()).collect();
+    // A user's file at a path of the new set is never overwritten (README "Output files").
+    ensure_owned(dir, &new_paths.iter().cloned().collect::<Vec<_>>())?;
     for e in &old.entries {
         if new_paths.contains(&e.path) {
             continue;
@@ -494,11 +499,12 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// The set of a directory written before manifests existed: its top-level tables.
+/// The set of a directory written before manifests existed: its top-level tables (those
+/// whose footer shows chassis-mc wrote them).
 fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
     let mut entries = Vec::new();
     for name in LEGACY_SET {
-        if dir.join(name).is_file() {
+        if engine_table(&dir.join(name)) {
             entries.push(Entry {
                 path: name.to_string(),
                 checksum: checksum(&dir.join(name))?,
@@ -506,6 +512,63 @@ fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
         }
     }
     Ok(Manifest { entries })
+}
+
+/// Whether the file at `path` is a Parquet table chassis-mc wrote (its footer names the
+/// table, README "Output files").
+fn engine_table(path: &Path) -> bool {
+    path.is_file() && super::read_metadata(path).is_ok_and(|f| f.get(super::keys::TABLE).is_some())
+}
+
+/// What every `report.html` chassis-mc writes carries near its top: the provenance row
+/// naming the engine's version (`report::html`).
+const REPORT_MARK: &str = "<td>chassis-mc version</td>";
+
+/// Whether the file at `path` is a report page chassis-mc wrote.
+fn engine_report(path: &Path) -> bool {
+    let mut head = Vec::new();
+    File::open(path)
+        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
+        .is_ok()
+        && String::from_utf8_lossy(&head).contains(REPORT_MARK)
+}
+
+/// The files at `paths` (relative to `dir`, where a new set will be written) that are not
+/// the engine's to replace: a file there is the engine's when the manifest lists it, when
+/// its content shows chassis-mc wrote it (a Parquet table with chassis-mc's footer, a
+/// report page with its provenance row), or, in a directory an engine before manifests
+/// wrote (no manifest, chassis-mc tables at the top), when it is one of its figures. Any
+/// other file there is a user's: it must not be overwritten.
+pub fn foreign_files(dir: &Path, paths: &[String]) -> Result<Vec<String>, OutputError> {
+    let manifest = Manifest::read(dir)?;
+    let legacy = manifest.is_none() && !legacy_set(dir)?.entries.is_empty();
+    let mut foreign = Vec::new();
+    for rel in paths {
+        let path = dir.join(rel);
+        let owned = manifest.as_ref().is_some_and(|m| m.get(rel).is_some())
+            || fs::symlink_metadata(&path).is_err()
+            || (rel.ends_with(".parquet") && engine_table(&path))
+            || (path.file_name() == Some("report.html".as_ref()) && engine_report(&path))
+            || (legacy && rel.starts_with("figures/"));
+        if !owned {
+            foreign.push(rel.clone());
+        }
+    }
+    Ok(foreign)
+}
+
+/// Fail with [`OutputError::NotOwned`] if any of `paths` (relative to `dir`) is a
+/// [foreign file](foreign_files).
+pub fn ensure_owned(dir: &Path, paths: &[String]) -> Result<(), OutputError> {
+    let mut files = foreign_files(dir, paths)?;
+    files.sort();
+    match files.is_empty() {
+        true => Ok(()),
+        false => Err(OutputError::NotOwned {
+            dir: dir.to_path_buf(),
+            files,
+        }),
+    }
 }
 
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {

@@ -187,9 +187,14 @@ fn run_prepared(
             dir.display()
         ));
     }
+    // Refused before any work: shards, or a user's file where this run writes a table or
+    // the report (the figures' names are checked when they are committed).
+    let mut writes = vec![files::REALISATIONS.to_string()];
     if options.shard.is_none() {
         refuse_shards(&dir)?;
+        writes.extend(written_beside(model));
     }
+    set::ensure_owned(&dir, &writes)?;
     remove_temporaries(&dir)?;
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
@@ -248,6 +253,14 @@ fn run_prepared(
         reused,
         computed,
     })
+}
+
+/// The files a summary writes beside the realisations: the summary, the model's extra
+/// tables and the report.
+pub(super) fn written_beside(model: &dyn Model) -> Vec<String> {
+    let mut names = vec![files::SUMMARY.to_string(), REPORT.to_string()];
+    names.extend(model.extra_tables().iter().map(|t| t.file.to_string()));
+    names
 }
 
 /// Fail if `dir` holds shards (`shard=K/` with a realisation file or a manifest): an

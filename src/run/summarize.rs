@@ -129,6 +129,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         None => DirLock::acquire(out_dir)?,
     };
     set::ensure_complete(out_dir)?;
+    set::ensure_owned(out_dir, &super::written_beside(&*model))?;
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),

@@ -283,3 +283,65 @@ fn an_unsharded_run_never_deletes_shards() {
     ]));
     assert!([read(&shard(0)), read(&shard(1))] == before);
 }
+
+#[test]
+fn a_users_files_at_the_engines_paths_are_never_overwritten() {
+    // A fresh --out holding a user's report.html, summary.parquet and figures/cycles.svg
+    // (no manifest): each was overwritten. Now every command refuses (exit 2), naming the
+    // files, and they stay as they were.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("d");
+    std::fs::create_dir_all(d.join("figures")).unwrap();
+    let mine = [
+        ("report.html", &b"<html>my report</html>"[..]),
+        ("summary.parquet", b"my table"),
+        ("figures/cycles.svg", b"<svg>my figure</svg>"),
+    ];
+    for (name, bytes) in mine {
+        std::fs::write(d.join(name), bytes).unwrap();
+    }
+    let intact = |present: &[&str]| {
+        for (name, bytes) in mine {
+            if present.contains(&name) {
+                assert_eq!(read(&d.join(name)), bytes, "{name} changed");
+            }
+        }
+    };
+    let r = ["--realisations", "5"];
+    // The tables and the report are checked before any work; nothing is written.
+    refused(
+        run_cmd(&d, &r),
+        &["report.html, summary.parquet", "did not write"],
+    );
+    intact(&["report.html", "summary.parquet", "figures/cycles.svg"]);
+    assert!(!d.join("realisations.parquet").exists());
+    // The figures when they are committed.
+    std::fs::remove_file(d.join("report.html")).unwrap();
+    std::fs::remove_file(d.join("summary.parquet")).unwrap();
+    refused(run_cmd(&d, &r), &["figures/cycles.svg", "did not write"]);
+    intact(&["figures/cycles.svg"]);
+    assert!(!d.join("summary.parquet").exists(), "nothing committed");
+    // Without figures the run goes ahead beside the user's figure; redrawing the figures
+    // into that directory (now with a manifest that does not list it) is refused too.
+    succeeds(run_cmd(&d, &["--realisations", "5", "--no-figures"]));
+    refused(
+        chassis(&["figures".as_ref(), d.as_os_str()]),
+        &["figures/cycles.svg"],
+    );
+    intact(&["figures/cycles.svg"]);
+    // `summarize --out` into a fresh directory holding a user's report.
+    let e = tmp.path().join("e");
+    std::fs::create_dir(&e).unwrap();
+    std::fs::write(e.join("report.html"), mine[0].1).unwrap();
+    refused(
+        chassis(&[
+            "summarize".as_ref(),
+            d.as_os_str(),
+            "--out".as_ref(),
+            e.as_os_str(),
+            "--no-figures".as_ref(),
+        ]),
+        &["report.html"],
+    );
+    assert_eq!(read(&e.join("report.html")), mine[0].1);
+}
