@@ -190,6 +190,20 @@ pub enum OutputError {
         /// The files, relative to it.
         files: Vec<String>,
     },
+    /// Realisation files summarised together belong to different runs.
+    #[error(
+        "{path}: cannot be summarised with {first}: they differ in {}; summarise the files of \
+         one run (the same study, seed and R) together",
+        differences.join("; ")
+    )]
+    Mismatch {
+        /// The file that does not match.
+        path: PathBuf,
+        /// The first file, which the others are compared with.
+        first: PathBuf,
+        /// What differs, each with both values.
+        differences: Vec<String>,
+    },
     /// A run was interrupted while replacing the directory's output files, so they may
     /// come from two runs.
     #[error(
@@ -213,6 +227,7 @@ impl OutputError {
                 | OutputError::Damaged { .. }
                 | OutputError::ShardsPresent { .. }
                 | OutputError::NotOwned { .. }
+                | OutputError::Mismatch { .. }
         )
     }
 

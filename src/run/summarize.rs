@@ -107,13 +107,11 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     for file in &opened[1..] {
         let (_, other, r) = footer(file)?;
         if other != identity || r != realisations {
-            return Err(OutputError::format(
-                file.path(),
-                format!(
-                    "belongs to a different study or R than {} (realisations {r} vs {realisations})",
-                    first.path().display()
-                ),
-            )
+            return Err(OutputError::Mismatch {
+                path: file.path().to_path_buf(),
+                first: first.path().to_path_buf(),
+                differences: differences(&file.footer()?, &first.footer()?),
+            }
             .into());
         }
     }
@@ -167,6 +165,48 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         reused: 0,
         computed: 0,
     })
+}
+
+/// What differs between the runs two realisation files' footers record, `this` against
+/// `that`: the seed, the realisations per condition, the engine version, the study itself
+/// (compared with seed and R set equal), or else the engine's arithmetic (same version,
+/// another build).
+fn differences(this: &output::Footer, that: &output::Footer) -> Vec<String> {
+    let mut found = Vec::new();
+    for (key, what) in [
+        (keys::SEED, "seed"),
+        (keys::REALISATIONS, "realisations per condition"),
+        (keys::VERSION, "engine version"),
+    ] {
+        let (a, b) = (this.get(key), that.get(key));
+        if a != b {
+            let show = |v: Option<&str>| v.unwrap_or("none").to_string();
+            found.push(format!("{what} {} here, {} there", show(a), show(b)));
+        }
+    }
+    // The studies, read back and compared without their seed and R.
+    let normalised = |f: &output::Footer| {
+        let text = f.get(keys::STUDY)?;
+        let dir = PathBuf::from(f.get(keys::STUDY_DIR).unwrap_or_default());
+        let study = Study::from_toml_in(text, "(footer)", &dir).ok()?;
+        Some(study.with_overrides(Some(1), Some(0)).ok()?.to_toml())
+    };
+    let studies_differ = match (normalised(this), normalised(that)) {
+        (Some(a), Some(b)) => a != b,
+        // unreadable: compare the texts as written
+        _ => this.get(keys::STUDY) != that.get(keys::STUDY) && found.is_empty(),
+    };
+    if studies_differ {
+        found.push("the study (its vehicle, drive, terrain, noise or estimators)".into());
+    }
+    if found.is_empty() {
+        found.push(
+            "the engine's arithmetic (the same version, built differently: its check of \
+             realisation 0 differs)"
+                .into(),
+        );
+    }
+    found
 }
 
 /// Summarise the realisation rows stored in `files` (any split of one study's rows), both

@@ -345,3 +345,60 @@ fn a_users_files_at_the_engines_paths_are_never_overwritten() {
     );
     assert_eq!(read(&e.join("report.html")), mine[0].1);
 }
+
+#[test]
+fn mixed_shards_are_refused_naming_what_differs() {
+    // Shards of one study with different seeds were refused as "a different study or R
+    // (realisations 30 vs 30)". The message names what differs, and only that.
+    let tmp = tempfile::tempdir().unwrap();
+    let heavier = tmp.path().join("heavier.toml");
+    std::fs::write(
+        &heavier,
+        set_key(&study_text("thesis.toml"), "mass", "1900.0"),
+    )
+    .unwrap();
+    let thesis = study_path("thesis.toml");
+    // (case, shard 1's study, R, seed; what the message says; what it must not say)
+    let cases = [
+        ("seed", &thesis, "20", "6", "seed 6 here, 5 there", "study"),
+        (
+            "r",
+            &thesis,
+            "30",
+            "5",
+            "realisations per condition 30 here, 20 there",
+            "seed",
+        ),
+        ("study", &heavier, "20", "5", "the study", "seed"),
+    ];
+    for (case, study, r, seed, says, not) in cases {
+        let d = tmp.path().join(case);
+        succeeds(run_cmd(
+            &d,
+            &["--realisations", "20", "--seed", "5", "--shard", "0/2"],
+        ));
+        let mut second = chassis(&["run".as_ref(), study.as_os_str(), "--out".as_ref()]);
+        second.arg(&d).args([
+            "--quiet",
+            "--realisations",
+            r,
+            "--seed",
+            seed,
+            "--shard",
+            "1/2",
+        ]);
+        succeeds(second);
+        let o = refused(
+            chassis(&["summarize".as_ref(), d.as_os_str()]),
+            &[
+                "shard=1/realisations.parquet",
+                "shard=0/realisations.parquet",
+                says,
+            ],
+        );
+        let err = stderr(&o);
+        let (_, reason) = err.split_once("they differ in").unwrap();
+        let (reason, _) = reason.split_once("; summarise").unwrap();
+        assert!(!reason.contains(not), "{case}: {err}");
+    }
+}
