@@ -83,6 +83,12 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
 /// `dir/figures/`, replacing the figures of its output set together (a user's own files
 /// there stay). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
+    if !dir.exists() {
+        return Err(OutputError::Missing {
+            path: dir.to_path_buf(),
+        }
+        .into());
+    }
     if !dir.is_dir() {
         return Err(FigureError::NotAnOutputDirectory(dir.to_path_buf()));
     }

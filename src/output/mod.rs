@@ -190,6 +190,12 @@ pub enum OutputError {
         /// The files, relative to it.
         files: Vec<String>,
     },
+    /// A file or directory given as an argument does not exist.
+    #[error("{path}: no such file or directory")]
+    Missing {
+        /// The path given.
+        path: PathBuf,
+    },
     /// Realisation files summarised together belong to different runs.
     #[error(
         "{path}: cannot be summarised with {first}: they differ in {}; summarise the files of \
@@ -228,6 +234,7 @@ impl OutputError {
                 | OutputError::ShardsPresent { .. }
                 | OutputError::NotOwned { .. }
                 | OutputError::Mismatch { .. }
+                | OutputError::Missing { .. }
         )
     }
 

@@ -22,6 +22,11 @@ use crate::study::{Study, StudyError};
 /// output set is incomplete (an interrupted commit) or a file that does not match its
 /// checksum is an error.
 pub fn realisation_files(input: &Path) -> Result<Vec<OpenedFile>, OutputError> {
+    if !input.exists() {
+        return Err(OutputError::Missing {
+            path: input.to_path_buf(),
+        });
+    }
     find_realisation_files(input)?
         .iter()
         .map(|path| set::open_checked(path))

@@ -402,3 +402,22 @@ fn mixed_shards_are_refused_naming_what_differs() {
         assert!(!reason.contains(not), "{case}: {err}");
     }
 }
+
+#[test]
+fn a_missing_path_is_a_bad_argument_for_summarize_and_figures() {
+    // `summarize /nonexistent` exited 1 where `figures` exited 2.
+    let tmp = tempfile::tempdir().unwrap();
+    let missing = tmp.path().join("nonexistent");
+    let shown = format!("{}: no such file or directory", missing.display());
+    for command in ["summarize", "figures"] {
+        refused(chassis(&[command.as_ref(), missing.as_os_str()]), &[&shown]);
+    }
+    // One good directory and one missing one.
+    let d = tmp.path().join("d");
+    succeeds(run_cmd(&d, &["--realisations", "5", "--no-figures"]));
+    refused(
+        chassis(&["summarize".as_ref(), d.as_os_str(), missing.as_os_str()]),
+        &[&shown],
+    );
+    assert!(!missing.exists());
+}
