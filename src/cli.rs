@@ -267,10 +267,9 @@ pub struct Failure {
 
 impl From<RunError> for Failure {
     fn from(e: RunError) -> Self {
-        let code = match e {
-            RunError::Study(_) | RunError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
-            RunError::Figures(FigureError::Study(_)) => EXIT_BAD_INPUT,
-            RunError::Figures(FigureError::Output(OutputError::Locked { .. })) => EXIT_BAD_INPUT,
+        let code = match &e {
+            RunError::Study(_) | RunError::Figures(FigureError::Study(_)) => EXIT_BAD_INPUT,
+            RunError::Output(o) | RunError::Figures(FigureError::Output(o)) => output_code(o),
             _ => EXIT_FAILURE,
         };
         Failure {
@@ -282,16 +281,24 @@ impl From<RunError> for Failure {
 
 impl From<FigureError> for Failure {
     fn from(e: FigureError) -> Self {
-        let code = match e {
-            FigureError::Study(_)
-            | FigureError::NotAnOutputDirectory(_)
-            | FigureError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+        let code = match &e {
+            FigureError::Study(_) | FigureError::NotAnOutputDirectory(_) => EXIT_BAD_INPUT,
+            FigureError::Output(o) => output_code(o),
             _ => EXIT_FAILURE,
         };
         Failure {
             error: anyhow!(e),
             code,
         }
+    }
+}
+
+/// The exit status of an output error: 2 when the directory or file given cannot be used
+/// as it is (see [`OutputError::is_bad_input`]), 1 for a failure while running.
+fn output_code(e: &OutputError) -> u8 {
+    match e.is_bad_input() {
+        true => EXIT_BAD_INPUT,
+        false => EXIT_FAILURE,
     }
 }
 
@@ -539,9 +546,9 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
                 .build()
                 .map_err(|e| bad_argument(format!("--threads: {e}")))?;
             let result = pool.install(|| design(&study, &request)).map_err(|e| {
-                let code = match e {
+                let code = match &e {
                     DesignError::Study(_) | DesignError::Request(_) => EXIT_BAD_INPUT,
-                    DesignError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+                    DesignError::Output(o) => output_code(o),
                     _ => EXIT_FAILURE,
                 };
                 Failure {
@@ -579,7 +586,8 @@ pub fn run(cli: Cli) -> Result<(), Failure> {
         Command::Fit { fit, out } => {
             output_directory("--out", &out)?;
             let code = |e: &FitError| match e {
-                FitError::Study(_) | FitError::Output(OutputError::Locked { .. }) => EXIT_BAD_INPUT,
+                FitError::Study(_) => EXIT_BAD_INPUT,
+                FitError::Output(o) => output_code(o),
                 _ => EXIT_FAILURE,
             };
             let fail = |e: FitError| Failure {

@@ -85,6 +85,12 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
 /// `dir/figures/`, replacing the figures of its output set together (a user's own files
 /// there stay). Returns the files written.
 pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
+    if !dir.exists() {
+        return Err(OutputError::Missing {
+            path: dir.to_path_buf(),
+        }
+        .into());
+    }
     if !dir.is_dir() {
         return Err(FigureError::NotAnOutputDirectory(dir.to_path_buf()));
     }
@@ -96,12 +102,35 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
         return Err(FigureError::NotAnOutputDirectory(dir.to_path_buf()));
     }
     let cycles = dir.join(files::CYCLES);
-    let pending = draw_staged(dir, &summary, cycles.exists().then_some(cycles.as_path()))?;
+    let cycles = cycles.exists().then_some(cycles.as_path());
+    // Checked against the manifest before anything is drawn from them: a damaged file is
+    // named as such, not drawn or reported as a Parquet error. (The lock keeps runs from
+    // replacing them until the figures are committed.)
+    for path in std::iter::once(summary.as_path()).chain(cycles) {
+        set::open_checked(path).map_err(|e| match e {
+            OutputError::Damaged {
+                path,
+                recorded,
+                found,
+                ..
+            } => OutputError::Damaged {
+                path,
+                recorded,
+                found,
+                remedy: format!(
+                    "run `chassis-mc summarize {}` (or the study) again to rewrite it",
+                    dir.display()
+                ),
+            },
+            other => other,
+        })?;
+    }
+    let pending = draw_staged(dir, &summary, cycles)?;
     let written = set::commit(dir, pending, &|path| {
         path.starts_with(&format!("{FIGURES}/"))
-    })?;
-    let _ = fs::remove_dir(dir.join(output::temporary_name(FIGURES)));
-    Ok(written)
+    });
+    let _ = fs::remove_dir_all(dir.join(output::temporary_name(FIGURES)));
+    Ok(written?)
 }
 
 /// Draw every figure of the summary at `summary_path` (and the cycles at `cycles_path`)

@@ -26,7 +26,7 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use thiserror::Error;
 
-pub use failpoints::{FAILPOINTS, failpoint};
+pub use failpoints::{FAILPOINTS, PAUSE_POINTS, failpoint, pause};
 pub use summary_table::{SummaryTable, read_summary, summary_batch, summary_schema};
 pub use tables::{RealisationBatches, realisation_schema, realisations_batch};
 
@@ -132,6 +132,84 @@ pub enum OutputError {
         /// The pid of the process holding the lock, if it could be read.
         pid: Option<u32>,
     },
+    /// The directory's manifest or journal names a path outside the directory (absolute,
+    /// with `..`, or through a symbolic link): the directory is refused, nothing is done.
+    #[error(
+        "{file}{}: {reason}; refusing this directory (chassis-mc writes only plain names \
+         inside it)",
+        line.map(|l| format!(": line {l}")).unwrap_or_default()
+    )]
+    Unsafe {
+        /// The manifest or journal.
+        file: PathBuf,
+        /// The line naming the path.
+        line: Option<usize>,
+        /// What is wrong with the path.
+        reason: String,
+    },
+    /// A file of an output set does not hold the bytes recorded for it when it was written.
+    #[error(
+        "{path}: damaged: its bytes do not match the checksum recorded when it was written \
+         ({recorded:#} recorded; {found:#} found); {remedy}"
+    )]
+    Damaged {
+        /// The file.
+        path: PathBuf,
+        /// Length and checksum in the manifest.
+        recorded: set::Checksum,
+        /// Length and checksum of the file.
+        found: set::Checksum,
+        /// How to make it whole again.
+        remedy: String,
+    },
+    /// An unsharded run into a directory that holds shards (`shard=K/`): it would replace
+    /// them, and they are a user's computation.
+    #[error(
+        "{dir}: holds the shards {} of a sharded run, which an unsharded run into it would \
+         replace; combine them with `chassis-mc summarize {}`, move them away, or choose \
+         another --out",
+        shards.join(", "),
+        dir.display()
+    )]
+    ShardsPresent {
+        /// The directory.
+        dir: PathBuf,
+        /// Each shard directory, with its seed and realisations when its file says them.
+        shards: Vec<String>,
+    },
+    /// Files the engine would write over are not its own (not in its manifest, not
+    /// recognisably written by chassis-mc): a user's files are never overwritten.
+    #[error(
+        "{dir}: would overwrite {}, which chassis-mc did not write (they are not in its \
+         manifest); move them away or choose another --out (nothing of yours was changed)",
+        files.join(", ")
+    )]
+    NotOwned {
+        /// The directory.
+        dir: PathBuf,
+        /// The files, relative to it.
+        files: Vec<String>,
+    },
+    /// A file or directory given as an argument does not exist.
+    #[error("{path}: no such file or directory")]
+    Missing {
+        /// The path given.
+        path: PathBuf,
+    },
+    /// Realisation files summarised together belong to different runs.
+    #[error(
+        "{path}: cannot be summarised with {first}: they differ in {}; summarise the files of \
+         one run (the same study, seed and R) together",
+        differences.join("; ")
+    )]
+    Mismatch {
+        /// The file that does not match.
+        path: PathBuf,
+        /// The first file, which the others are compared with.
+        first: PathBuf,
+        /// What differs, each with both values.
+        differences: Vec<String>,
+    },
     /// A run was interrupted while replacing the directory's output files, so they may
     /// come from two runs.
     #[error(
@@ -145,6 +223,21 @@ pub enum OutputError {
 }
 
 impl OutputError {
+    /// Whether the error is the input's fault (exit status 2: a bad argument, a directory
+    /// that cannot be used as it is) rather than a failure while running (1).
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            OutputError::Locked { .. }
+                | OutputError::Unsafe { .. }
+                | OutputError::Damaged { .. }
+                | OutputError::ShardsPresent { .. }
+                | OutputError::NotOwned { .. }
+                | OutputError::Mismatch { .. }
+                | OutputError::Missing { .. }
+        )
+    }
+
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
         OutputError::Io {
             path: path.to_path_buf(),
@@ -448,24 +541,109 @@ pub fn open_projected_reader(
     batch_rows: usize,
     columns: Option<&[&str]>,
 ) -> Result<ParquetRecordBatchReader, OutputError> {
-    let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
-        .map_err(|e| OutputError::parquet(path, e))?;
-    let builder = match columns {
-        Some(names) => {
-            let schema = builder.parquet_schema();
-            let leaves: Vec<usize> = (0..schema.num_columns())
-                .filter(|&i| names.contains(&schema.column(i).name()))
-                .collect();
-            let mask = parquet::arrow::ProjectionMask::leaves(schema, leaves);
-            builder.with_projection(mask)
+    OpenedFile::open(path)?.reader(batch_rows, columns)
+}
+
+/// A file opened once, read through that one handle: its footer and every pass over its
+/// rows come from the same bytes, even if a run renames another file over its path
+/// meanwhile (the open file outlives the rename). [`set::open_checked`] opens one and
+/// checks it against the directory's manifest.
+///
+/// Readers made from it share the handle's file position: use one at a time.
+#[derive(Debug)]
+pub struct OpenedFile {
+    path: PathBuf,
+    file: File,
+}
+
+impl OpenedFile {
+    /// Open `path` for reading.
+    pub fn open(path: &Path) -> Result<Self, OutputError> {
+        let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
+        Ok(OpenedFile {
+            path: path.to_path_buf(),
+            file,
+        })
+    }
+
+    /// The path it was opened at.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn handle(&self) -> Result<File, OutputError> {
+        self.file
+            .try_clone()
+            .map_err(|e| OutputError::io(&self.path, e))
+    }
+
+    /// Its length and checksum, read through the handle.
+    pub fn checksum(&self) -> Result<set::Checksum, OutputError> {
+        use std::io::Seek;
+        let mut file = self.handle()?;
+        file.rewind().map_err(|e| OutputError::io(&self.path, e))?;
+        set::checksum_of(&mut file, &self.path)
+    }
+
+    /// Whether `path` still names this file (on Unix: the same device and inode).
+    pub fn is_at(&self, path: &Path) -> bool {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            match (self.file.metadata(), fs::metadata(path)) {
+                (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+                _ => false,
+            }
         }
-        None => builder,
-    };
-    builder
-        .with_batch_size(batch_rows)
-        .build()
-        .map_err(|e| OutputError::parquet(path, e))
+        #[cfg(not(unix))]
+        {
+            let _ = path;
+            true
+        }
+    }
+
+    /// A batch-wise reader of the named top-level columns (all when `None`).
+    pub fn reader(
+        &self,
+        batch_rows: usize,
+        columns: Option<&[&str]>,
+    ) -> Result<ParquetRecordBatchReader, OutputError> {
+        let path = &self.path;
+        let builder = ParquetRecordBatchReaderBuilder::try_new(self.handle()?)
+            .map_err(|e| OutputError::parquet(path, e))?;
+        let builder = match columns {
+            Some(names) => {
+                let schema = builder.parquet_schema();
+                let leaves: Vec<usize> = (0..schema.num_columns())
+                    .filter(|&i| names.contains(&schema.column(i).name()))
+                    .collect();
+                let mask = parquet::arrow::ProjectionMask::leaves(schema, leaves);
+                builder.with_projection(mask)
+            }
+            None => builder,
+        };
+        builder
+            .with_batch_size(batch_rows)
+            .build()
+            .map_err(|e| OutputError::parquet(path, e))
+    }
+
+    /// Its footer key-value metadata.
+    pub fn footer(&self) -> Result<Footer, OutputError> {
+        let builder = ParquetRecordBatchReaderBuilder::try_new(self.handle()?)
+            .map_err(|e| OutputError::parquet(&self.path, e))?;
+        let kv = builder
+            .metadata()
+            .file_metadata()
+            .key_value_metadata()
+            .cloned()
+            .unwrap_or_default();
+        Ok(Footer(
+            kv.into_iter()
+                .map(|k| (k.key, k.value.unwrap_or_default()))
+                .collect(),
+        ))
+    }
 }
 
 /// The footer key-value metadata of a Parquet file.
@@ -493,20 +671,7 @@ pub fn footer_dir(footer: &Footer, path: &Path) -> PathBuf {
 
 /// The footer key-value metadata of a Parquet file.
 pub fn read_metadata(path: &Path) -> Result<Footer, OutputError> {
-    let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
-        .map_err(|e| OutputError::parquet(path, e))?;
-    let kv = builder
-        .metadata()
-        .file_metadata()
-        .key_value_metadata()
-        .cloned()
-        .unwrap_or_default();
-    Ok(Footer(
-        kv.into_iter()
-            .map(|k| (k.key, k.value.unwrap_or_default()))
-            .collect(),
-    ))
+    OpenedFile::open(path)?.footer()
 }
 
 /// Shared pointer to a schema (re-exported for callers building batches).

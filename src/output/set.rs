@@ -8,7 +8,10 @@
 //! - the **manifest** ([`MANIFEST`]) lists every file of the current set with its length
 //!   and an XXH64 checksum of its bytes. Only files it lists are ever replaced or deleted
 //!   by the engine; a user's own files in the directory (also under `figures/`) are left
-//!   alone. The checksum is verified before a file is reused (e.g. when extending R).
+//!   alone, and one at a path the new set writes stops the commit ([`ensure_owned`]). The
+//!   checksum is verified before a file is reused (e.g. when extending R) and, through the
+//!   reader's own open handle, before a file is read ([`open_checked`]). Every path it
+//!   names is a plain relative name inside the directory, or the directory is refused.
 //! - the **journal** ([`JOURNAL`]) makes the replacement atomic. Every new file is first
 //!   written completely under a temporary name and synced; then the journal — the list of
 //!   renames and deletions that turn the old set into the new one, the new manifest last —
@@ -53,14 +56,23 @@ pub struct Checksum {
 }
 
 impl std::fmt::Display for Checksum {
+    /// The hash in hex (as the manifest records it); `{:#}` adds the length.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{:016x}", self.hash)
+        match f.alternate() {
+            true => write!(f, "{} bytes, xxh64 {:016x}", self.len, self.hash),
+            false => write!(f, "{:016x}", self.hash),
+        }
     }
 }
 
 /// The checksum of the file at `path` (read in 1 MiB blocks).
 pub fn checksum(path: &Path) -> Result<Checksum, OutputError> {
     let mut file = File::open(path).map_err(|e| OutputError::io(path, e))?;
+    checksum_of(&mut file, path)
+}
+
+/// The checksum of what is left to read of `file` (opened at `path`).
+pub(super) fn checksum_of(file: &mut File, path: &Path) -> Result<Checksum, OutputError> {
     let mut hasher = XxHash64::with_seed(0);
     let mut buffer = vec![0u8; 1 << 20];
     let mut len = 0u64;
@@ -122,6 +134,11 @@ impl Manifest {
             else {
                 return Err(bad());
             };
+            confined(file).map_err(|reason| OutputError::Unsafe {
+                file: path.to_path_buf(),
+                line: Some(i + 2),
+                reason,
+            })?;
             entries.push(Entry {
                 path: file.to_string(),
                 checksum: Checksum {
@@ -160,10 +177,75 @@ pub fn verify_file(dir: &Path, name: &str) -> Result<Option<String>, OutputError
     Ok((found != entry.checksum).then(|| {
         format!(
             "its content does not match the checksum recorded when it was written \
-             ({} bytes, xxh64 {} recorded; {} bytes, xxh64 {} found)",
-            entry.checksum.len, entry.checksum, found.len, found
+             ({:#} recorded; {found:#} found)",
+            entry.checksum
         )
     }))
+}
+
+/// How many times [`open_checked`] looks again when a commit may be replacing the file,
+/// waiting 10, 20, 40 … ms in between (1.3 s in all; a commit's renames take milliseconds).
+const CHECK_ATTEMPTS: u32 = 8;
+
+/// Open the file at `path` and, if its directory's manifest lists it, check the bytes of
+/// that open file against the checksum recorded there. What the caller reads through the
+/// returned handle is then the file the manifest vouched for, whatever a run renames over
+/// the path afterwards.
+///
+/// A commit may be under way (a journal in the directory) or may happen between the open
+/// and the manifest's read: the check is repeated until the file, the manifest and the
+/// absence of a journal agree, or fails with [`OutputError::Incomplete`] (a journal that
+/// stays) or [`OutputError::Damaged`] (the bytes differ and nothing is changing). A file
+/// the manifest does not list (or in a directory without one) is opened unchecked.
+pub fn open_checked(path: &Path) -> Result<super::OpenedFile, OutputError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut attempt = 0;
+    loop {
+        let last = attempt + 1 >= CHECK_ATTEMPTS;
+        let again = |attempt: u32| {
+            std::thread::sleep(std::time::Duration::from_millis(10 << attempt));
+        };
+        if dir.join(JOURNAL).exists() {
+            if last {
+                return Err(OutputError::Incomplete {
+                    dir: dir.to_path_buf(),
+                });
+            }
+            again(attempt);
+            attempt += 1;
+            continue;
+        }
+        let file = super::OpenedFile::open(path)?;
+        super::pause("input-opened");
+        let manifest = Manifest::read(dir)?;
+        let Some(entry) = manifest.as_ref().and_then(|m| m.get(&name)) else {
+            return Ok(file);
+        };
+        let found = file.checksum()?;
+        if found == entry.checksum {
+            return Ok(file);
+        }
+        // Did a commit replace the file or the manifest since the open?
+        let changing =
+            dir.join(JOURNAL).exists() || Manifest::read(dir)? != manifest || !file.is_at(path);
+        if !changing || last {
+            return Err(OutputError::Damaged {
+                path: path.to_path_buf(),
+                recorded: entry.checksum,
+                found,
+                remedy: "run the study (or its shard) that wrote it again".into(),
+            });
+        }
+        again(attempt);
+        attempt += 1;
+    }
 }
 
 /// Fail if a replacement of `dir`'s output set was interrupted (a journal is present):
@@ -226,6 +308,8 @@ pub fn commit(
         finals.push(file.final_path().to_path_buf());
     }
     let new_paths: BTreeSet<String> = entries.iter().map(|e| e.path.clone()).collect();
+    // A user's file at a path of the new set is never overwritten (README "Output files").
+    ensure_owned(dir, &new_paths.iter().cloned().collect::<Vec<_>>())?;
     for e in &old.entries {
         if new_paths.contains(&e.path) {
             continue;
@@ -236,18 +320,15 @@ pub fn commit(
             entries.push(e.clone());
         }
     }
-    // Shard directories keep their own manifests; they go only if replaced.
-    for e in shard_sets(dir)? {
-        if replaced(&e.path) {
-            ops.push(Op::Delete(e.path));
-        }
-    }
     entries.sort_by(|a, b| a.path.cmp(&b.path));
     let manifest = Manifest { entries };
     let manifest_tmp = temporary_name(MANIFEST);
     write_synced(&dir.join(&manifest_tmp), manifest.render().as_bytes())?;
     ops.push(Op::Rename(manifest_tmp, MANIFEST.to_string()));
 
+    // Nothing is written if a step would reach outside `dir` (a manifest entry or a new
+    // file under a directory that is a symbolic link).
+    check_steps(dir, &ops, None)?;
     let mut journal = format!("{JOURNAL_HEADER}\n");
     for op in &ops {
         journal += &match op {
@@ -285,7 +366,7 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
     let mut ops = Vec::new();
     for (i, line) in lines.enumerate() {
         let fields: Vec<&str> = line.split('\t').collect();
-        ops.push(match fields.as_slice() {
+        let op = match fields.as_slice() {
             ["rename", from, to] => Op::Rename(from.to_string(), to.to_string()),
             ["delete", file] => Op::Delete(file.to_string()),
             _ => {
@@ -294,14 +375,85 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
                     format!("line {}: malformed step", i + 2),
                 ));
             }
-        });
+        };
+        ops.push(op);
     }
     apply(dir, &ops)?;
     Ok(true)
 }
 
-/// Carry out `ops` (each step idempotent), then remove the journal.
+impl Op {
+    /// The paths (relative to the output directory) the step names.
+    fn paths(&self) -> Vec<&str> {
+        match self {
+            Op::Rename(from, to) => vec![from, to],
+            Op::Delete(path) => vec![path],
+        }
+    }
+}
+
+/// Why `path`, read from a manifest or a journal, is not a plain relative path inside the
+/// output directory: an absolute path, an empty, `.` or `..` component, or a backslash (a
+/// separator elsewhere) would let the file name a place outside it.
+fn confined(path: &str) -> Result<(), String> {
+    let plain = !path.is_empty()
+        && !path.contains('\\')
+        && path
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
+        && Path::new(path)
+            .components()
+            .all(|c| matches!(c, std::path::Component::Normal(_)));
+    match plain {
+        true => Ok(()),
+        false => Err(format!(
+            "`{path}` is not a plain relative path inside the output directory (absolute \
+             paths and `..` are refused)"
+        )),
+    }
+}
+
+/// Why `dir/path` may lie outside `dir` although `path` is [`confined`]: a directory on
+/// the way is a symbolic link. (The file itself may be a link: renaming over it or deleting
+/// it replaces the link, not what it points to.)
+fn link_escape(dir: &Path, path: &str) -> Option<String> {
+    let mut at = dir.to_path_buf();
+    let components: Vec<&str> = path.split('/').collect();
+    for c in &components[..components.len().saturating_sub(1)] {
+        at.push(c);
+        if fs::symlink_metadata(&at).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Some(format!(
+                "`{path}` passes through the symbolic link {}, which may lead outside the \
+                 output directory",
+                at.display()
+            ));
+        }
+    }
+    None
+}
+
+/// Check every step of `ops` before any is carried out: each must stay inside `dir`. An
+/// error names the `journal` and the step's line in it, else the file the step names.
+fn check_steps(dir: &Path, ops: &[Op], journal: Option<&Path>) -> Result<(), OutputError> {
+    for (i, op) in ops.iter().enumerate() {
+        for path in op.paths() {
+            if let Some(reason) = confined(path).err().or_else(|| link_escape(dir, path)) {
+                return Err(OutputError::Unsafe {
+                    file: journal.map_or_else(|| dir.join(path), Path::to_path_buf),
+                    line: journal.map(|_| i + 2),
+                    reason,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Carry out `ops` (each step idempotent), then remove the journal. Every step is checked
+/// first: none is carried out if one would reach outside `dir`.
 fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
+    let journal = dir.join(JOURNAL);
+    check_steps(dir, ops, Some(&journal))?;
     let mut touched = BTreeSet::new();
     for op in ops {
         match op {
@@ -336,7 +488,6 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
     for d in &touched {
         sync_dir(d)?;
     }
-    let journal = dir.join(JOURNAL);
     fs::remove_file(&journal).map_err(|e| OutputError::io(&journal, e))?;
     sync_dir(dir)?;
     // A directory of figures emptied by the deletions goes too (a user's file keeps it).
@@ -348,42 +499,12 @@ fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
     Ok(())
 }
 
-/// The files of the shard directories (`shard=K/`) inside `dir`, each with its manifest and
-/// lock, by path relative to `dir`: a run that is not sharded replaces them too.
-fn shard_sets(dir: &Path) -> Result<Vec<Entry>, OutputError> {
-    let mut entries = Vec::new();
-    let Ok(listing) = fs::read_dir(dir) else {
-        return Ok(entries);
-    };
-    for item in listing {
-        let item = item.map_err(|e| OutputError::io(dir, e))?;
-        let name = item.file_name().to_string_lossy().into_owned();
-        if !name.starts_with("shard=") || !item.path().is_dir() {
-            continue;
-        }
-        let Some(manifest) = Manifest::read(&item.path())? else {
-            continue;
-        };
-        let unknown = Checksum { len: 0, hash: 0 };
-        let bookkeeping = [MANIFEST, super::lock::LOCK].map(|f| Entry {
-            path: f.to_string(),
-            checksum: unknown,
-        });
-        for e in manifest.entries.into_iter().chain(bookkeeping) {
-            entries.push(Entry {
-                path: format!("{name}/{}", e.path),
-                checksum: e.checksum,
-            });
-        }
-    }
-    Ok(entries)
-}
-
-/// The set of a directory written before manifests existed: its top-level tables.
+/// The set of a directory written before manifests existed: its top-level tables (those
+/// whose footer shows chassis-mc wrote them).
 fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
     let mut entries = Vec::new();
     for name in LEGACY_SET {
-        if dir.join(name).is_file() {
+        if engine_table(&dir.join(name)) {
             entries.push(Entry {
                 path: name.to_string(),
                 checksum: checksum(&dir.join(name))?,
@@ -391,6 +512,63 @@ fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
         }
     }
     Ok(Manifest { entries })
+}
+
+/// Whether the file at `path` is a Parquet table chassis-mc wrote (its footer names the
+/// table, README "Output files").
+fn engine_table(path: &Path) -> bool {
+    path.is_file() && super::read_metadata(path).is_ok_and(|f| f.get(super::keys::TABLE).is_some())
+}
+
+/// What every `report.html` chassis-mc writes carries near its top: the provenance row
+/// naming the engine's version (`report::html`).
+const REPORT_MARK: &str = "<td>chassis-mc version</td>";
+
+/// Whether the file at `path` is a report page chassis-mc wrote.
+fn engine_report(path: &Path) -> bool {
+    let mut head = Vec::new();
+    File::open(path)
+        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
+        .is_ok()
+        && String::from_utf8_lossy(&head).contains(REPORT_MARK)
+}
+
+/// The files at `paths` (relative to `dir`, where a new set will be written) that are not
+/// the engine's to replace: a file there is the engine's when the manifest lists it, when
+/// its content shows chassis-mc wrote it (a Parquet table with chassis-mc's footer, a
+/// report page with its provenance row), or, in a directory an engine before manifests
+/// wrote (no manifest, chassis-mc tables at the top), when it is one of its figures. Any
+/// other file there is a user's: it must not be overwritten.
+pub fn foreign_files(dir: &Path, paths: &[String]) -> Result<Vec<String>, OutputError> {
+    let manifest = Manifest::read(dir)?;
+    let legacy = manifest.is_none() && !legacy_set(dir)?.entries.is_empty();
+    let mut foreign = Vec::new();
+    for rel in paths {
+        let path = dir.join(rel);
+        let owned = manifest.as_ref().is_some_and(|m| m.get(rel).is_some())
+            || fs::symlink_metadata(&path).is_err()
+            || (rel.ends_with(".parquet") && engine_table(&path))
+            || (path.file_name() == Some("report.html".as_ref()) && engine_report(&path))
+            || (legacy && rel.starts_with("figures/"));
+        if !owned {
+            foreign.push(rel.clone());
+        }
+    }
+    Ok(foreign)
+}
+
+/// Fail with [`OutputError::NotOwned`] if any of `paths` (relative to `dir`) is a
+/// [foreign file](foreign_files).
+pub fn ensure_owned(dir: &Path, paths: &[String]) -> Result<(), OutputError> {
+    let mut files = foreign_files(dir, paths)?;
+    files.sort();
+    match files.is_empty() {
+        true => Ok(()),
+        false => Err(OutputError::NotOwned {
+            dir: dir.to_path_buf(),
+            files,
+        }),
+    }
 }
 
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
@@ -460,6 +638,30 @@ mod tests {
         let recorded = pending.checksum().unwrap();
         assert_eq!(recorded, checksum(pending.tmp_path()).unwrap());
         assert!(recorded.len > 0);
+    }
+
+    #[test]
+    fn only_plain_relative_paths_are_confined() {
+        for ok in [
+            "report.html",
+            "figures/se_inv_mass.svg",
+            ".summary.parquet.tmp-12",
+            "a..b",
+        ] {
+            assert!(confined(ok).is_ok(), "{ok}");
+        }
+        for bad in [
+            "",
+            "/etc/passwd",
+            "../x",
+            "figures/../../x",
+            "./x",
+            "a//b",
+            "a/",
+            "a\\b",
+        ] {
+            assert!(confined(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]

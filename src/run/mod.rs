@@ -187,6 +187,14 @@ fn run_prepared(
             dir.display()
         ));
     }
+    // Refused before any work: shards, or a user's file where this run writes a table or
+    // the report (the figures' names are checked when they are committed).
+    let mut writes = vec![files::REALISATIONS.to_string()];
+    if options.shard.is_none() {
+        refuse_shards(&dir)?;
+        writes.extend(written_beside(model));
+    }
+    set::ensure_owned(&dir, &writes)?;
     remove_temporaries(&dir)?;
     let staging = dir.join(STAGING);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
@@ -215,7 +223,7 @@ fn run_prepared(
             &layout,
             &infos,
             study.realisations(),
-            &[pending[0].tmp_path()],
+            &[output::OpenedFile::open(pending[0].tmp_path())?],
         )?;
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
         pending.extend(extra);
@@ -245,6 +253,47 @@ fn run_prepared(
         reused,
         computed,
     })
+}
+
+/// The files a summary writes beside the realisations: the summary, the model's extra
+/// tables and the report.
+pub(super) fn written_beside(model: &dyn Model) -> Vec<String> {
+    let mut names = vec![files::SUMMARY.to_string(), REPORT.to_string()];
+    names.extend(model.extra_tables().iter().map(|t| t.file.to_string()));
+    names
+}
+
+/// Fail if `dir` holds shards (`shard=K/` with a realisation file or a manifest): an
+/// unsharded run would replace the set they belong to, and the engine never deletes them.
+fn refuse_shards(dir: &Path) -> Result<(), OutputError> {
+    let mut shards = Vec::new();
+    for entry in fs::read_dir(dir).map_err(|e| OutputError::io(dir, e))? {
+        let entry = entry.map_err(|e| OutputError::io(dir, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        let file = path.join(files::REALISATIONS);
+        if !name.starts_with("shard=") || !(file.is_file() || path.join(set::MANIFEST).is_file()) {
+            continue;
+        }
+        let footer = output::read_metadata(&file).unwrap_or_default();
+        shards.push(
+            match (
+                footer.get(output::keys::SEED),
+                footer.get(output::keys::REALISATIONS),
+            ) {
+                (Some(seed), Some(r)) => format!("{name} (seed {seed}, {r} realisations)"),
+                _ => name,
+            },
+        );
+    }
+    shards.sort();
+    match shards.is_empty() {
+        true => Ok(()),
+        false => Err(OutputError::ShardsPresent {
+            dir: dir.to_path_buf(),
+            shards,
+        }),
+    }
 }
 
 /// Lock `dir` for this process (creating it), telling `observer` when the lock of a killed

@@ -9,33 +9,28 @@ use super::{
 };
 use crate::model::{self, ConditionInfo, Layout, Model, Status};
 use crate::output::lock::DirLock;
-use crate::output::{self, FileMetadata, OutputError, RealisationBatches, keys, set};
+use crate::output::{self, FileMetadata, OpenedFile, OutputError, RealisationBatches, keys, set};
 use crate::stats::measures::Z_95;
 use crate::stats::summary::{Record, Summarizer, SummaryError, SummaryRow};
 use crate::study::{Study, StudyError};
 
-/// The realisation files in `input`: the file itself, or in a directory its
-/// `realisations.parquet` and every `shard=*/realisations.parquet`. A directory whose output
-/// set is incomplete (an interrupted commit) or whose realisation file does not match the
-/// checksum recorded for it is an error.
-pub fn realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
-    let found = find_realisation_files(input)?;
-    for path in &found {
-        let dir = path.parent().unwrap_or(Path::new("."));
-        set::ensure_complete(dir)?;
-        let manifest = set::Manifest::read(dir)?;
-        if let Some(entry) = manifest.as_ref().and_then(|m| m.get(files::REALISATIONS))
-            && path.file_name() == Some(files::REALISATIONS.as_ref())
-            && set::checksum(path)? != entry.checksum
-        {
-            return Err(OutputError::format(
-                path,
-                "damaged: its bytes do not match the checksum recorded when it was written; \
-                 run its study (or shard) again",
-            ));
-        }
+/// The realisation files in `input` (the file itself, or in a directory its
+/// `realisations.parquet` and every `shard=*/realisations.parquet`), each opened once and
+/// checked through that handle against the checksum its directory's manifest records
+/// ([`set::open_checked`]): a summary reads the footer and both passes from these handles,
+/// so a run replacing a file meanwhile cannot mix two runs into it. A directory whose
+/// output set is incomplete (an interrupted commit) or a file that does not match its
+/// checksum is an error.
+pub fn realisation_files(input: &Path) -> Result<Vec<OpenedFile>, OutputError> {
+    if !input.exists() {
+        return Err(OutputError::Missing {
+            path: input.to_path_buf(),
+        });
     }
-    Ok(found)
+    find_realisation_files(input)?
+        .iter()
+        .map(|path| set::open_checked(path))
+        .collect()
 }
 
 fn find_realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
@@ -73,11 +68,11 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         true => Some(DirLock::acquire(out_dir)?),
         false => None,
     };
-    let mut paths = Vec::new();
+    let mut opened = Vec::new();
     for input in inputs {
-        paths.extend(realisation_files(input)?);
+        opened.extend(realisation_files(input)?);
     }
-    let first = paths.first().ok_or_else(|| {
+    let first = opened.first().ok_or_else(|| {
         RunError::Study(StudyError {
             file: inputs
                 .iter()
@@ -89,8 +84,9 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
             reason: "no realisation files found (expected realisations.parquet or shard=*/realisations.parquet)".into(),
         })
     })?;
-    let footer = |path: &Path| -> Result<(String, String, u64), RunError> {
-        let footer = output::read_metadata(path)?;
+    let footer = |file: &OpenedFile| -> Result<(String, String, u64), RunError> {
+        let path = file.path();
+        let footer = file.footer()?;
         let get = |k: &str| footer.get(k).map(str::to_string);
         let missing = || {
             OutputError::format(
@@ -98,6 +94,13 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
                 "not a chassis-mc realisation file (footer metadata missing)",
             )
         };
+        if let Some(table) = footer.get(keys::TABLE).filter(|&t| t != "realisations") {
+            return Err(OutputError::format(
+                path,
+                format!("not a realisation file: its footer says it holds the {table} table"),
+            )
+            .into());
+        }
         let study = get(keys::STUDY).ok_or_else(missing)?;
         let identity = get(keys::IDENTITY).ok_or_else(missing)?;
         let r = get(keys::REALISATIONS)
@@ -106,32 +109,30 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         Ok((study, identity, r))
     };
     let (study_toml, identity, realisations) = footer(first)?;
-    for path in &paths[1..] {
-        let (_, other, r) = footer(path)?;
+    for file in &opened[1..] {
+        let (_, other, r) = footer(file)?;
         if other != identity || r != realisations {
-            return Err(OutputError::format(
-                path,
-                format!(
-                    "belongs to a different study or R than {} (realisations {r} vs {realisations})",
-                    first.display()
-                ),
-            )
+            return Err(OutputError::Mismatch {
+                path: file.path().to_path_buf(),
+                first: first.path().to_path_buf(),
+                differences: differences(&file.footer()?, &first.footer()?),
+            }
             .into());
         }
     }
-    let origin = format!("{} (footer)", first.display());
-    let dir = output::footer_dir(&output::read_metadata(first)?, first);
+    let origin = format!("{} (footer)", first.path().display());
+    let dir = output::footer_dir(&first.footer()?, first.path());
     let study = Study::from_toml_in(&study_toml, &origin, &dir)?;
     let model = model::prepare(&study)?;
     let layout = model.layout().clone();
     let infos = model.infos();
-    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
-    let summary = summarise_files(&layout, &infos, realisations, &refs)?;
+    let summary = summarise_files(&layout, &infos, realisations, &opened)?;
     let _lock = match early {
         Some(lock) => lock,
         None => DirLock::acquire(out_dir)?,
     };
     set::ensure_complete(out_dir)?;
+    set::ensure_owned(out_dir, &super::written_beside(&*model))?;
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),
@@ -171,23 +172,67 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     })
 }
 
-/// Summarise the realisation rows stored in `paths` (any split of one study's rows).
+/// What differs between the runs two realisation files' footers record, `this` against
+/// `that`: the seed, the realisations per condition, the engine version, the study itself
+/// (compared with seed and R set equal), or else the engine's arithmetic (same version,
+/// another build).
+fn differences(this: &output::Footer, that: &output::Footer) -> Vec<String> {
+    let mut found = Vec::new();
+    for (key, what) in [
+        (keys::SEED, "seed"),
+        (keys::REALISATIONS, "realisations per condition"),
+        (keys::VERSION, "engine version"),
+    ] {
+        let (a, b) = (this.get(key), that.get(key));
+        if a != b {
+            let show = |v: Option<&str>| v.unwrap_or("none").to_string();
+            found.push(format!("{what} {} here, {} there", show(a), show(b)));
+        }
+    }
+    // The studies, read back and compared without their seed and R.
+    let normalised = |f: &output::Footer| {
+        let text = f.get(keys::STUDY)?;
+        let dir = PathBuf::from(f.get(keys::STUDY_DIR).unwrap_or_default());
+        let study = Study::from_toml_in(text, "(footer)", &dir).ok()?;
+        Some(study.with_overrides(Some(1), Some(0)).ok()?.to_toml())
+    };
+    let studies_differ = match (normalised(this), normalised(that)) {
+        (Some(a), Some(b)) => a != b,
+        // unreadable: compare the texts as written
+        _ => this.get(keys::STUDY) != that.get(keys::STUDY) && found.is_empty(),
+    };
+    if studies_differ {
+        found.push("the study (its vehicle, drive, terrain, noise or estimators)".into());
+    }
+    if found.is_empty() {
+        found.push(
+            "the engine's arithmetic (the same version, built differently: its check of \
+             realisation 0 differs)"
+                .into(),
+        );
+    }
+    found
+}
+
+/// Summarise the realisation rows stored in `files` (any split of one study's rows), both
+/// passes through the same open handles.
 pub fn summarise_files(
     layout: &Layout,
     infos: &[ConditionInfo],
     realisations: u64,
-    paths: &[&Path],
+    files: &[OpenedFile],
 ) -> Result<Vec<SummaryRow>, RunError> {
     let mut summarizer = Summarizer::new(layout, infos, realisations, Z_95);
     let columns = RealisationBatches::columns(layout);
     let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     for pass in 0..2 {
-        for path in paths {
+        for file in files {
+            let path = file.path();
             let summary_error = |source| RunError::Summary {
                 path: path.to_path_buf(),
                 source,
             };
-            for batch in output::open_projected_reader(path, output::READ_ROWS, Some(&columns))? {
+            for batch in file.reader(output::READ_ROWS, Some(&columns))? {
                 let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
                 let rows = RealisationBatches::decode(layout, &batch, path)?;
                 for record in rows.records() {
@@ -203,9 +248,13 @@ pub fn summarise_files(
             summarizer
                 .end_first_pass()
                 .map_err(|source| RunError::Summary {
-                    path: paths.first().map(|p| p.to_path_buf()).unwrap_or_default(),
+                    path: files
+                        .first()
+                        .map(|f| f.path().to_path_buf())
+                        .unwrap_or_default(),
                     source,
                 })?;
+            output::pause("between-passes");
         }
     }
     Ok(summarizer.finish())

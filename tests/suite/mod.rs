@@ -17,6 +17,7 @@ mod noise;
 mod noise_free;
 mod output_integrity;
 mod output_noise;
+mod output_safety;
 mod profiles;
 mod report;
 mod routes;

@@ -377,42 +377,6 @@ fn stale_files_survive_a_model_change() {
 }
 
 #[test]
-fn an_unsharded_run_replaces_the_shards_of_an_earlier_sharded_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("d");
-    for k in ["0/2", "1/2"] {
-        succeeds(run_cmd(
-            "thesis.toml",
-            &out,
-            &["--realisations", "20", "--shard", k],
-        ));
-    }
-    let mut summarize = Command::new(bin());
-    summarize.arg("summarize").arg(&out).arg("--quiet");
-    succeeds(summarize);
-    assert!(
-        out.join("shard=1/realisations.parquet").exists(),
-        "summarize keeps the shards"
-    );
-    succeeds(run_cmd(
-        "thesis.toml",
-        &out,
-        &["--realisations", "20", "--seed", "3"],
-    ));
-    let reference = dir.path().join("reference");
-    succeeds(run_cmd(
-        "thesis.toml",
-        &reference,
-        &["--realisations", "20", "--seed", "3"],
-    ));
-    assert_eq!(names(&snapshot(&out)), names(&snapshot(&reference)));
-    assert!(
-        !out.join("shard=0").exists(),
-        "the emptied shard directories go"
-    );
-}
-
-#[test]
 fn two_concurrent_runs_into_one_dir_race() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
