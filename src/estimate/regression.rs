@@ -218,7 +218,7 @@ impl Regression {
             s_s: sum(&g_sin),
             s_1s: dot(&f, &g_sin),
             s_3s: dot(&c, &g_sin),
-            s_ws: exact_sum(v.iter().zip(&g_sin).map(|(v, s)| v * v * s)),
+            s_ws: exact_sum(v.iter().zip(g_sin.iter()).map(|(v, s)| v * v * s)),
         };
         let mut speed_sums_noise_free = [0.0; 5];
         for start in (0..v.len()).step_by(BLOCK) {
