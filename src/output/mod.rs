@@ -40,6 +40,10 @@ pub mod files {
     pub const CYCLES: &str = "cycles.parquet";
 }
 
+/// What every report page chassis-mc writes (`run`, `summarize`, `design`, `fit`) carries
+/// in its head, so that a page of the engine's is told from a user's file of the same name.
+pub const REPORT_MARK: &str = "<meta name=\"generator\" content=\"chassis-mc\"/>";
+
 /// Rows per Parquet row group (bounds the writer's memory).
 pub const ROW_GROUP_ROWS: usize = 65_536;
 

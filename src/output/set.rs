@@ -520,9 +520,8 @@ fn engine_table(path: &Path) -> bool {
     path.is_file() && super::read_metadata(path).is_ok_and(|f| f.get(super::keys::TABLE).is_some())
 }
 
-/// What every `report.html` chassis-mc writes carries near its top: the provenance row
-/// naming the engine's version (`report::html`).
-const REPORT_MARK: &str = "<td>chassis-mc version</td>";
+/// The provenance row of the report pages of engines before [`super::REPORT_MARK`].
+const LEGACY_REPORT_MARK: &str = "<td>chassis-mc version</td>";
 
 /// Whether the file at `path` is a report page chassis-mc wrote.
 fn engine_report(path: &Path) -> bool {
@@ -530,7 +529,9 @@ fn engine_report(path: &Path) -> bool {
     File::open(path)
         .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
         .is_ok()
-        && String::from_utf8_lossy(&head).contains(REPORT_MARK)
+        && [super::REPORT_MARK, LEGACY_REPORT_MARK]
+            .iter()
+            .any(|mark| String::from_utf8_lossy(&head).contains(mark))
 }
 
 /// The files at `paths` (relative to `dir`, where a new set will be written) that are not

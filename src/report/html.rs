@@ -57,7 +57,7 @@ fn inline_svg(svg: &str) -> &str {
 pub fn head(title: &str) -> String {
     let title = escape(title);
     format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n<title>{title}</title>\n\
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n{}\n<title>{title}</title>\n\
          <style>body{{font-family:sans-serif;max-width:72rem;margin:2rem auto;padding:0 1rem;line-height:1.4}}\
          pre{{background:#f6f6f6;padding:.75rem;overflow-x:auto;font-size:.8rem}}\
          .warning{{background:#fff4e0;border-left:4px solid #e69500;padding:.5rem .75rem;margin:.5rem 0}}\
@@ -65,7 +65,8 @@ pub fn head(title: &str) -> String {
          figcaption{{font-size:.85rem;color:#444}}td,th{{padding:.1rem .6rem}}\
          table.meta td{{padding:.1rem .75rem .1rem 0}}\
          table.vehicle{{border-collapse:collapse;font-size:.85rem}}\
-         table.vehicle td{{text-align:right;border-top:1px solid #ddd}}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
+         table.vehicle td{{text-align:right;border-top:1px solid #ddd}}</style>\n</head>\n<body>\n<h1>{title}</h1>\n",
+        crate::output::REPORT_MARK
     )
 }
 
