@@ -12,7 +12,9 @@ use arrow::array::{Array, AsArray, RecordBatch};
 use arrow::datatypes::{DataType, Float64Type, Int32Type};
 use plotters::prelude::*;
 
-use super::chart::{Key, legend, padded, ramp};
+use super::chart::{
+    Key, Ticked, legend, linear_ticks, padded, ramp, shared_exponent, with_exponent,
+};
 use super::{FigureError, LEGEND_WIDTH, MAX_CYCLE_POINTS, SIZE, draw_error};
 use crate::output::{self, OutputError, SummaryTable};
 
@@ -222,18 +224,35 @@ pub(super) fn draw_cycles(
             bins.iter().flatten().filter_map(|b| b.first).map(|s| s[y]),
             false,
         );
+        // The axes of the other figures: plain tick labels with the power of ten once in
+        // the description, a light line between labels.
+        let (x_exp, y_exp) = (shared_exponent(t_min, t_max), shared_exponent(lo, hi));
+        let (x_ticks, y_ticks) = (
+            linear_ticks(t_min, t_max, x_exp),
+            linear_ticks(lo, hi, y_exp),
+        );
+        let (x_desc, y_desc) = (
+            with_exponent("time t [s]", x_exp),
+            with_exponent(y_label, y_exp),
+        );
         let mut c = ChartBuilder::on(area)
             .margin(10)
             .margin_right(LEGEND_WIDTH)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(t_min..t_max, lo..hi)
+            .build_cartesian_2d(
+                Ticked::new(t_min..t_max, &x_ticks),
+                Ticked::new(lo..hi, &y_ticks),
+            )
             .map_err(|e| draw_error(&path, e))?;
         c.configure_mesh()
-            .x_desc("time t [s]")
-            .y_desc(y_label)
+            .x_desc(x_desc.as_str())
+            .y_desc(y_desc.as_str())
             .axis_desc_style(("sans-serif", 17))
             .label_style(("sans-serif", 14))
+            .light_line_style(BLACK.mix(0.06))
+            .x_label_formatter(&|v| x_ticks.label(*v))
+            .y_label_formatter(&|v| y_ticks.label(*v))
             .draw()
             .map_err(|e| draw_error(&path, e))?;
         for (k, cycle) in bins.iter().enumerate() {
