@@ -542,7 +542,7 @@ fn engine_report(path: &Path) -> bool {
 /// other file there is a user's: it must not be overwritten.
 pub fn foreign_files(dir: &Path, paths: &[String]) -> Result<Vec<String>, OutputError> {
     let manifest = Manifest::read(dir)?;
-    let legacy = manifest.is_none() && !legacy_set(dir)?.entries.is_empty();
+    let legacy = manifest.is_none() && LEGACY_SET.iter().any(|n| engine_table(&dir.join(n)));
     let mut foreign = Vec::new();
     for rel in paths {
         let path = dir.join(rel);

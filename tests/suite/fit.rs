@@ -163,10 +163,10 @@ fn without_an_accelerometer_the_bootstrap_interval_is_as_wide_as_the_spread_acro
     // Tolerance: the SD of 40 logs has a relative SE of 1/√78 = 11 %; one log's
     // percentile width has ≈ 0.96/√R = 6.8 % (the 2.5 % and 97.5 % quantiles' SEs,
     // 2.67σ/√R each), so the median of 40 about 1.3 %: the ratio's SE is ≈ 11 %, and
-    // the band is ln(0.7) = −3.1 and ln(1.4) = +2.9 of them around a correct 1.0 (the
-    // issue's world gave 17–29×). Coverage: at least 34 of 40 (the acceptance's 17 of
-    // 20); P(X ≤ 33) = 0.003 for X ~ Bin(40, 0.95), 0.02 at the percentile interval's
-    // 93 %. Measured (commit of this test): widths 0.98–1.09 ×, coverage 38–39 of 40
+    // the band is ln(0.7) = −3.1 and ln(1.4) = +2.9 of them around a correct 1.0 (a
+    // bootstrap world whose force carried the smoothed speed's noise gave 17–29×,
+    // docs/model.md#fit). Coverage: at least 34 of 40 (85 %); P(X ≤ 33) = 0.003 for
+    // X ~ Bin(40, 0.95), 0.02 at the percentile interval's 93 %. Measured (commit of this test): widths 0.98–1.09 ×, coverage 38–39 of 40
     // with R = 400 (docs/model.md#fit).
     const LOGS: u64 = 40;
     let tmp = tempfile::tempdir().unwrap();
