@@ -20,6 +20,7 @@ pub use shard::Shard;
 pub use summarize::{realisation_files, summarise_files, summarise_in_memory, summarize};
 
 mod realise;
+mod rows;
 mod shard;
 mod summarize;
 

@@ -11,6 +11,7 @@ mod grid_cost;
 mod layering;
 mod line_fit;
 mod mcse;
+mod memory;
 mod noise;
 mod noise_free;
 mod output_integrity;
