@@ -144,6 +144,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     };
     let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
     pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
+    drop(model); // the figures and the report need only the layout and the conditions
     if figures {
         let figures = draw_figures(out_dir, &pending)?;
         pending.extend(figures);
