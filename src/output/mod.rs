@@ -553,7 +553,8 @@ pub fn open_projected_reader(
 /// meanwhile (the open file outlives the rename). [`set::open_checked`] opens one and
 /// checks it against the directory's manifest.
 ///
-/// Readers made from it share the handle's file position: use one at a time.
+/// Readers made from it share the handle's file position; the Parquet reader seeks before
+/// every read, so several may be used in turn on one thread.
 #[derive(Debug)]
 pub struct OpenedFile {
     path: PathBuf,
@@ -575,7 +576,8 @@ impl OpenedFile {
         &self.path
     }
 
-    fn handle(&self) -> Result<File, OutputError> {
+    /// A duplicate of its handle (the same open file, sharing its position).
+    pub(crate) fn handle(&self) -> Result<File, OutputError> {
         self.file
             .try_clone()
             .map_err(|e| OutputError::io(&self.path, e))

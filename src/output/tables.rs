@@ -282,9 +282,19 @@ impl RealisationBatches {
         })
     }
 
-    /// The decoded rows as summarizer records.
-    pub fn records(&self) -> impl Iterator<Item = Record<'_>> {
-        (0..self.condition.len()).map(move |i| Record {
+    /// Rows decoded.
+    pub fn len(&self) -> usize {
+        self.condition.len()
+    }
+
+    /// True when no row was decoded.
+    pub fn is_empty(&self) -> bool {
+        self.condition.is_empty()
+    }
+
+    /// Row `i` as a summarizer record.
+    pub fn record(&self, i: usize) -> Record<'_> {
+        Record {
             condition: self.condition[i],
             realisation: self.realisation[i],
             estimator: self.estimator[i],
@@ -292,6 +302,11 @@ impl RealisationBatches {
             theta: &self.theta[i * self.n_params..(i + 1) * self.n_params],
             bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
             controls: &self.controls[i * self.n_controls..(i + 1) * self.n_controls],
-        })
+        }
+    }
+
+    /// The decoded rows as summarizer records.
+    pub fn records(&self) -> impl Iterator<Item = Record<'_>> {
+        (0..self.len()).map(move |i| self.record(i))
     }
 }

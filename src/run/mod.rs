@@ -20,6 +20,7 @@ pub use shard::Shard;
 pub use summarize::{realisation_files, summarise_files, summarise_in_memory, summarize};
 
 mod realise;
+mod rows;
 mod shard;
 mod summarize;
 
@@ -135,7 +136,7 @@ pub fn run_study(
     let pool = thread_pool(options.threads)?;
     pool.install(|| {
         let model = model::prepare(study)?;
-        run_prepared(study, &*model, options, observer)
+        run_prepared(study, model, options, observer)
     })
 }
 
@@ -168,9 +169,12 @@ pub(super) fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
     Ok(())
 }
 
+/// Run `study` with its prepared `model`, which is dropped as soon as the realisations and
+/// the extra tables are written: the summary, figures and report need only the layout and
+/// the conditions, so the model's cycles and regressions do not add to their memory.
 fn run_prepared(
     study: &Study,
-    model: &dyn Model,
+    model: Box<dyn Model>,
     options: &RunOptions,
     observer: &dyn Observer,
 ) -> Result<RunReport, RunError> {
@@ -192,7 +196,7 @@ fn run_prepared(
     let mut writes = vec![files::REALISATIONS.to_string()];
     if options.shard.is_none() {
         refuse_shards(&dir)?;
-        writes.extend(written_beside(model));
+        writes.extend(written_beside(model.as_ref()));
     }
     set::ensure_owned(&dir, &writes)?;
     remove_temporaries(&dir)?;
@@ -200,17 +204,18 @@ fn run_prepared(
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     let layout = model.layout().clone();
     let infos = model.infos();
-    let meta = FileMetadata::of_study(study, identity(study, model, &infos));
+    let meta = FileMetadata::of_study(study, identity(study, &*model, &infos));
 
     // The model's extra tables (the cycles) do not depend on the realisations: they are
     // written while the realisations are computed.
     let (realised, extra) = rayon::join(
-        || realise(study, model, &infos, options, observer, &dir, &meta),
+        || realise(study, &*model, &infos, options, observer, &dir, &meta),
         || match options.shard {
-            None => write_extra_tables(model, out_dir, &meta),
+            None => write_extra_tables(&*model, out_dir, &meta),
             Some(_) => Ok(Vec::new()),
         },
     );
+    drop(model);
     let (realisations, reused, computed) = realised?;
     let extra = extra?;
 

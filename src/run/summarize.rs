@@ -3,15 +3,16 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use super::rows::ConditionRows;
 use super::{
     RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_report,
     write_summary,
 };
 use crate::model::{self, ConditionInfo, Layout, Model, Status};
 use crate::output::lock::DirLock;
-use crate::output::{self, FileMetadata, OpenedFile, OutputError, RealisationBatches, keys, set};
+use crate::output::{self, FileMetadata, OpenedFile, OutputError, keys, set};
 use crate::stats::measures::Z_95;
-use crate::stats::summary::{Record, Summarizer, SummaryError, SummaryRow};
+use crate::stats::summary::{ConditionSummarizer, Record, SummaryError, SummaryRow};
 use crate::study::{Study, StudyError};
 
 /// The realisation files in `input` (the file itself, or in a directory its
@@ -144,6 +145,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     };
     let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
     pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
+    drop(model); // the figures and the report need only the layout and the conditions
     if figures {
         let figures = draw_figures(out_dir, &pending)?;
         pending.extend(figures);
@@ -214,50 +216,51 @@ fn differences(this: &output::Footer, that: &output::Footer) -> Vec<String> {
     found
 }
 
-/// Summarise the realisation rows stored in `files` (any split of one study's rows), both
-/// passes through the same open handles.
+/// Summarise the realisation rows stored in `files` (any split of one study's rows, each
+/// file sorted by condition as chassis-mc writes it).
+///
+/// Condition by condition: both passes over one condition's rows in every file, then its
+/// summary rows, then the next; so the exact accumulators of one condition are held at a
+/// time, and the memory does not grow with the number of conditions (nor with R).
 pub fn summarise_files(
     layout: &Layout,
     infos: &[ConditionInfo],
     realisations: u64,
     files: &[OpenedFile],
 ) -> Result<Vec<SummaryRow>, RunError> {
-    let mut summarizer = Summarizer::new(layout, infos, realisations, Z_95);
-    let columns = RealisationBatches::columns(layout);
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
-    for pass in 0..2 {
-        for file in files {
-            let path = file.path();
-            let summary_error = |source| RunError::Summary {
-                path: path.to_path_buf(),
-                source,
-            };
-            for batch in file.reader(output::READ_ROWS, Some(&columns))? {
-                let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
-                let rows = RealisationBatches::decode(layout, &batch, path)?;
-                for record in rows.records() {
-                    if pass == 0 {
-                        summarizer.first_pass(&record).map_err(summary_error)?;
-                    } else {
-                        summarizer.second_pass(&record).map_err(summary_error)?;
-                    }
-                }
-            }
+    let mut first = Vec::with_capacity(files.len());
+    let mut second = Vec::with_capacity(files.len());
+    for file in files {
+        let [a, b] = ConditionRows::open_pair(file, layout)?;
+        first.push(a);
+        second.push(b);
+    }
+    let mut out =
+        Vec::with_capacity(infos.len() * layout.estimators.len() * layout.parameters.len());
+    for (c, info) in infos.iter().enumerate() {
+        let mut summarizer = ConditionSummarizer::new(layout, c, info, realisations, Z_95);
+        for rows in &mut first {
+            rows.each(c, &mut |r| summarizer.first_pass(r))?;
         }
-        if pass == 0 {
-            summarizer
-                .end_first_pass()
-                .map_err(|source| RunError::Summary {
-                    path: files
-                        .first()
-                        .map(|f| f.path().to_path_buf())
-                        .unwrap_or_default(),
-                    source,
-                })?;
+        summarizer
+            .end_first_pass()
+            .map_err(|source| RunError::Summary {
+                path: files
+                    .first()
+                    .map(|f| f.path().to_path_buf())
+                    .unwrap_or_default(),
+                source,
+            })?;
+        if c == 0 {
             output::pause("between-passes");
         }
+        for rows in &mut second {
+            rows.each(c, &mut |r| summarizer.second_pass(r))?;
+        }
+        out.extend(summarizer.finish());
     }
-    Ok(summarizer.finish())
+    first.into_iter().try_for_each(ConditionRows::finish)?;
+    Ok(out)
 }
 
 /// The summary of `model`'s realisations 0..R of every condition (R = the study's), computed
@@ -294,7 +297,6 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
     });
     let p = layout.parameters.len();
     let bounds = layout.bounds.len() * p;
-    let mut summarizer = Summarizer::new(layout, &infos, r, Z_95);
     let records = |i: usize| {
         let s = &slots[i * stride..(i + 1) * stride];
         (0..layout.estimators.len()).map(move |e| Record {
@@ -307,17 +309,18 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
             controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
         })
     };
-    let n = infos.len() * r as usize;
-    for i in 0..n {
-        for rec in records(i) {
+    let mut out = Vec::new();
+    for (c, info) in infos.iter().enumerate() {
+        let mut summarizer = ConditionSummarizer::new(layout, c, info, r, Z_95);
+        let rows = c * r as usize..(c + 1) * r as usize;
+        for rec in rows.clone().flat_map(records) {
             summarizer.first_pass(&rec).map_err(inconsistent)?;
         }
-    }
-    summarizer.end_first_pass().map_err(inconsistent)?;
-    for i in 0..n {
-        for rec in records(i) {
+        summarizer.end_first_pass().map_err(inconsistent)?;
+        for rec in rows.flat_map(records) {
             summarizer.second_pass(&rec).map_err(inconsistent)?;
         }
+        out.extend(summarizer.finish());
     }
-    Ok(summarizer.finish())
+    Ok(out)
 }

@@ -65,6 +65,11 @@ impl ControlAcc {
         self.active.len()
     }
 
+    /// The exact accumulators held (sums and Gram entries).
+    pub(super) fn accumulators(&self) -> usize {
+        self.sums.len() + self.gram.len()
+    }
+
     /// Pass one: a realisation's controls (all of the layout's).
     pub(super) fn first(&mut self, controls: &[f64]) {
         self.n += 1;

@@ -61,6 +61,17 @@ pub enum SummaryError {
         /// Realisation index.
         realisation: u64,
     },
+    /// A file's rows go back to an earlier condition (chassis-mc writes them sorted by
+    /// condition, then realisation).
+    #[error(
+        "rows of condition {condition} follow rows of condition {after}: the rows are not sorted by condition, as chassis-mc writes them"
+    )]
+    Unsorted {
+        /// Condition index of the row out of order.
+        condition: usize,
+        /// The condition of an earlier row.
+        after: usize,
+    },
     /// Realisations are missing.
     #[error(
         "condition {condition} has {found} of its {expected} realisations (estimator {estimator})"
@@ -215,66 +226,82 @@ impl Seen {
     }
 }
 
-/// Two-pass accumulation of the summary.
+/// Two-pass accumulation of one condition's summary.
+///
+/// Its memory is that of one condition (a few dozen [`ExactSum`]s per estimator ×
+/// parameter), so a caller that streams the rows condition by condition — both passes over
+/// one condition, then the next, as [`crate::run::summarise_files`] does — holds one
+/// condition's accumulators at a time, however many conditions the study has.
 #[derive(Debug)]
-pub struct Summarizer<'a> {
+pub struct ConditionSummarizer<'a> {
     layout: &'a Layout,
-    infos: &'a [ConditionInfo],
+    condition: usize,
+    info: &'a ConditionInfo,
     realisations: u64,
     z: f64,
-    /// [condition][estimator][parameter]
-    acc: Vec<Vec<Vec<ParamAcc>>>,
-    /// [condition][estimator] rows seen
-    rows: Vec<Vec<u64>>,
-    failed: Vec<Vec<u64>>,
-    seen: Vec<Seen>,
-    /// The realisation currently streaming (condition, realisation) and its estimators seen.
-    current: Option<(usize, u64)>,
+    /// [estimator][parameter]
+    acc: Vec<Vec<ParamAcc>>,
+    /// [estimator] rows seen
+    rows: Vec<u64>,
+    failed: Vec<u64>,
+    seen: Seen,
+    /// The realisation currently streaming and its estimators seen.
+    current: Option<u64>,
     current_estimators: Vec<bool>,
     /// Pass two: centred θ̂ of each estimator of the current realisation (NaN when absent).
     current_centred: Vec<f64>,
-    /// [condition]: its control variates.
-    controls: Vec<ControlAcc>,
+    controls: ControlAcc,
 }
 
-impl<'a> Summarizer<'a> {
-    /// A summarizer for `realisations` per condition of a model with `layout`, whose
-    /// conditions are `infos`; intervals are θ̂ ± z·bound.
-    pub fn new(layout: &'a Layout, infos: &'a [ConditionInfo], realisations: u64, z: f64) -> Self {
+impl<'a> ConditionSummarizer<'a> {
+    /// A summarizer for the `realisations` rows per estimator of `condition` (whose
+    /// description is `info`) of a model with `layout`; intervals are θ̂ ± z·bound.
+    pub fn new(
+        layout: &'a Layout,
+        condition: usize,
+        info: &'a ConditionInfo,
+        realisations: u64,
+        z: f64,
+    ) -> Self {
         let e = layout.estimators.len();
         let p = layout.parameters.len();
-        let b = layout.bounds.len();
-        let controls: Vec<ControlAcc> =
-            infos.iter().map(|i| ControlAcc::new(&i.controls)).collect();
-        let acc = controls
-            .iter()
-            .map(|c| {
-                let param = ParamAcc {
-                    bounds: vec![BoundAcc::default(); b],
-                    sum_cross_controls: vec![ExactSum::new(); c.len()],
-                    ..ParamAcc::default()
-                };
-                vec![vec![param; p]; e]
-            })
-            .collect();
-        Summarizer {
+        let controls = ControlAcc::new(&info.controls);
+        let param = ParamAcc {
+            bounds: vec![BoundAcc::default(); layout.bounds.len()],
+            sum_cross_controls: vec![ExactSum::new(); controls.len()],
+            ..ParamAcc::default()
+        };
+        ConditionSummarizer {
             layout,
-            infos,
+            condition,
+            info,
             realisations,
             z,
-            acc,
+            acc: vec![vec![param; p]; e],
             controls,
-            rows: vec![vec![0; e]; infos.len()],
-            failed: vec![vec![0; e]; infos.len()],
-            seen: vec![Seen::default(); infos.len()],
+            rows: vec![0; e],
+            failed: vec![0; e],
+            seen: Seen::default(),
             current: None,
             current_estimators: vec![false; e],
             current_centred: vec![f64::NAN; e * p],
         }
     }
 
+    /// The condition summarised.
+    pub fn condition(&self) -> usize {
+        self.condition
+    }
+
+    /// The exact accumulators this summarizer holds: its memory is about
+    /// `size_of::<ExactSum>()` times this.
+    pub fn accumulators(&self) -> usize {
+        let per_param = |acc: &ParamAcc| 5 + acc.sum_cross_controls.len() + 2 * acc.bounds.len();
+        self.acc.iter().flatten().map(per_param).sum::<usize>() + self.controls.accumulators()
+    }
+
     fn check_row(&self, r: &Record<'_>) -> Result<(), SummaryError> {
-        if r.condition >= self.infos.len() || r.estimator >= self.layout.estimators.len() {
+        if r.condition != self.condition || r.estimator >= self.layout.estimators.len() {
             return Err(SummaryError::UnknownRow {
                 condition: r.condition,
                 estimator: r.estimator,
@@ -286,17 +313,16 @@ impl<'a> Summarizer<'a> {
     /// Pass one: counts, Σd, Σd², bound sums and coverage of the truth.
     pub fn first_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
         self.check_row(r)?;
-        let key = (r.condition, r.realisation);
-        if self.current != Some(key) {
-            if !self.seen[r.condition].mark(r.realisation) {
+        if self.current != Some(r.realisation) {
+            if !self.seen.mark(r.realisation) {
                 return Err(SummaryError::Duplicate {
                     condition: r.condition,
                     realisation: r.realisation,
                 });
             }
-            self.current = Some(key);
+            self.current = Some(r.realisation);
             self.current_estimators.fill(false);
-            self.controls[r.condition].first(r.controls);
+            self.controls.first(r.controls);
         }
         if std::mem::replace(&mut self.current_estimators[r.estimator], true) {
             return Err(SummaryError::Duplicate {
@@ -304,15 +330,14 @@ impl<'a> Summarizer<'a> {
                 realisation: r.realisation,
             });
         }
-        self.rows[r.condition][r.estimator] += 1;
+        self.rows[r.estimator] += 1;
         if !r.ok {
-            self.failed[r.condition][r.estimator] += 1;
+            self.failed[r.estimator] += 1;
             return Ok(());
         }
         let np = self.layout.parameters.len();
-        let info = &self.infos[r.condition];
-        for (p, acc) in self.acc[r.condition][r.estimator].iter_mut().enumerate() {
-            let d = r.theta[p] - info.truth[p];
+        for (p, acc) in self.acc[r.estimator].iter_mut().enumerate() {
+            let d = r.theta[p] - self.info.truth[p];
             acc.n += 1;
             acc.sum_d.add(d);
             acc.sum_d_sq.add(d * d);
@@ -329,35 +354,27 @@ impl<'a> Summarizer<'a> {
         Ok(())
     }
 
-    /// Close pass one: check that every realisation of every condition arrived once.
+    /// Close pass one: check that every realisation arrived once.
     pub fn end_first_pass(&mut self) -> Result<(), SummaryError> {
-        for (c, rows) in self.rows.iter().enumerate() {
-            for (e, &found) in rows.iter().enumerate() {
-                if found != self.realisations {
-                    return Err(SummaryError::Incomplete {
-                        condition: c,
-                        estimator: self.layout.estimators[e].to_string(),
-                        found,
-                        expected: self.realisations,
-                    });
-                }
+        for (e, &found) in self.rows.iter().enumerate() {
+            if found != self.realisations {
+                return Err(SummaryError::Incomplete {
+                    condition: self.condition,
+                    estimator: self.layout.estimators[e].to_string(),
+                    found,
+                    expected: self.realisations,
+                });
             }
         }
-        for per_c in &mut self.acc {
-            for per_e in per_c {
-                for acc in per_e {
-                    let n = acc.n as f64;
-                    acc.mean = acc.sum_d.value() / n;
-                    acc.mse = acc.sum_d_sq.value() / n;
-                    for b in &mut acc.bounds {
-                        b.mean_b_sq = b.sum_b_sq.value() / b.n as f64;
-                    }
-                }
+        for acc in self.acc.iter_mut().flatten() {
+            let n = acc.n as f64;
+            acc.mean = acc.sum_d.value() / n;
+            acc.mse = acc.sum_d_sq.value() / n;
+            for b in &mut acc.bounds {
+                b.mean_b_sq = b.sum_b_sq.value() / b.n as f64;
             }
         }
-        for c in &mut self.controls {
-            c.end_first();
-        }
+        self.controls.end_first();
         self.current = None;
         Ok(())
     }
@@ -366,19 +383,17 @@ impl<'a> Summarizer<'a> {
     /// sums, bias-eliminated coverage and cross-products with the first estimator.
     pub fn second_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
         self.check_row(r)?;
-        let key = (r.condition, r.realisation);
-        if self.current != Some(key) {
+        if self.current != Some(r.realisation) {
             self.flush_cross();
-            self.current = Some(key);
-            self.controls[r.condition].second(r.controls);
+            self.current = Some(r.realisation);
+            self.controls.second(r.controls);
         }
         if !r.ok {
             return Ok(());
         }
         let np = self.layout.parameters.len();
-        let info = &self.infos[r.condition];
-        for (p, acc) in self.acc[r.condition][r.estimator].iter_mut().enumerate() {
-            let d = r.theta[p] - info.truth[p];
+        for (p, acc) in self.acc[r.estimator].iter_mut().enumerate() {
+            let d = r.theta[p] - self.info.truth[p];
             let centred = d - acc.mean;
             acc.sum_centred_sq.add(centred * centred);
             let q = d * d - acc.mse;
@@ -387,7 +402,7 @@ impl<'a> Summarizer<'a> {
             for (x, c) in acc
                 .sum_cross_controls
                 .iter_mut()
-                .zip(&self.controls[r.condition].centred)
+                .zip(&self.controls.centred)
             {
                 x.add(centred * c);
             }
@@ -406,9 +421,9 @@ impl<'a> Summarizer<'a> {
 
     /// Add the current realisation's cross-products with the reference estimator.
     fn flush_cross(&mut self) {
-        let Some((c, _)) = self.current else {
+        if self.current.is_none() {
             return;
-        };
+        }
         let np = self.layout.parameters.len();
         let r = self.layout.reference_estimator();
         for e in 0..self.layout.estimators.len() {
@@ -416,85 +431,137 @@ impl<'a> Summarizer<'a> {
                 let x = self.current_centred[e * np + p];
                 let reference = self.current_centred[r * np + p];
                 if !(x.is_nan() || reference.is_nan()) {
-                    self.acc[c][e][p].sum_cross_ref.add(x * reference);
+                    self.acc[e][p].sum_cross_ref.add(x * reference);
                 }
             }
         }
         self.current_centred.fill(f64::NAN);
     }
 
-    /// Finish pass two and compute every measure.
+    /// Finish pass two and compute every measure: the condition's rows, estimator-major.
     pub fn finish(mut self) -> Vec<SummaryRow> {
         self.flush_cross();
-        let mut out = Vec::new();
+        let mut out = Vec::with_capacity(self.acc.len() * self.layout.parameters.len());
         let reference = self.layout.reference_estimator();
-        let factors: Vec<_> = self.controls.iter().map(ControlAcc::factor).collect();
-        for (c, per_c) in self.acc.iter().enumerate() {
-            let info = &self.infos[c];
-            for (e, per_e) in per_c.iter().enumerate() {
-                for (p, acc) in per_e.iter().enumerate() {
-                    let truth = info.truth[p];
-                    let sums = estimate_sums(acc);
-                    let reference = estimate_sums(&per_c[reference][p]);
-                    let bounds = acc
-                        .bounds
-                        .iter()
-                        .enumerate()
-                        .map(|(b, bacc)| {
-                            (info.applies[e][b] && bacc.n > 0)
-                                .then(|| bound_summary(&sums, bacc, acc.n))
-                        })
-                        .collect();
-                    let cv = factors[c].as_ref().and_then(|f| {
-                        f.fit(
-                            acc.n,
-                            &acc.sum_d,
-                            &acc.sum_centred_sq,
-                            &acc.sum_cross_controls,
-                        )
-                    });
-                    let (mean_cv, bias_cv, cv_variance_ratio, n_controls) = match cv {
-                        Some(ControlFit {
-                            bias,
-                            mcse,
-                            variance_ratio,
-                            used,
-                        }) => (
-                            Estimate::new(truth + bias, mcse),
-                            Estimate::new(bias, mcse),
-                            variance_ratio,
-                            used as u64,
-                        ),
-                        None => (Estimate::undefined(), Estimate::undefined(), f64::NAN, 0),
-                    };
-                    out.push(SummaryRow {
-                        condition: c,
-                        estimator: e,
-                        parameter: p,
-                        truth,
-                        n: acc.n,
-                        n_failed: self.failed[c][e],
-                        mean: measures::mean(truth, &sums),
-                        bias: measures::bias(&sums),
-                        rel_bias: measures::relative_bias(truth, &sums),
-                        emp_se: measures::emp_se(&sums),
-                        mse: measures::mse(&sums),
-                        rmse: measures::rmse(&sums),
-                        rel_precision: relative_precision(
-                            &reference,
-                            &sums,
-                            acc.sum_cross_ref.value(),
-                        ),
-                        bounds,
-                        mean_cv,
-                        bias_cv,
-                        cv_variance_ratio,
-                        n_controls,
-                    });
-                }
+        let factor = self.controls.factor();
+        let (c, info) = (self.condition, self.info);
+        for (e, per_e) in self.acc.iter().enumerate() {
+            for (p, acc) in per_e.iter().enumerate() {
+                let truth = info.truth[p];
+                let sums = estimate_sums(acc);
+                let reference = estimate_sums(&self.acc[reference][p]);
+                let bounds = acc
+                    .bounds
+                    .iter()
+                    .enumerate()
+                    .map(|(b, bacc)| {
+                        (info.applies[e][b] && bacc.n > 0)
+                            .then(|| bound_summary(&sums, bacc, acc.n))
+                    })
+                    .collect();
+                let cv = factor.as_ref().and_then(|f| {
+                    f.fit(
+                        acc.n,
+                        &acc.sum_d,
+                        &acc.sum_centred_sq,
+                        &acc.sum_cross_controls,
+                    )
+                });
+                let (mean_cv, bias_cv, cv_variance_ratio, n_controls) = match cv {
+                    Some(ControlFit {
+                        bias,
+                        mcse,
+                        variance_ratio,
+                        used,
+                    }) => (
+                        Estimate::new(truth + bias, mcse),
+                        Estimate::new(bias, mcse),
+                        variance_ratio,
+                        used as u64,
+                    ),
+                    None => (Estimate::undefined(), Estimate::undefined(), f64::NAN, 0),
+                };
+                out.push(SummaryRow {
+                    condition: c,
+                    estimator: e,
+                    parameter: p,
+                    truth,
+                    n: acc.n,
+                    n_failed: self.failed[e],
+                    mean: measures::mean(truth, &sums),
+                    bias: measures::bias(&sums),
+                    rel_bias: measures::relative_bias(truth, &sums),
+                    emp_se: measures::emp_se(&sums),
+                    mse: measures::mse(&sums),
+                    rmse: measures::rmse(&sums),
+                    rel_precision: relative_precision(&reference, &sums, acc.sum_cross_ref.value()),
+                    bounds,
+                    mean_cv,
+                    bias_cv,
+                    cv_variance_ratio,
+                    n_controls,
+                });
             }
         }
         out
+    }
+}
+
+/// Two-pass accumulation of the summary of every condition at once, for rows that arrive in
+/// any order (a [`ConditionSummarizer`] per condition).
+#[derive(Debug)]
+pub struct Summarizer<'a> {
+    layout: &'a Layout,
+    conditions: Vec<ConditionSummarizer<'a>>,
+}
+
+impl<'a> Summarizer<'a> {
+    /// A summarizer for `realisations` per condition of a model with `layout`, whose
+    /// conditions are `infos`; intervals are θ̂ ± z·bound.
+    pub fn new(layout: &'a Layout, infos: &'a [ConditionInfo], realisations: u64, z: f64) -> Self {
+        let conditions = infos
+            .iter()
+            .enumerate()
+            .map(|(c, info)| ConditionSummarizer::new(layout, c, info, realisations, z))
+            .collect();
+        Summarizer { layout, conditions }
+    }
+
+    fn condition(&mut self, r: &Record<'_>) -> Result<&mut ConditionSummarizer<'a>, SummaryError> {
+        let unknown = SummaryError::UnknownRow {
+            condition: r.condition,
+            estimator: r.estimator,
+        };
+        if r.estimator >= self.layout.estimators.len() {
+            return Err(unknown);
+        }
+        self.conditions.get_mut(r.condition).ok_or(unknown)
+    }
+
+    /// Pass one: counts, Σd, Σd², bound sums and coverage of the truth.
+    pub fn first_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
+        self.condition(r)?.first_pass(r)
+    }
+
+    /// Close pass one: check that every realisation of every condition arrived once.
+    pub fn end_first_pass(&mut self) -> Result<(), SummaryError> {
+        self.conditions
+            .iter_mut()
+            .try_for_each(ConditionSummarizer::end_first_pass)
+    }
+
+    /// Pass two (same rows, any order that keeps a realisation's rows adjacent): centred
+    /// sums, bias-eliminated coverage and cross-products with the first estimator.
+    pub fn second_pass(&mut self, r: &Record<'_>) -> Result<(), SummaryError> {
+        self.condition(r)?.second_pass(r)
+    }
+
+    /// Finish pass two and compute every measure.
+    pub fn finish(self) -> Vec<SummaryRow> {
+        self.conditions
+            .into_iter()
+            .flat_map(ConditionSummarizer::finish)
+            .collect()
     }
 }
 

@@ -13,6 +13,7 @@ mod help_examples;
 mod layering;
 mod line_fit;
 mod mcse;
+mod memory;
 mod noise;
 mod noise_free;
 mod output_integrity;
