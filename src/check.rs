@@ -11,7 +11,7 @@
 
 use std::collections::BTreeMap;
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use crate::model::{self, ConditionInfo, Layout, Model};
@@ -126,14 +126,19 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     }
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let threads = threads.unwrap_or(cores);
-    let scratch = Scratch::new()?;
+    // A directory of its own in the system's temporary directory, removed when dropped
+    // (also when several checks run at once, e.g. in one process's threads).
+    let scratch = tempfile::Builder::new()
+        .prefix("chassis-mc-check-")
+        .tempdir()
+        .map_err(|e| OutputError::io(&std::env::temp_dir(), e))?;
     let meta = FileMetadata::of_study(study, String::new());
     let mut files = vec![FileEstimate {
         name: run::files::REALISATIONS.to_string(),
-        bytes: realisations_bytes(&*model, study, &meta, &scratch.0)?,
+        bytes: realisations_bytes(&*model, study, &meta, scratch.path())?,
     }];
     let started = Instant::now();
-    files.extend(other_files(&*model, study, &meta, &scratch.0)?);
+    files.extend(other_files(&*model, study, &meta, scratch.path())?);
     let outputs = started.elapsed();
     Ok(StudyCheck {
         layout,
@@ -146,27 +151,6 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
         outputs,
         files,
     })
-}
-
-/// A temporary directory, removed when dropped.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new() -> Result<Self, OutputError> {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
-        let dir =
-            std::env::temp_dir().join(format!("chassis-mc-check-{}-{nanos}", std::process::id()));
-        fs::create_dir_all(&dir).map_err(|e| OutputError::io(&dir, e))?;
-        Ok(Scratch(dir))
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
 }
 
 /// Estimated bytes of realisations.parquet, which holds a row group per condition (and

@@ -5,7 +5,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
@@ -734,18 +733,15 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     }
     // The bootstrap worlds, their traces in a scratch directory of their own (a study's
     // data file is read when it is validated).
-    static SCRATCH: AtomicU64 = AtomicU64::new(0);
-    let scratch = std::env::temp_dir().join(format!(
-        "chassis-mc-fit-{}-{}",
-        std::process::id(),
-        SCRATCH.fetch_add(1, Ordering::Relaxed)
-    ));
-    std::fs::create_dir_all(&scratch).map_err(|e| OutputError::io(&scratch, e))?;
+    let scratch = tempfile::Builder::new()
+        .prefix("chassis-mc-fit-")
+        .tempdir()
+        .map_err(|e| OutputError::io(&std::env::temp_dir(), e))?;
     let worlds: Result<Vec<VehicleModel>, FitError> = thetas
         .iter()
-        .map(|(est, theta)| world(spec, *est, theta, &scratch))
+        .map(|(est, theta)| world(spec, *est, theta, scratch.path()))
         .collect();
-    let _ = std::fs::remove_dir_all(&scratch);
+    drop(scratch);
     let worlds = worlds?;
 
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;

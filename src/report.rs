@@ -104,6 +104,16 @@ pub fn listed_conditions(
 /// the same in every line. A study of more than [`MAX_LISTED_CONDITIONS`] conditions lists
 /// the selection of [`listed_conditions`].
 pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> String {
+    table_of(layout, infos, rows, &listed_conditions(layout, infos, rows))
+}
+
+/// [`table`] of the conditions `listed` (ascending: [`listed_conditions`]).
+fn table_of(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    rows: &[SummaryRow],
+    listed: &[usize],
+) -> String {
     let mut out = String::new();
     let varies: Vec<bool> = (0..layout.axes.len())
         .map(|a| a == 0 || infos.iter().any(|i| i.axes[a] != infos[0].axes[a]))
@@ -122,7 +132,6 @@ pub fn table(layout: &Layout, infos: &[ConditionInfo], rows: &[SummaryRow]) -> S
     if !fixed.is_empty() {
         let _ = writeln!(out, "In every condition: {}.", fixed.join(", "));
     }
-    let listed = listed_conditions(layout, infos, rows);
     if listed.len() < infos.len() {
         let _ = writeln!(
             out,

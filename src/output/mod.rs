@@ -357,25 +357,6 @@ fn properties(
         .build()
 }
 
-/// Bytes of `batch` encoded alone as a Parquet file with the settings of every table.
-pub fn encoded_len(
-    batch: &RecordBatch,
-    meta: &FileMetadata,
-    table: &str,
-) -> Result<usize, OutputError> {
-    let here = Path::new("(in memory)");
-    let props = properties(meta, table, &batch.schema());
-    let mut writer = ArrowWriter::try_new(Vec::new(), batch.schema(), Some(props))
-        .map_err(|e| OutputError::parquet(here, e))?;
-    writer
-        .write(batch)
-        .map_err(|e| OutputError::parquet(here, e))?;
-    let bytes = writer
-        .into_inner()
-        .map_err(|e| OutputError::parquet(here, e))?;
-    Ok(bytes.len())
-}
-
 /// A Parquet file being written under a temporary name.
 pub struct ParquetSink {
     writer: ArrowWriter<HashingWriter>,

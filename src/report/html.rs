@@ -23,8 +23,6 @@ pub struct Page<'a> {
     pub infos: &'a [ConditionInfo],
     /// The summary rows.
     pub summary: &'a [SummaryRow],
-    /// The per-condition table as printed after a run.
-    pub table: &'a str,
     /// The figures: file name and SVG text, inlined in this order.
     pub figures: &'a [(String, String)],
 }
@@ -71,7 +69,10 @@ pub fn head(title: &str) -> String {
 }
 
 /// The page, as well-formed XHTML-compatible HTML5.
+/// The per-condition table (as printed after a run) and the vehicle parameters list the
+/// same conditions ([`listed_conditions`](super::listed_conditions)), chosen once here.
 pub fn page(p: &Page<'_>) -> String {
+    let listed = super::listed_conditions(p.layout, p.infos, p.summary);
     let mut out = head(&format!("{} — chassis-mc {}", p.study_name, p.command));
     // Provenance.
     let _ = write!(
@@ -109,7 +110,7 @@ pub fn page(p: &Page<'_>) -> String {
             let _ = writeln!(out, "<p class=\"warning\">{}</p>", escape(w));
         }
     }
-    out.push_str(&vehicle_parameters(p.layout, p.infos, p.summary));
+    out.push_str(&vehicle_parameters(p.layout, p.infos, p.summary, &listed));
     // Figures.
     if !p.figures.is_empty() {
         out.push_str("<h2>Figures</h2>\n");
@@ -122,9 +123,8 @@ pub fn page(p: &Page<'_>) -> String {
             );
         }
     }
-    let listed = super::listed_conditions(p.layout, p.infos, p.summary).len();
-    let what = if listed < p.infos.len() {
-        format!("{listed} of {} conditions", p.infos.len())
+    let what = if listed.len() < p.infos.len() {
+        format!("{} of {} conditions", listed.len(), p.infos.len())
     } else {
         format!("{} conditions", p.infos.len())
     };
@@ -132,7 +132,7 @@ pub fn page(p: &Page<'_>) -> String {
         out,
         "<h2>Per condition</h2>\n<details><summary>the table printed after the run \
          ({what})</summary>\n<pre>{}</pre>\n</details>\n",
-        escape(p.table.trim_matches('\n'))
+        escape(super::table_of(p.layout, p.infos, p.summary, &listed).trim_matches('\n'))
     );
     let _ = write!(
         out,
@@ -198,10 +198,15 @@ fn derived(inv_mass: &SummaryRow, drag: &SummaryRow, cr: &SummaryRow) -> [Derive
     ]
 }
 
-/// The section "Vehicle parameters": M [kg], Cd and Cr per listed condition × estimator,
-/// with their relative bias and spread ([`derived`]); empty for a model without 1/M, Cd/M
-/// and Cr.
-fn vehicle_parameters(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]) -> String {
+/// The section "Vehicle parameters": M [kg], Cd and Cr per condition of `listed` ×
+/// estimator, with their relative bias and spread ([`derived`]); empty for a model without
+/// 1/M, Cd/M and Cr.
+fn vehicle_parameters(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    summary: &[SummaryRow],
+    listed: &[usize],
+) -> String {
     let index = |name: &str| layout.parameters.iter().position(|p| p.name == name);
     let (Some(pm), Some(pd), Some(pr)) = (
         index("inv_mass"),
@@ -245,7 +250,7 @@ fn vehicle_parameters(layout: &Layout, infos: &[ConditionInfo], summary: &[Summa
         "<th>estimator</th><th>M bias [%]</th><th>M spread [%]</th><th>Cd bias [%]</th>\
          <th>Cd spread [%]</th><th>Cr bias [%]</th><th>Cr spread [%]</th></tr>\n",
     );
-    for c in super::listed_conditions(layout, infos, summary) {
+    for &c in listed {
         for e in 0..layout.estimators.len() {
             let (Some(m), Some(d), Some(r)) = (row(c, e, pm), row(c, e, pd), row(c, e, pr)) else {
                 continue;

@@ -357,7 +357,6 @@ pub(super) fn write_report(
             figures.push((name.into_owned(), svg));
         }
     }
-    let table = crate::report::table(layout, infos, summary);
     let html = crate::report::page(&crate::report::Page {
         command,
         study_name,
@@ -365,7 +364,6 @@ pub(super) fn write_report(
         layout,
         infos,
         summary,
-        table: &table,
         figures: &figures,
     });
     let tmp = out_dir.join(output::temporary_name(REPORT));
