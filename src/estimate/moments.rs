@@ -304,6 +304,9 @@ pub struct MomentAccumulator<'r> {
     /// Only speed and output noise: the constant columns stay noise-free and five sums per
     /// sample suffice.
     use_fast_path: bool,
+    /// Whether the general path sums the grade term ([`GradeSums`]): only the compensation
+    /// of grade noise reads it.
+    sum_grade: bool,
     fast: SpeedOutputSums,
     general: Moments,
 }
@@ -319,16 +322,19 @@ impl<'r> MomentAccumulator<'r> {
             reg,
             noise,
             use_fast_path: noise.fast_path(),
+            sum_grade: noise.is_on(Channel::Grade),
             fast,
             general: Moments::default(),
         }
     }
 
-    /// Like [`new`](Self::new) but always on the general path (for cross-checks).
+    /// Like [`new`](Self::new) but always on the general path, summing the grade term
+    /// whatever the noise (for cross-checks).
     #[cfg(test)]
     pub(crate) fn new_general(reg: &'r Regression, noise: NoiseLevels) -> Self {
         MomentAccumulator {
             use_fast_path: false,
+            sum_grade: true,
             ..Self::new(reg, noise)
         }
     }
@@ -394,6 +400,23 @@ impl<'r> MomentAccumulator<'r> {
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
     ) {
+        if self.sum_grade {
+            self.add_general_rows::<true>(start, len, draws, derivative);
+        } else {
+            self.add_general_rows::<false>(start, len, draws, derivative);
+        }
+    }
+
+    /// The general path's sums of one block, with the grade term's when `GRADE` (a constant,
+    /// so that the loop without it has no trace of it).
+    #[inline(always)]
+    fn add_general_rows<const GRADE: bool>(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+    ) {
         let reg = self.reg;
         let levels = self.noise;
         let mut b = Moments::default();
@@ -422,12 +445,16 @@ impl<'r> MomentAccumulator<'r> {
             b.s_1 += x1;
             b.s_3 += x3;
             b.s_y += y;
-            grade.s_s += s;
-            grade.s_1s += x1 * s;
-            grade.s_3s += x3 * s;
-            grade.s_ws += w * s;
+            if GRADE {
+                grade.s_s += s;
+                grade.s_1s += x1 * s;
+                grade.s_3s += x3 * s;
+                grade.s_ws += w * s;
+            }
         }
-        b.grade = Some(grade);
+        if GRADE {
+            b.grade = Some(grade);
+        }
         self.general.add(&b);
     }
 

@@ -81,6 +81,27 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
     }
 }
 
+/// Every name (under [`FIGURES`]) a figure of a summary with `layout` may take: each
+/// parameter's standard error, bias, ratio, coverage and trade-off figures (one per
+/// estimator and one comparing two) and, with `cycles`, the drive cycles'. Which of them are
+/// drawn depends on the results; a run checks all of them for a user's file before it
+/// starts, so that such a file cannot stop its commit after the work is done.
+pub fn possible_names(layout: &Layout, cycles: bool) -> Vec<String> {
+    let mut names = Vec::new();
+    for p in &layout.parameters {
+        for figure in ["se", "bias", "ratio", "coverage", "tradeoff"] {
+            names.push(format!("{figure}_{}.svg", p.name));
+        }
+        for est in &layout.estimators {
+            names.push(format!("tradeoff_{}_{est}.svg", p.name));
+        }
+    }
+    if cycles {
+        names.push("cycles.svg".into());
+    }
+    names
+}
+
 /// Redraw the figures of the output directory `dir` from its summary and cycles into
 /// `dir/figures/`, replacing the figures of its output set together (a user's own files
 /// there stay). Returns the files written.

@@ -191,12 +191,12 @@ fn run_prepared(
             dir.display()
         ));
     }
-    // Refused before any work: shards, or a user's file where this run writes a table or
-    // the report (the figures' names are checked when they are committed).
+    // Refused before any work: shards, or a user's file where this run writes a table, the
+    // report or any figure it may draw (checked again when they are committed).
     let mut writes = vec![files::REALISATIONS.to_string()];
     if options.shard.is_none() {
         refuse_shards(&dir)?;
-        writes.extend(written_beside(model.as_ref()));
+        writes.extend(written_beside(model.as_ref(), options.figures));
     }
     set::ensure_owned(&dir, &writes)?;
     remove_temporaries(&dir)?;
@@ -261,10 +261,18 @@ fn run_prepared(
 }
 
 /// The files a summary writes beside the realisations: the summary, the model's extra
-/// tables and the report.
-pub(super) fn written_beside(model: &dyn Model) -> Vec<String> {
+/// tables, the report and, with `figures`, every figure it may draw.
+pub(super) fn written_beside(model: &dyn Model, figures: bool) -> Vec<String> {
     let mut names = vec![files::SUMMARY.to_string(), REPORT.to_string()];
     names.extend(model.extra_tables().iter().map(|t| t.file.to_string()));
+    if figures {
+        let cycles = names.iter().any(|n| n == files::CYCLES);
+        names.extend(
+            figures::possible_names(model.layout(), cycles)
+                .into_iter()
+                .map(|name| format!("{}/{name}", figures::FIGURES)),
+        );
+    }
     names
 }
 

@@ -85,7 +85,8 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
             reason: "no realisation files found (expected realisations.parquet or shard=*/realisations.parquet)".into(),
         })
     })?;
-    let footer = |file: &OpenedFile| -> Result<(String, String, u64), RunError> {
+    // Each file's footer: the study, its identity and R (read once per file).
+    let footer = |file: &OpenedFile| -> Result<(output::Footer, String, String, u64), RunError> {
         let path = file.path();
         let footer = file.footer()?;
         let get = |k: &str| footer.get(k).map(str::to_string);
@@ -107,24 +108,31 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         let r = get(keys::REALISATIONS)
             .and_then(|v| v.parse().ok())
             .ok_or_else(missing)?;
-        Ok((study, identity, r))
+        Ok((footer, study, identity, r))
     };
-    let (study_toml, identity, realisations) = footer(first)?;
+    let (first_footer, study_toml, identity, realisations) = footer(first)?;
     for file in &opened[1..] {
-        let (_, other, r) = footer(file)?;
+        let (this, _, other, r) = footer(file)?;
         if other != identity || r != realisations {
             return Err(OutputError::Mismatch {
                 path: file.path().to_path_buf(),
                 first: first.path().to_path_buf(),
-                differences: differences(&file.footer()?, &first.footer()?),
+                differences: differences(&this, &first_footer),
             }
             .into());
         }
     }
     let origin = format!("{} (footer)", first.path().display());
-    let dir = output::footer_dir(&first.footer()?, first.path());
+    let dir = output::footer_dir(&first_footer, first.path());
     let study = Study::from_toml_in(&study_toml, &origin, &dir)?;
     let model = model::prepare(&study)?;
+    // A user's file where the summary writes is refused before the passes over the rows
+    // (again below, under the lock, for a directory that did not exist yet).
+    let writes = super::written_beside(&*model, figures);
+    if early.is_some() {
+        set::ensure_complete(out_dir)?;
+        set::ensure_owned(out_dir, &writes)?;
+    }
     let layout = model.layout().clone();
     let infos = model.infos();
     let summary = summarise_files(&layout, &infos, realisations, &opened)?;
@@ -133,7 +141,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         None => DirLock::acquire(out_dir)?,
     };
     set::ensure_complete(out_dir)?;
-    set::ensure_owned(out_dir, &super::written_beside(&*model))?;
+    set::ensure_owned(out_dir, &writes)?;
     remove_temporaries(out_dir)?;
     let meta = FileMetadata {
         study_toml: study.to_toml(),

@@ -230,7 +230,7 @@ impl Seen {
 ///
 /// Its memory is that of one condition (a few dozen [`ExactSum`]s per estimator ×
 /// parameter), so a caller that streams the rows condition by condition — both passes over
-/// one condition, then the next, as [`crate::run::summarise_files`] does — holds one
+/// one condition, then the next, as the summary of a run does — holds one
 /// condition's accumulators at a time, however many conditions the study has.
 #[derive(Debug)]
 pub struct ConditionSummarizer<'a> {

@@ -72,6 +72,17 @@ fn cases() -> Vec<Case> {
             line: None,
             reason: "required key is missing",
         },
+        Case {
+            name: "missing top-level realisations",
+            study: t
+                .lines()
+                .filter(|l| !l.starts_with("realisations ="))
+                .collect::<Vec<_>>()
+                .join("\n"),
+            key: "realisations",
+            line: None,
+            reason: "required key is missing",
+        },
         // An unknown key's list names every key the table has, not only the drive mode's.
         Case {
             name: "unknown key lists all keys of drive",

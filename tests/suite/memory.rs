@@ -100,8 +100,15 @@ fn summary_memory_does_not_grow_with_the_number_of_conditions() {
             chassis_mc::run_study(&study, &options, &chassis_mc::montecarlo::Silent).unwrap();
         assert_eq!(report.infos.len(), n);
         let path = tmp.path().join("realisations.parquet");
+        let file = chassis_mc::output::OpenedFile::open(&path).unwrap();
         let (rows, peak) = peak_heap(|| {
-            summarise_files(&report.layout, &report.infos, 4, &[path.as_path()]).unwrap()
+            summarise_files(
+                &report.layout,
+                &report.infos,
+                4,
+                std::slice::from_ref(&file),
+            )
+            .unwrap()
         });
         // (compared as text: NaN, where a measure is undefined, equals itself there)
         assert_eq!(

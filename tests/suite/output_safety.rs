@@ -308,19 +308,25 @@ fn a_users_files_at_the_engines_paths_are_never_overwritten() {
         }
     };
     let r = ["--realisations", "5"];
-    // The tables and the report are checked before any work; nothing is written.
+    // The tables, the report and the figures are checked before any work; nothing is
+    // written.
     refused(
         run_cmd(&d, &r),
-        &["report.html, summary.parquet", "did not write"],
+        &[
+            "figures/cycles.svg, report.html, summary.parquet",
+            "did not write",
+        ],
     );
     intact(&["report.html", "summary.parquet", "figures/cycles.svg"]);
     assert!(!d.join("realisations.parquet").exists());
-    // The figures when they are committed.
+    // A figure alone stops the run before its work too (it used to stop only the commit,
+    // losing the realisations computed).
     std::fs::remove_file(d.join("report.html")).unwrap();
     std::fs::remove_file(d.join("summary.parquet")).unwrap();
     refused(run_cmd(&d, &r), &["figures/cycles.svg", "did not write"]);
     intact(&["figures/cycles.svg"]);
     assert!(!d.join("summary.parquet").exists(), "nothing committed");
+    assert!(!d.join("realisations.parquet").exists(), "no work done");
     // Without figures the run goes ahead beside the user's figure; redrawing the figures
     // into that directory (now with a manifest that does not list it) is refused too.
     succeeds(run_cmd(&d, &["--realisations", "5", "--no-figures"]));
