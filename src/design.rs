@@ -260,6 +260,21 @@ pub enum DesignError {
     Request(String),
 }
 
+impl DesignError {
+    /// Whether the cause is the user's input (exit status 2 at the command line): an invalid
+    /// study or request, or an output directory that cannot be used as it is
+    /// ([`OutputError::is_bad_input`]). A Monte Carlo evaluation that fails is a failure
+    /// while running (exit status 1), whatever its cause.
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            DesignError::Study(_) | DesignError::Request(_) => true,
+            DesignError::Output(e) => e.is_bad_input(),
+            DesignError::Figure(e) => e.is_bad_input(),
+            DesignError::Run(_) => false,
+        }
+    }
+}
+
 /// The study with `key` set to `value`, and its prepared model.
 struct Variant {
     study: Study,

@@ -53,6 +53,19 @@ pub enum FitError {
     Figure(#[from] FigureError),
 }
 
+impl FitError {
+    /// Whether the cause is the user's input (exit status 2 at the command line): an invalid
+    /// fit file, log or study, or an output directory that cannot be used as it is
+    /// ([`OutputError::is_bad_input`]); otherwise a failure while running (exit status 1).
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            FitError::Study(_) => true,
+            FitError::Output(e) => e.is_bad_input(),
+            FitError::Figure(e) => e.is_bad_input(),
+        }
+    }
+}
+
 /// A validated fit file.
 #[derive(Debug, Clone)]
 pub struct FitSpec {

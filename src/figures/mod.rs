@@ -74,6 +74,19 @@ pub enum FigureError {
     },
 }
 
+impl FigureError {
+    /// Whether the cause is the user's input (exit status 2 at the command line): an invalid
+    /// study in the footer, a directory that holds no run's output, or one that cannot be
+    /// used as it is ([`OutputError::is_bad_input`]); otherwise a failure while running.
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            FigureError::Study(_) | FigureError::NotAnOutputDirectory(_) => true,
+            FigureError::Output(e) => e.is_bad_input(),
+            FigureError::Draw { .. } => false,
+        }
+    }
+}
+
 fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
     FigureError::Draw {
         path: path.to_path_buf(),

@@ -61,6 +61,20 @@ pub enum RunError {
     },
 }
 
+impl RunError {
+    /// Whether the cause is the user's input (exit status 2 at the command line): an invalid
+    /// study, or an output directory or file that cannot be used as it is
+    /// ([`OutputError::is_bad_input`]); otherwise a failure while running (exit status 1).
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            RunError::Study(_) => true,
+            RunError::Output(e) => e.is_bad_input(),
+            RunError::Figures(e) => e.is_bad_input(),
+            RunError::Summary { .. } | RunError::Threads { .. } => false,
+        }
+    }
+}
+
 /// How to run a study.
 #[derive(Debug, Clone)]
 pub struct RunOptions {

@@ -1,0 +1,297 @@
+//! The command line's arguments: every subcommand, its flags and their help text, and the
+//! checks of an argument that need no study (the output directory).
+
+use std::path::{Path, PathBuf};
+
+use chassis_mc::design::{DesignKey, DesignTarget};
+use chassis_mc::run::{RunError, Shard};
+use chassis_mc::stats::plan::Target;
+use chassis_mc::study::Study;
+use clap::{Parser, Subcommand};
+
+use super::failure::Failure;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "chassis-mc",
+    version,
+    about = "Monte Carlo engine for vehicle chassis parameter identifiability",
+    long_about = "Monte Carlo engine for vehicle chassis parameter identifiability.\n\n\
+        Runs a study (a TOML file: vehicle, drive cycle, terrain scales, noise levels, \
+        estimators) with many seeded noise realisations per condition, and writes the \
+        estimates, their bias and spread, every bound and their Monte Carlo standard errors \
+        as Parquet files that pandas and DuckDB read directly.\n\n\
+        Exit status: 0 success, 1 failure while running, 2 bad study file or arguments."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands, each with its arguments.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a study and write realisations.parquet, summary.parquet and cycles.parquet.
+    #[command(long_about = "Run a study and write, into --out DIR:\n\
+        \n  realisations.parquet  one row per realisation × estimator (θ̂, M̂, Ĉd, bounds, control \
+        variates cv_*, status)\
+        \n  summary.parquet       one row per condition × estimator × parameter (bias, EmpSE, \
+        RMSE, each bound's SE, EmpSE/bound, coverage, all with Monte Carlo standard errors; and \
+        the bias by control variates, bias_cv, often with a thousandth of the plain MCSE)\
+        \n  cycles.parquet        each distinct noise-free drive cycle once\n\n\
+        and DIR/figures/*.svg. Files appear only when the run completes, and replace the \
+        previous run's files as one set (a run killed at any instant leaves the old set, the \
+        new one, or a set that is reported incomplete and completed by the next run); your \
+        own files in DIR stay. An interrupted run resumes from its completed parts, and a \
+        larger --realisations extends an earlier run. One process writes a DIR at a time. \
+        A per-condition table is printed on stdout; progress on stderr (a bar on a \
+        terminal, a line every 10 s otherwise).\n\n\
+        Example: chassis-mc run studies/thesis.toml --out results/thesis")]
+    Run(RunArgs),
+    /// Check a study without running it: its conditions, the run time and the output size.
+    #[command(long_about = "Check a study without running it.\n\n\
+        Validates the study file (the same errors and exit status 2 as `run`), prepares the \
+        model (simulates the drive cycles), and prints the conditions, the realisations, an \
+        estimate of the run time on this machine (a few realisations of every condition timed \
+        on one thread, scaled to the realisations and divided by the threads) and of the \
+        size of the output files (a sample of rows encoded as `run` writes them). Writes \
+        nothing.\n\n\
+        Example: chassis-mc check studies/thesis.toml --realisations 100000")]
+    Check(CheckArgs),
+    /// Rebuild summary.parquet (and cycles.parquet) from realisation files: the shards of a
+    /// sharded run, or any run's realisations.parquet.
+    #[command(
+        long_about = "Rebuild summary.parquet (and cycles.parquet) from realisation files.\n\n\
+        Each DIR may be a run's output directory (its realisations.parquet and every \
+        shard=*/realisations.parquet are read) or a realisation file. The study is read from \
+        the files' footers; every realisation of every condition must be present exactly \
+        once. The result is bit-identical to the summary of an unsharded run.\n\n\
+        Example: chassis-mc summarize results/thesis"
+    )]
+    Summarize(SummarizeArgs),
+    /// Find the smallest duration or terrain scale (or the largest speed noise) at which a
+    /// target precision holds.
+    #[command(
+        long_about = "Find the smallest value of KEY in [FROM, TO] (the largest, for \
+        noise.velocity_sd) at which a target on one parameter holds for one estimator.\n\n\
+        KEY is drive.duration [s] (torque drive mode; the answer is a whole number of time \
+        steps), terrain.scale or noise.velocity_sd [m/s]; the study must have one condition \
+        once KEY is set. The target is PARAMETER:MEASURE<=VALUE with MEASURE rel_rmse, \
+        rel_emp_se or abs_rel_bias (fractions of the true value). First-order predictions \
+        (the bound's SE and the first-order speed-noise bias) on a grid of 25 values bracket \
+        the answer; Monte Carlo runs of the study (its realisations and seed) confirm and \
+        bisect it to 1 % of the range. A value holds when the Monte Carlo estimate of the \
+        measure is at most the target. Prints the answer with the measure's MCSE there and \
+        writes, into --out DIR, design.parquet (every value evaluated: predicted and \
+        simulated measure with its MCSE, is_answer; the answer also in the footer key \
+        chassis_mc.design.answer), figures/design.svg and report.html.\n\n\
+        Example: chassis-mc design studies/design_thesis.toml --vary drive.duration --from 60 \
+        --to 600 --target 'drag_over_mass:rel_rmse<=0.001' --estimator bcls --out \
+        results/design"
+    )]
+    Design(DesignArgs),
+    /// Estimate mass, drag and rolling resistance from a measured log, with sandwich SEs and
+    /// a parametric bootstrap.
+    #[command(
+        long_about = "Estimate θ = [1/M, Cd/M, Cr] (and M, Cd) from a measured log.\n\n\
+        FIT.toml gives [log] (file, time_column, speed_column, speed_unit, force_column [N] \
+        or torque_column [N m] with the vehicle's final_drive_ratio and wheel_radius, \
+        grade_column, grade_unit, optional acceleration_column [m/s^2] (else the speed is \
+        differentiated), min_speed), [vehicle] (the known frontal_area, air_density, gravity), \
+        [noise] (the assumed sensor noise: velocity_sd, output_sd, grade_sd, force_sd, \
+        velocity_correlation_time), [estimation] estimators, seed and realisations, and \
+        optionally [reference] (mass, drag_coefficient, rolling_resistance to show the fit \
+        against). Each estimator's estimate gets its sandwich SE and a parametric bootstrap: \
+        the fitted vehicle replayed on the log's rows (along the smoothed measured speed, or \
+        simulated under the logged force when the speed is differentiated), the assumed \
+        noise re-drawn, re-estimated R times (boot_mean, boot_bias, bias_corrected, 95 % \
+        percentile interval). Writes DIR/fit.parquet, DIR/fit.svg and DIR/report.html and \
+        prints the table.\n\n\
+        Example: chassis-mc fit studies/fit_example.toml --out results/fit"
+    )]
+    Fit(FitArgs),
+    /// Write a synthetic log of a one-condition study: its cycle with one realisation's noise.
+    #[command(
+        long_about = "Write a synthetic measured log (CSV) of a study with one \
+        condition: the noise-free drive cycle plus realisation R's noise of every channel that \
+        is on, drawn as a run draws it (seed and R select it). Columns time_s, speed_m_s, \
+        force_n, grade_rad, accel_m_s2 (the model acceleration plus the output noise). The \
+        input of `fit` for a vehicle whose truth is known.\n\n\
+        Example: chassis-mc simulate-log studies/fit_log.toml --out studies/data/fit_log.csv"
+    )]
+    SimulateLog(SimulateLogArgs),
+    /// Redraw DIR/figures/*.svg from an output directory's summary.parquet and cycles.parquet.
+    #[command(
+        long_about = "Redraw DIR/figures/*.svg from DIR/summary.parquet and DIR/cycles.parquet.\n\n\
+        Per parameter: se_<p>.svg (empirical SE ± MCSE and every bound against the terrain \
+        metric ς, the thesis's Figures 4-6 and more), bias_<p>.svg, ratio_<p>.svg (EmpSE / \
+        bound with its MCSE around 1) and coverage_<p>.svg (against the nominal 95 %); and \
+        cycles.svg (speed and grade against time).\n\n\
+        Example: chassis-mc figures results/thesis"
+    )]
+    Figures(FiguresArgs),
+}
+
+/// What `run` and `check` may override in the study file.
+#[derive(Debug, clap::Args)]
+pub struct Overrides {
+    /// Realisations per condition, overriding the study's `realisations`.
+    #[arg(long, value_name = "N")]
+    realisations: Option<u64>,
+    /// Master seed, overriding the study's `seed`: a whole number from 0 to
+    /// 9223372036854775807 (2^63 − 1), as in a study file.
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
+}
+
+// The arguments of `Run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The study file (TOML), e.g. studies/thesis.toml.
+    pub study: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub overrides: Overrides,
+    /// Run only shard K of N (0-based): realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every
+    /// condition, written to DIR/shard=K/realisations.parquet. Combine the shards with
+    /// `chassis-mc summarize DIR`.
+    #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
+    pub shard: Option<Shard>,
+    /// Do not draw DIR/figures/*.svg.
+    #[arg(long)]
+    pub no_figures: bool,
+    /// Print no table and no progress (notices such as a recomputed damaged part are
+    /// still printed on stderr).
+    #[arg(long)]
+    pub quiet: bool,
+    /// Treat this run as a pilot: print the realisations per condition needed for the
+    /// Monte Carlo standard error of MEASURE (mean, bias, rel_bias, emp_se, mse, rmse,
+    /// rel_precision) to reach MCSE in every condition × estimator (× parameter, or only
+    /// PARAMETER's), R·(MCSE now / MCSE wanted)², with the run time that takes at this
+    /// run's pace. Repeatable.
+    #[arg(long, value_name = "[PARAMETER:]MEASURE=MCSE", value_parser = Target::parse)]
+    pub replications_for: Vec<Target>,
+}
+
+// The arguments of `Check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The study file (TOML).
+    pub study: PathBuf,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+// The arguments of `Summarize`.
+#[derive(Debug, clap::Args)]
+pub struct SummarizeArgs {
+    /// Output directories or realisation files.
+    #[arg(required = true, value_name = "DIR")]
+    pub inputs: Vec<PathBuf>,
+    /// Where to write summary.parquet and cycles.parquet (default: the first DIR).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Do not draw OUT/figures/*.svg.
+    #[arg(long)]
+    pub no_figures: bool,
+    /// Print no table.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+// The arguments of `Design`.
+#[derive(Debug, clap::Args)]
+pub struct DesignArgs {
+    /// The study file (TOML).
+    pub study: PathBuf,
+    /// The key varied: drive.duration, terrain.scale or noise.velocity_sd.
+    #[arg(long, value_name = "KEY", value_parser = DesignKey::parse)]
+    pub vary: DesignKey,
+    /// The lower end of the range searched.
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
+    pub from: f64,
+    /// The upper end of the range searched.
+    #[arg(long, value_name = "B", allow_negative_numbers = true)]
+    pub to: f64,
+    /// PARAMETER:MEASURE<=VALUE, e.g. drag_over_mass:rel_rmse<=0.001.
+    #[arg(long, value_name = "TARGET", value_parser = DesignTarget::parse)]
+    pub target: DesignTarget,
+    /// The estimator (one of the study's; default its first).
+    #[arg(long, value_name = "E")]
+    pub estimator: Option<String>,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+// The arguments of `Fit`.
+#[derive(Debug, clap::Args)]
+pub struct FitArgs {
+    /// The fit file (TOML).
+    pub fit: PathBuf,
+    /// Output directory (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+// The arguments of `SimulateLog`.
+#[derive(Debug, clap::Args)]
+pub struct SimulateLogArgs {
+    /// The study file (TOML), one condition.
+    pub study: PathBuf,
+    /// The CSV file to write.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Which realisation's noise.
+    #[arg(long, value_name = "R", default_value_t = 0)]
+    pub realisation: u64,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+// The arguments of `Figures`.
+#[derive(Debug, clap::Args)]
+pub struct FiguresArgs {
+    /// An output directory of `run` or `summarize`.
+    pub dir: PathBuf,
+}
+
+impl Overrides {
+    /// The study file at `path` with these overrides.
+    pub fn load(&self, path: &Path) -> Result<Study, Failure> {
+        Ok(Study::load(path)
+            .and_then(|s| s.with_overrides(self.realisations, self.seed))
+            .map_err(RunError::from)?)
+    }
+
+    /// Worker threads (`None`: every core).
+    pub fn threads(&self) -> Option<usize> {
+        self.threads.map(usize::from)
+    }
+}
+
+/// `--out` (or a command's directory) must be a directory or not exist yet, under a
+/// directory (not under a file).
+pub fn output_directory(flag: &str, dir: &Path) -> Result<(), Failure> {
+    if let Some(existing) = dir.ancestors().find(|a| a.exists())
+        && !existing.is_dir()
+    {
+        let what = if existing == dir {
+            "is a file, not a directory".to_string()
+        } else {
+            format!("{} is a file, not a directory", existing.display())
+        };
+        return Err(Failure::bad_argument(format!(
+            "{flag} {}: {what}",
+            dir.display()
+        )));
+    }
+    Ok(())
+}

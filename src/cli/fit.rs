@@ -1,0 +1,35 @@
+//! The commands on measured logs: `fit` estimates from a log, `simulate-log` writes a
+//! synthetic one.
+
+use chassis_mc::fit::{FitError, FitSpec};
+
+use super::args::{FitArgs, SimulateLogArgs, output_directory};
+use super::failure::Failure;
+
+/// `fit`: estimate θ from the fit file's log, print the table and the files written.
+pub fn fit(args: FitArgs) -> Result<(), Failure> {
+    let FitArgs { fit, out } = args;
+    output_directory("--out", &out)?;
+    let spec = FitSpec::load(&fit).map_err(FitError::from)?;
+    let result = chassis_mc::fit::fit(&spec, &out)?;
+    print!("{}", chassis_mc::fit::table(&result.rows));
+    println!("wrote:");
+    for f in &result.files {
+        println!("  {}", f.display());
+    }
+    Ok(())
+}
+
+/// `simulate-log`: one realisation of a one-condition study as a CSV log.
+pub fn simulate_log(args: SimulateLogArgs) -> Result<(), Failure> {
+    let SimulateLogArgs {
+        study,
+        out,
+        realisation,
+        overrides,
+    } = args;
+    let study = overrides.load(&study)?;
+    let n = chassis_mc::fit::simulate_log(&study, realisation, &out)?;
+    println!("wrote {} ({n} samples)", out.display());
+    Ok(())
+}
