@@ -372,8 +372,12 @@ fn an_interrupted_run_leaves_existing_results_untouched() {
     );
 }
 
+/// A terrain scale at which a grade reaches 0.5 rad in magnitude is exit 2 naming
+/// `terrain.scales[i]` and its line, and nothing is written.
+///
+/// Regression: a non-physical grade was accepted and run.
 #[test]
-fn a_non_physical_grade_is_accepted() {
+fn a_grade_of_half_a_radian_or_more_is_a_study_error() {
     // Scaled by 1000, the grade reaches ±83 rad, which sin and cos wrap into plausible
     // numbers; scaled geometrically by 9, the steepest grade is atan(9 × 0.083) = 0.64 rad.
     let tmp = tempfile::tempdir().unwrap();
@@ -404,8 +408,12 @@ fn a_non_physical_grade_is_accepted() {
     }
 }
 
+/// `--out` (or `figures`' directory) naming a file, or a path under a file, exits 2 with one
+/// message naming it, and leaves the file as it was.
+///
+/// Regression: it exited 1 and printed the message twice.
 #[test]
-fn out_naming_a_file_exits_1_with_the_message_twice() {
+fn out_naming_a_file_exits_2_with_one_message() {
     let tmp = tempfile::tempdir().unwrap();
     let file = tmp.path().join("results.txt");
     std::fs::write(&file, b"mine").unwrap();
@@ -443,8 +451,12 @@ fn out_naming_a_file_exits_1_with_the_message_twice() {
     assert_eq!(std::fs::read(&file).unwrap(), b"mine");
 }
 
+/// A `--shard K/N` that holds none of the realisations is exit 2 naming the shard and the
+/// largest N, and nothing is written.
+///
+/// Regression: an empty shard was accepted.
 #[test]
-fn an_empty_shard_is_accepted() {
+fn a_shard_holding_no_realisation_exits_2() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
     // ⌊2·100/200⌋ = ⌊3·100/200⌋ = 1: shard 2 of 200 holds no realisation.

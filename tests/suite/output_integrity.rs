@@ -1,7 +1,8 @@
 //! The output directory can be trusted: a user's files survive, a run's files replace the
 //! previous run's as one set whatever instant the process is killed at, damaged parts and
 //! files are detected and redone, memory does not grow with R, and one directory has one
-//! writer. Each regression test is named after the defect it pins.
+//! writer. Each regression test is named after the guarantee it pins; the defect it pins is
+//! in its doc comment.
 //!
 //! Every realisation is a pure function of (seed, condition, realisation) and summaries use
 //! exact sums, so an interrupted, resumed or repaired run is compared with an uninterrupted
@@ -143,8 +144,13 @@ fn assert_same_tables(dir: &Path, reference: &Path) {
     }
 }
 
+/// `run`, `figures`, `summarize` and a run without figures replace only the engine's own
+/// figures: a user's file in DIR/figures/ stays, and is all that is left there once a run
+/// draws none.
+///
+/// Regression: a run replaced DIR/figures/ as a whole, deleting the user's files in it.
 #[test]
-fn a_run_deletes_the_users_files_in_figures() {
+fn the_users_files_in_figures_survive_run_figures_and_summarize() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     let mine = out.join("figures").join("paper.pdf");
@@ -176,10 +182,14 @@ fn a_run_deletes_the_users_files_in_figures() {
     );
 }
 
+/// A run killed after the first rename of its commit leaves a set that `figures` and
+/// `summarize` refuse as incomplete, and the next run completes the replacement and ends as
+/// a clean run into a fresh directory.
+///
+/// Regression: the output files were not replaced as one set, so such a directory held
+/// files of two runs that were read as one.
 #[test]
-fn output_files_are_not_replaced_as_one_set() {
-    // A run with another seed dies after renaming its first file into place: the directory
-    // then holds files of two runs, and every reader must say so instead of reading them.
+fn a_half_replaced_set_is_reported_incomplete_and_completed_by_the_next_run() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     succeeds(run_cmd("thesis.toml", &out, &["--realisations", "30"]));
@@ -207,8 +217,12 @@ fn output_files_are_not_replaced_as_one_set() {
     assert_eq!(snapshot(&out), snapshot(&reference));
 }
 
+/// A resumed run whose completed parts include one with a flipped byte says so on stderr,
+/// recomputes that part, and ends with the tables of an uninterrupted run.
+///
+/// Regression: a corrupted part was reused as it was.
 #[test]
-fn corrupted_parts_are_reused() {
+fn a_damaged_part_is_reported_and_recomputed() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     let args = ["--realisations", "300", "--no-figures"];
@@ -284,12 +298,15 @@ fn kill(mut child: Child) {
     child.wait().unwrap();
 }
 
+/// A run of R = 10^9 realisations per condition peaks under 200 MB of resident memory
+/// while it computes: its memory is its chunk buffers and row groups, whatever R.
+///
+/// Regression: the plan of work was built up front: 10^9 realisations × 11 conditions meant
+/// 10^7 chunk entries (hundreds of MB) before the first realisation, and 10^12 aborted out of
+/// memory.
 #[test]
 #[cfg(target_os = "linux")]
-fn realisations_ten_to_the_twelve_abort_out_of_memory() {
-    // The plan of work used to be built up front: 10^9 realisations × 11 conditions meant
-    // 10^7 chunk entries (hundreds of MB) before the first realisation, 10^12 an abort.
-    // Planned lazily, a run's memory is its chunk buffers and row groups, whatever R.
+fn a_run_of_a_billion_realisations_peaks_under_200_mb() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     let child = run_cmd(
@@ -328,11 +345,13 @@ fn realisations_ten_to_the_twelve_abort_out_of_memory() {
     );
 }
 
+/// In an output directory without a manifest (written by an older engine, or the manifest
+/// lost), redrawing the figures does not record its realisation file as trusted: a later
+/// extension does not reuse its damaged rows and ends as a clean run.
+///
+/// Regression: `figures` vouched for such a file, and the extension reused damaged rows.
 #[test]
-fn figures_vouches_for_a_damaged_file_in_a_directory_without_manifest() {
-    // An output directory without a manifest (written by an older engine, or the manifest
-    // lost): redrawing its figures must not record its realisation file as trusted, so a
-    // later extension does not reuse damaged rows.
+fn a_damaged_file_in_a_directory_without_manifest_is_not_reused_after_figures() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     succeeds(run_cmd("thesis.toml", &out, &["--realisations", "100"]));
@@ -355,8 +374,13 @@ fn figures_vouches_for_a_damaged_file_in_a_directory_without_manifest() {
     assert_same_tables(&out, &reference);
 }
 
+/// A line-fit run into the directory of a vehicle run leaves exactly the files of a
+/// line-fit run into a fresh directory, byte for byte.
+///
+/// Regression: files of the previous run that the new model does not write (cycles.parquet)
+/// survived a model change.
 #[test]
-fn stale_files_survive_a_model_change() {
+fn a_model_change_leaves_exactly_the_new_runs_files() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     succeeds(run_cmd("thesis.toml", &out, &["--realisations", "20"]));
@@ -376,8 +400,12 @@ fn stale_files_survive_a_model_change() {
     assert_eq!(snapshot(&out), snapshot(&reference));
 }
 
+/// While a run holds a directory, `figures`, `summarize` and a second run exit 2 with one
+/// message naming the holder's pid; once the holder dies, the next run takes its lock over.
+///
+/// Regression: two concurrent runs into one directory raced.
 #[test]
-fn two_concurrent_runs_into_one_dir_race() {
+fn a_second_writer_is_refused_naming_the_holder_whose_lock_is_taken_over_once_dead() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("d");
     let holder = run_cmd(
