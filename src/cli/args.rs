@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use chassis_mc::design::{DesignKey, DesignTarget};
 use chassis_mc::run::{RunError, Shard};
-use chassis_mc::stats::plan::Target;
+use chassis_mc::stats::plan::{MEASURES, Target};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
 
@@ -169,12 +169,13 @@ pub struct RunArgs {
     /// still printed on stderr).
     #[arg(long)]
     pub quiet: bool,
-    /// Treat this run as a pilot: print the realisations per condition needed for the
-    /// Monte Carlo standard error of MEASURE (mean, bias, rel_bias, emp_se, mse, rmse,
-    /// rel_precision) to reach MCSE in every condition × estimator (× parameter, or only
-    /// PARAMETER's), R·(MCSE now / MCSE wanted)², with the run time that takes at this
-    /// run's pace. Repeatable.
-    #[arg(long, value_name = "[PARAMETER:]MEASURE=MCSE", value_parser = Target::parse)]
+    // Its help names the measures of the planner's list, so the two cannot differ.
+    #[arg(
+        long,
+        value_name = "[PARAMETER:]MEASURE=MCSE",
+        value_parser = Target::parse,
+        help = replications_for_help()
+    )]
     pub replications_for: Vec<Target>,
 }
 
@@ -261,6 +262,17 @@ pub struct SimulateLogArgs {
 pub struct FiguresArgs {
     /// An output directory of `run` or `summarize`.
     pub dir: PathBuf,
+}
+
+/// The help of `run --replications-for`, naming every measure the planner accepts.
+fn replications_for_help() -> String {
+    format!(
+        "Treat this run as a pilot: print the realisations per condition needed for the \
+         Monte Carlo standard error of MEASURE ({}) to reach MCSE in every condition × \
+         estimator (× parameter, or only PARAMETER's), R·(MCSE now / MCSE wanted)², with the \
+         run time that takes at this run's pace. Repeatable.",
+        MEASURES.join(", ")
+    )
 }
 
 impl Overrides {

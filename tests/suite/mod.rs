@@ -20,6 +20,7 @@ mod output_integrity;
 mod output_noise;
 mod output_safety;
 mod profiles;
+mod readme;
 mod report;
 mod routes;
 mod sensors;

@@ -459,3 +459,29 @@ fn report_stays_small_on_a_grid_of_hundreds_of_conditions() {
         }
     }
 }
+
+/// `run --help` names exactly the measures `--replications-for` accepts, in the planner's
+/// order, and the planner parses each of them.
+///
+/// Regression: the help listed seven of the nine measures (not `mean_cv` and `bias_cv`).
+#[test]
+fn replications_for_help_names_exactly_the_measures_the_planner_accepts() {
+    use chassis_mc::stats::plan::{MEASURES, Target};
+    let (code, help, _) = cli(&["run".as_ref(), "--help".as_ref()], &root());
+    assert_eq!(code, 0);
+    let text = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    let listed: Vec<&str> = text
+        .split("standard error of MEASURE (")
+        .nth(1)
+        .and_then(|rest| rest.split(')').next())
+        .expect("--replications-for's help lists the measures in parentheses")
+        .split(", ")
+        .collect();
+    assert_eq!(listed, MEASURES);
+    for measure in listed {
+        assert!(
+            Target::parse(&format!("{measure}=0.1")).is_ok(),
+            "{measure}"
+        );
+    }
+}
