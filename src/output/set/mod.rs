@@ -24,13 +24,20 @@
 
 use std::collections::BTreeSet;
 use std::fs::{self, File};
-use std::hash::Hasher;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use twox_hash::XxHash64;
-
 use super::{OutputError, PendingFile, failpoint, temporary_name};
+
+mod checked;
+mod confine;
+mod owned;
+
+pub(crate) use checked::checksum_of;
+pub use checked::{checksum, open_checked, verify_file};
+use confine::{check_steps, confined};
+use owned::engine_table;
+pub use owned::{ensure_owned, foreign_files};
 
 /// File name of the manifest inside an output directory.
 pub const MANIFEST: &str = ".chassis-mc-manifest";
@@ -63,33 +70,6 @@ impl std::fmt::Display for Checksum {
             false => write!(f, "{:016x}", self.hash),
         }
     }
-}
-
-/// The checksum of the file at `path` (read in 1 MiB blocks).
-pub fn checksum(path: &Path) -> Result<Checksum, OutputError> {
-    let mut file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-    checksum_of(&mut file, path)
-}
-
-/// The checksum of what is left to read of `file` (opened at `path`).
-pub(super) fn checksum_of(file: &mut File, path: &Path) -> Result<Checksum, OutputError> {
-    let mut hasher = XxHash64::with_seed(0);
-    let mut buffer = vec![0u8; 1 << 20];
-    let mut len = 0u64;
-    loop {
-        let n = file
-            .read(&mut buffer)
-            .map_err(|e| OutputError::io(path, e))?;
-        if n == 0 {
-            break;
-        }
-        hasher.write(&buffer[..n]);
-        len += n as u64;
-    }
-    Ok(Checksum {
-        len,
-        hash: hasher.finish(),
-    })
 }
 
 /// One file of an output set.
@@ -161,90 +141,6 @@ impl Manifest {
     /// The entry of `path` (relative to the directory), if the set holds it.
     pub fn get(&self, path: &str) -> Option<&Entry> {
         self.entries.iter().find(|e| e.path == path)
-    }
-}
-
-/// Whether the file `name` in `dir` is the one the manifest recorded: `Ok(None)` if it is,
-/// otherwise why it cannot be trusted.
-pub fn verify_file(dir: &Path, name: &str) -> Result<Option<String>, OutputError> {
-    let Some(manifest) = Manifest::read(dir)? else {
-        return Ok(Some("no checksum was recorded for it".into()));
-    };
-    let Some(entry) = manifest.get(name) else {
-        return Ok(Some("it is not part of the directory's output set".into()));
-    };
-    let found = checksum(&dir.join(name))?;
-    Ok((found != entry.checksum).then(|| {
-        format!(
-            "its content does not match the checksum recorded when it was written \
-             ({:#} recorded; {found:#} found)",
-            entry.checksum
-        )
-    }))
-}
-
-/// How many times [`open_checked`] looks again when a commit may be replacing the file,
-/// waiting 10, 20, 40 … ms in between (1.3 s in all; a commit's renames take milliseconds).
-const CHECK_ATTEMPTS: u32 = 8;
-
-/// Open the file at `path` and, if its directory's manifest lists it, check the bytes of
-/// that open file against the checksum recorded there. What the caller reads through the
-/// returned handle is then the file the manifest vouched for, whatever a run renames over
-/// the path afterwards.
-///
-/// A commit may be under way (a journal in the directory) or may happen between the open
-/// and the manifest's read: the check is repeated until the file, the manifest and the
-/// absence of a journal agree, or fails with [`OutputError::Incomplete`] (a journal that
-/// stays) or [`OutputError::Damaged`] (the bytes differ and nothing is changing). A file
-/// the manifest does not list (or in a directory without one) is opened unchecked.
-pub fn open_checked(path: &Path) -> Result<super::OpenedFile, OutputError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut attempt = 0;
-    loop {
-        let last = attempt + 1 >= CHECK_ATTEMPTS;
-        let again = |attempt: u32| {
-            std::thread::sleep(std::time::Duration::from_millis(10 << attempt));
-        };
-        if dir.join(JOURNAL).exists() {
-            if last {
-                return Err(OutputError::Incomplete {
-                    dir: dir.to_path_buf(),
-                });
-            }
-            again(attempt);
-            attempt += 1;
-            continue;
-        }
-        let file = super::OpenedFile::open(path)?;
-        super::pause("input-opened");
-        let manifest = Manifest::read(dir)?;
-        let Some(entry) = manifest.as_ref().and_then(|m| m.get(&name)) else {
-            return Ok(file);
-        };
-        let found = file.checksum()?;
-        if found == entry.checksum {
-            return Ok(file);
-        }
-        // Did a commit replace the file or the manifest since the open?
-        let changing =
-            dir.join(JOURNAL).exists() || Manifest::read(dir)? != manifest || !file.is_at(path);
-        if !changing || last {
-            return Err(OutputError::Damaged {
-                path: path.to_path_buf(),
-                recorded: entry.checksum,
-                found,
-                remedy: "run the study (or its shard) that wrote it again".into(),
-            });
-        }
-        again(attempt);
-        attempt += 1;
     }
 }
 
@@ -392,63 +288,6 @@ impl Op {
     }
 }
 
-/// Why `path`, read from a manifest or a journal, is not a plain relative path inside the
-/// output directory: an absolute path, an empty, `.` or `..` component, or a backslash (a
-/// separator elsewhere) would let the file name a place outside it.
-fn confined(path: &str) -> Result<(), String> {
-    let plain = !path.is_empty()
-        && !path.contains('\\')
-        && path
-            .split('/')
-            .all(|c| !c.is_empty() && c != "." && c != "..")
-        && Path::new(path)
-            .components()
-            .all(|c| matches!(c, std::path::Component::Normal(_)));
-    match plain {
-        true => Ok(()),
-        false => Err(format!(
-            "`{path}` is not a plain relative path inside the output directory (absolute \
-             paths and `..` are refused)"
-        )),
-    }
-}
-
-/// Why `dir/path` may lie outside `dir` although `path` is [`confined`]: a directory on
-/// the way is a symbolic link. (The file itself may be a link: renaming over it or deleting
-/// it replaces the link, not what it points to.)
-fn link_escape(dir: &Path, path: &str) -> Option<String> {
-    let mut at = dir.to_path_buf();
-    let components: Vec<&str> = path.split('/').collect();
-    for c in &components[..components.len().saturating_sub(1)] {
-        at.push(c);
-        if fs::symlink_metadata(&at).is_ok_and(|m| m.file_type().is_symlink()) {
-            return Some(format!(
-                "`{path}` passes through the symbolic link {}, which may lead outside the \
-                 output directory",
-                at.display()
-            ));
-        }
-    }
-    None
-}
-
-/// Check every step of `ops` before any is carried out: each must stay inside `dir`. An
-/// error names the `journal` and the step's line in it, else the file the step names.
-fn check_steps(dir: &Path, ops: &[Op], journal: Option<&Path>) -> Result<(), OutputError> {
-    for (i, op) in ops.iter().enumerate() {
-        for path in op.paths() {
-            if let Some(reason) = confined(path).err().or_else(|| link_escape(dir, path)) {
-                return Err(OutputError::Unsafe {
-                    file: journal.map_or_else(|| dir.join(path), Path::to_path_buf),
-                    line: journal.map(|_| i + 2),
-                    reason,
-                });
-            }
-        }
-    }
-    Ok(())
-}
-
 /// Carry out `ops` (each step idempotent), then remove the journal. Every step is checked
 /// first: none is carried out if one would reach outside `dir`.
 fn apply(dir: &Path, ops: &[Op]) -> Result<(), OutputError> {
@@ -512,64 +351,6 @@ fn legacy_set(dir: &Path) -> Result<Manifest, OutputError> {
         }
     }
     Ok(Manifest { entries })
-}
-
-/// Whether the file at `path` is a Parquet table chassis-mc wrote (its footer names the
-/// table, README "Output files").
-fn engine_table(path: &Path) -> bool {
-    path.is_file() && super::read_metadata(path).is_ok_and(|f| f.get(super::keys::TABLE).is_some())
-}
-
-/// The provenance row of the report pages of engines before [`super::REPORT_MARK`].
-const LEGACY_REPORT_MARK: &str = "<td>chassis-mc version</td>";
-
-/// Whether the file at `path` is a report page chassis-mc wrote.
-fn engine_report(path: &Path) -> bool {
-    let mut head = Vec::new();
-    File::open(path)
-        .and_then(|f| f.take(1 << 16).read_to_end(&mut head))
-        .is_ok()
-        && [super::REPORT_MARK, LEGACY_REPORT_MARK]
-            .iter()
-            .any(|mark| String::from_utf8_lossy(&head).contains(mark))
-}
-
-/// The files at `paths` (relative to `dir`, where a new set will be written) that are not
-/// the engine's to replace: a file there is the engine's when the manifest lists it, when
-/// its content shows chassis-mc wrote it (a Parquet table with chassis-mc's footer, a
-/// report page with its provenance row), or, in a directory an engine before manifests
-/// wrote (no manifest, chassis-mc tables at the top), when it is one of its figures. Any
-/// other file there is a user's: it must not be overwritten.
-pub fn foreign_files(dir: &Path, paths: &[String]) -> Result<Vec<String>, OutputError> {
-    let manifest = Manifest::read(dir)?;
-    let legacy = manifest.is_none() && LEGACY_SET.iter().any(|n| engine_table(&dir.join(n)));
-    let mut foreign = Vec::new();
-    for rel in paths {
-        let path = dir.join(rel);
-        let owned = manifest.as_ref().is_some_and(|m| m.get(rel).is_some())
-            || fs::symlink_metadata(&path).is_err()
-            || (rel.ends_with(".parquet") && engine_table(&path))
-            || (path.file_name() == Some("report.html".as_ref()) && engine_report(&path))
-            || (legacy && rel.starts_with("figures/"));
-        if !owned {
-            foreign.push(rel.clone());
-        }
-    }
-    Ok(foreign)
-}
-
-/// Fail with [`OutputError::NotOwned`] if any of `paths` (relative to `dir`) is a
-/// [foreign file](foreign_files).
-pub fn ensure_owned(dir: &Path, paths: &[String]) -> Result<(), OutputError> {
-    let mut files = foreign_files(dir, paths)?;
-    files.sort();
-    match files.is_empty() {
-        true => Ok(()),
-        false => Err(OutputError::NotOwned {
-            dir: dir.to_path_buf(),
-            files,
-        }),
-    }
 }
 
 fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
