@@ -129,15 +129,9 @@ impl ColumnMoments {
             [Column::C, Column::C] => self.cc,
             [Column::C, Column::Y] => self.cy,
             [Column::W, Column::Y] => mean(Column::W) * mean(Column::Y) + self.wy_neighbours,
-            [a, b] => {
-                debug_assert!(
-                    !Channel::ALL
-                        .iter()
-                        .any(|ch| ch.columns().contains(&a) && ch.columns().contains(&b)),
-                    "{a:?} and {b:?} share a channel: list their joint moment"
-                );
-                mean(a) * mean(b)
-            }
+            // Independent noise (pinned by
+            // `a_product_of_columns_one_channel_moves_reads_its_joint_moment`).
+            [a, b] => mean(a) * mean(b),
             _ => unreachable!("a sum has one or two factors"),
         }
     }
@@ -300,6 +294,36 @@ mod tests {
             }
         }
         assert_eq!(compared, 5 + 4 + 8 + 5 + 13);
+    }
+
+    /// A product of two columns that one channel moves is not the product of their means:
+    /// every such sum (a square, or a pair a channel's [`Channel::columns`] both list, or
+    /// w ỹ, which speed noise shares through a differentiated acceleration) reads a joint
+    /// moment. With every joint moment NaN, exactly those sums come out NaN, so a new
+    /// channel that moves two columns without a joint moment fails here.
+    #[test]
+    fn a_product_of_columns_one_channel_moves_reads_its_joint_moment() {
+        let e = ColumnMoments {
+            mean: [2.0, 3.0, 5.0, 7.0],
+            ff: f64::NAN,
+            ww: f64::NAN,
+            cc: f64::NAN,
+            cy: f64::NAN,
+            wy_neighbours: f64::NAN,
+        };
+        for s in Sum::ALL {
+            let shared = match *s.factors() {
+                [a, b] => {
+                    a == b
+                        || (a, b) == (Column::W, Column::Y)
+                        || Channel::ALL
+                            .iter()
+                            .any(|c| c.columns().contains(&a) && c.columns().contains(&b))
+                }
+                _ => false,
+            };
+            assert_eq!(e.of(s).is_nan(), shared, "{s:?}");
+        }
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The sums of the normal equations, one typed list: each [`Sum`] is a product of measured
 //! columns ([`Column`]), and [`Moments`] (a field per sum), the kernel's per-row
 //! accumulation, the control variates (`controls.rs`) and their count are generated from
-//! the one table in [`sums!`] (docs/model.md#control-variates).
+//! the one table of the `sums!` macro below (docs/model.md#control-variates).
 //!
 //! With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output, column 2 of the regression
 //! is −k w, so XᵀX and Xᵀy need only sums of products of (x̃₁, w, x̃₃, ỹ).
@@ -33,9 +33,10 @@ impl Column {
 
 /// The table of sums: `Variant field [factor (* factor)] control-column unit "Σ …"`, in the
 /// order of [`Sum::ALL`] and of the control-variate columns. Adding a line here adds the
-/// field of [`Moments`], its sum in the kernel, its control variate and its column; the
-/// compiler then asks for its expectation (`controls.rs`) and its BCLS correction
-/// (`estimators.rs`) where a match over the factors does not cover it already.
+/// field of [`Moments`], its sum in the general kernel, its control variate (whose
+/// expectation and whether it varies follow from its factors, `controls.rs`) and its
+/// column. Written by hand: its BCLS correction (`Moments::compensate`), the fast path's
+/// sums (`MomentAccumulator::finish`) and the segment sums of `row_sums.rs`.
 macro_rules! sums {
     ($( $variant:ident $field:ident [$first:ident $(* $second:ident)?]
         $control:literal $unit:literal $what:literal; )*) => {
