@@ -54,10 +54,15 @@
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
 //! - **a noise channel**: a variant of [`estimate::channels::Channel`] and its `match` arms
-//!   (study key and column, unit, default, stream, whether it enters the regressors, how its
-//!   draw perturbs a sample), all in `estimate/channels.rs`; and its term of the
-//!   equation-error variance Ω in `estimate/bounds.rs`. The `[noise]` key, the condition
-//!   axis, the stream and the kernel follow.
+//!   (study key and column, unit, default, stream, whether it enters the regressors, the
+//!   measured columns it moves, how its draw perturbs a sample, its term of the
+//!   equation-error variance Ω, its expectations of the columns), all in
+//!   `estimate/channels.rs`; and its correction of the sums, `Moments::compensate` in
+//!   `estimate/estimators.rs`. The `[noise]` key, the condition axis, the stream, the
+//!   kernel, which control variates vary, the bounds and wbcls's weights follow.
+//! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`
+//!   ([`estimate::sums::Sum`]); [`estimate::sums::Moments`], the general kernel's sums and
+//!   the control variates follow (the fast path's sums are in `estimate/moments.rs`).
 //! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
 //!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
 //!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.

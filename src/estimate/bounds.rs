@@ -4,38 +4,36 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::channels::{Channel, NoiseLevels};
+use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
 use super::regression::{Regression, ar1_coefficients};
 use crate::numeric::linalg::{SolveError, inverse_spd};
 use crate::numeric::sum::ExactSum;
 
 impl Regression {
     /// First-order variance Ω_i of the equation error u_i = ỹ_i − x̃_iᵀθ at each sample:
-    /// `θ₂²k²(4V²σ_v² + 2σ_v⁴) + θ₁²σ_F² + g²(cos θ − θ₃ sin θ)²σ_θ² + σ_y²`.
-    ///
-    /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
-    /// Force: (F̃ − F)θ₁. Grade: d/dθ [g sin θ + θ₃ g cos θ] = g (cos θ − θ₃ sin θ).
+    /// `θ₂²k²(4V²σ_v² + 2σ_v⁴) + θ₁²σ_F² + g²(cos θ − θ₃ sin θ)²σ_θ² + σ_y²`, each channel's
+    /// term its [`Channel::omega_term`].
     pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
         self.row_variance(theta, noise, true)
     }
 
     /// Ω_i, with or without the speed noise's term.
     fn row_variance(&self, theta: &[f64; 3], noise: &NoiseLevels, with_speed: bool) -> Vec<f64> {
-        let sd_v = if with_speed {
-            noise[Channel::Velocity]
-        } else {
-            0.0
-        };
-        let (sv2, sv4) = (sd_v.powi(2), sd_v.powi(4));
-        let speed = (theta[1] * self.k).powi(2);
-        let force = (theta[0] * noise[Channel::Force]).powi(2);
-        let grade = (self.g * noise[Channel::Grade]).powi(2);
-        let output = noise[Channel::Output].powi(2);
+        let mut noise = *noise;
+        if !with_speed {
+            noise[Channel::Velocity] = 0.0;
+        }
         (0..self.len())
             .map(|i| {
-                let v2 = self.v[i] * self.v[i];
-                let slope = self.cos_grade[i] - theta[2] * self.sin_grade[i];
-                speed * (4.0 * v2 * sv2 + 2.0 * sv4) + force + grade * slope * slope + output
+                noise.omega(&OmegaAt {
+                    theta: *theta,
+                    k: self.k,
+                    v2: self.v[i] * self.v[i],
+                    grade: GradeLoading::Row {
+                        g: self.g,
+                        slope: self.cos_grade[i] - theta[2] * self.sin_grade[i],
+                    },
+                })
             })
             .collect()
     }

@@ -2,13 +2,13 @@
 //! [`Moments`] minus its exact expectation under the condition's noise.
 //!
 //! Every estimator's θ̂ is a smooth function of the moments (OLS and BCLS exactly; the
-//! row-based ones closely), so these thirteen mean-zero quantities carry most of a
+//! row-based ones closely), so these mean-zero quantities carry most of a
 //! realisation's Monte Carlo noise. A sum the noise does not touch is constant and is not a
 //! control.
 
-use super::channels::{Channel, NoiseLevels};
-use super::moments::Moments;
+use super::channels::{Channel, ColumnMoments, NoiseLevels, TrueRow};
 use super::regression::Regression;
+use super::sums::{Column, Moments, SUM_COUNT, Sum};
 use crate::numeric::sum::ExactSum;
 
 /// One control variate: a column of `realisations.parquet`.
@@ -22,42 +22,29 @@ pub struct Control {
     pub description: &'static str,
 }
 
-/// Number of control variates (one per sum of [`Moments`] except N).
-pub const CONTROL_COUNT: usize = 13;
+/// Number of control variates (one per [`Sum`]).
+pub const CONTROL_COUNT: usize = SUM_COUNT;
 
-/// The control variates in column order, the order of [`Moments::sums`].
-pub static CONTROLS: [Control; CONTROL_COUNT] = [
-    control("cv_f_f", "N^2", "Σ x̃₁² − E"),
-    control("cv_f_c", "N m/s^2", "Σ x̃₁ x̃₃ − E"),
-    control("cv_c_c", "m^2/s^4", "Σ x̃₃² − E"),
-    control("cv_f_y", "N m/s^2", "Σ x̃₁ ỹ − E"),
-    control("cv_c_y", "m^2/s^4", "Σ x̃₃ ỹ − E"),
-    control("cv_f_w", "N m^2/s^2", "Σ x̃₁ w − E"),
-    control("cv_c_w", "m^3/s^4", "Σ x̃₃ w − E"),
-    control("cv_w_w", "m^4/s^4", "Σ w² − E"),
-    control("cv_w_y", "m^3/s^4", "Σ w ỹ − E"),
-    control("cv_w", "m^2/s^2", "Σ w − E"),
-    control("cv_f", "N", "Σ x̃₁ − E"),
-    control("cv_c", "m/s^2", "Σ x̃₃ − E"),
-    control("cv_y", "m/s^2", "Σ ỹ − E"),
-];
+/// The control variates in column order, the order of [`Sum::ALL`] and [`Moments::sums`].
+pub static CONTROLS: [Control; CONTROL_COUNT] = controls();
 
-const fn control(name: &'static str, unit: &'static str, description: &'static str) -> Control {
-    Control {
-        name,
-        unit,
-        description,
+const fn controls() -> [Control; CONTROL_COUNT] {
+    let mut out = [Control {
+        name: "",
+        unit: "",
+        description: "",
+    }; CONTROL_COUNT];
+    let mut i = 0;
+    while i < CONTROL_COUNT {
+        let s = Sum::ALL[i];
+        out[i] = Control {
+            name: s.control_name(),
+            unit: s.unit(),
+            description: s.control_description(),
+        };
+        i += 1;
     }
-}
-
-impl Moments {
-    /// The thirteen sums in the order of [`CONTROLS`].
-    pub fn sums(&self) -> [f64; CONTROL_COUNT] {
-        [
-            self.s_11, self.s_13, self.s_33, self.s_1y, self.s_3y, self.s_1w, self.s_3w, self.s_ww,
-            self.s_wy, self.s_w, self.s_1, self.s_3, self.s_y,
-        ]
-    }
+    out
 }
 
 /// The expectations of a condition's moments over its noise, for the sums that are control
@@ -75,9 +62,6 @@ impl Expectations {
     /// of the row's speed noise with its neighbours'.
     pub fn new(reg: &Regression, noise: &NoiseLevels, ar1: Option<&[[f64; 2]]>) -> Self {
         let sd_v = noise[Channel::Velocity];
-        let sd_f = noise[Channel::Force];
-        let (s2, s2f) = (sd_v * sd_v, sd_f * sd_f);
-        let g = reg.g;
         // ỹ's derivative noise σ_v (e_{s+1} − e_{s−1}) / Δt against w = (V + σ_v e_s)².
         let neighbours = match (&reg.differentiation, ar1) {
             (Some(d), Some(ar1)) if noise.speed_noise_differentiated() => Some((d, ar1)),
@@ -85,38 +69,24 @@ impl Expectations {
         };
         let mut sums: [ExactSum; CONTROL_COUNT] = Default::default();
         for i in 0..reg.len() {
-            let (f, v, a) = (reg.f[i], reg.v[i], reg.accel[i]);
-            let v2 = v * v;
-            let [e_cos, e_cos2, e_sin, e_sin_cos] =
-                grade_moments(reg.sin_grade[i], reg.cos_grade[i], noise[Channel::Grade]);
-            // E[x̃₁], E[x̃₁²], E[w], E[w²], E[x̃₃], E[x̃₃²], E[ỹ], E[x̃₃ỹ]
-            let e1 = f;
-            let e11 = f * f + s2f;
-            let ew = v2 + s2;
-            let eww = v2 * v2 + 6.0 * s2 * v2 + 3.0 * s2 * s2;
-            let e3 = -g * e_cos;
-            let e33 = g * g * e_cos2;
-            let ey = a + g * e_sin;
-            let e3y = -g * a * e_cos - g * g * e_sin_cos;
-            let ewy = ew * ey
-                + neighbours.map_or(0.0, |(d, ar1)| {
-                    neighbour_covariance(v, sd_v, ar1, d.sample[i], d.inv_dt[i])
-                });
-            let terms = [
-                e11,
-                e1 * e3,
-                e33,
-                e1 * ey,
-                e3y,
-                e1 * ew,
-                e3 * ew,
-                eww,
-                ewy,
-                ew,
-                e1,
-                e3,
-                ey,
-            ];
+            let r = TrueRow {
+                f: reg.f[i],
+                v: reg.v[i],
+                accel: reg.accel[i],
+                sin_grade: reg.sin_grade[i],
+                cos_grade: reg.cos_grade[i],
+                g: reg.g,
+            };
+            let mut row = ColumnMoments::noise_free(&r);
+            for (c, &sd) in noise.iter() {
+                if sd > 0.0 {
+                    c.expect(sd, &r, &mut row);
+                }
+            }
+            if let Some((d, ar1)) = neighbours {
+                row.wy_neighbours = neighbour_covariance(r.v, sd_v, ar1, d.sample[i], d.inv_dt[i]);
+            }
+            let terms = Sum::ALL.map(|s| row.of(s));
             for (sum, t) in sums.iter_mut().zip(terms) {
                 sum.add(t);
             }
@@ -141,29 +111,30 @@ impl Expectations {
     }
 }
 
-/// Which of the sums vary under `noise` (and so are control variates): x̃₁ varies with force
-/// noise, w with speed noise, x̃₃ with grade noise, ỹ with output or grade noise or speed
-/// noise through a differentiated acceleration; a product when either factor does.
+/// Which of the sums vary under `noise` (and so are control variates): those with a factor
+/// that a channel which is on moves ([`NoiseLevels::moves`]).
 pub fn varies(noise: &NoiseLevels) -> [bool; CONTROL_COUNT] {
-    let force = noise.is_on(Channel::Force);
-    let speed = noise.is_on(Channel::Velocity);
-    let grade = noise.is_on(Channel::Grade);
-    let output = noise.is_on(Channel::Output) || grade || noise.speed_noise_differentiated();
-    [
-        force,
-        force || grade,
-        grade,
-        force || output,
-        grade || output,
-        force || speed,
-        grade || speed,
-        speed,
-        speed || output,
-        speed,
-        force,
-        grade,
-        output,
-    ]
+    Sum::ALL.map(|s| s.factors().iter().any(|&c| noise.moves(c)))
+}
+
+impl ColumnMoments {
+    /// E of `sum`'s term at this row: a product of expectations where its factors carry
+    /// independent noise, a joint moment where they share a channel.
+    fn of(&self, sum: Sum) -> f64 {
+        let mean = |c: Column| self.mean[c.index()];
+        match *sum.factors() {
+            [a] => mean(a),
+            [Column::F, Column::F] => self.ff,
+            [Column::W, Column::W] => self.ww,
+            [Column::C, Column::C] => self.cc,
+            [Column::C, Column::Y] => self.cy,
+            [Column::W, Column::Y] => mean(Column::W) * mean(Column::Y) + self.wy_neighbours,
+            // Independent noise (pinned by
+            // `a_product_of_columns_one_channel_moves_reads_its_joint_moment`).
+            [a, b] => mean(a) * mean(b),
+            _ => unreachable!("a sum has one or two factors"),
+        }
+    }
 }
 
 /// E[w σ(e_{s+1} − e_{s−1})/Δt] for w = (V + σe_s)², e the stationary AR(1) noise with
@@ -173,24 +144,10 @@ fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64
     2.0 * v * sd * sd * (ar1[s + 1][0] - ar1[s][0]) * inv_dt
 }
 
-/// E[cos(θ + δ)], E[cos²(θ + δ)], E[sin(θ + δ)], E[sin(θ + δ) cos(θ + δ)] for δ ~ N(0, σ²),
-/// from sin θ and cos θ: with ρ = E[cos δ] = e^(−σ²/2), E[sin δ] = E[sin δ cos δ] = 0 and
-/// E[cos 2δ] = ρ⁴.
-fn grade_moments(sin: f64, cos: f64, sd: f64) -> [f64; 4] {
-    let rho = (-0.5 * sd * sd).exp();
-    let rho4 = (-2.0 * sd * sd).exp();
-    [
-        rho * cos,
-        0.5 * (cos * cos * (1.0 + rho4) + sin * sin * (1.0 - rho4)),
-        rho * sin,
-        rho4 * sin * cos,
-    ]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::channels::{Acceleration, BlockNoise};
+    use crate::estimate::channels::{Acceleration, BlockNoise, grade_moments};
     use crate::estimate::moments::MomentAccumulator;
     use crate::estimate::regression::test_regression as regression;
     use crate::noise::{BLOCK, NormalStream};
@@ -337,6 +294,36 @@ mod tests {
             }
         }
         assert_eq!(compared, 5 + 4 + 8 + 5 + 13);
+    }
+
+    /// A product of two columns that one channel moves is not the product of their means:
+    /// every such sum (a square, or a pair a channel's [`Channel::columns`] both list, or
+    /// w ỹ, which speed noise shares through a differentiated acceleration) reads a joint
+    /// moment. With every joint moment NaN, exactly those sums come out NaN, so a new
+    /// channel that moves two columns without a joint moment fails here.
+    #[test]
+    fn a_product_of_columns_one_channel_moves_reads_its_joint_moment() {
+        let e = ColumnMoments {
+            mean: [2.0, 3.0, 5.0, 7.0],
+            ff: f64::NAN,
+            ww: f64::NAN,
+            cc: f64::NAN,
+            cy: f64::NAN,
+            wy_neighbours: f64::NAN,
+        };
+        for s in Sum::ALL {
+            let shared = match *s.factors() {
+                [a, b] => {
+                    a == b
+                        || (a, b) == (Column::W, Column::Y)
+                        || Channel::ALL
+                            .iter()
+                            .any(|c| c.columns().contains(&a) && c.columns().contains(&b))
+                }
+                _ => false,
+            };
+            assert_eq!(e.of(s).is_nan(), shared, "{s:?}");
+        }
     }
 
     #[test]

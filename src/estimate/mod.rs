@@ -2,6 +2,7 @@
 //!
 //! - [`regression`]: the noise-free columns of one drive cycle and their constant sums;
 //! - [`channels`]: the noise channels of the measurements, one enum variant each;
+//! - [`sums`]: the sums of the normal equations, one typed list, and [`sums::Moments`];
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
 //!   (the kernel), with the block sums of `kernels`;
 //! - [`controls`]: the control variates, each moment minus its expectation;
@@ -24,4 +25,5 @@ pub mod moments;
 pub mod regression;
 pub mod rls;
 mod row_sums;
+pub mod sums;
 pub mod wbcls;

@@ -8,95 +8,7 @@
 use super::channels::{BlockNoise, Channel, NoiseLevels, Sample};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
 use super::regression::Regression;
-
-/// The sums of one realisation from which every estimator's normal equations are built.
-///
-/// With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output (column 2 is −k w).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Moments {
-    /// Σ x̃₁².
-    pub s_11: f64,
-    /// Σ x̃₁ x̃₃.
-    pub s_13: f64,
-    /// Σ x̃₃².
-    pub s_33: f64,
-    /// Σ x̃₁ ỹ.
-    pub s_1y: f64,
-    /// Σ x̃₃ ỹ.
-    pub s_3y: f64,
-    /// Σ x̃₁ w.
-    pub s_1w: f64,
-    /// Σ x̃₃ w.
-    pub s_3w: f64,
-    /// Σ w².
-    pub s_ww: f64,
-    /// Σ w ỹ.
-    pub s_wy: f64,
-    /// Σ w.
-    pub s_w: f64,
-    /// Σ x̃₁.
-    pub s_1: f64,
-    /// Σ x̃₃.
-    pub s_3: f64,
-    /// Σ ỹ.
-    pub s_y: f64,
-    /// N.
-    pub n: f64,
-    /// The sums of the grade term s̃ = g sin θ̃ of ỹ (`None` where they are not summed: the
-    /// fast path, which has no grade noise; only the grade noise's compensation reads them).
-    pub grade: Option<GradeSums>,
-}
-
-/// The sums of a realisation that involve the measured grade term s̃ = g sin θ̃ of ỹ on its
-/// own: BCLS's correction of grade noise needs them (docs/model.md#bcls), because ỹ's grade
-/// term and the rest of ỹ are scaled differently by the noise.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct GradeSums {
-    /// Σ s̃.
-    pub s_s: f64,
-    /// Σ x̃₁ s̃.
-    pub s_1s: f64,
-    /// Σ x̃₃ s̃.
-    pub s_3s: f64,
-    /// Σ w s̃.
-    pub s_ws: f64,
-}
-
-impl GradeSums {
-    /// Add `q` times every sum of `b`.
-    pub(crate) fn add_scaled(&mut self, b: &GradeSums, q: f64) {
-        self.s_s += q * b.s_s;
-        self.s_1s += q * b.s_1s;
-        self.s_3s += q * b.s_3s;
-        self.s_ws += q * b.s_ws;
-    }
-}
-
-impl Moments {
-    /// Add the sums of `b` (not its N), each with one addition.
-    fn add(&mut self, b: &Moments) {
-        self.s_11 += b.s_11;
-        self.s_13 += b.s_13;
-        self.s_33 += b.s_33;
-        self.s_1y += b.s_1y;
-        self.s_3y += b.s_3y;
-        self.s_1w += b.s_1w;
-        self.s_3w += b.s_3w;
-        self.s_ww += b.s_ww;
-        self.s_wy += b.s_wy;
-        self.s_w += b.s_w;
-        self.s_1 += b.s_1;
-        self.s_3 += b.s_3;
-        self.s_y += b.s_y;
-        if let Some(g) = &b.grade {
-            let a = self.grade.get_or_insert_with(GradeSums::default);
-            a.s_s += g.s_s;
-            a.s_1s += g.s_1s;
-            a.s_3s += g.s_3s;
-            a.s_ws += g.s_ws;
-        }
-    }
-}
+pub use super::sums::{GradeSums, Moments};
 
 /// Row `i` of the measured regression, (x̃₁, w = Ṽ², x̃₃, ỹ, s̃ = g sin θ̃), with each
 /// channel's standard-normal draw `draw(channel)` (0 when it is off), and the noise of a
@@ -432,24 +344,10 @@ impl<'r> MomentAccumulator<'r> {
                 |c| draws[c.index()][j],
                 derivative.map(|d| d[j]),
             );
-            b.s_11 += x1 * x1;
-            b.s_13 += x1 * x3;
-            b.s_33 += x3 * x3;
-            b.s_1y += x1 * y;
-            b.s_3y += x3 * y;
-            b.s_1w += x1 * w;
-            b.s_3w += x3 * w;
-            b.s_ww += w * w;
-            b.s_wy += w * y;
-            b.s_w += w;
-            b.s_1 += x1;
-            b.s_3 += x3;
-            b.s_y += y;
+            let row = [x1, w, x3, y];
+            b.add_row(&row);
             if GRADE {
-                grade.s_s += s;
-                grade.s_1s += x1 * s;
-                grade.s_3s += x3 * s;
-                grade.s_ws += w * s;
+                grade.add_row(&row, s);
             }
         }
         if GRADE {
@@ -491,6 +389,7 @@ impl<'r> MomentAccumulator<'r> {
 mod tests {
     use super::*;
     use crate::estimate::regression::test_regression as regression;
+    use crate::estimate::sums::Sum;
     use crate::noise::{BLOCK, NormalStream};
 
     fn moments(reg: &Regression, noise: NoiseLevels, general: bool) -> Moments {
@@ -530,25 +429,10 @@ mod tests {
         let b = moments(&reg, noise, true);
         // Same products summed in a different grouping: agreement to rounding (1e-12
         // relative is ~10^4 ulps of headroom for 6001 terms).
-        let pairs = [
-            (a.s_11, b.s_11),
-            (a.s_13, b.s_13),
-            (a.s_33, b.s_33),
-            (a.s_1y, b.s_1y),
-            (a.s_3y, b.s_3y),
-            (a.s_1w, b.s_1w),
-            (a.s_3w, b.s_3w),
-            (a.s_ww, b.s_ww),
-            (a.s_wy, b.s_wy),
-            (a.s_w, b.s_w),
-            (a.s_1, b.s_1),
-            (a.s_3, b.s_3),
-            (a.s_y, b.s_y),
-        ];
-        for (i, (x, y)) in pairs.iter().enumerate() {
+        for (s, (x, y)) in Sum::ALL.into_iter().zip(a.sums().into_iter().zip(b.sums())) {
             assert!(
                 (x - y).abs() <= 1e-12 * x.abs().max(y.abs()),
-                "moment {i}: {x} vs {y}"
+                "{s:?}: {x} vs {y}"
             );
         }
         assert_eq!(a.n, b.n);

@@ -11,7 +11,7 @@
 //! them.
 
 use super::bounds::Bound;
-use super::channels::{Channel, NoiseLevels};
+use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
 use super::moments::Moments;
 use super::row_sums::segment_moments;
@@ -157,40 +157,16 @@ fn neighbour_means(moments: &[Moments], s2: f64, skip: usize) -> Vec<(f64, f64)>
         .collect()
 }
 
-impl Moments {
-    /// Add `q` times every sum of `m`, N included.
-    fn add_scaled(&mut self, m: &Moments, q: f64) {
-        self.s_11 += q * m.s_11;
-        self.s_13 += q * m.s_13;
-        self.s_33 += q * m.s_33;
-        self.s_1y += q * m.s_1y;
-        self.s_3y += q * m.s_3y;
-        self.s_1w += q * m.s_1w;
-        self.s_3w += q * m.s_3w;
-        self.s_ww += q * m.s_ww;
-        self.s_wy += q * m.s_wy;
-        self.s_w += q * m.s_w;
-        self.s_1 += q * m.s_1;
-        self.s_3 += q * m.s_3;
-        self.s_y += q * m.s_y;
-        self.n += q * m.n;
-        if let Some(g) = &m.grade {
-            self.grade
-                .get_or_insert_with(Default::default)
-                .add_scaled(g, q);
-        }
-    }
-}
-
 /// Ω̂: the first-order equation-error variance of docs/model.md#bounds at the estimate
 /// `theta`, with a local V̂² for V² and a local mean of x̃₃² = g² cos² θ̃ for the grade term
 /// (its θ₃ sin θ part, below 0.3 % of it, is left out).
 fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels) -> f64 {
-    let s2 = noise[Channel::Velocity].powi(2);
-    (theta[1] * k).powi(2) * (4.0 * v2 * s2 + 2.0 * s2 * s2)
-        + (theta[0] * noise[Channel::Force]).powi(2)
-        + noise[Channel::Grade].powi(2) * c2
-        + noise[Channel::Output].powi(2)
+    noise.omega(&OmegaAt {
+        theta: *theta,
+        k,
+        v2,
+        grade: GradeLoading::MeanSquare(c2),
+    })
 }
 
 #[cfg(test)]

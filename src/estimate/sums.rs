@@ -1,0 +1,257 @@
+//! The sums of the normal equations, one typed list: each [`Sum`] is a product of measured
+//! columns ([`Column`]), and [`Moments`] (a field per sum), the kernel's per-row
+//! accumulation, the control variates (`controls.rs`) and their count are generated from
+//! the one table of the `sums!` macro below (docs/model.md#control-variates).
+//!
+//! With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output, column 2 of the regression
+//! is −k w, so XᵀX and Xᵀy need only sums of products of (x̃₁, w, x̃₃, ỹ).
+
+use std::ops::Index;
+
+/// A measured column of the regression whose products the sums are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// x̃₁ = F̃ \[N\].
+    F,
+    /// w = Ṽ² \[m²/s²\] (column 2 of the regression is −k w).
+    W,
+    /// x̃₃ = −g cos θ̃ \[m/s²\].
+    C,
+    /// ỹ, the noisy output \[m/s²\].
+    Y,
+}
+
+impl Column {
+    /// Every column, in the order of a measured row `[x̃₁, w, x̃₃, ỹ]`.
+    pub const ALL: [Column; 4] = [Column::F, Column::W, Column::C, Column::Y];
+
+    /// Position in a measured row (and in [`Column::ALL`]).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// The table of sums: `Variant field [factor (* factor)] control-column unit "Σ …"`, in the
+/// order of [`Sum::ALL`] and of the control-variate columns. Adding a line here adds the
+/// field of [`Moments`], its sum in the general kernel, its control variate (whose
+/// expectation and whether it varies follow from its factors, `controls.rs`) and its
+/// column. Written by hand: its BCLS correction (`Moments::compensate`), the fast path's
+/// sums (`MomentAccumulator::finish`) and the segment sums of `row_sums.rs`.
+macro_rules! sums {
+    ($( $variant:ident $field:ident [$first:ident $(* $second:ident)?]
+        $control:literal $unit:literal $what:literal; )*) => {
+        /// One sum of a realisation's normal equations (a field of [`Moments`]).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Sum {
+            $( #[doc = concat!($what, ".")] $variant, )*
+        }
+
+        /// Number of sums (N and the grade term's sums apart).
+        pub const SUM_COUNT: usize = [$(Sum::$variant),*].len();
+
+        impl Sum {
+            /// Every sum, in the order of [`Moments::sums`] and of the control variates.
+            pub const ALL: [Sum; SUM_COUNT] = [$(Sum::$variant),*];
+
+            /// Position in [`Sum::ALL`].
+            pub const fn index(self) -> usize {
+                self as usize
+            }
+
+            /// The columns whose product it sums (one column: the column's own sum).
+            pub const fn factors(self) -> &'static [Column] {
+                match self {
+                    $( Sum::$variant => &[Column::$first $(, Column::$second)?], )*
+                }
+            }
+
+            /// Name of its control variate's column.
+            pub const fn control_name(self) -> &'static str {
+                match self {
+                    $( Sum::$variant => $control, )*
+                }
+            }
+
+            /// Unit of the sum.
+            pub const fn unit(self) -> &'static str {
+                match self {
+                    $( Sum::$variant => $unit, )*
+                }
+            }
+
+            /// Its control variate, in symbols: the sum minus its expectation.
+            pub const fn control_description(self) -> &'static str {
+                match self {
+                    $( Sum::$variant => concat!($what, " − E"), )*
+                }
+            }
+
+            /// The sum, in symbols.
+            pub const fn symbol(self) -> &'static str {
+                match self {
+                    $( Sum::$variant => $what, )*
+                }
+            }
+        }
+
+        /// The sums of one realisation from which every estimator's normal equations are
+        /// built: a field per [`Sum`], N, and the grade term's sums where they are summed.
+        ///
+        /// With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output (column 2 is −k w).
+        #[derive(Debug, Clone, Copy, Default, PartialEq)]
+        pub struct Moments {
+            $( #[doc = concat!($what, ".")] pub $field: f64, )*
+            /// N.
+            pub n: f64,
+            /// The sums of the grade term s̃ = g sin θ̃ of ỹ (`None` where they are not
+            /// summed: the fast path, which has no grade noise; only the grade noise's
+            /// compensation reads them).
+            pub grade: Option<GradeSums>,
+        }
+
+        impl Moments {
+            /// The sums in the order of [`Sum::ALL`].
+            pub fn sums(&self) -> [f64; SUM_COUNT] {
+                [$(self.$field),*]
+            }
+
+            /// Add the products of one measured row `[x̃₁, w, x̃₃, ỹ]` (indexed by
+            /// [`Column`]) to the sums, not to N: the general kernel's inner loop.
+            #[inline(always)]
+            pub(crate) fn add_row(&mut self, row: &[f64; 4]) {
+                $( self.$field += row[Column::$first.index()]
+                    $(* row[Column::$second.index()])?; )*
+            }
+
+            /// Add every sum of `b` (not N, not the grade term's), each with one addition.
+            #[inline(always)]
+            fn add_sums(&mut self, b: &Moments) {
+                $( self.$field += b.$field; )*
+            }
+
+            /// Add `q` times every sum of `b` (not N, not the grade term's).
+            fn add_scaled_sums(&mut self, b: &Moments, q: f64) {
+                $( self.$field += q * b.$field; )*
+            }
+        }
+
+        impl Index<Sum> for Moments {
+            type Output = f64;
+            fn index(&self, s: Sum) -> &f64 {
+                match s {
+                    $( Sum::$variant => &self.$field, )*
+                }
+            }
+        }
+    };
+}
+
+sums! {
+    FF s_11 [F * F] "cv_f_f" "N^2" "Σ x̃₁²";
+    FC s_13 [F * C] "cv_f_c" "N m/s^2" "Σ x̃₁ x̃₃";
+    CC s_33 [C * C] "cv_c_c" "m^2/s^4" "Σ x̃₃²";
+    FY s_1y [F * Y] "cv_f_y" "N m/s^2" "Σ x̃₁ ỹ";
+    CY s_3y [C * Y] "cv_c_y" "m^2/s^4" "Σ x̃₃ ỹ";
+    FW s_1w [F * W] "cv_f_w" "N m^2/s^2" "Σ x̃₁ w";
+    CW s_3w [C * W] "cv_c_w" "m^3/s^4" "Σ x̃₃ w";
+    WW s_ww [W * W] "cv_w_w" "m^4/s^4" "Σ w²";
+    WY s_wy [W * Y] "cv_w_y" "m^3/s^4" "Σ w ỹ";
+    W s_w [W] "cv_w" "m^2/s^2" "Σ w";
+    F s_1 [F] "cv_f" "N" "Σ x̃₁";
+    C s_3 [C] "cv_c" "m/s^2" "Σ x̃₃";
+    Y s_y [Y] "cv_y" "m/s^2" "Σ ỹ";
+}
+
+/// The sums of a realisation that involve the measured grade term s̃ = g sin θ̃ of ỹ on its
+/// own: BCLS's correction of grade noise needs them (docs/model.md#bcls), because ỹ's grade
+/// term and the rest of ỹ are scaled differently by the noise.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GradeSums {
+    /// Σ s̃.
+    pub s_s: f64,
+    /// Σ x̃₁ s̃.
+    pub s_1s: f64,
+    /// Σ x̃₃ s̃.
+    pub s_3s: f64,
+    /// Σ w s̃.
+    pub s_ws: f64,
+}
+
+impl GradeSums {
+    /// Add the grade term's products of one measured row `[x̃₁, w, x̃₃, ỹ]` with s̃ = `s`.
+    #[inline(always)]
+    pub(crate) fn add_row(&mut self, row: &[f64; 4], s: f64) {
+        self.s_s += s;
+        self.s_1s += row[Column::F.index()] * s;
+        self.s_3s += row[Column::C.index()] * s;
+        self.s_ws += row[Column::W.index()] * s;
+    }
+
+    /// Add every sum of `b`.
+    fn add(&mut self, b: &GradeSums) {
+        self.s_s += b.s_s;
+        self.s_1s += b.s_1s;
+        self.s_3s += b.s_3s;
+        self.s_ws += b.s_ws;
+    }
+
+    /// Add `q` times every sum of `b`.
+    fn add_scaled(&mut self, b: &GradeSums, q: f64) {
+        self.s_s += q * b.s_s;
+        self.s_1s += q * b.s_1s;
+        self.s_3s += q * b.s_3s;
+        self.s_ws += q * b.s_ws;
+    }
+}
+
+impl Moments {
+    /// Add the sums of `b` (not its N), each with one addition: a block's sums to a
+    /// realisation's.
+    #[inline(always)]
+    pub(crate) fn add(&mut self, b: &Moments) {
+        self.add_sums(b);
+        if let Some(g) = &b.grade {
+            self.grade.get_or_insert_with(GradeSums::default).add(g);
+        }
+    }
+
+    /// Add `q` times every sum of `b`, N included (weighted sums of segments).
+    pub(crate) fn add_scaled(&mut self, b: &Moments, q: f64) {
+        self.add_scaled_sums(b, q);
+        self.n += q * b.n;
+        if let Some(g) = &b.grade {
+            self.grade
+                .get_or_insert_with(GradeSums::default)
+                .add_scaled(g, q);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_sum_reads_its_own_field_and_lists_its_factors_once() {
+        let mut m = Moments::default();
+        // Row [2, 3, 5, 7]: a product of two factors is their product, a single factor itself.
+        m.add_row(&[2.0, 3.0, 5.0, 7.0]);
+        for s in Sum::ALL {
+            let expected: f64 = s
+                .factors()
+                .iter()
+                .map(|c| [2.0, 3.0, 5.0, 7.0][c.index()])
+                .product();
+            assert_eq!(m[s], expected, "{s:?}");
+            assert_eq!(m.sums()[s.index()], m[s], "{s:?}");
+            assert!((1..=2).contains(&s.factors().len()));
+        }
+        for (i, s) in Sum::ALL.iter().enumerate() {
+            assert_eq!(s.index(), i);
+            for t in &Sum::ALL[i + 1..] {
+                assert_ne!(s.factors(), t.factors());
+                assert_ne!(s.control_name(), t.control_name());
+            }
+        }
+    }
+}
