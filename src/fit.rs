@@ -24,7 +24,7 @@ use crate::settings::{KeyError, Params};
 use crate::study::{KeySpans, Study, StudyError};
 use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
-use crate::vehicle::{DriveCycle, VehicleParams};
+use crate::vehicle::{DriveCycle, Replay, VehicleParams};
 use crate::vehicle::{SpeedUnit, central_differences, positions};
 
 /// The output file of `fit`.
@@ -586,12 +586,11 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
 
 /// The world of the parametric bootstrap of one estimator's fit: the vehicle with
 /// θ = `theta` replayed on the log's rows (docs/model.md#fit) with the assumed noise, as a
-/// one-condition model of `estimator` (its trace written to and read from `scratch`).
+/// one-condition model of `estimator`.
 fn world(
     spec: &FitSpec,
     estimator: EstimatorRef,
     theta: &Vector3<f64>,
-    scratch: &Path,
 ) -> Result<VehicleModel, FitError> {
     let c = &spec.cycle;
     let n = c.t_s.len();
@@ -609,7 +608,7 @@ fn world(
     };
     let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
     let central = central_differences(&c.t_s, &speed);
-    let mut csv = String::from("t,v,f_prop,grade,accel,used\n");
+    let (mut f_prop_n, mut accel_m_s2) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for i in 0..n {
         let (v, gr) = (speed[i], c.grade_rad[i]);
         let resistance = theta[1] * k * v * v + theta[2] * g * gr.cos() + g * gr.sin();
@@ -620,49 +619,39 @@ fn world(
             }
             Acceleration::Differentiated => ((central[i] + resistance) / theta[0], central[i]),
         };
-        let _ = writeln!(
-            csv,
-            "{},{v},{f},{gr},{a},{}",
-            c.t_s[i],
-            u8::from(spec.used[i])
-        );
+        f_prop_n.push(f);
+        accel_m_s2.push(a);
     }
-    let trace = scratch.join(format!("trace-{}.csv", estimator.name()));
-    std::fs::write(&trace, csv).map_err(|e| OutputError::io(&trace, e))?;
-    let noise = &spec.noise;
+    let cycle = DriveCycle {
+        x_m: positions(&c.t_s, &speed),
+        t_s: c.t_s.clone(),
+        v_m_s: speed,
+        grade_rad: c.grade_rad.clone(),
+        f_prop_n,
+        accel_m_s2,
+    };
+    let replay = Replay {
+        source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
+        cycle,
+        used: Some(spec.used.clone()),
+    };
+    // θ as a vehicle: M = 1/θ₁, Cd = θ₂ M, Cr = θ₃ (VehicleParams::theta reads them back).
     let mass = 1.0 / theta[0];
-    let text = format!(
-        "name = \"fit bootstrap\"\nseed = {}\nrealisations = {}\n\n[vehicle]\nmass = {mass:e}\n\
-         drag_coefficient = {:e}\nrolling_resistance = {:e}\nfrontal_area = {:e}\n\
-         air_density = {:e}\ngravity = {:e}\n\n[drive]\nmode = \"replay\"\n\
-         file = \"{}\"\nused_column = \"used\"\n\n[noise]\n\
-         velocity_sd = [{:e}]\noutput_sd = [{:e}]\ngrade_sd = [{:e}]\nforce_sd = [{:e}]\n\
-         velocity_correlation_time = [{:e}]\n\n[estimation]\nestimators = [\"{}\"]\n\
-         {}acceleration = \"{}\"\n",
-        spec.seed,
-        spec.realisations,
-        theta[1] * mass,
-        theta[2],
-        spec.vehicle.frontal_area_m2,
-        spec.vehicle.air_density_kg_m3,
-        spec.vehicle.gravity_m_s2,
-        trace.file_name().unwrap_or_default().to_string_lossy(),
-        noise[Channel::Velocity],
-        noise[Channel::Output],
-        noise[Channel::Grade],
-        noise[Channel::Force],
-        noise.velocity_correlation_s,
-        estimator.name(),
-        if estimator.name() == "rls" {
-            format!("forgetting = {:e}\n", spec.settings.forgetting)
-        } else {
-            String::new()
-        },
-        spec.acceleration.name(),
-    );
+    let vehicle = VehicleParams {
+        mass_kg: mass,
+        drag_coefficient: theta[1] * mass,
+        rolling_resistance: theta[2],
+        ..spec.vehicle.clone()
+    };
     let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
-    let study = Study::from_toml_in(&text, &origin, scratch)?;
-    Ok(VehicleModel::new(&study)?)
+    Ok(VehicleModel::for_cycle(
+        replay,
+        vehicle,
+        spec.noise,
+        vec![estimator],
+        spec.settings,
+        &origin,
+    )?)
 }
 
 /// The bootstrap in `model` (from [`world`]): the assumed noise re-drawn and the estimator
@@ -731,18 +720,10 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         }
         thetas.push((*est, theta));
     }
-    // The bootstrap worlds, their traces in a scratch directory of their own (a study's
-    // data file is read when it is validated).
-    let scratch = tempfile::Builder::new()
-        .prefix("chassis-mc-fit-")
-        .tempdir()
-        .map_err(|e| OutputError::io(&std::env::temp_dir(), e))?;
-    let worlds: Result<Vec<VehicleModel>, FitError> = thetas
+    let worlds = thetas
         .iter()
-        .map(|(est, theta)| world(spec, *est, theta, scratch.path()))
-        .collect();
-    drop(scratch);
-    let worlds = worlds?;
+        .map(|(est, theta)| world(spec, *est, theta))
+        .collect::<Result<Vec<VehicleModel>, FitError>>()?;
 
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
