@@ -2,9 +2,9 @@
 //! grade and acceleration, all in SI units — taken as the truth without simulating or
 //! differentiating anything (docs/model.md#replay), optionally with the samples the
 //! regression may use. `fit`'s bootstrap replays the fitted vehicle on a measured log with
-//! it; any recorded cycle whose signals are consistent can be replayed.
+//! it (a cycle built in memory); any recorded cycle whose signals are consistent can be
+//! replayed.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::{
@@ -17,8 +17,9 @@ use crate::tabular::read_columns;
 /// \[m/s²\].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Replay {
-    /// The file.
-    pub file: PathBuf,
+    /// What the cycle is, for tables and figures: the file it was read from, or what made
+    /// it.
+    pub source: String,
     /// The cycle (its position integrated from the speed by the trapezoid rule).
     pub cycle: DriveCycle,
     /// The samples the regression may use (`used_column`; `None`: all of them).
@@ -77,7 +78,11 @@ impl Replay {
             }
             None => None,
         };
-        Ok(Arc::new(Replay { file, cycle, used }))
+        Ok(Arc::new(Replay {
+            source: file.display().to_string(),
+            cycle,
+            used,
+        }))
     }
 }
 
@@ -91,7 +96,7 @@ impl CycleSource for Replay {
     }
 
     fn describe(&self) -> String {
-        format!("replay of {}", self.file.display())
+        format!("replay of {}", self.source)
     }
 
     fn needs_terrain(&self) -> bool {

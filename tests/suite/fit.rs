@@ -364,3 +364,151 @@ fn a_fit_file_takes_a_study_s_list_of_one_noise_level() {
     let err = FitSpec::parse(&two, "c.toml", tmp.path()).unwrap_err();
     assert_eq!(err.key.as_deref(), Some("noise.velocity_sd"), "{err}");
 }
+
+/// XXH64 of `fit`'s rows: each row's estimator and parameter names and the bits of every
+/// number (a missing reference marked), in row order.
+fn rows_hash(rows: &[chassis_mc::fit::FitRow]) -> u64 {
+    use std::hash::Hasher;
+    let mut h = twox_hash::XxHash64::with_seed(0);
+    for r in rows {
+        h.write(r.estimator.as_bytes());
+        h.write(r.parameter.as_bytes());
+        for v in [
+            r.estimate,
+            r.sandwich_se,
+            r.boot_mean,
+            r.boot_bias,
+            r.bias_corrected,
+            r.ci_low,
+            r.ci_high,
+        ] {
+            h.write_u64(v.to_bits());
+        }
+        match r.reference {
+            Some(v) => h.write_u64(v.to_bits()),
+            None => h.write_u8(0),
+        }
+    }
+    h.finish()
+}
+
+#[test]
+fn refactors_keep_the_fit_of_the_shipped_example_bit_for_bit() {
+    // The shipped example at R = 40 (its accelerometer log), and the same log with the
+    // speed differentiated, every noise channel on, correlated speed noise and all four
+    // estimators (rls with forgetting): the bootstrap's every branch. Pinned on the engine
+    // whose bootstrap still wrote its world to a scratch CSV and study file and parsed them
+    // back (commit 286971f plus this test; the values printed below); a change meant to
+    // keep results must keep them.
+    let example = std::fs::read_to_string(root().join("studies/fit_example.toml"))
+        .unwrap()
+        .replace("realisations = 400", "realisations = 40");
+    let differentiated = example
+        .replace(
+            "acceleration_column = \"accel_m_s2\"",
+            "# no acceleration column",
+        )
+        .replace(
+            "output_sd = 0.0",
+            "output_sd = 0.02\ngrade_sd = 0.001\nforce_sd = 20.0\nvelocity_correlation_time = 0.3",
+        )
+        .replace(
+            "estimators = [\"ols\", \"bcls\"]",
+            "estimators = [\"ols\", \"bcls\", \"wbcls\", \"rls\"]\nforgetting = 0.9995",
+        );
+    let tmp = tempfile::tempdir().unwrap();
+    let hashes = [example, differentiated].map(|text| {
+        let spec = FitSpec::parse(&text, "pinned", &root().join("studies")).unwrap();
+        let out = tmp.path().join(format!("out{:x}", text.len()));
+        let rows = fit(&spec, &out).unwrap().rows;
+        assert_eq!(rows.len(), 5 * spec.estimators.len());
+        assert!(
+            rows.iter()
+                .all(|r| r.ci_low.is_finite() && r.ci_high.is_finite())
+        );
+        rows_hash(&rows)
+    });
+    println!("fit hashes: {hashes:016x?}");
+    assert_eq!(hashes, [0x07316bc6fb2687a7, 0x0c8d7b040adaf49a]);
+}
+
+/// Every path under `dir` (relative, sorted) with its length, skipping `skip`.
+fn tree(dir: &std::path::Path, skip: &std::path::Path) -> Vec<(std::path::PathBuf, u64)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path == skip {
+                continue;
+            }
+            let meta = std::fs::symlink_metadata(&path).unwrap();
+            if meta.is_dir() {
+                stack.push(path.clone());
+            }
+            out.push((path.strip_prefix(dir).unwrap().to_path_buf(), meta.len()));
+        }
+    }
+    out.sort();
+    out
+}
+
+/// `fit` once wrote its bootstrap worlds as a CSV and a study file into a scratch
+/// directory under TMPDIR, so it failed where the temporary directory was read-only.
+#[test]
+fn fit_writes_nothing_outside_its_out_directory() {
+    use std::os::unix::fs::PermissionsExt;
+    // TMPDIR is first a read-only directory (which binds unless the tests run as root),
+    // then a regular file (no directory can be made under it, root or not); the working
+    // directory is read-only. Each time `fit` must succeed, leave everything outside --out
+    // as it was, and write exactly its three files (and the output set's lock and
+    // manifest) into --out.
+    let tmp = tempfile::tempdir().unwrap();
+    let log = root().join("studies/data/fit_log.csv");
+    std::fs::write(
+        tmp.path().join("fit.toml"),
+        fit_file(&log.display().to_string(), 20),
+    )
+    .unwrap();
+    let (ro_tmp, cwd) = (tmp.path().join("ro_tmp"), tmp.path().join("cwd"));
+    std::fs::create_dir(&ro_tmp).unwrap();
+    std::fs::create_dir(&cwd).unwrap();
+    let not_a_dir = tmp.path().join("not_a_dir");
+    std::fs::write(&not_a_dir, "a file").unwrap();
+    let read_only = |dir: &std::path::Path, mode: u32| {
+        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(mode)).unwrap()
+    };
+    read_only(&ro_tmp, 0o555);
+    read_only(&cwd, 0o555);
+    for (i, tmpdir) in [&ro_tmp, &not_a_dir].into_iter().enumerate() {
+        let out = tmp.path().join(format!("out{i}"));
+        let before = tree(tmp.path(), &out);
+        let output = std::process::Command::new(bin())
+            .args(["fit".as_ref(), tmp.path().join("fit.toml").as_os_str()])
+            .args(["--out".as_ref(), out.as_os_str()])
+            .env("TMPDIR", tmpdir)
+            .current_dir(&cwd)
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "TMPDIR {tmpdir:?}: {stderr}");
+        assert_eq!(tree(tmp.path(), &out), before, "TMPDIR {tmpdir:?}");
+        let written: Vec<String> = tree(&out, &out)
+            .into_iter()
+            .map(|(p, _)| p.display().to_string())
+            .collect();
+        assert_eq!(
+            written,
+            [
+                ".chassis-mc-lock",
+                ".chassis-mc-manifest",
+                "fit.parquet",
+                "fit.svg",
+                "report.html"
+            ]
+        );
+    }
+    read_only(&ro_tmp, 0o755);
+    read_only(&cwd, 0o755);
+}

@@ -14,6 +14,7 @@ use arrow::error::ArrowError;
 mod axes;
 mod cycles_table;
 mod prepare;
+mod replayed;
 
 pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
@@ -56,6 +57,9 @@ struct Condition {
     expected: Expectations,
 }
 
+/// An error about key `key` (dotted) of the study a model is prepared from, for `reason`.
+type ErrorAt<'a> = dyn Fn(&str, String) -> StudyError + Sync + 'a;
+
 /// The bit that marks a draw group's key, so that a shared stream is never some condition's
 /// own.
 const SHARED_GROUP: u64 = 1 << 63;
@@ -88,13 +92,19 @@ impl VehicleModel {
             .vehicle()
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
             .clone();
+        Self::prepare(vs, &|key: &str, reason: String| study.error_at(key, reason))
+    }
+
+    /// Prepare every condition of the validated `vs`; `error_at` names a key of the study
+    /// it came from in an error.
+    fn prepare(vs: VehicleStudy, error_at: &ErrorAt<'_>) -> Result<Self, StudyError> {
         let truth = vs.vehicle.theta();
-        let cycles = scale_cycles(study, &vs)?;
-        let segments = segments(study, &vs, &cycles)?;
+        let cycles = scale_cycles(&vs, error_at)?;
+        let segments = segments(&vs, &cycles, error_at)?;
         let durations = duration_count(&vs);
         let layout = layout(&vs);
         if let Some(e) = vs.estimators.iter().find(|e| e.compensates_speed_noise()) {
-            uneven_differentiation(study, &vs, &segments, e.name())?;
+            uneven_differentiation(&vs, &segments, e.name(), error_at)?;
         }
         let points = grid(&vs);
         let controls = study_controls(&vs);
@@ -379,10 +389,10 @@ impl Draws {
 /// neighbour than the other, E[ỹ Ṽ²] gains a term the compensation does not remove, and
 /// the combination is an error naming it.
 fn uneven_differentiation(
-    study: &Study,
     vs: &VehicleStudy,
     segments: &[prepare::Segment],
     name: &str,
+    error_at: &ErrorAt<'_>,
 ) -> Result<(), StudyError> {
     let correlated = vs.velocity_correlation_s.iter().any(|&t| t > 0.0)
         && vs.noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0);
@@ -391,7 +401,7 @@ fn uneven_differentiation(
         .flat_map(|s| s.regressions.iter().flatten())
         .any(|r| r.differentiation.as_ref().is_some_and(|d| !d.uniform_steps));
     if correlated && uneven {
-        return Err(study.error_at(
+        return Err(error_at(
             "estimation.acceleration",
             format!(
                 "\"differentiated\" with correlated speed noise (noise.velocity_correlation_time) \

@@ -5,9 +5,10 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::ErrorAt;
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
-use crate::study::{Study, StudyError, VehicleStudy};
+use crate::study::{StudyError, VehicleStudy};
 use crate::terrain::{MAX_GRADE_RAD, mean_square};
 use crate::vehicle::{DriveCycle, Road};
 
@@ -35,8 +36,8 @@ pub(super) struct Segment {
 /// One cycle per scale, simulated in parallel (each is independent). A scale at which the
 /// grade is too steep, the vehicle stalls or runs off the terrain is an error naming it.
 pub(super) fn scale_cycles(
-    study: &Study,
     vs: &VehicleStudy,
+    error_at: &ErrorAt<'_>,
 ) -> Result<Vec<ScaleCycle>, StudyError> {
     vs.scales
         .par_iter()
@@ -47,7 +48,7 @@ pub(super) fn scale_cycles(
             if let (Some(t), Some(table)) = (&vs.terrain, &table)
                 && let Some((grade, x)) = table.steepest_beyond_limit()
             {
-                return Err(study.error_at(
+                return Err(error_at(
                     &key,
                     format!(
                         "at scale {scale} the steepest grade of the terrain is {grade:.3} rad at x = {x} m; \
@@ -64,7 +65,7 @@ pub(super) fn scale_cycles(
             let cycle = vs
                 .drive
                 .cycle(&vs.vehicle, road)
-                .map_err(|e| study.error_at(&key, format!("at scale {scale}: {e}")))?;
+                .map_err(|e| error_at(&key, format!("at scale {scale}: {e}")))?;
             Ok(ScaleCycle {
                 cycle: Arc::new(cycle),
                 terrain_ms_grid: table.map_or(f64::NAN, |t| t.mean_square()),
@@ -110,14 +111,14 @@ pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
 /// duration longer than the cycle, or a selection that leaves fewer than 3 rows, is an
 /// error naming the key.
 pub(super) fn segments(
-    study: &Study,
     vs: &VehicleStudy,
     cycles: &[ScaleCycle],
+    error_at: &ErrorAt<'_>,
 ) -> Result<Vec<Segment>, StudyError> {
     let per_scale = cycles
         .par_iter()
         .enumerate()
-        .map(|(s, cycle)| scale_segments(study, vs, s, cycle))
+        .map(|(s, cycle)| scale_segments(vs, s, cycle, error_at))
         .collect::<Vec<_>>()
         // The first error in study order, whatever the thread count.
         .into_iter()
@@ -130,10 +131,10 @@ pub(super) fn segments(
 /// (t − t₀ ≤ T, docs/model.md#row-selection), so its regressions are prefixes sharing
 /// their columns, and memory does not grow with the number of durations.
 fn scale_segments(
-    study: &Study,
     vs: &VehicleStudy,
     s: usize,
     scale: &ScaleCycle,
+    error_at: &ErrorAt<'_>,
 ) -> Result<Vec<Segment>, StudyError> {
     let cycle = &scale.cycle;
     let length = cycle.length_s();
@@ -150,7 +151,7 @@ fn scale_segments(
         if let Some(t) = duration(d)
             && t > length
         {
-            return Err(study.error_at(
+            return Err(error_at(
                 &key,
                 format!("is {t} s but the drive cycle lasts {length} s"),
             ));
@@ -160,7 +161,7 @@ fn scale_segments(
             let u = used_samples(cycle, vs, duration(d), source);
             let rows = u.iter().filter(|u| **u).count();
             if rows < 3 {
-                return Err(study.error_at(
+                return Err(error_at(
                     &key,
                     format!(
                         "leaves {rows} samples of the cycle at scale {} for the regression \

@@ -1,0 +1,158 @@
+//! The parametric bootstrap of one estimator's fit: its world (the fitted vehicle replayed
+//! on the log's rows, built in memory) and the estimates re-drawn in it
+//! (docs/model.md#fit).
+
+use nalgebra::Vector3;
+
+use crate::estimate::channels::Acceleration;
+use crate::estimate::estimators::EstimatorRef;
+use crate::model::Model;
+use crate::model::vehicle::VehicleModel;
+use crate::vehicle::{DriveCycle, Replay, VehicleParams};
+use crate::vehicle::{central_differences, positions};
+
+use super::{FitError, FitSpec, SMOOTHING_S};
+
+/// The measured speed smoothed by a centred moving average over ±[`SMOOTHING_S`], not
+/// below 0.
+fn smoothed_speed(c: &DriveCycle) -> Vec<f64> {
+    let n = c.t_s.len();
+    let (mut lo, mut hi) = (0, 0);
+    let mut sum = 0.0;
+    let mut smooth = Vec::with_capacity(n);
+    for i in 0..n {
+        while hi < n && c.t_s[hi] <= c.t_s[i] + SMOOTHING_S {
+            sum += c.v_m_s[hi];
+            hi += 1;
+        }
+        while c.t_s[lo] < c.t_s[i] - SMOOTHING_S {
+            sum -= c.v_m_s[lo];
+            lo += 1;
+        }
+        smooth.push((sum / (hi - lo) as f64).max(0.0));
+    }
+    smooth
+}
+
+/// The speed of the vehicle with θ = `theta` driven by the log's force on the log's grade:
+/// over each stretch of samples that a used row reads (the rows and their neighbours), from
+/// the smoothed speed `smooth` at the stretch's first sample, by RK4 with the force and
+/// grade linear between samples; `smooth` elsewhere. The speed is as smooth as the force,
+/// so its central differences carry no measurement noise (docs/model.md#fit).
+fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<f64> {
+    let c = &spec.cycle;
+    let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
+    let n = c.t_s.len();
+    let used = &spec.used;
+    let read = |i: usize| used[i] || (i > 0 && used[i - 1]) || (i + 1 < n && used[i + 1]);
+    // The fitted vehicle's acceleration at speed v under force f on grade gr; drag opposes
+    // the motion (v|v|), so a stretch cannot run away below standstill.
+    let accel = |v: f64, f: f64, gr: f64| {
+        theta[0] * f - theta[1] * k * v * v.abs() - theta[2] * g * gr.cos() - g * gr.sin()
+    };
+    let mut v = smooth.to_vec();
+    for i in 0..n - 1 {
+        if !(read(i) && read(i + 1)) {
+            continue;
+        }
+        // The stretch starts at i when i − 1 is not read; v[i] is then smooth[i].
+        let h = c.t_s[i + 1] - c.t_s[i];
+        let (f0, f1) = (c.f_prop_n[i], c.f_prop_n[i + 1]);
+        let (g0, g1) = (c.grade_rad[i], c.grade_rad[i + 1]);
+        let (fm, gm) = (0.5 * (f0 + f1), 0.5 * (g0 + g1));
+        let k1 = accel(v[i], f0, g0);
+        let k2 = accel(v[i] + 0.5 * h * k1, fm, gm);
+        let k3 = accel(v[i] + 0.5 * h * k2, fm, gm);
+        let k4 = accel(v[i] + h * k3, f1, g1);
+        v[i + 1] = v[i] + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    v
+}
+
+/// The world of the parametric bootstrap of one estimator's fit: the vehicle with
+/// θ = `theta` replayed on the log's rows (docs/model.md#fit) with the assumed noise, as a
+/// one-condition model of `estimator`.
+pub(super) fn world(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+) -> Result<VehicleModel, FitError> {
+    let c = &spec.cycle;
+    let n = c.t_s.len();
+    let smooth = smoothed_speed(c);
+    // The bootstrap world's truth, on the log's own rows, fitting θ exactly. With an
+    // accelerometer: the smoothed speed, the logged force and grade, and the acceleration
+    // that makes every row fit θ (so the excitation is the log's own). With a
+    // differentiated acceleration the output is the speed's central difference, and the
+    // regression's noise comes from the rows at each end of a used stretch (the interior
+    // telescopes) unless the force is rough: the speed is the fitted vehicle's, simulated
+    // under the logged force, and the force the one that makes its differences fit θ.
+    let speed = match spec.acceleration {
+        Acceleration::Model => smooth,
+        Acceleration::Differentiated => simulated_speed(spec, theta, &smooth),
+    };
+    let (g, k) = (spec.vehicle.gravity_m_s2, spec.vehicle.drag_factor_kg_m());
+    let central = central_differences(&c.t_s, &speed);
+    let (mut f_prop_n, mut accel_m_s2) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..n {
+        let (v, gr) = (speed[i], c.grade_rad[i]);
+        let resistance = theta[1] * k * v * v + theta[2] * g * gr.cos() + g * gr.sin();
+        let (f, a) = match spec.acceleration {
+            Acceleration::Model => {
+                let f = c.f_prop_n[i];
+                (f, theta[0] * f - resistance)
+            }
+            Acceleration::Differentiated => ((central[i] + resistance) / theta[0], central[i]),
+        };
+        f_prop_n.push(f);
+        accel_m_s2.push(a);
+    }
+    let cycle = DriveCycle {
+        x_m: positions(&c.t_s, &speed),
+        t_s: c.t_s.clone(),
+        v_m_s: speed,
+        grade_rad: c.grade_rad.clone(),
+        f_prop_n,
+        accel_m_s2,
+    };
+    let replay = Replay {
+        source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
+        cycle,
+        used: Some(spec.used.clone()),
+    };
+    // θ as a vehicle: M = 1/θ₁, Cd = θ₂ M, Cr = θ₃ (VehicleParams::theta reads them back).
+    let mass = 1.0 / theta[0];
+    let vehicle = VehicleParams {
+        mass_kg: mass,
+        drag_coefficient: theta[1] * mass,
+        rolling_resistance: theta[2],
+        ..spec.vehicle.clone()
+    };
+    let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
+    Ok(VehicleModel::for_cycle(
+        replay,
+        vehicle,
+        spec.noise,
+        vec![estimator],
+        spec.settings,
+        &origin,
+    )?)
+}
+
+/// The bootstrap in `model` (from [`world`]): the assumed noise re-drawn and the estimator
+/// re-run `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
+pub(super) fn resample(spec: &FitSpec, model: &VehicleModel) -> Vec<Vector3<f64>> {
+    let layout = model.layout();
+    let stride = layout.realisation_stride();
+    use rayon::prelude::*;
+    let thetas: Vec<Option<Vector3<f64>>> = (0..spec.realisations)
+        .into_par_iter()
+        .map(|r| {
+            let mut slots = vec![0.0; stride];
+            model.realise(spec.seed, 0, r, &mut slots);
+            let t = Vector3::from_fn(|p, _| slots[layout.theta_at(0, p)]);
+            t.iter().all(|v| v.is_finite()).then_some(t)
+        })
+        .collect();
+    thetas.into_iter().flatten().collect()
+}

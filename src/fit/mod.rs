@@ -1,0 +1,280 @@
+//! `fit`: the estimates from a measured log, with sandwich standard errors and a parametric
+//! bootstrap (see docs/model.md#fit); and `simulate-log`, which writes such a log from a
+//! study (the project's own generator of synthetic logs).
+//!
+//! One job a file: `spec.rs` reads and checks the fit file and its log, `bootstrap.rs`
+//! builds each estimator's bootstrap world and resamples it, `outputs.rs` writes
+//! fit.parquet, fit.svg and report.html (and the printed table), `simulate_log.rs` writes
+//! a synthetic log; this file fits the log and puts the rows together.
+
+mod bootstrap;
+mod outputs;
+mod simulate_log;
+mod spec;
+
+pub use outputs::{format_value, table};
+pub use simulate_log::simulate_log;
+pub use spec::FitSpec;
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Matrix3, Vector3};
+use thiserror::Error;
+
+use crate::estimate::channels::NoiseLevels;
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
+use crate::estimate::moments::Rows;
+use crate::estimate::regression::Regression;
+use crate::figures::FigureError;
+use crate::model::vehicle::{PARAMETERS, VehicleModel};
+use crate::output::lock::DirLock;
+use crate::output::{self, FileMetadata, OutputError, PendingFile, set};
+use crate::study::StudyError;
+
+/// The output file of `fit`.
+pub const FIT_FILE: &str = "fit.parquet";
+
+/// The figure of `fit`: each estimator's estimate and 95 % bootstrap interval of M, Cd and
+/// Cr, against the `[reference]` values when given.
+pub const FIT_FIGURE: &str = "fit.svg";
+
+/// Half-width \[s\] of the centred moving average that smooths the measured speed into the
+/// bootstrap's true speed trace.
+pub const SMOOTHING_S: f64 = 0.5;
+
+/// Why a fit cannot be made.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum FitError {
+    /// The fit file or its log is invalid.
+    #[error(transparent)]
+    Study(#[from] StudyError),
+    /// Writing the output failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Drawing the figure failed.
+    #[error(transparent)]
+    Figure(#[from] FigureError),
+}
+
+impl FitError {
+    /// Whether the cause is the user's input (exit status 2 at the command line): an invalid
+    /// fit file, log or study, or an output directory that cannot be used as it is
+    /// ([`OutputError::is_bad_input`]); otherwise a failure while running (exit status 1).
+    pub fn is_bad_input(&self) -> bool {
+        match self {
+            FitError::Study(_) => true,
+            FitError::Output(e) => e.is_bad_input(),
+            FitError::Figure(e) => e.is_bad_input(),
+        }
+    }
+}
+
+/// Each estimator's θ̂ on the measured rows of `reg` (taken as they are).
+fn estimates(
+    reg: &Regression,
+    noise: &NoiseLevels,
+    estimators: &[EstimatorRef],
+    settings: &EstimatorSettings,
+) -> Vec<Option<Vector3<f64>>> {
+    let moments = reg.noise_free_moments();
+    let mut rows = Rows::new(reg, &NoiseLevels::default());
+    for start in (0..reg.len()).step_by(crate::noise::BLOCK) {
+        let len = crate::noise::BLOCK.min(reg.len() - start);
+        rows.push_block(
+            reg,
+            &NoiseLevels::default(),
+            start,
+            len,
+            Default::default(),
+            None,
+        );
+    }
+    estimators
+        .iter()
+        .map(|e| {
+            e.estimate(&Realisation {
+                moments: &moments,
+                rows: Some(&rows),
+                regression: reg,
+                noise,
+                settings,
+                truth: &[f64::NAN; 3],
+            })
+            .theta
+            .ok()
+        })
+        .collect()
+}
+
+/// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁.
+fn with_derived(theta: &Vector3<f64>) -> [f64; 5] {
+    [
+        theta[0],
+        theta[1],
+        theta[2],
+        1.0 / theta[0],
+        theta[1] / theta[0],
+    ]
+}
+
+/// The standard errors of [`with_derived`] from θ's covariance `cov`: θ's own, and M's and
+/// Cd's by the delta method (M = 1/θ₁: ∂M/∂θ₁ = −1/θ₁²; Cd = θ₂/θ₁: ∇ = [−θ₂/θ₁², 1/θ₁, 0]).
+fn derived_se(theta: &Vector3<f64>, cov: &Matrix3<f64>) -> [f64; 5] {
+    let (t1, t2) = (theta[0], theta[1]);
+    let cd = Vector3::new(-t2 / (t1 * t1), 1.0 / t1, 0.0);
+    [
+        cov[(0, 0)].sqrt(),
+        cov[(1, 1)].sqrt(),
+        cov[(2, 2)].sqrt(),
+        cov[(0, 0)].sqrt() / (t1 * t1),
+        (cd.transpose() * cov * cd)[(0, 0)].sqrt(),
+    ]
+}
+
+/// Names of the rows of `fit.parquet`, in order: θ, then M and Cd.
+pub const FIT_PARAMETERS: [&str; 5] = [
+    PARAMETERS[0],
+    PARAMETERS[1],
+    PARAMETERS[2],
+    "mass",
+    "drag_coefficient",
+];
+
+/// One row of `fit.parquet`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitRow {
+    /// Estimator name.
+    pub estimator: &'static str,
+    /// One of [`FIT_PARAMETERS`].
+    pub parameter: &'static str,
+    /// The estimate from the log.
+    pub estimate: f64,
+    /// Its sandwich SE (for M and Cd by the delta method from θ's sandwich covariance).
+    pub sandwich_se: f64,
+    /// Mean of the bootstrap estimates.
+    pub boot_mean: f64,
+    /// boot_mean − estimate: the estimator's bias where the truth is the fit.
+    pub boot_bias: f64,
+    /// estimate − boot_bias.
+    pub bias_corrected: f64,
+    /// 2.5 % quantile of the bootstrap estimates.
+    pub ci_low: f64,
+    /// 97.5 % quantile of the bootstrap estimates.
+    pub ci_high: f64,
+    /// The fit file's `[reference]` value, if it gives one.
+    pub reference: Option<f64>,
+}
+
+/// What `fit` found.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// One row per estimator × parameter.
+    pub rows: Vec<FitRow>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// The q-quantile of sorted `v` (linear interpolation).
+fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let h = q * (v.len() - 1) as f64;
+    let (i, frac) = (h.floor() as usize, h.fract());
+    let j = (i + 1).min(v.len() - 1);
+    v[i] + frac * (v[j] - v[i])
+}
+
+/// Fit `spec`'s log and write `fit.parquet` and `report.html` into `out`.
+pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
+    let reg = spec.regression();
+    let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
+    // Every refusal before anything is created.
+    let mut thetas = Vec::with_capacity(fits.len());
+    for (est, theta) in spec.estimators.iter().zip(fits) {
+        let Some(theta) = theta else {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the normal equations of the log are singular",
+                    est.name()
+                ),
+            }
+            .into());
+        };
+        if !(theta[0] > 0.0 && theta[1] >= 0.0 && theta[2] >= 0.0) {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("estimation.estimators".into()),
+                line: None,
+                reason: format!(
+                    "{}: the fit θ = [{:e}, {:e}, {:e}] is not a vehicle (1/M must be \
+                     positive, Cd/M and Cr not negative), so it cannot be bootstrapped",
+                    est.name(),
+                    theta[0],
+                    theta[1],
+                    theta[2]
+                ),
+            }
+            .into());
+        }
+        thetas.push((*est, theta));
+    }
+    let worlds = thetas
+        .iter()
+        .map(|(est, theta)| bootstrap::world(spec, *est, theta))
+        .collect::<Result<Vec<VehicleModel>, FitError>>()?;
+
+    std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
+    let _lock = DirLock::acquire(out)?;
+    set::ensure_complete(out)?;
+    let mut rows = Vec::new();
+    for ((est, theta), model) in thetas.iter().zip(&worlds) {
+        let se = reg
+            .sandwich_covariance(&[theta[0], theta[1], theta[2]], &spec.noise)
+            .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
+        let boot = bootstrap::resample(spec, model);
+        let estimate = with_derived(theta);
+        for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+            let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
+            values.sort_by(f64::total_cmp);
+            let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
+            let boot_bias = boot_mean - estimate[p];
+            rows.push(FitRow {
+                estimator: est.name(),
+                parameter: name,
+                estimate: estimate[p],
+                sandwich_se: se[p],
+                boot_mean,
+                boot_bias,
+                bias_corrected: estimate[p] - boot_bias,
+                ci_low: quantile(&values, 0.025),
+                ci_high: quantile(&values, 0.975),
+                reference: spec.reference[p],
+            });
+        }
+    }
+    let meta = FileMetadata {
+        study_toml: spec.text.clone(),
+        study_dir: spec.dir.display().to_string(),
+        seed: spec.seed,
+        realisations: spec.realisations,
+        identity: String::new(),
+        extra: Vec::new(),
+    };
+    let svg = outputs::figure(&rows)?;
+    let figure_tmp = out.join(output::temporary_name(FIT_FIGURE));
+    std::fs::write(&figure_tmp, &svg).map_err(|e| OutputError::io(&figure_tmp, e))?;
+    let pending = vec![
+        outputs::write_rows(out, &rows, &meta)?,
+        PendingFile::new(figure_tmp, out.join(FIT_FIGURE)),
+        outputs::write_report(out, spec, &rows, &svg)?,
+    ];
+    let files = set::commit(out, pending, &|p| {
+        p == FIT_FILE || p == FIT_FIGURE || p == "report.html"
+    })?;
+    Ok(FitResult { rows, files })
+}

@@ -1,0 +1,320 @@
+//! What `fit` writes: fit.parquet, fit.svg and report.html, and the table it prints
+//! (docs/model.md#fit).
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow::datatypes::{DataType, Field, Schema};
+
+use crate::figures::FigureError;
+use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile};
+
+use super::{FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FitRow, FitSpec};
+
+pub(super) fn write_rows(
+    out: &Path,
+    rows: &[FitRow],
+    meta: &FileMetadata,
+) -> Result<PendingFile, OutputError> {
+    let schema = Arc::new(Schema::new(vec![
+        Field::new("estimator", DataType::Utf8, false),
+        Field::new("parameter", DataType::Utf8, false),
+        Field::new("estimate", DataType::Float64, false),
+        Field::new("sandwich_se", DataType::Float64, true),
+        Field::new("boot_mean", DataType::Float64, true),
+        Field::new("boot_bias", DataType::Float64, true),
+        Field::new("bias_corrected", DataType::Float64, true),
+        Field::new("ci_low", DataType::Float64, true),
+        Field::new("ci_high", DataType::Float64, true),
+        Field::new("reference", DataType::Float64, true),
+    ]));
+    let col = |f: fn(&FitRow) -> f64| -> ArrayRef {
+        Arc::new(Float64Array::from_iter(
+            rows.iter().map(|r| Some(f(r)).filter(|v| v.is_finite())),
+        ))
+    };
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|r| r.estimator),
+        )),
+        Arc::new(StringArray::from_iter_values(
+            rows.iter().map(|r| r.parameter),
+        )),
+        Arc::new(Float64Array::from_iter_values(
+            rows.iter().map(|r| r.estimate),
+        )),
+        col(|r| r.sandwich_se),
+        col(|r| r.boot_mean),
+        col(|r| r.boot_bias),
+        col(|r| r.bias_corrected),
+        col(|r| r.ci_low),
+        col(|r| r.ci_high),
+        col(|r| r.reference.unwrap_or(f64::NAN)),
+    ];
+    let batch =
+        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
+    let mut sink = ParquetSink::create(out, FIT_FILE, schema, meta, "fit")?;
+    sink.write(&batch)?;
+    sink.finish()
+}
+
+/// The rows of the table and the figure, in the order a vehicle engineer reads them: M, Cd
+/// and Cr, then θ's 1/M and Cd/M. Index into [`FIT_PARAMETERS`] and label with units.
+const SHOWN: [(usize, &str); 5] = [
+    (3, "M [kg]"),
+    (4, "Cd"),
+    (2, "Cr"),
+    (0, "1/M [1/kg]"),
+    (1, "Cd/M [1/kg]"),
+];
+
+/// `value` to the digits that `spread` (its SE) supports: down to the second significant
+/// digit of the spread (four significant digits of the value when the spread is unknown),
+/// in plain notation for magnitudes 0.001 … 100 000 and scientific otherwise.
+pub fn format_value(value: f64, spread: f64) -> String {
+    if !value.is_finite() {
+        return "–".into();
+    }
+    let magnitude = |x: f64| x.abs().log10().floor() as i32;
+    let last = if spread.is_finite() && spread > 0.0 {
+        magnitude(spread) - 1
+    } else if value != 0.0 {
+        magnitude(value) - 3
+    } else {
+        0
+    };
+    let text = if value == 0.0 || (1e-3..1e5).contains(&value.abs()) {
+        format!("{value:.*}", (-last).clamp(0, 12) as usize)
+    } else {
+        format!(
+            "{value:.*e}",
+            (magnitude(value) - last).clamp(0, 12) as usize
+        )
+    };
+    // A negative value rounded to zero is shown as zero.
+    match text.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| matches!(c, '0' | '.')) => rest.to_string(),
+        _ => text,
+    }
+}
+
+/// The table `fit` prints and its report shows: per estimator M, Cd, Cr, 1/M and Cd/M,
+/// each to the digits its sandwich SE supports (docs/model.md#fit).
+pub fn table(rows: &[FitRow]) -> String {
+    let with_reference = rows.iter().any(|r| r.reference.is_some());
+    let mut lines = vec![[
+        "estimator".to_string(),
+        "parameter".into(),
+        "estimate".into(),
+        "SE (sandwich)".into(),
+        "bootstrap bias".into(),
+        "bias-corrected".into(),
+        "95 % bootstrap interval".into(),
+        if with_reference {
+            "reference".into()
+        } else {
+            String::new()
+        },
+    ]];
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    for est in estimators {
+        for (p, label) in SHOWN {
+            let Some(r) = rows
+                .iter()
+                .find(|r| r.estimator == est && r.parameter == FIT_PARAMETERS[p])
+            else {
+                continue;
+            };
+            let f = |v: f64| format_value(v, r.sandwich_se);
+            lines.push([
+                est.to_string(),
+                label.to_string(),
+                f(r.estimate),
+                format_value(r.sandwich_se, r.sandwich_se),
+                f(r.boot_bias),
+                f(r.bias_corrected),
+                format!("[{}, {}]", f(r.ci_low), f(r.ci_high)),
+                r.reference
+                    .map_or(String::new(), |v| format_value(v, r.sandwich_se)),
+            ]);
+        }
+    }
+    let widths: Vec<usize> = (0..8)
+        .map(|c| {
+            lines
+                .iter()
+                .map(|l| l[c].chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for line in &lines {
+        let mut text = String::new();
+        for (c, cell) in line.iter().enumerate() {
+            let pad = widths[c] - cell.chars().count();
+            if c < 2 {
+                let _ = write!(text, "{cell}{}  ", " ".repeat(pad));
+            } else {
+                let _ = write!(text, "{}{cell}  ", " ".repeat(pad));
+            }
+        }
+        out.push_str(text.trim_end());
+        out.push('\n');
+    }
+    out
+}
+
+/// The figure of [`FIT_FIGURE`] as SVG text: one panel per parameter (M, Cd, Cr), one line
+/// per estimator with its 95 % bootstrap interval and its estimate (a dot), the reference
+/// value dashed when given.
+pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
+    use plotters::prelude::*;
+    const PANELS: usize = 3;
+    let path = Path::new(FIT_FIGURE);
+    let fail = |e: &dyn std::fmt::Display| FigureError::Draw {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    let n = estimators.len();
+    let mut svg = String::new();
+    {
+        let height = 150 + 45 * n as u32;
+        let root = SVGBackend::with_string(&mut svg, (1200, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| fail(&e))?;
+        let (top, bottom) = root.split_vertically(height - 30);
+        for (panel, &(p, label)) in top.split_evenly((1, PANELS)).iter().zip(&SHOWN) {
+            let mine: Vec<&FitRow> = estimators
+                .iter()
+                .filter_map(|e| {
+                    rows.iter()
+                        .find(|r| r.estimator == *e && r.parameter == FIT_PARAMETERS[p])
+                })
+                .collect();
+            let values = mine
+                .iter()
+                .flat_map(|r| [r.estimate, r.ci_low, r.ci_high])
+                .chain(mine.iter().filter_map(|r| r.reference))
+                .filter(|v| v.is_finite());
+            let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            let (lo, hi) = match (lo.is_finite(), hi > lo) {
+                (true, true) => (lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo)),
+                (true, false) => (
+                    lo - 0.5 * lo.abs().max(1e-12),
+                    lo + 0.5 * lo.abs().max(1e-12),
+                ),
+                _ => (0.0, 1.0),
+            };
+            // Tick labels to the digits of about a tenth of the axis (plotters picks ~4 ticks).
+            let tick_digits = 2.5 * (hi - lo);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(label, ("sans-serif", 20))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(lo..hi, -0.5..n as f64 - 0.5)
+                .map_err(|e| fail(&e))?;
+            chart
+                .configure_mesh()
+                .disable_y_mesh()
+                .x_labels(4)
+                .y_labels(n)
+                .x_label_formatter(&|v| format_value(*v, tick_digits))
+                .y_label_formatter(&|v| {
+                    let i = v.round();
+                    if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n {
+                        estimators[n - 1 - i as usize].to_string()
+                    } else {
+                        String::new()
+                    }
+                })
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(|e| fail(&e))?;
+            if let Some(r) = mine.iter().find_map(|r| r.reference) {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(r, -0.5), (r, n as f64 - 0.5)],
+                        6,
+                        4,
+                        BLACK.mix(0.6).stroke_width(1),
+                    ))
+                    .map_err(|e| fail(&e))?;
+            }
+            for (i, r) in mine.iter().enumerate() {
+                let y = (n - 1 - i) as f64;
+                let color = Palette99::pick(i).to_rgba();
+                let style = color.stroke_width(2);
+                let cap = 0.12;
+                chart
+                    .draw_series([
+                        PathElement::new(vec![(r.ci_low, y), (r.ci_high, y)], style),
+                        PathElement::new(vec![(r.ci_low, y - cap), (r.ci_low, y + cap)], style),
+                        PathElement::new(vec![(r.ci_high, y - cap), (r.ci_high, y + cap)], style),
+                    ])
+                    .map_err(|e| fail(&e))?;
+                chart
+                    .draw_series([Circle::new((r.estimate, y), 5, color.filled())])
+                    .map_err(|e| fail(&e))?;
+            }
+        }
+        bottom
+            .draw(&Text::new(
+                "dot: estimate; bar: 95 % bootstrap interval; dashed: the fit file's [reference]",
+                (20, 8),
+                ("sans-serif", 14),
+            ))
+            .map_err(|e| fail(&e))?;
+        root.present().map_err(|e| fail(&e))?;
+    }
+    Ok(svg)
+}
+
+pub(super) fn write_report(
+    out: &Path,
+    spec: &FitSpec,
+    rows: &[FitRow],
+    svg: &str,
+) -> Result<PendingFile, OutputError> {
+    use crate::report::escape;
+    let title = format!("{} — chassis-mc fit", spec.log.display());
+    let svg = svg.find("<svg").map_or(svg, |i| &svg[i..]);
+    let html = format!(
+        "{head}<p>log {log}: {n} samples, {used} in the regression; \
+         acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
+         <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
+         estimator's bias (for M and Cd it is the delta method's); the bootstrap interval is a \
+         percentile interval of the estimator in a world where the fit is the truth, so it is \
+         centred on the estimate plus the bias: for a biased estimator read the bias-corrected \
+         estimate with it.</p>\n\
+         <figure>\n{svg}\n<figcaption>{figure}: estimate and 95 % bootstrap interval per \
+         estimator{against}</figcaption>\n</figure>\n\
+         <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
+        head = crate::report::head(&title),
+        log = escape(&spec.log.display().to_string()),
+        n = spec.cycle.t_s.len(),
+        used = spec.used.iter().filter(|u| **u).count(),
+        acc = spec.acceleration.name(),
+        seed = spec.seed,
+        r = spec.realisations,
+        ver = env!("CARGO_PKG_VERSION"),
+        figure = FIT_FIGURE,
+        against = if spec.reference.iter().any(Option::is_some) {
+            ", against the fit file's [reference] (dashed)"
+        } else {
+            ""
+        },
+        table = escape(&table(rows)),
+        text = escape(&spec.text),
+    );
+    let tmp = out.join(output::temporary_name("report.html"));
+    std::fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
+    Ok(PendingFile::new(tmp, out.join("report.html")))
+}

@@ -1,0 +1,55 @@
+//! A vehicle model of one cycle given in memory: `fit`'s bootstrap world (the fitted
+//! vehicle replayed on a log's rows, docs/model.md#fit), built from typed values with no
+//! study file.
+
+use std::sync::Arc;
+
+use super::{ErrorAt, VehicleModel};
+use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
+use crate::study::{NoiseAxes, StudyError, VehicleStudy};
+use crate::vehicle::{Replay, RowSelection, VehicleParams};
+
+impl VehicleModel {
+    /// The one-condition model of `vehicle` on the cycle `replay` (taken as the truth, its
+    /// `used` rows the regression's), measured with the noise `noise` (its acceleration
+    /// source too) and estimated by `estimators` with `settings`: what a study of drive
+    /// mode `replay` with one level per noise axis, no terrain and no row selection of its
+    /// own prepares. An error (the rows leave fewer than 3 samples, or a compensating
+    /// estimator meets correlated speed noise on uneven samples) names `origin` and the
+    /// key such a study would have.
+    pub fn for_cycle(
+        replay: Replay,
+        vehicle: VehicleParams,
+        noise: NoiseLevels,
+        estimators: Vec<EstimatorRef>,
+        settings: EstimatorSettings,
+        origin: &str,
+    ) -> Result<VehicleModel, StudyError> {
+        let vs = VehicleStudy {
+            vehicle,
+            drive: Arc::new(replay),
+            selection: RowSelection {
+                min_speed_m_s: 0.0,
+                exclude_braking: false,
+            },
+            durations: None,
+            terrain: None,
+            scales: vec![1.0],
+            noise: NoiseAxes::new(PerChannel::from_fn(|c: Channel| vec![noise[c]])),
+            velocity_correlation_s: vec![noise.velocity_correlation_s],
+            grade_bias: vec![0.0],
+            estimators,
+            settings,
+            acceleration: vec![noise.acceleration],
+            share_across_scales: false,
+        };
+        let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
+            file: origin.to_string(),
+            key: Some(key.to_string()),
+            line: None,
+            reason,
+        };
+        Self::prepare(vs, error_at)
+    }
+}
