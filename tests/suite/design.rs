@@ -282,3 +282,94 @@ fn refactors_keep_the_design_outputs_of_the_shipped_example_bit_for_bit() {
     let pinned: Vec<u64> = cases.iter().map(|c| c.4).collect();
     assert_eq!(found, pinned);
 }
+
+#[test]
+fn a_varied_study_is_the_study_its_edited_file_would_be() {
+    // `design` sets its key by a typed edit of the validated study; the result must be the
+    // study a user would get by writing the value into the file, for each key.
+    use chassis_mc::study::{Study, VariedKey};
+    let text = study_text("design_thesis.toml");
+    let path = study_path("design_thesis.toml");
+    let base = Study::load(&path).unwrap();
+    let cases = [
+        (VariedKey::Duration, 123.45, "duration", "123.45"),
+        (VariedKey::Scale, 2.5, "scales", "[2.5]"),
+        (VariedKey::VelocitySd, 0.3, "velocity_sd", "[0.3]"),
+    ];
+    for (key, value, line_key, written) in cases {
+        let varied = base.varied(key, value).unwrap();
+        let edited =
+            Study::from_toml(&set_key(&text, line_key, written), &path.to_string_lossy()).unwrap();
+        assert_eq!(varied.to_toml(), edited.to_toml(), "{key:?}");
+        assert_eq!(varied.identity(), edited.identity(), "{key:?}");
+    }
+}
+
+#[test]
+fn a_varied_study_is_checked_as_its_file_would_be() {
+    // The edit goes through the same validation as a study file: a duration that is not a
+    // whole number of time steps, or a negative noise level, is refused with the key, the
+    // line of that key in the user's file, and the edit in the file's name.
+    use chassis_mc::study::{Study, VariedKey};
+    let path = study_path("design_thesis.toml");
+    let base = Study::load(&path).unwrap();
+    let err = base.varied(VariedKey::Duration, 100.005).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("drive.duration"), "{err}");
+    let line = study_text("design_thesis.toml")
+        .lines()
+        .position(|l| l.starts_with("duration ="))
+        .unwrap()
+        + 1;
+    assert_eq!(err.line, Some(line), "{err}");
+    assert!(
+        err.file
+            .ends_with("design_thesis.toml with drive.duration = 100.005"),
+        "{err}"
+    );
+    assert!(
+        err.reason.contains("whole multiple of drive.time_step"),
+        "{err}"
+    );
+    let err = base.varied(VariedKey::VelocitySd, -1.0).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("noise.velocity_sd[0]"), "{err}");
+    // A drive mode without a duration cannot have one set.
+    let trace = Study::load(&study_path("route_trace.toml")).unwrap();
+    let err = trace.varied(VariedKey::Duration, 60.0).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("drive.duration"), "{err}");
+    assert!(err.reason.contains("has no duration"), "{err}");
+}
+
+#[test]
+fn design_snaps_the_duration_to_a_time_step_written_as_an_integer() {
+    // The time step was read back from the study's text as a TOML float only, so
+    // `time_step = 1` left the grid's durations unsnapped and the first one that was not a
+    // whole second (82.5 s) failed validation. It is now the drive mode's own typed step.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = set_key(&study_text("design_thesis.toml"), "time_step", "1");
+    let path = tmp.path().join("integer_step.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("out");
+    let args: Vec<&OsStr> = [
+        "design",
+        path.to_str().unwrap(),
+        "--vary",
+        "drive.duration",
+        "--from",
+        "60",
+        "--to",
+        "600",
+        "--target",
+        "drag_over_mass:rel_rmse<=0.001",
+        "--realisations",
+        "8",
+        "--out",
+        out.to_str().unwrap(),
+    ]
+    .map(OsStr::new)
+    .to_vec();
+    let (code, stdout, stderr) = cli(&args, tmp.path());
+    assert!(code == 0 || code == 1, "{stdout}{stderr}");
+    let values = f64_col(&read_table(&out.join("design.parquet")), "value");
+    assert!(values.len() >= 25, "{values:?}");
+    assert!(values.iter().all(|v| v.fract() == 0.0), "{values:?}");
+}
