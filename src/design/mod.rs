@@ -3,11 +3,12 @@
 //! for one estimator (see docs/model.md#design).
 //!
 //! The first-order predictions (the bound's SE and the first-order bias of
-//! [`VehicleModel::first_order`]) on a grid of the key bracket the answer in milliseconds;
-//! Monte Carlo runs of the study at the bracket's ends and by bisection then decide it. A
-//! value *holds* when the Monte Carlo estimate of the measure is at most the target; the
-//! answer is the smallest value that holds (the largest, for a noise level) within the
-//! search's resolution of one that does not, with the measure's MCSE there.
+//! [`VehicleModel::first_order`](crate::model::vehicle::VehicleModel::first_order)) on a
+//! grid of the key bracket the answer in milliseconds; Monte Carlo runs of the study at the
+//! bracket's ends and by bisection then decide it. A value *holds* when the Monte Carlo
+//! estimate of the measure is at most the target; the answer is the smallest value that
+//! holds (the largest, for a noise level) within the search's resolution of one that does
+//! not, with the measure's MCSE there.
 //!
 //! `search.rs` brackets and bisects the answer on typed variants of the study
 //! ([`Study::varied`](crate::study::Study::varied)), `target.rs` reads the target,
