@@ -5,12 +5,14 @@
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
 //! model's. Every failure is a [`StudyError`] that names the file, the dotted key, its line
-//! and the reason, so a user can fix the file without reading code.
+//! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
+//! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
 mod line_fit;
 mod raw;
 mod spans;
 mod validate;
+mod vary;
 mod vehicle;
 
 use validate::{check_realisations, serde_error, validate};
@@ -21,6 +23,7 @@ use std::path::{Path, PathBuf};
 pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
 pub use spans::KeySpans;
+pub use vary::VariedKey;
 pub use vehicle::{NoiseAxes, VehicleStudy};
 
 pub use crate::vehicle::MAX_SAMPLES;
@@ -69,8 +72,8 @@ pub enum ModelSpec {
 ///
 /// The study as written ([`to_toml`](Study::to_toml), stored in every output file and
 /// behind the resume identity) and its validated values are built together by validation
-/// and change together only through [`with_overrides`](Study::with_overrides): the fields
-/// are private, so the two cannot drift apart.
+/// and change together only through [`with_overrides`](Study::with_overrides) and
+/// [`varied`](Study::varied): the fields are private, so the two cannot drift apart.
 #[derive(Debug, Clone)]
 pub struct Study {
     name: String,

@@ -118,6 +118,12 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
     fn used(&self) -> Option<&[bool]> {
         None
     }
+
+    /// The time step \[s\] that the mode's `drive.duration` is a whole multiple of, when the
+    /// mode has that key (`None`: the cycle lasts as long as its data).
+    fn duration_step(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// A drive mode as study files name it (`[drive] mode = ...`).

@@ -105,6 +105,10 @@ impl CycleSource for TorqueDrive {
         simulate(vehicle, self, table)
     }
 
+    fn duration_step(&self) -> Option<f64> {
+        Some(self.time_step_s)
+    }
+
     fn needs_drivetrain(&self) -> bool {
         true
     }

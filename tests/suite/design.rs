@@ -185,3 +185,191 @@ fn design_names_what_does_not_fit() {
     assert_eq!(code, 2);
     assert!(err.contains("unknown key"), "{err}");
 }
+
+/// XXH64 of every value of design.parquet, column by column in row order (doubles by their
+/// bits, nulls marked), then of the footer's answer and the printed answer sentence: a
+/// fingerprint of what `design` found that ignores the file's encoding and the rest of its
+/// footer (which records the engine version).
+fn design_hash(out: &std::path::Path, stdout: &str) -> u64 {
+    use arrow::array::{Array, AsArray};
+    use arrow::datatypes::{DataType, Float64Type};
+    use std::hash::Hasher;
+    let t = read_table(&out.join("design.parquet"));
+    let mut h = twox_hash::XxHash64::with_seed(0);
+    for (field, column) in t.schema().fields().iter().zip(t.columns()) {
+        h.write(field.name().as_bytes());
+        for i in 0..column.len() {
+            if column.is_null(i) {
+                h.write_u8(0);
+                continue;
+            }
+            h.write_u8(1);
+            match field.data_type() {
+                DataType::Float64 => {
+                    h.write_u64(column.as_primitive::<Float64Type>().value(i).to_bits())
+                }
+                DataType::Utf8 => h.write(column.as_string::<i32>().value(i).as_bytes()),
+                DataType::Boolean => h.write_u8(column.as_boolean().value(i) as u8),
+                other => panic!("{}: no hash for {other}", field.name()),
+            }
+        }
+    }
+    let meta = chassis_mc::output::read_metadata(&out.join("design.parquet")).unwrap();
+    h.write(meta.get("chassis_mc.design.answer").unwrap().as_bytes());
+    // The sentence and the counts; not the list of files written (it names the temporary
+    // directory).
+    let printed = stdout.split("; wrote:").next().unwrap();
+    h.write(printed.as_bytes());
+    h.finish()
+}
+
+#[test]
+fn refactors_keep_the_design_outputs_of_the_shipped_example_bit_for_bit() {
+    // Pinned on the engine whose `design` still varied the study through its TOML text: the
+    // shipped studies/design_thesis.toml at R = 16 (its seed, 2018), searched along each key
+    // `design` can vary with the target of `design --help` and README's examples. A change
+    // meant to keep results (a refactor of the search or of how the key is set) must keep
+    // these; one meant to change them updates them and says why in its commit. The values
+    // are what this test printed ("design hashes: …", with --nocapture) on commit 286971f.
+    let tmp = tempfile::tempdir().unwrap();
+    let study = study_path("design_thesis.toml");
+    let help = "drag_over_mass:rel_rmse<=0.001";
+    let cases: [(&str, &str, &str, &str, u64); 4] = [
+        // The `design --help` example (README: "chassis-mc design studies/design_thesis.toml
+        // --vary drive.duration --from 60 --to 600 ...").
+        ("drive.duration", "60", "600", help, 0x910d_9f75_4d5e_3851),
+        // README's second example.
+        ("noise.velocity_sd", "0.1", "3", help, 0x0e08_009a_60aa_de82),
+        // The third key, on the same study: met at the end of the range ...
+        ("terrain.scale", "0.5", "4", help, 0x3b28_8b57_3a95_dae7),
+        // ... and met nowhere in it (exit code 1, the outputs written all the same).
+        (
+            "terrain.scale",
+            "0.05",
+            "4",
+            "inv_mass:rel_rmse<=0.001",
+            0x04b8_b225_d57d_51d6,
+        ),
+    ];
+    let mut found = Vec::new();
+    for (i, (key, from, to, target, _)) in cases.iter().enumerate() {
+        let out = tmp.path().join(format!("out{i}"));
+        let args: Vec<&OsStr> = [
+            "design",
+            study.to_str().unwrap(),
+            "--vary",
+            key,
+            "--from",
+            from,
+            "--to",
+            to,
+            "--target",
+            target,
+            "--estimator",
+            "bcls",
+            "--realisations",
+            "16",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(OsStr::new)
+        .to_vec();
+        let (code, stdout, stderr) = cli(&args, tmp.path());
+        assert_eq!(code, if i == 3 { 1 } else { 0 }, "{key}: {stdout}{stderr}");
+        found.push(design_hash(&out, &stdout));
+    }
+    println!("design hashes: {found:016x?}");
+    let pinned: Vec<u64> = cases.iter().map(|c| c.4).collect();
+    assert_eq!(found, pinned);
+}
+
+#[test]
+fn a_varied_study_is_the_study_its_edited_file_would_be() {
+    // `design` sets its key by a typed edit of the validated study; the result must be the
+    // study a user would get by writing the value into the file, for each key.
+    use chassis_mc::study::{Study, VariedKey};
+    let text = study_text("design_thesis.toml");
+    let path = study_path("design_thesis.toml");
+    let base = Study::load(&path).unwrap();
+    let cases = [
+        (VariedKey::Duration, 123.45, "duration", "123.45"),
+        (VariedKey::Scale, 2.5, "scales", "[2.5]"),
+        (VariedKey::VelocitySd, 0.3, "velocity_sd", "[0.3]"),
+    ];
+    for (key, value, line_key, written) in cases {
+        let varied = base.varied(key, value).unwrap();
+        let edited =
+            Study::from_toml(&set_key(&text, line_key, written), &path.to_string_lossy()).unwrap();
+        assert_eq!(varied.to_toml(), edited.to_toml(), "{key:?}");
+        assert_eq!(varied.identity(), edited.identity(), "{key:?}");
+    }
+}
+
+#[test]
+fn a_varied_study_is_checked_as_its_file_would_be() {
+    // The edit goes through the same validation as a study file: a duration that is not a
+    // whole number of time steps, or a negative noise level, is refused with the key, the
+    // line of that key in the user's file, and the edit in the file's name.
+    use chassis_mc::study::{Study, VariedKey};
+    let path = study_path("design_thesis.toml");
+    let base = Study::load(&path).unwrap();
+    let err = base.varied(VariedKey::Duration, 100.005).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("drive.duration"), "{err}");
+    let line = study_text("design_thesis.toml")
+        .lines()
+        .position(|l| l.starts_with("duration ="))
+        .unwrap()
+        + 1;
+    assert_eq!(err.line, Some(line), "{err}");
+    assert!(
+        err.file
+            .ends_with("design_thesis.toml with drive.duration = 100.005"),
+        "{err}"
+    );
+    assert!(
+        err.reason.contains("whole multiple of drive.time_step"),
+        "{err}"
+    );
+    let err = base.varied(VariedKey::VelocitySd, -1.0).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("noise.velocity_sd[0]"), "{err}");
+    // A drive mode without a duration cannot have one set.
+    let trace = Study::load(&study_path("route_trace.toml")).unwrap();
+    let err = trace.varied(VariedKey::Duration, 60.0).unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("drive.duration"), "{err}");
+    assert!(err.reason.contains("has no duration"), "{err}");
+}
+
+#[test]
+fn design_snaps_the_duration_to_a_time_step_written_as_an_integer() {
+    // The time step was read back from the study's text as a TOML float only, so
+    // `time_step = 1` left the grid's durations unsnapped and the first one that was not a
+    // whole second (82.5 s) failed validation. It is now the drive mode's own typed step.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = set_key(&study_text("design_thesis.toml"), "time_step", "1");
+    let path = tmp.path().join("integer_step.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("out");
+    let args: Vec<&OsStr> = [
+        "design",
+        path.to_str().unwrap(),
+        "--vary",
+        "drive.duration",
+        "--from",
+        "60",
+        "--to",
+        "600",
+        "--target",
+        "drag_over_mass:rel_rmse<=0.001",
+        "--realisations",
+        "8",
+        "--out",
+        out.to_str().unwrap(),
+    ]
+    .map(OsStr::new)
+    .to_vec();
+    let (code, stdout, stderr) = cli(&args, tmp.path());
+    assert!(code == 0 || code == 1, "{stdout}{stderr}");
+    let values = f64_col(&read_table(&out.join("design.parquet")), "value");
+    assert!(values.len() >= 25, "{values:?}");
+    assert!(values.iter().all(|v| v.fract() == 0.0), "{values:?}");
+}

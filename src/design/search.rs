@@ -1,0 +1,215 @@
+//! The search: first-order predictions on a grid of the key bracket the answer, Monte Carlo
+//! runs at the bracket's ends and by bisection decide it (docs/model.md#design).
+
+use super::output::finish;
+use super::{
+    DesignError, DesignKey, DesignMeasure, DesignPoint, DesignRequest, DesignResult, largest,
+};
+use crate::model::Model;
+use crate::model::vehicle::VehicleModel;
+use crate::run::summarise_in_memory;
+use crate::study::Study;
+
+/// Points of the first-order grid over [from, to].
+const GRID: usize = 25;
+
+/// The search stops when the bracket is narrower than this fraction of [from, to] (or one
+/// time step, for a duration).
+const RESOLUTION: f64 = 0.01;
+
+/// The study with `key` set to `value`, and its prepared model.
+struct Variant {
+    study: Study,
+    model: VehicleModel,
+}
+
+/// One search: the study it varies, what it looks for, and the index of the estimator.
+pub(super) struct Search<'a> {
+    /// The study as given.
+    pub(super) base: &'a Study,
+    request: &'a DesignRequest,
+    /// Index of the estimator in the study's list.
+    pub(super) estimator: usize,
+    truth: f64,
+    /// The drive's time step \[s\], when the key is a duration.
+    step: Option<f64>,
+}
+
+impl Search<'_> {
+    /// `value` made valid for the key: a duration a whole number of time steps.
+    fn snap(&self, value: f64) -> f64 {
+        match self.step {
+            Some(dt) => (value / dt).round().max(1.0) * dt,
+            None => value,
+        }
+    }
+
+    fn variant(&self, value: f64) -> Result<Variant, DesignError> {
+        let study = self.base.varied(self.request.key, value)?;
+        let model = VehicleModel::new(&study)?;
+        if model.condition_count() != 1 {
+            return Err(DesignError::Request(format!(
+                "design needs a study with one condition once {} is set; this one has {} \
+                 (give every other axis one level)",
+                self.request.key.name(),
+                model.condition_count()
+            )));
+        }
+        Ok(Variant { study, model })
+    }
+
+    fn predicted(&self, v: &Variant) -> f64 {
+        let (bias, se) = v.model.first_order(0, self.estimator);
+        let p = self.request.target.parameter;
+        self.request.target.measure.of(bias[p], se[p], self.truth)
+    }
+
+    fn simulated(&self, v: &Variant) -> Result<(f64, f64), DesignError> {
+        let rows = summarise_in_memory(&v.study, &v.model)?;
+        let p = self.request.target.parameter;
+        let row = rows
+            .iter()
+            .find(|r| r.estimator == self.estimator && r.parameter == p)
+            .expect("the summary has a row per estimator and parameter");
+        let t = self.truth.abs();
+        Ok(match self.request.target.measure {
+            DesignMeasure::RelRmse => (row.rmse.value / t, row.rmse.mcse / t),
+            DesignMeasure::RelEmpSe => (row.emp_se.value / t, row.emp_se.mcse / t),
+            DesignMeasure::AbsRelBias => (row.bias.value.abs() / t, row.bias.mcse / t),
+        })
+    }
+}
+
+/// Search `request` on `study` (its realisations per Monte Carlo evaluation, its seed), and
+/// write `design.parquet`, `figures/design.svg` and `report.html` into the output directory.
+pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, DesignError> {
+    let (from, to) = (request.from, request.to);
+    if !(from.is_finite() && to.is_finite() && from > 0.0 && from < to) {
+        return Err(DesignError::Request(format!(
+            "--from {from} --to {to}: need 0 < from < to"
+        )));
+    }
+    let vs = study
+        .vehicle()
+        .ok_or_else(|| DesignError::Request("design needs a vehicle study".into()))?;
+    let names: Vec<&str> = vs.estimators.iter().map(|e| e.name()).collect();
+    let estimator = match &request.estimator {
+        Some(name) => names.iter().position(|n| n == name).ok_or_else(|| {
+            DesignError::Request(format!(
+                "--estimator {name}: the study runs {names:?}; add it to estimation.estimators"
+            ))
+        })?,
+        None => 0,
+    };
+    let step = match request.key {
+        DesignKey::Duration => vs.drive.duration_step(),
+        _ => None,
+    };
+    let search = Search {
+        base: study,
+        request,
+        estimator,
+        truth: vs.vehicle.theta()[request.target.parameter],
+        step,
+    };
+    let target = request.target.value;
+    let largest = largest(request.key);
+
+    // First-order predictions on a grid bracket the answer.
+    let mut points: Vec<DesignPoint> = Vec::new();
+    let mut variants: Vec<(f64, Variant)> = Vec::new();
+    for i in 0..GRID {
+        let value = search.snap(from + (to - from) * i as f64 / (GRID - 1) as f64);
+        if points.last().is_some_and(|p| p.value == value) {
+            continue;
+        }
+        let v = search.variant(value)?;
+        points.push(DesignPoint {
+            value,
+            predicted: search.predicted(&v),
+            simulated: None,
+        });
+        variants.push((value, v));
+    }
+    let holds = |m: f64| m <= target;
+    // In search order (ascending for a duration or scale, descending for a noise level):
+    // the first grid value predicted to hold.
+    let order: Vec<usize> = if largest {
+        (0..points.len()).rev().collect()
+    } else {
+        (0..points.len()).collect()
+    };
+    let hit = order
+        .iter()
+        .position(|&i| holds(points[i].predicted))
+        .unwrap_or(order.len() - 1);
+    // good: a value known (or expected) to hold; bad: one that does not, nearer the start.
+    let mut good = points[order[hit]].value;
+    let mut bad = (hit > 0).then(|| points[order[hit - 1]].value);
+
+    let mut evaluate = |value: f64, points: &mut Vec<DesignPoint>| -> Result<f64, DesignError> {
+        if let Some(p) = points
+            .iter()
+            .find(|p| p.value == value && p.simulated.is_some())
+        {
+            return Ok(p.simulated.unwrap().0);
+        }
+        let v = match variants.iter().position(|(x, _)| *x == value) {
+            Some(i) => variants.swap_remove(i).1,
+            None => search.variant(value)?,
+        };
+        let simulated = search.simulated(&v)?;
+        let predicted = search.predicted(&v);
+        match points.iter_mut().find(|p| p.value == value) {
+            Some(p) => p.simulated = Some(simulated),
+            None => points.push(DesignPoint {
+                value,
+                predicted,
+                simulated: Some(simulated),
+            }),
+        }
+        Ok(simulated.0)
+    };
+    let start = if largest { to } else { from };
+    let end = if largest { from } else { to };
+    // Confirm the bracket by Monte Carlo, widening it to the range's ends where needed.
+    if !holds(evaluate(good, &mut points)?) {
+        bad = Some(good);
+        good = search.snap(end);
+        if !holds(evaluate(good, &mut points)?) {
+            return finish(study, request, &search, points, None, None);
+        }
+    }
+    if let Some(b) = bad
+        && holds(evaluate(b, &mut points)?)
+    {
+        good = b;
+        bad = None;
+        let first = search.snap(start);
+        if good != first {
+            if holds(evaluate(first, &mut points)?) {
+                good = first;
+            } else {
+                bad = Some(first);
+            }
+        }
+    }
+    // Bisect between the last value that fails and the first that holds.
+    let resolution = (RESOLUTION * (to - from)).max(step.unwrap_or(0.0));
+    while let Some(b) = bad {
+        if (good - b).abs() <= resolution {
+            break;
+        }
+        let mid = search.snap(0.5 * (good + b));
+        if mid == good || mid == b {
+            break;
+        }
+        if holds(evaluate(mid, &mut points)?) {
+            good = mid;
+        } else {
+            bad = Some(mid);
+        }
+    }
+    let answer = points.iter().find(|p| p.value == good).copied();
+    finish(study, request, &search, points, answer, bad)
+}

@@ -1,0 +1,151 @@
+//! The vehicle model's face to the executor: its row layout and its [`Model`]
+//! implementation.
+
+use std::cell::RefCell;
+
+use arrow::array::RecordBatch;
+use arrow::error::ArrowError;
+
+use super::prepare::used_samples;
+use super::{
+    PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema, study_controls,
+};
+use crate::estimate::bounds::BOUNDS;
+use crate::estimate::controls::CONTROLS;
+use crate::estimate::conversions::EXTRAS;
+use crate::estimate::moments::Rows;
+use crate::model::{
+    BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo,
+    realise_one_by_one,
+};
+use crate::study::VehicleStudy;
+
+/// The row layout of the vehicle model running `estimators`.
+pub fn layout(study: &VehicleStudy) -> Layout {
+    let terrain = match &study.terrain {
+        Some(t) => format!(
+            "{}, {} km",
+            t.profile.describe(),
+            t.length_m as f64 / 1000.0
+        ),
+        None => "the trace's grade".to_string(),
+    };
+    let estimators = &study.estimators;
+    Layout {
+        context: vec![format!(
+            "route: {terrain}; drive: {}",
+            study.drive.describe()
+        )],
+        axes: axes().map(VehicleAxis::column).collect(),
+        condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
+        figure_x: Some(FigureX {
+            metric: "terrain_ms_grid",
+            label: "terrain variability ς = mean θ² over the terrain table [rad²]",
+            replaces: "scale",
+        }),
+        parameters: vec![
+            ParameterInfo {
+                name: PARAMETERS[0],
+                unit: "1/kg",
+                description: "1/M, inverse vehicle mass",
+            },
+            ParameterInfo {
+                name: PARAMETERS[1],
+                unit: "1/kg",
+                description: "Cd/M, drag coefficient over mass",
+            },
+            ParameterInfo {
+                name: PARAMETERS[2],
+                unit: "1",
+                description: "Cr, rolling-resistance coefficient",
+            },
+        ],
+        estimators: estimators.iter().map(|e| e.name()).collect(),
+        extras: EXTRAS.iter().map(ExtraInfo::from).collect(),
+        bounds: BOUNDS
+            .iter()
+            .map(|b| BoundInfo {
+                name: b.name,
+                description: b.description,
+                // The thesis's bound divides by σ_v² in (m/s)² an information matrix of
+                // the noisy regressors: never a bound (README "What the numbers mean").
+                valid: b.name != "thesis_bound",
+            })
+            .collect(),
+        controls: study_controls(study)
+            .into_iter()
+            .map(|j| ExtraInfo::from(&CONTROLS[j]))
+            .collect(),
+    }
+}
+
+impl Model for VehicleModel {
+    fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    fn extra_tables(&self) -> Vec<ExtraTable> {
+        vec![ExtraTable {
+            file: "cycles.parquet",
+            table: "cycles",
+            schema: cycles_schema(),
+        }]
+    }
+
+    /// cycles.parquet: block `index` is the cycle of scale `index / sources` with
+    /// acceleration source `index % sources` (study order), whatever the other axes.
+    fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
+        let sources = &self.study.acceleration;
+        let scale = self
+            .cycles
+            .get(index / sources.len())
+            .filter(|_| table == 0)?;
+        let source = sources[index % sources.len()];
+        let used = used_samples(&scale.cycle, &self.study, None, source);
+        Some(cycles_batch(
+            self.study.scales[index / sources.len()],
+            source.name(),
+            &scale.cycle,
+            &used,
+        ))
+    }
+
+    fn condition_count(&self) -> usize {
+        self.conditions.len()
+    }
+
+    fn condition_info(&self, c: usize) -> &ConditionInfo {
+        &self.conditions[c].info
+    }
+
+    fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
+        thread_local! {
+            /// The measured rows of this thread's current realisation (memory reused).
+            static ROWS: RefCell<Rows> = RefCell::default();
+        }
+        ROWS.with_borrow_mut(|rows| self.realise_with(seed, c, r, rows, slots));
+    }
+
+    fn draw_group(&self, c: usize) -> usize {
+        self.conditions[c].group
+    }
+
+    fn realise_group(
+        &self,
+        seed: u64,
+        conditions: &[usize],
+        first: u64,
+        count: usize,
+        slots: &mut [f64],
+    ) {
+        if !self.one_draw_serves(conditions) {
+            return realise_one_by_one(self, seed, conditions, first, count, slots);
+        }
+        let mut slots = slots.chunks_exact_mut(self.layout.realisation_stride());
+        for moments in self.measure_group(seed, conditions, first, count) {
+            for (&c, (moments, slots)) in conditions.iter().zip(moments.iter().zip(&mut slots)) {
+                self.conclude(c, moments, None, slots);
+            }
+        }
+    }
+}
