@@ -6,8 +6,10 @@
 //! failed run leaves the previous results untouched. Compression is zstd, row groups are
 //! bounded, and the footer carries the study as run, the engine version and the seed.
 
+mod error;
 mod failpoints;
 pub mod lock;
+mod read;
 pub mod set;
 pub mod store;
 mod summary_table;
@@ -20,13 +22,13 @@ use std::sync::Arc;
 use arrow::array::RecordBatch;
 use arrow::datatypes::SchemaRef;
 use parquet::arrow::ArrowWriter;
-use parquet::arrow::arrow_reader::{ParquetRecordBatchReader, ParquetRecordBatchReaderBuilder};
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
-use thiserror::Error;
 
+pub use error::OutputError;
 pub use failpoints::{FAILPOINTS, PAUSE_POINTS, failpoint, pause};
+pub use read::{Footer, OpenedFile, footer_dir, open_projected_reader, open_reader, read_metadata};
 pub use summary_table::{SummaryTable, read_summary, summary_batch, summary_schema};
 pub use tables::{RealisationBatches, realisation_schema, realisations_batch};
 
@@ -86,189 +88,6 @@ pub mod keys {
     /// The directory the study's data files (a speed trace, a terrain file) are named
     /// relative to, so that the study can be reloaded from the footer.
     pub const STUDY_DIR: &str = "chassis_mc.study_dir";
-}
-
-/// Failure while writing or reading output.
-#[derive(Debug, Error)]
-#[non_exhaustive]
-pub enum OutputError {
-    /// A filesystem operation failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// The underlying error.
-        source: std::io::Error,
-    },
-    /// The Parquet/Arrow layer failed.
-    #[error("{path}: {source}")]
-    Parquet {
-        /// The file.
-        path: PathBuf,
-        /// The underlying error.
-        source: parquet::errors::ParquetError,
-    },
-    /// Building or reading an Arrow batch failed.
-    #[error("{path}: {source}")]
-    Arrow {
-        /// The file.
-        path: PathBuf,
-        /// The underlying error.
-        source: arrow::error::ArrowError,
-    },
-    /// A file does not hold what chassis-mc wrote.
-    #[error("{path}: {reason}")]
-    Format {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        reason: String,
-    },
-    /// Another process is writing the output directory.
-    #[error(
-        "{dir}: another chassis-mc process{} is writing this directory; wait for it to \
-         finish or choose another --out",
-        pid.map(|p| format!(" (pid {p})")).unwrap_or_default()
-    )]
-    Locked {
-        /// The directory.
-        dir: PathBuf,
-        /// The pid of the process holding the lock, if it could be read.
-        pid: Option<u32>,
-    },
-    /// The directory's manifest or journal names a path outside the directory (absolute,
-    /// with `..`, or through a symbolic link): the directory is refused, nothing is done.
-    #[error(
-        "{file}{}: {reason}; refusing this directory (chassis-mc writes only plain names \
-         inside it)",
-        line.map(|l| format!(": line {l}")).unwrap_or_default()
-    )]
-    Unsafe {
-        /// The manifest or journal.
-        file: PathBuf,
-        /// The line naming the path.
-        line: Option<usize>,
-        /// What is wrong with the path.
-        reason: String,
-    },
-    /// A file of an output set does not hold the bytes recorded for it when it was written.
-    #[error(
-        "{path}: damaged: its bytes do not match the checksum recorded when it was written \
-         ({recorded:#} recorded; {found:#} found); {remedy}"
-    )]
-    Damaged {
-        /// The file.
-        path: PathBuf,
-        /// Length and checksum in the manifest.
-        recorded: set::Checksum,
-        /// Length and checksum of the file.
-        found: set::Checksum,
-        /// How to make it whole again.
-        remedy: String,
-    },
-    /// An unsharded run into a directory that holds shards (`shard=K/`): it would replace
-    /// them, and they are a user's computation.
-    #[error(
-        "{dir}: holds the shards {} of a sharded run, which an unsharded run into it would \
-         replace; combine them with `chassis-mc summarize {}`, move them away, or choose \
-         another --out",
-        shards.join(", "),
-        dir.display()
-    )]
-    ShardsPresent {
-        /// The directory.
-        dir: PathBuf,
-        /// Each shard directory, with its seed and realisations when its file says them.
-        shards: Vec<String>,
-    },
-    /// Files the engine would write over are not its own (not in its manifest, not
-    /// recognisably written by chassis-mc): a user's files are never overwritten.
-    #[error(
-        "{dir}: would overwrite {}, which chassis-mc did not write (they are not in its \
-         manifest); move them away or choose another --out (nothing of yours was changed)",
-        files.join(", ")
-    )]
-    NotOwned {
-        /// The directory.
-        dir: PathBuf,
-        /// The files, relative to it.
-        files: Vec<String>,
-    },
-    /// A file or directory given as an argument does not exist.
-    #[error("{path}: no such file or directory")]
-    Missing {
-        /// The path given.
-        path: PathBuf,
-    },
-    /// Realisation files summarised together belong to different runs.
-    #[error(
-        "{path}: cannot be summarised with {first}: they differ in {}; summarise the files of \
-         one run (the same study, seed and R) together",
-        differences.join("; ")
-    )]
-    Mismatch {
-        /// The file that does not match.
-        path: PathBuf,
-        /// The first file, which the others are compared with.
-        first: PathBuf,
-        /// What differs, each with both values.
-        differences: Vec<String>,
-    },
-    /// A run was interrupted while replacing the directory's output files, so they may
-    /// come from two runs.
-    #[error(
-        "{dir}: incomplete output: a run was interrupted while replacing its files, so they \
-         may mix two runs; run `chassis-mc run` into this directory again to complete it"
-    )]
-    Incomplete {
-        /// The directory.
-        dir: PathBuf,
-    },
-}
-
-impl OutputError {
-    /// Whether the error is the input's fault (exit status 2: a bad argument, a directory
-    /// that cannot be used as it is) rather than a failure while running (1).
-    pub fn is_bad_input(&self) -> bool {
-        matches!(
-            self,
-            OutputError::Locked { .. }
-                | OutputError::Unsafe { .. }
-                | OutputError::Damaged { .. }
-                | OutputError::ShardsPresent { .. }
-                | OutputError::NotOwned { .. }
-                | OutputError::Mismatch { .. }
-                | OutputError::Missing { .. }
-        )
-    }
-
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
-        OutputError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-    }
-
-    pub(crate) fn parquet(path: &Path, source: parquet::errors::ParquetError) -> Self {
-        OutputError::Parquet {
-            path: path.to_path_buf(),
-            source,
-        }
-    }
-
-    pub(crate) fn arrow(path: &Path, source: arrow::error::ArrowError) -> Self {
-        OutputError::Arrow {
-            path: path.to_path_buf(),
-            source,
-        }
-    }
-
-    pub(crate) fn format(path: &Path, reason: impl Into<String>) -> Self {
-        OutputError::Format {
-            path: path.to_path_buf(),
-            reason: reason.into(),
-        }
-    }
 }
 
 /// What goes into every file's footer.
@@ -509,156 +328,6 @@ impl Drop for PendingFile {
             let _ = fs::remove_file(&self.tmp_path);
         }
     }
-}
-
-/// Open a Parquet file for batch-wise reading.
-pub fn open_reader(
-    path: &Path,
-    batch_rows: usize,
-) -> Result<ParquetRecordBatchReader, OutputError> {
-    open_projected_reader(path, batch_rows, None)
-}
-
-/// Open a Parquet file for batch-wise reading of the named top-level columns only (all
-/// columns when `None`).
-pub fn open_projected_reader(
-    path: &Path,
-    batch_rows: usize,
-    columns: Option<&[&str]>,
-) -> Result<ParquetRecordBatchReader, OutputError> {
-    OpenedFile::open(path)?.reader(batch_rows, columns)
-}
-
-/// A file opened once, read through that one handle: its footer and every pass over its
-/// rows come from the same bytes, even if a run renames another file over its path
-/// meanwhile (the open file outlives the rename). [`set::open_checked`] opens one and
-/// checks it against the directory's manifest.
-///
-/// Readers made from it share the handle's file position; the Parquet reader seeks before
-/// every read, so several may be used in turn on one thread.
-#[derive(Debug)]
-pub struct OpenedFile {
-    path: PathBuf,
-    file: File,
-}
-
-impl OpenedFile {
-    /// Open `path` for reading.
-    pub fn open(path: &Path) -> Result<Self, OutputError> {
-        let file = File::open(path).map_err(|e| OutputError::io(path, e))?;
-        Ok(OpenedFile {
-            path: path.to_path_buf(),
-            file,
-        })
-    }
-
-    /// The path it was opened at.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// A duplicate of its handle (the same open file, sharing its position).
-    pub(crate) fn handle(&self) -> Result<File, OutputError> {
-        self.file
-            .try_clone()
-            .map_err(|e| OutputError::io(&self.path, e))
-    }
-
-    /// Its length and checksum, read through the handle.
-    pub fn checksum(&self) -> Result<set::Checksum, OutputError> {
-        use std::io::Seek;
-        let mut file = self.handle()?;
-        file.rewind().map_err(|e| OutputError::io(&self.path, e))?;
-        set::checksum_of(&mut file, &self.path)
-    }
-
-    /// Whether `path` still names this file (on Unix: the same device and inode).
-    pub fn is_at(&self, path: &Path) -> bool {
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::MetadataExt;
-            match (self.file.metadata(), fs::metadata(path)) {
-                (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-                _ => false,
-            }
-        }
-        #[cfg(not(unix))]
-        {
-            let _ = path;
-            true
-        }
-    }
-
-    /// A batch-wise reader of the named top-level columns (all when `None`).
-    pub fn reader(
-        &self,
-        batch_rows: usize,
-        columns: Option<&[&str]>,
-    ) -> Result<ParquetRecordBatchReader, OutputError> {
-        let path = &self.path;
-        let builder = ParquetRecordBatchReaderBuilder::try_new(self.handle()?)
-            .map_err(|e| OutputError::parquet(path, e))?;
-        let builder = match columns {
-            Some(names) => {
-                let schema = builder.parquet_schema();
-                let leaves: Vec<usize> = (0..schema.num_columns())
-                    .filter(|&i| names.contains(&schema.column(i).name()))
-                    .collect();
-                let mask = parquet::arrow::ProjectionMask::leaves(schema, leaves);
-                builder.with_projection(mask)
-            }
-            None => builder,
-        };
-        builder
-            .with_batch_size(batch_rows)
-            .build()
-            .map_err(|e| OutputError::parquet(path, e))
-    }
-
-    /// Its footer key-value metadata.
-    pub fn footer(&self) -> Result<Footer, OutputError> {
-        let builder = ParquetRecordBatchReaderBuilder::try_new(self.handle()?)
-            .map_err(|e| OutputError::parquet(&self.path, e))?;
-        let kv = builder
-            .metadata()
-            .file_metadata()
-            .key_value_metadata()
-            .cloned()
-            .unwrap_or_default();
-        Ok(Footer(
-            kv.into_iter()
-                .map(|k| (k.key, k.value.unwrap_or_default()))
-                .collect(),
-        ))
-    }
-}
-
-/// The footer key-value metadata of a Parquet file.
-#[derive(Debug, Clone, Default)]
-pub struct Footer(Vec<(String, String)>);
-
-impl Footer {
-    /// The value of `key`, if the footer has it.
-    pub fn get(&self, key: &str) -> Option<&str> {
-        self.0
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v.as_str())
-    }
-}
-
-/// The directory a footer's study names its data files relative to: the one recorded with
-/// it, or (for files written before it was recorded) the directory of `path`.
-pub fn footer_dir(footer: &Footer, path: &Path) -> PathBuf {
-    match footer.get(keys::STUDY_DIR) {
-        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
-        _ => path.parent().map(Path::to_path_buf).unwrap_or_default(),
-    }
-}
-
-/// The footer key-value metadata of a Parquet file.
-pub fn read_metadata(path: &Path) -> Result<Footer, OutputError> {
-    OpenedFile::open(path)?.footer()
 }
 
 /// Shared pointer to a schema (re-exported for callers building batches).
