@@ -12,9 +12,8 @@ use arrow::array::{Array, AsArray, RecordBatch};
 use arrow::datatypes::{DataType, Float64Type, Int32Type};
 use plotters::prelude::*;
 
-use super::chart::{
-    Key, Ticked, legend, linear_ticks, padded, ramp, shared_exponent, with_exponent,
-};
+use super::axis::{Ticked, linear_ticks, padded, shared_exponent, with_exponent};
+use super::chart::{Key, legend, ramp};
 use super::{FigureError, LEGEND_WIDTH, MAX_CYCLE_POINTS, SIZE, draw_error};
 use crate::output::{self, OutputError, SummaryTable};
 

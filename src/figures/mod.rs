@@ -20,6 +20,7 @@
 //! does not grow with the number of conditions.
 //! Each plotted condition × estimator (× bound) is one circle marker.
 
+mod axis;
 mod chart;
 mod cycles;
 mod parameters;
