@@ -9,6 +9,7 @@
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
 mod line_fit;
+mod placement;
 mod raw;
 mod spans;
 mod validate;

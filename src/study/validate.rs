@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use super::raw::RawStudy;
-use super::{KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, vehicle};
+use super::{
+    KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, placement, vehicle,
+};
 use crate::estimate::channels::Channel;
 use crate::estimate::estimators::EstimatorRef;
 
@@ -42,7 +44,7 @@ pub(super) fn serde_error(
         Some((key, key_line)) => {
             // A key of another table (`min_speed` under [vehicle]): say where it belongs.
             let (table, field) = key.rsplit_once('.').unwrap_or(("", &key));
-            let reason = match vehicle::elsewhere(table, field, None) {
+            let reason = match placement::elsewhere(table, field, None) {
                 Some(place) if message.starts_with("unknown field") => {
                     let table = match table {
                         "" => "at the top level".to_string(),

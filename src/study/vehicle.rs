@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use super::placement::{COMMON_DRIVE_KEYS, COMMON_TERRAIN_KEYS, home_of, unknown_key};
 use super::raw::{RawNoise, RawStudy};
 use super::validate::{Checker, validate_estimators};
 use super::{MAX_SAMPLES, StudyError};
@@ -217,103 +218,6 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     })
 }
 
-/// Keys of `[drive]` that every drive mode has.
-const COMMON_DRIVE_KEYS: [&str; 3] = ["min_speed", "exclude_braking", "durations"];
-
-/// Keys of `[terrain]` that every profile has.
-const COMMON_TERRAIN_KEYS: [&str; 4] = ["profile", "length", "scales", "scale_applies_to"];
-
-/// The keys of the study's fixed tables (`""`: the top level); `[vehicle]` and
-/// `[estimation]` as their serde structs read them (a unit test checks the two agree).
-const FIXED_KEYS: [(&str, &[&str]); 3] = [
-    ("", &["name", "seed", "realisations", "model"]),
-    (
-        "vehicle",
-        &[
-            "mass",
-            "drag_coefficient",
-            "rolling_resistance",
-            "frontal_area",
-            "air_density",
-            "gravity",
-            "final_drive_ratio",
-            "wheel_radius",
-        ],
-    ),
-    ("estimation", &["estimators", "forgetting", "acceleration"]),
-];
-
-/// Every place a study-file key can stand: its table (`""` for the top level) and, for a
-/// key of one drive mode or terrain profile only, that mode's or profile's name.
-pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
-    let mut homes = Vec::new();
-    for (table, keys) in FIXED_KEYS {
-        if keys.contains(&key) {
-            homes.push((table, None));
-        }
-    }
-    if key == "mode" || COMMON_DRIVE_KEYS.contains(&key) {
-        homes.push(("drive", None));
-    }
-    for mode in &DRIVE_MODES {
-        if mode.keys.contains(&key) {
-            homes.push(("drive", Some(mode.name)));
-        }
-    }
-    if COMMON_TERRAIN_KEYS.contains(&key) {
-        homes.push(("terrain", None));
-    }
-    for profile in &PROFILES {
-        if profile.keys.contains(&key) {
-            homes.push(("terrain", Some(profile.name)));
-        }
-    }
-    let noise = Channel::ALL.map(Channel::key);
-    if noise.contains(&key)
-        || [GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES].contains(&key)
-    {
-        homes.push(("noise", None));
-    }
-    homes
-}
-
-/// Where a key unknown in `[table]` belongs instead, in words (`None`: nowhere).
-pub(super) fn elsewhere(table: &str, key: &str, variant: Option<(&str, &str)>) -> Option<String> {
-    let homes = home_of(key);
-    if let Some((kind, this)) = variant
-        && let Some(other) = homes
-            .iter()
-            .find_map(|(t, v)| (*t == table).then_some(*v).flatten())
-    {
-        return Some(format!(
-            "it is a key of {kind} \"{other}\", and this [{table}] is {kind} \"{this}\""
-        ));
-    }
-    homes
-        .iter()
-        .find(|(t, _)| *t != table)
-        .map(|(t, _)| match *t {
-            "" => "it belongs at the top of the file, before any [table]".to_string(),
-            t => format!("it belongs in [{t}]"),
-        })
-}
-
-/// The error for `key`, which `[table]` does not have: where it belongs, if another table
-/// has it, else the keys `[table]` does have.
-fn unknown_key(
-    c: &Checker<'_>,
-    table: &str,
-    key: &str,
-    expected: Vec<&str>,
-    variant: Option<(&str, &str)>,
-) -> StudyError {
-    let reason = match elsewhere(table, key, variant) {
-        Some(place) => format!("unknown field `{key}` in [{table}]: {place}"),
-        None => format!("unknown field `{key}`, expected one of {expected:?}"),
-    };
-    c.fail(&format!("{table}.{key}"), reason)
-}
-
 /// `[terrain]`: the profile and its grid (required when the drive mode `needs` them, else
 /// `[terrain]` may only give `scales`), and the scales (default `[1.0]` without a profile).
 fn validate_terrain(
@@ -523,60 +427,11 @@ fn validate_acceleration(
 
 /// The `[noise]` key of the speed noise's correlation time \[s\] (an axis; default `[0]`,
 /// white noise).
-const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
+pub(super) const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
 
 /// The `[noise]` key that lets conditions differing only in terrain scale and duration share
 /// each realisation's draws (docs/model.md#shared-noise).
-const SHARE_ACROSS_SCALES: &str = "share_across_scales";
+pub(super) const SHARE_ACROSS_SCALES: &str = "share_across_scales";
 
 /// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
-const GRADE_BIAS: &str = "grade_bias";
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::study::raw::{RawEstimation, RawVehicle};
-
-    /// The fields serde lists for an unknown key of a fixed table.
-    fn serde_fields<T: serde::de::DeserializeOwned + std::fmt::Debug>() -> Vec<String> {
-        let err = toml::from_str::<T>("no_such_key = 1")
-            .unwrap_err()
-            .to_string();
-        let list = err
-            .split("expected one of")
-            .nth(1)
-            .expect("serde lists the fields");
-        list.split(',')
-            .map(|f| {
-                f.trim()
-                    .trim_matches(|c: char| c == '`' || c.is_whitespace())
-            })
-            .map(|f| f.split('`').next().unwrap_or(f).to_string())
-            .filter(|f| !f.is_empty())
-            .collect()
-    }
-
-    #[test]
-    fn the_fixed_tables_keys_are_the_serde_structs_fields() {
-        for (table, fields) in [
-            ("vehicle", serde_fields::<RawVehicle>()),
-            ("estimation", serde_fields::<RawEstimation>()),
-        ] {
-            let keys = FIXED_KEYS.iter().find(|(t, _)| *t == table).unwrap().1;
-            assert_eq!(keys, fields.as_slice(), "[{table}]");
-        }
-    }
-
-    #[test]
-    fn a_key_of_another_table_is_placed() {
-        assert_eq!(
-            elsewhere("terrain", "min_speed", Some(("profile", "cos2"))).as_deref(),
-            Some("it belongs in [drive]")
-        );
-        assert_eq!(elsewhere("terrain", "no_such_key", None), None);
-        assert_eq!(
-            elsewhere("noise", "seed", None).as_deref(),
-            Some("it belongs at the top of the file, before any [table]")
-        );
-    }
-}
+pub(super) const GRADE_BIAS: &str = "grade_bias";
