@@ -75,6 +75,12 @@
 //! - **a summary measure**: a variant of [`stats::columns::Measure`] or
 //!   [`stats::columns::BoundMeasure`] (the writer, the decoder and the figures take it from
 //!   there) and its computation in [`stats::summary`].
+//! - **a model error** (how the simulated truth differs from the regression's equation):
+//!   one [`vehicle::truth::ModelError`] impl (the force the equation leaves out at a sample,
+//!   and whether it is drawn per realisation) and one entry of
+//!   [`vehicle::truth::MODEL_ERRORS`] (its keys of `[truth]` and how it reads them), in its
+//!   own file under `vehicle/`; the drive modes' dynamics and the first-order bias take it
+//!   from its omitted force (docs/model.md#model-errors).
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
 //!   statistics, output and figures work from its [`model::Layout`].
 

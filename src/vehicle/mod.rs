@@ -5,11 +5,13 @@
 //! sinusoidal torque, integrated by RK4; in `torque.rs`) and `speed_trace` (a recorded speed
 //! trace followed exactly, the force from inverse dynamics; in `speed_trace.rs`) and `replay`
 //! (a cycle given sample by sample; in `replay.rs`). A stall or
-//! running off the terrain is an error, never a silent NaN.
+//! running off the terrain is an error, never a silent NaN. How the truth may differ from
+//! this equation (model errors) is in [`truth`].
 
 mod replay;
 mod speed_trace;
 mod torque;
+pub mod truth;
 
 pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
