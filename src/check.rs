@@ -236,7 +236,7 @@ fn other_files(
     let infos = model.infos();
     let mut pending = run::write_summary(dir, layout, &infos, &summary, meta)?;
     pending.extend(run::write_extra_tables(model, dir, meta)?);
-    pending.extend(run::draw_figures(dir, &pending)?);
+    pending.extend(run::draw_figures(dir, layout, &pending)?);
     pending.push(run::write_report(
         dir,
         "run",

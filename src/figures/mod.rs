@@ -160,7 +160,8 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
             other => other,
         })?;
     }
-    let pending = draw_staged(dir, &summary, cycles)?;
+    let layout = layout_in_footer(&summary)?;
+    let pending = draw_staged(dir, &layout, &summary, cycles)?;
     let written = set::commit(dir, pending, &|path| {
         path.starts_with(&format!("{FIGURES}/"))
     });
@@ -168,14 +169,9 @@ pub fn draw(dir: &Path) -> Result<Vec<PathBuf>, FigureError> {
     Ok(written?)
 }
 
-/// Draw every figure of the summary at `summary_path` (and the cycles at `cycles_path`)
-/// into a staging directory inside `dir`. Returns the figures as files to be committed to
-/// `dir/figures/` with the rest of the output set.
-pub fn draw_staged(
-    dir: &Path,
-    summary_path: &Path,
-    cycles_path: Option<&Path>,
-) -> Result<Vec<PendingFile>, FigureError> {
+/// The layout of the run whose summary is at `summary_path`, from the study its footer
+/// records (for `figures DIR`, which is given only a directory).
+fn layout_in_footer(summary_path: &Path) -> Result<Layout, FigureError> {
     let footer = output::read_metadata(summary_path)?;
     let study_toml = footer
         .get(keys::STUDY)
@@ -185,12 +181,23 @@ pub fn draw_staged(
         &format!("{} (footer)", summary_path.display()),
         &output::footer_dir(&footer, summary_path),
     )?;
-    let layout = crate::model::layout_of(&study);
-    let summary = output::read_summary(summary_path, &layout)?;
+    Ok(crate::model::layout_of(&study))
+}
+
+/// Draw every figure of the summary at `summary_path` (and the cycles at `cycles_path`),
+/// a run's with `layout`, into a staging directory inside `dir`. Returns the figures as
+/// files to be committed to `dir/figures/` with the rest of the output set.
+pub fn draw_staged(
+    dir: &Path,
+    layout: &Layout,
+    summary_path: &Path,
+    cycles_path: Option<&Path>,
+) -> Result<Vec<PendingFile>, FigureError> {
+    let summary = output::read_summary(summary_path, layout)?;
     let staging = dir.join(output::temporary_name(FIGURES));
     let _ = fs::remove_dir_all(&staging);
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    let names = draw_into(&staging, &layout, &summary, cycles_path);
+    let names = draw_into(&staging, layout, &summary, cycles_path);
     let target = dir.join(FIGURES);
     // Each drawn figure is removed again if it is never committed.
     let names = names.inspect_err(|_| {

@@ -247,7 +247,7 @@ fn run_prepared(
         pending.extend(write_summary(out_dir, &layout, &infos, &summary, &meta)?);
         pending.extend(extra);
         if options.figures {
-            let figures = draw_figures(out_dir, &pending)?;
+            let figures = draw_figures(out_dir, &layout, &pending)?;
             pending.extend(figures);
         }
         let report = write_report(
@@ -338,9 +338,10 @@ fn lock(dir: &Path, observer: &dyn Observer) -> Result<DirLock, OutputError> {
 }
 
 /// Draw the figures of the summary and cycles among `pending` (still under temporary
-/// names), to be committed with them.
+/// names) of a run with `layout`, to be committed with them.
 pub(super) fn draw_figures(
     out_dir: &Path,
+    layout: &Layout,
     pending: &[PendingFile],
 ) -> Result<Vec<PendingFile>, RunError> {
     let find = |name: &str| {
@@ -350,7 +351,12 @@ pub(super) fn draw_figures(
             .map(|p| p.tmp_path())
     };
     let summary = find(files::SUMMARY).expect("the summary is written before the figures");
-    Ok(figures::draw_staged(out_dir, summary, find(files::CYCLES))?)
+    Ok(figures::draw_staged(
+        out_dir,
+        layout,
+        summary,
+        find(files::CYCLES),
+    )?)
 }
 
 /// Name of the report page in an output directory.

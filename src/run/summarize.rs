@@ -155,7 +155,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
     drop(model); // the figures and the report need only the layout and the conditions
     if figures {
-        let figures = draw_figures(out_dir, &pending)?;
+        let figures = draw_figures(out_dir, &layout, &pending)?;
         pending.extend(figures);
     }
     let report = write_report(
