@@ -27,7 +27,7 @@ pub fn lead_bound<'a>(layout: &Layout, r: &'a SummaryRow) -> Option<(usize, &'a 
             .filter_map(|(b, s)| s.as_ref().map(|s| (b, s)))
     };
     reported()
-        .find(|(b, _)| layout.bounds[*b].valid)
+        .find(|(b, _)| layout.bounds[*b].valid())
         .or_else(|| reported().next())
 }
 
@@ -168,7 +168,7 @@ fn table_of(
         };
         let bound_name = |b: usize| {
             let bound = &layout.bounds[b];
-            if bound.valid {
+            if bound.valid() {
                 bound.name.to_string()
             } else {
                 format!("{} (not valid)", bound.name)

@@ -216,6 +216,8 @@ pub enum BoundValue {
 /// A bound or predicted standard error of the vehicle regression: one entry of [`BOUNDS`].
 #[derive(Debug, Clone, Copy)]
 pub struct Bound {
+    /// Which bound it is, for the code that treats one bound apart.
+    pub kind: BoundKind,
     /// Column prefix, e.g. `thesis_bound`.
     pub name: &'static str,
     /// What it is and when it is valid.
@@ -224,34 +226,71 @@ pub struct Bound {
     pub applies: fn(&NoiseLevels) -> bool,
     /// How its standard errors are computed.
     pub value: BoundValue,
+    /// Why, where it applies, it is not a bound on the estimates' spread (a clause that
+    /// follows "is not a valid bound"); `None` for a valid one.
+    pub not_valid: Option<&'static str>,
+}
+
+/// The bounds of [`BOUNDS`], by name in the code (their names in tables are the entries').
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoundKind {
+    /// The thesis's bound, reported for fidelity.
+    Thesis,
+    /// The Cramér–Rao bound under output noise alone.
+    CrlbOutput,
+    /// The first-order sandwich covariance of OLS and BCLS.
+    EivSandwich,
+    /// The bound of the linearised equation-error model.
+    EivCrlbLinearized,
+}
+
+impl BoundKind {
+    /// Its position in [`BOUNDS`] (its columns' order).
+    pub fn index(self) -> usize {
+        BOUNDS
+            .iter()
+            .position(|b| b.kind == self)
+            .expect("every kind has its entry in BOUNDS")
+    }
 }
 
 /// Every bound of the vehicle model, in column order (see docs/model.md#bounds).
 pub static BOUNDS: [Bound; 4] = [
     Bound {
+        kind: BoundKind::Thesis,
         name: "thesis_bound",
         description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
         applies: |n| n.is_on(Channel::Velocity),
         value: BoundValue::PerRealisation(thesis_bound),
+        not_valid: Some(
+            " under speed noise: the noise is in the regressors, not in the output, and σ_v \
+             [m/s] is not in the output's units",
+        ),
     },
     Bound {
+        kind: BoundKind::CrlbOutput,
         name: "crlb_output",
         description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
         applies: NoiseLevels::output_only,
         value: BoundValue::Constant(|reg, _, n| {
             scaled_inverse_sd(&reg.xtx, n[Channel::Output]).ok()
         }),
+        not_valid: None,
     },
     Bound {
+        kind: BoundKind::EivSandwich,
         name: "eiv_sandwich",
         description: "first-order covariance (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Σ the covariance of the equation errors (diagonal Ω; banded for AR(1) speed noise and for a differentiated acceleration)",
         applies: NoiseLevels::in_regressors,
         value: BoundValue::Constant(|reg, theta, n| reg.sandwich_se(theta, n).ok()),
+        not_valid: None,
     },
     Bound {
+        kind: BoundKind::EivCrlbLinearized,
         name: "eiv_crlb_linearized",
         description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated or differentiated speed noise)",
         applies: |n| n.in_regressors() && n.independent_rows(),
         value: BoundValue::Constant(|reg, theta, n| reg.linearized_crlb_se(theta, n).ok()),
+        not_valid: None,
     },
 ];

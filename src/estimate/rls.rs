@@ -10,7 +10,7 @@
 //! division, checked every 0.25 s of the cycle, or every four rows where they are further
 //! apart (the sums run in four lanes).
 
-use super::bounds::Bound;
+use super::bounds::{Bound, BoundKind};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
 use super::row_sums::rls_scan;
 
@@ -55,6 +55,6 @@ impl Estimator for Rls {
 
     fn reports(&self, bound: &Bound, settings: &EstimatorSettings) -> bool {
         // With forgetting it weights the rows unequally: OLS's sandwich is not its spread.
-        bound.name != "eiv_sandwich" || settings.forgetting == 1.0
+        bound.kind != BoundKind::EivSandwich || settings.forgetting == 1.0
     }
 }

@@ -10,7 +10,7 @@
 //! moments of each segment are summed once per realisation; each iteration only reweights
 //! them.
 
-use super::bounds::Bound;
+use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
 use super::moments::Moments;
@@ -89,7 +89,7 @@ impl Estimator for Wbcls {
 
     fn reports(&self, bound: &Bound, _settings: &EstimatorSettings) -> bool {
         // The sandwich is the spread of the unweighted estimators.
-        bound.name != "eiv_sandwich"
+        bound.kind != BoundKind::EivSandwich
     }
 }
 

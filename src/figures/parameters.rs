@@ -175,7 +175,7 @@ pub(super) fn shown_rows(
 
 /// A bound's name in a legend, marked where it is not a valid bound.
 fn bound_label(b: &crate::model::BoundInfo) -> String {
-    if b.valid {
+    if b.valid() {
         b.name.to_string()
     } else {
         format!("{} (not valid)", b.name)

@@ -114,12 +114,12 @@ pub fn layout() -> Layout {
                 name: "assumed_sigma",
                 description: "sqrt(diag(σ_a² (XᵀX)⁻¹)) with the assumed σ_a (the thesis's 7.5)",
                 // The thesis's example of a wrong σ: a bound only when σ_a is the truth.
-                valid: false,
+                not_valid: Some(": σ_a is an assumed value, not the noise's standard deviation"),
             },
             BoundInfo {
                 name: "true_sigma",
                 description: "sqrt(diag(σ² (XᵀX)⁻¹)) with the true noise SD: the exact OLS SE; the CRLB only for Gaussian noise",
-                valid: true,
+                not_valid: None,
             },
         ],
     }

@@ -138,10 +138,17 @@ pub struct BoundInfo {
     pub name: &'static str,
     /// What it is and when it is valid.
     pub description: &'static str,
-    /// Whether, where it applies, it is a valid bound or prediction of the estimates'
-    /// spread; false for one reported for fidelity only (the thesis's bound under speed
-    /// noise, README "What the numbers mean"). Tables lead with a valid one.
-    pub valid: bool,
+    /// Why, where it applies, it is not a bound or prediction of the estimates' spread, for
+    /// one reported for fidelity only (the thesis's bound under speed noise, README "What
+    /// the numbers mean"); `None` for a valid one. Tables lead with a valid one.
+    pub not_valid: Option<&'static str>,
+}
+
+impl BoundInfo {
+    /// Whether, where it applies, it bounds or predicts the estimates' spread.
+    pub fn valid(&self) -> bool {
+        self.not_valid.is_none()
+    }
 }
 
 /// Everything the executor, statistics and output need to know about a model's rows.

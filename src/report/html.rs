@@ -294,12 +294,14 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
             .iter()
             .filter(|i| i.applies.iter().any(|e| e[b]))
             .count();
-        if bound.name == "thesis_bound" && !ratios.is_empty() {
+        if let Some(why) = bound.not_valid
+            && !ratios.is_empty()
+        {
             let (lo, hi) = min_max(&ratios);
             out.push(format!(
-                "thesis_bound is not a valid bound under speed noise: the noise is in the \
-                 regressors, not in the output, and σ_v [m/s] is not in the output's units. Here \
-                 the real spread of the estimates is {lo:.3}–{hi:.3} times thesis_bound."
+                "{name} is not a valid bound{why}. Here the real spread of the estimates is \
+                 {lo:.3}–{hi:.3} times {name}.",
+                name = bound.name
             ));
         } else if applies > 0 && applies < infos.len() {
             out.push(format!(

@@ -161,7 +161,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         bounds: vec![BoundInfo {
             name: "b",
             description: "",
-            valid: true,
+            not_valid: None,
         }],
         controls: vec![],
     };

@@ -67,9 +67,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             .map(|b| BoundInfo {
                 name: b.name,
                 description: b.description,
-                // The thesis's bound divides by σ_v² in (m/s)² an information matrix of
-                // the noisy regressors: never a bound (README "What the numbers mean").
-                valid: b.name != "thesis_bound",
+                not_valid: b.not_valid,
             })
             .collect(),
         controls: study_controls(study)

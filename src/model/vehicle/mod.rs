@@ -23,7 +23,7 @@ pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
 use super::{ConditionInfo, Layout};
-use crate::estimate::bounds::{BOUNDS, BoundValue};
+use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue};
 use crate::estimate::channels::{Channel, NoiseLevels};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::moments::Moments;
@@ -205,11 +205,15 @@ impl VehicleModel {
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
         let est = &self.study.estimators[e];
-        let se = ["crlb_output", "eiv_sandwich", "eiv_crlb_linearized"]
-            .iter()
-            .filter_map(|name| BOUNDS.iter().position(|b| b.name == *name))
-            .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
-            .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
+        let se = [
+            BoundKind::CrlbOutput,
+            BoundKind::EivSandwich,
+            BoundKind::EivCrlbLinearized,
+        ]
+        .into_iter()
+        .map(BoundKind::index)
+        .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
+        .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
         if est.compensates_speed_noise() {
             return ([0.0; 3], se);
         }
