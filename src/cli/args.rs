@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use chassis_mc::design::{DesignKey, DesignTarget};
 use chassis_mc::run::{RunError, Shard};
-use chassis_mc::stats::plan::{MEASURES, Target};
+use chassis_mc::stats::plan::{Target, measure_names};
 use chassis_mc::study::Study;
 use clap::{Parser, Subcommand};
 
@@ -271,7 +271,7 @@ fn replications_for_help() -> String {
          Monte Carlo standard error of MEASURE ({}) to reach MCSE in every condition × \
          estimator (× parameter, or only PARAMETER's), R·(MCSE now / MCSE wanted)², with the \
          run time that takes at this run's pace. Repeatable.",
-        MEASURES.join(", ")
+        measure_names().join(", ")
     )
 }
 

@@ -4,7 +4,8 @@
 
 use chassis_mc::model::Layout;
 use chassis_mc::run::RunReport;
-use chassis_mc::stats::plan::{self, Plan, Target, replications_for};
+use chassis_mc::stats::columns::Measure;
+use chassis_mc::stats::plan::{Plan, Target, replications_for};
 use chassis_mc::stats::summary::SummaryRow;
 use chassis_mc::study::MAX_REALISATIONS;
 
@@ -37,7 +38,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
                 .parameter
                 .as_deref()
                 .map_or(String::new(), |p| format!("{p}:")),
-            target.measure,
+            target.measure.name(),
             target.mcse
         );
         let pace = |r: f64| {
@@ -53,7 +54,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
         };
         match replications_for(&report.summary, &parameters, pilot_r, target) {
             Plan::Reach { realisations, row } => {
-                let current = plan::measure(row, &target.measure).map_or(f64::NAN, |m| m.mcse);
+                let current = target.measure.of(row).mcse;
                 println!(
                     "replications for {what}: R = {realisations} per condition (now {pilot_r}, \
                      MCSE {current:.3e} at {}); about {} at this run's pace",
@@ -66,7 +67,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
                 row,
                 best_mcse,
             } => {
-                let current = plan::measure(row, &target.measure).map_or(f64::NAN, |m| m.mcse);
+                let current = target.measure.of(row).mcse;
                 println!(
                     "replications for {what}: out of reach: it would take R ≈ {needed:.2e} per \
                      condition (now {pilot_r}, MCSE {current:.3e} at {}), more than the \
@@ -76,7 +77,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
                     pace(needed)
                 );
             }
-            Plan::Exact if target.measure == "rel_precision" => println!(
+            Plan::Exact if target.measure == Measure::RelPrecision => println!(
                 "replications for {what}: nothing to plan: rel_precision compares each \
                  estimator's spread with the first estimator's ({}), whose own is 0 by \
                  definition, without Monte Carlo error{}",
@@ -89,7 +90,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
             Plan::Exact => println!(
                 "replications for {what}: nothing to plan: {} has no Monte Carlo error here \
                  (its MCSE is 0 in every row)",
-                target.measure
+                target.measure.name()
             ),
             Plan::Undefined => {
                 println!("replications for {what}: no finite MCSE in this run to plan from")

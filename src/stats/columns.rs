@@ -67,6 +67,15 @@ impl Measure {
         }
     }
 
+    /// Whether it is estimated by the control-variate regression (defined from q + 3
+    /// realisations on, q the number of controls).
+    pub fn by_control_variates(self) -> bool {
+        matches!(
+            self,
+            Measure::MeanCv | Measure::BiasCv | Measure::CvVarianceRatio
+        )
+    }
+
     /// Whether it has an MCSE column.
     pub fn has_mcse(self) -> bool {
         self != Measure::CvVarianceRatio

@@ -2,30 +2,27 @@
 //! Crowther 2019, §5.3): every measure's MCSE falls as 1/√R, so from a pilot of R₀
 //! realisations with MCSE s₀ the target s needs R = ⌈R₀ (s₀ / s)²⌉.
 
-use super::measures::Estimate;
+use super::columns::Measure;
 use super::summary::SummaryRow;
 use crate::study::MAX_REALISATIONS;
 
-/// A measure of the summary whose MCSE can be planned.
-pub const MEASURES: [&str; 9] = [
-    "mean",
-    "bias",
-    "rel_bias",
-    "emp_se",
-    "mse",
-    "rmse",
-    "rel_precision",
-    "mean_cv",
-    "bias_cv",
-];
+/// The measures of the summary whose MCSE can be planned: every one with an MCSE column.
+pub fn measures() -> impl Iterator<Item = Measure> {
+    Measure::ALL.into_iter().filter(|m| m.has_mcse())
+}
+
+/// Their names, as `--replications-for` takes them.
+pub fn measure_names() -> Vec<&'static str> {
+    measures().map(Measure::name).collect()
+}
 
 /// A target `[PARAMETER:]MEASURE=MCSE` of `--replications-for`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Target {
     /// Only this parameter (`None`: every parameter).
     pub parameter: Option<String>,
-    /// One of [`MEASURES`].
-    pub measure: String,
+    /// One of [`measures`].
+    pub measure: Measure,
     /// The wanted MCSE, in the measure's unit.
     pub mcse: f64,
 }
@@ -40,11 +37,12 @@ impl Target {
             Some((p, m)) => (Some(p.trim().to_string()), m.trim()),
             None => (None, lhs.trim()),
         };
-        if !MEASURES.contains(&measure) {
+        let Some(measure) = measures().find(|m| m.name() == measure) else {
             return Err(format!(
-                "unknown measure \"{measure}\"; expected one of {MEASURES:?}"
+                "unknown measure \"{measure}\"; expected one of {:?}",
+                measure_names()
             ));
-        }
+        };
         let mcse: f64 = value
             .trim()
             .parse()
@@ -54,26 +52,10 @@ impl Target {
         }
         Ok(Target {
             parameter,
-            measure: measure.to_string(),
+            measure,
             mcse,
         })
     }
-}
-
-/// The value and MCSE of `measure` in `row`.
-pub fn measure(row: &SummaryRow, measure: &str) -> Option<Estimate> {
-    Some(match measure {
-        "mean" => row.mean,
-        "bias" => row.bias,
-        "rel_bias" => row.rel_bias,
-        "emp_se" => row.emp_se,
-        "mse" => row.mse,
-        "rmse" => row.rmse,
-        "rel_precision" => row.rel_precision,
-        "mean_cv" => row.mean_cv,
-        "bias_cv" => row.bias_cv,
-        _ => return None,
-    })
 }
 
 /// What a pilot run says about reaching a target MCSE.
@@ -120,7 +102,7 @@ pub fn replications_for<'a>(
                 .is_none_or(|p| parameters.get(r.parameter) == Some(&p))
         })
         .filter_map(|r| {
-            let m = measure(r, &target.measure)?;
+            let m = target.measure.of(r);
             m.mcse.is_finite().then_some((m.mcse, r))
         })
         .collect();
@@ -143,7 +125,7 @@ pub fn replications_for<'a>(
         };
     }
     // A control-variate estimate is defined from q + 3 realisations on.
-    let least = match target.measure.ends_with("_cv") {
+    let least = match target.measure.by_control_variates() {
         true => row.n_controls + 3,
         false => 2,
     };
@@ -163,7 +145,7 @@ mod tests {
             Target::parse("drag_over_mass:bias=1e-9").unwrap(),
             Target {
                 parameter: Some("drag_over_mass".into()),
-                measure: "bias".into(),
+                measure: Measure::Bias,
                 mcse: 1e-9
             }
         );
@@ -175,6 +157,15 @@ mod tests {
         );
         assert!(Target::parse("bias=-1").unwrap_err().contains("positive"));
         assert!(Target::parse("bias").unwrap_err().contains("expected"));
-        assert_eq!(Target::parse("bias_cv=1e-12").unwrap().measure, "bias_cv");
+        assert_eq!(
+            Target::parse("bias_cv=1e-12").unwrap().measure,
+            Measure::BiasCv
+        );
+        assert!(
+            Target::parse("cv_variance_ratio=0.1")
+                .unwrap_err()
+                .contains("unknown measure"),
+            "a measure without an MCSE cannot be planned"
+        );
     }
 }
