@@ -181,7 +181,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     }
     let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
 
-    let (noise, grade_bias, velocity_correlation_s, share_across_scales) = validate_noise(n, c)?;
+    let ValidatedNoise {
+        axes: noise,
+        grade_bias,
+        velocity_correlation_s,
+        share_across_scales,
+    } = validate_noise(n, c)?;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(&e.estimators, &all, c)?;
     if e.forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
@@ -331,12 +336,21 @@ fn validate_terrain(
     ))
 }
 
+/// The validated `[noise]` table.
+struct ValidatedNoise {
+    /// Each channel's levels (condition axes).
+    axes: NoiseAxes,
+    /// `noise.grade_bias` \[rad\] (an axis).
+    grade_bias: Vec<f64>,
+    /// `noise.velocity_correlation_time` \[s\] (an axis).
+    velocity_correlation_s: Vec<f64>,
+    /// `noise.share_across_scales`.
+    share_across_scales: bool,
+}
+
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
 /// `share_across_scales`, and no other key.
-fn validate_noise(
-    n: &RawNoise,
-    c: &Checker<'_>,
-) -> Result<(NoiseAxes, Vec<f64>, Vec<f64>, bool), StudyError> {
+fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, StudyError> {
     let keys: Vec<&str> = Channel::ALL
         .map(Channel::key)
         .into_iter()
@@ -377,7 +391,12 @@ fn validate_noise(
             )
         })?,
     };
-    Ok((NoiseAxes::new(levels), grade_bias, correlation, share))
+    Ok(ValidatedNoise {
+        axes: NoiseAxes::new(levels),
+        grade_bias,
+        velocity_correlation_s: correlation,
+        share_across_scales: share,
+    })
 }
 
 /// `estimation.acceleration`: one name or a list of names of [`Acceleration::ALL`].
