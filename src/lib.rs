@@ -79,8 +79,9 @@
 //!   one [`vehicle::truth::ModelError`] impl (the force the equation leaves out at a sample,
 //!   and whether it is drawn per realisation) and one entry of
 //!   [`vehicle::truth::MODEL_ERRORS`] (its keys of `[truth]` and how it reads them), in its
-//!   own file under `vehicle/`; the drive modes' dynamics and the first-order bias take it
-//!   from its omitted force (docs/model.md#model-errors).
+//!   own file under `vehicle/`. (Prepared, not yet wired: the study's `[truth]` table, the
+//!   drive modes' dynamics and the first-order bias are to take each entry's omitted force,
+//!   docs/model.md#model-errors.)
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
 //!   statistics, output and figures work from its [`model::Layout`].
 

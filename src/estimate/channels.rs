@@ -6,10 +6,10 @@
 //! measured sample and its term of the equation-error variance Ω (which the bounds and the
 //! weighted estimator ask) — is a `match` arm in this file, so the compiler lists every
 //! place a new channel needs. The condition axes, the study keys under `[noise]`, the
-//! streams and the kernel are derived from [`Channel::ALL`]; the expectations of the
-//! measured columns (`controls.rs`) and BCLS's correction of the sums
-//! (`Moments::compensate` in `estimators.rs`, an exhaustive match) are the other places a
-//! channel appears, because they are physics, not wiring.
+//! streams and the kernel are derived from [`Channel::ALL`]. Its expectations of the
+//! measured columns (`Channel::expect`, which the control variates ask) are here too; BCLS's
+//! correction of the sums (`Moments::compensate` in `estimators.rs`, an exhaustive match)
+//! is the other place a channel appears, because it is physics, not wiring.
 
 use std::ops::{Index, IndexMut};
 

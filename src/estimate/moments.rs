@@ -1,5 +1,6 @@
-//! The per-realisation sums of the vehicle regression ([`Moments`]) and the accumulator that
-//! builds them block by block from the noise draws (the kernel).
+//! The accumulator that builds the per-realisation sums of the vehicle regression
+//! ([`Moments`], defined with the typed list of sums in `sums.rs`) block by block from the
+//! noise draws (the kernel).
 //!
 //! A realisation is summarised by the [`Moments`] of its noisy columns: with w = Ṽ² the
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The

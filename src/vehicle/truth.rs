@@ -6,9 +6,9 @@
 //! the inertia of rotating parts, a miscalibrated force signal, rolling resistance that grows
 //! with speed, another air density, a mass that drifts. Each is one [`ModelError`] (what it
 //! adds to the truth's dynamics, whether it is drawn per realisation) and one entry of
-//! [`MODEL_ERRORS`] (its keys of `[truth]` and how it reads them). The registry is empty:
-//! the study's `[truth]` table, the realisation kernel and the first-order bias take their
-//! entries from it.
+//! [`MODEL_ERRORS`] (its keys of `[truth]` and how it reads them). The kind is prepared,
+//! not yet wired: the registry is empty, a study has no `[truth]` table, and the kernel and
+//! the first-order bias do not read it yet; the equations below are what they will do.
 //!
 //! One quantity serves every use. With the omitted force D(t) of an entry, the truth is
 //! `M dV/dt = F − D − (the equation's forces)`:

@@ -5,7 +5,8 @@
 //! This file prepares the conditions and predicts to first order; `prepare.rs` simulates the
 //! cycles and builds their regressions, `axes.rs` lists the condition axes, `kernel.rs`
 //! computes one realisation, `layout.rs` is the row layout and the [`Model`](super::Model)
-//! implementation, and `cycles_table.rs` writes cycles.parquet.
+//! implementation, `replayed.rs` builds the model of one given cycle (`for_cycle`, for the
+//! bootstrap of `fit`), and `cycles_table.rs` writes cycles.parquet.
 
 use std::sync::Arc;
 
