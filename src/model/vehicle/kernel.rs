@@ -33,6 +33,7 @@ impl VehicleModel {
 
     /// The moments of realisation `r` of condition `c`, and, into `rows` when given, its
     /// measured rows (from the same draws).
+    #[inline]
     pub fn measure(&self, seed: u64, c: usize, r: u64, mut rows: Option<&mut Rows>) -> Moments {
         let cond = &self.conditions[c];
         let reg = &*cond.regression;
@@ -135,6 +136,7 @@ impl Draws {
         }
     }
 
+    #[inline]
     fn fill(&mut self, out: &mut [f64]) {
         match self {
             Draws::Blocks(s) => s.fill(out),
