@@ -163,3 +163,46 @@ pub fn assert_same_tables(a: &Path, b: &Path) {
         assert_eq!(x.columns(), y.columns(), "{name}");
     }
 }
+
+/// Feed `h` every value of `batch`'s columns that `keep` names, column by column in row
+/// order: the column's name, then per row 0 for a null, else 1 and the value (a double by
+/// its bits). A fingerprint of the values that ignores the file's encoding and footer.
+pub fn hash_columns_into(
+    h: &mut impl std::hash::Hasher,
+    batch: &RecordBatch,
+    keep: &dyn Fn(&str) -> bool,
+) {
+    use arrow::array::AsArray;
+    use arrow::datatypes::{DataType, Float64Type, Int32Type, Int64Type};
+    for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
+        if !keep(field.name()) {
+            continue;
+        }
+        h.write(field.name().as_bytes());
+        for i in 0..column.len() {
+            if column.is_null(i) {
+                h.write_u8(0);
+                continue;
+            }
+            h.write_u8(1);
+            match field.data_type() {
+                DataType::Float64 => {
+                    h.write_u64(column.as_primitive::<Float64Type>().value(i).to_bits())
+                }
+                DataType::Int32 => h.write_i32(column.as_primitive::<Int32Type>().value(i)),
+                DataType::Int64 => h.write_i64(column.as_primitive::<Int64Type>().value(i)),
+                DataType::Utf8 => h.write(column.as_string::<i32>().value(i).as_bytes()),
+                DataType::Boolean => h.write_u8(column.as_boolean().value(i) as u8),
+                other => panic!("{}: no hash for {other}", field.name()),
+            }
+        }
+    }
+}
+
+/// XXH64 (seed 0) of [`hash_columns_into`].
+pub fn hash_columns(batch: &RecordBatch, keep: &dyn Fn(&str) -> bool) -> u64 {
+    use std::hash::Hasher;
+    let mut h = twox_hash::XxHash64::with_seed(0);
+    hash_columns_into(&mut h, batch, keep);
+    h.finish()
+}

@@ -83,36 +83,6 @@ fn control_hash(batch: &arrow::array::RecordBatch) -> u64 {
     hash_columns(batch, &control_column)
 }
 
-fn hash_columns(batch: &arrow::array::RecordBatch, keep: &dyn Fn(&str) -> bool) -> u64 {
-    use arrow::array::{Array, AsArray};
-    use arrow::datatypes::{DataType, Float64Type, Int32Type, Int64Type};
-    use std::hash::Hasher;
-    let mut h = twox_hash::XxHash64::with_seed(0);
-    for (field, column) in batch.schema().fields().iter().zip(batch.columns()) {
-        if !keep(field.name()) {
-            continue;
-        }
-        h.write(field.name().as_bytes());
-        for i in 0..column.len() {
-            if column.is_null(i) {
-                h.write_u8(0);
-                continue;
-            }
-            h.write_u8(1);
-            match field.data_type() {
-                DataType::Float64 => {
-                    h.write_u64(column.as_primitive::<Float64Type>().value(i).to_bits())
-                }
-                DataType::Int32 => h.write_i32(column.as_primitive::<Int32Type>().value(i)),
-                DataType::Int64 => h.write_i64(column.as_primitive::<Int64Type>().value(i)),
-                DataType::Utf8 => h.write(column.as_string::<i32>().value(i).as_bytes()),
-                other => panic!("{}: no hash for {other}", field.name()),
-            }
-        }
-    }
-    h.finish()
-}
-
 /// The content hashes of realisations, summary and cycles of `text` at R = 64, and of the
 /// control-variate columns of realisations and summary.
 fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
