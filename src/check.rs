@@ -15,6 +15,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use crate::model::{self, ConditionInfo, Layout, Model};
+use crate::montecarlo;
 use crate::output::{self, FileMetadata, OutputError, ParquetSink, ROW_GROUP_ROWS};
 use crate::run::{self, RunError};
 use crate::study::Study;
@@ -173,18 +174,16 @@ fn realisations_bytes(
     let n = SIZE_SAMPLE.min(study.realisations()).max(2) & !1;
     let stride = layout.realisation_stride();
     let schema = output::realisation_schema(layout);
+    let slots = montecarlo::in_memory(model, study.seed(), &sampled, 0..n, &montecarlo::Silent);
     let batches = sampled
         .iter()
-        .map(|&c| {
-            let mut slots = vec![0.0; n as usize * stride];
-            for (r, s) in slots.chunks_mut(stride).enumerate() {
-                model.realise(study.seed(), c, r as u64, s);
-            }
-            let chunk = crate::montecarlo::Chunk {
+        .zip(slots.chunks_exact(n as usize * stride))
+        .map(|(&c, slots)| {
+            let chunk = montecarlo::Chunk {
                 condition: c,
                 first: 0,
                 item: 0..n,
-                slots: &slots,
+                slots,
             };
             output::realisations_batch(layout, &schema, model.condition_info(c), &chunk)
                 .map_err(|e| OutputError::arrow(dir, e))

@@ -17,7 +17,9 @@
 //! A study file becomes a validated [`Study`]; [`model::prepare`] turns it into a
 //! [`model::Model`] (for the vehicle: one drive cycle per terrain scale, its regression, and
 //! the conditions of the grid); the [`montecarlo`] executor runs every realisation of every
-//! condition in parallel, each from its own random streams; [`stats`] summarises them with
+//! condition in parallel, each from its own random streams (a run streams them to files;
+//! `design`, `check` and `fit`'s bootstrap hold them in memory, through the same executor);
+//! [`stats`] summarises them with
 //! Monte Carlo standard errors; [`output`] writes the Parquet set and [`figures`] the SVGs;
 //! [`run`] ties these together (with resume, shards and `summarize`).
 //!

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use super::FigureError;
 use super::chart::{Axes, Series, chart_with_note, ramp};
+use crate::estimate::estimators::{Estimator, Ols};
 use crate::model::Layout;
 use crate::output::SummaryTable;
 
@@ -124,10 +125,10 @@ pub(super) fn draw_tradeoffs(
         // estimator's (the lowest mean relative RMSE; drawn with markers).
         let ols = per_estimator
             .iter()
-            .find(|(e, _, _)| layout.estimators[*e] == "ols");
+            .find(|(e, _, _)| layout.estimators[*e] == Ols.name());
         let best = per_estimator
             .iter()
-            .filter(|(e, _, _)| layout.estimators[*e] != "ols")
+            .filter(|(e, _, _)| layout.estimators[*e] != Ols.name())
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let (Some(ols), Some(best)) = (ols, best) {
             let mut series: Vec<Series> = ols.2.iter().map(Series::clone).collect();

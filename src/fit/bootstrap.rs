@@ -8,7 +8,8 @@ use crate::estimate::channels::Acceleration;
 use crate::estimate::estimators::EstimatorRef;
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
-use crate::vehicle::{DriveCycle, Replay, VehicleParams};
+use crate::montecarlo::{self, Silent};
+use crate::vehicle::{DriveCycle, Replay};
 use crate::vehicle::{central_differences, positions};
 
 use super::{FitError, FitSpec, SMOOTHING_S};
@@ -120,14 +121,7 @@ pub(super) fn world(
         cycle,
         used: Some(spec.used.clone()),
     };
-    // θ as a vehicle: M = 1/θ₁, Cd = θ₂ M, Cr = θ₃ (VehicleParams::theta reads them back).
-    let mass = 1.0 / theta[0];
-    let vehicle = VehicleParams {
-        mass_kg: mass,
-        drag_coefficient: theta[1] * mass,
-        rolling_resistance: theta[2],
-        ..spec.vehicle.clone()
-    };
+    let vehicle = spec.vehicle.with_theta([theta[0], theta[1], theta[2]]);
     let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
     Ok(VehicleModel::for_cycle(
         replay,
@@ -143,16 +137,10 @@ pub(super) fn world(
 /// re-run `spec.realisations` times. Returns each realisation's θ̂ (failed ones left out).
 pub(super) fn resample(spec: &FitSpec, model: &VehicleModel) -> Vec<Vector3<f64>> {
     let layout = model.layout();
-    let stride = layout.realisation_stride();
-    use rayon::prelude::*;
-    let thetas: Vec<Option<Vector3<f64>>> = (0..spec.realisations)
-        .into_par_iter()
-        .map(|r| {
-            let mut slots = vec![0.0; stride];
-            model.realise(spec.seed, 0, r, &mut slots);
-            let t = Vector3::from_fn(|p, _| slots[layout.theta_at(0, p)]);
-            t.iter().all(|v| v.is_finite()).then_some(t)
-        })
-        .collect();
-    thetas.into_iter().flatten().collect()
+    let slots = montecarlo::in_memory(model, spec.seed, &[0], 0..spec.realisations, &Silent);
+    slots
+        .chunks_exact(layout.realisation_stride())
+        .map(|s| Vector3::from_fn(|p, _| s[layout.theta_at(0, p)]))
+        .filter(|t| t.iter().all(|v| v.is_finite()))
+        .collect()
 }

@@ -107,7 +107,8 @@ fn estimates(
         .collect()
 }
 
-/// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁.
+/// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁ (a quotient, where a run's `drag` column
+/// is M̂ θ̂₂: the two can differ in the last bit, and fit.parquet keeps its own).
 fn with_derived(theta: &Vector3<f64>) -> [f64; 5] {
     [
         theta[0],

@@ -10,6 +10,7 @@
 use nalgebra::{Matrix2, Vector2};
 
 use super::{Axis, AxisValue, BoundInfo, ConditionInfo, Layout, Model, ParameterInfo, Status};
+use crate::estimate::estimators::{Estimator, Ols};
 use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::{inverse_spd, solve_spd};
 use crate::study::{LineFitStudy, NoiseShape, Study, StudyError};
@@ -107,7 +108,7 @@ pub fn layout() -> Layout {
                 description: "θ₂, the slope",
             },
         ],
-        estimators: vec!["ols"],
+        estimators: vec![Ols.name()],
         extras: vec![],
         bounds: vec![
             BoundInfo {

@@ -9,6 +9,8 @@
 //! draw), into one flat buffer (no allocation per realisation), then passed to the sink on
 //! the calling thread. Memory is bounded by the chunk size, not by R.
 
+use std::collections::BTreeMap;
+use std::convert::Infallible;
 use std::ops::Range;
 
 use rayon::prelude::*;
@@ -169,4 +171,46 @@ where
         hand_over(first, &item, &previous)?;
     }
     Ok(())
+}
+
+/// Realisations `realisations` of each of `conditions` (distinct), computed by [`execute`]
+/// (the conditions of a draw group together, as a run computes them) and held in memory:
+/// for callers that need every slot at once and write no file (the in-memory summary of
+/// `design` and `check`, the bootstrap of `fit`). Condition-major: realisation
+/// `realisations.start + i` of `conditions[k]` at `(k · R + i) · stride`, R the range's
+/// length; bit for bit the slots a run writes.
+pub fn in_memory<M>(
+    model: &M,
+    seed: u64,
+    conditions: &[usize],
+    realisations: Range<u64>,
+    observer: &dyn Observer,
+) -> Vec<f64>
+where
+    M: Model + ?Sized,
+{
+    let stride = model.layout().realisation_stride();
+    let r = usize::try_from(realisations.end - realisations.start).expect("fits in memory");
+    let mut slots = vec![f64::NAN; conditions.len() * r * stride];
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    let mut position: BTreeMap<usize, usize> = BTreeMap::new();
+    for (k, &c) in conditions.iter().enumerate() {
+        groups.entry(model.draw_group(c)).or_default().push(c);
+        let earlier = position.insert(c, k);
+        debug_assert!(earlier.is_none(), "condition {c} listed twice");
+    }
+    let work = groups.into_values().map(|conditions| Work {
+        conditions,
+        realisations: realisations.clone(),
+    });
+    let start = realisations.start;
+    let stored = execute(model, seed, work, DEFAULT_CHUNK, observer, |chunk| {
+        let at = (position[&chunk.condition] * r + (chunk.first - start) as usize) * stride;
+        slots[at..at + chunk.slots.len()].copy_from_slice(chunk.slots);
+        Ok::<(), Infallible>(())
+    });
+    match stored {
+        Ok(()) => slots,
+        Err(never) => match never {},
+    }
 }

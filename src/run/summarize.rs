@@ -9,6 +9,7 @@ use super::{
     write_summary,
 };
 use crate::model::{self, ConditionInfo, Layout, Model, Status};
+use crate::montecarlo;
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OpenedFile, OutputError, keys, set};
 use crate::stats::measures::Z_95;
@@ -274,7 +275,6 @@ pub fn summarise_files(
 /// The summary of `model`'s realisations 0..R of every condition (R = the study's), computed
 /// in memory and written nowhere: for callers that evaluate a study many times (`design`).
 pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<SummaryRow>, RunError> {
-    use rayon::prelude::*;
     let layout = model.layout();
     let infos = model.infos();
     let stride = layout.realisation_stride();
@@ -298,11 +298,9 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
         path: PathBuf::from("(in memory)"),
         source,
     };
-    let mut slots = vec![f64::NAN; count];
-    slots.par_chunks_mut(stride).enumerate().for_each(|(i, s)| {
-        let (c, k) = (i / r as usize, i % r as usize);
-        model.realise(study.seed(), c, k as u64, s);
-    });
+    let all: Vec<usize> = (0..infos.len()).collect();
+    let slots = montecarlo::in_memory(model, study.seed(), &all, 0..r, &montecarlo::Silent);
+    debug_assert_eq!(slots.len(), count);
     let p = layout.parameters.len();
     let bounds = layout.bounds.len() * p;
     let records = |i: usize| {

@@ -69,6 +69,18 @@ impl VehicleParams {
         ]
     }
 
+    /// The vehicle with regression parameters `theta` = \[1/M, Cd/M, Cr\] and these known
+    /// quantities: M = 1/θ₁, Cd = θ₂ M, Cr = θ₃ (the inverse of [`VehicleParams::theta`]).
+    pub fn with_theta(&self, theta: [f64; 3]) -> VehicleParams {
+        let mass_kg = 1.0 / theta[0];
+        VehicleParams {
+            mass_kg,
+            drag_coefficient: theta[1] * mass_kg,
+            rolling_resistance: theta[2],
+            ..self.clone()
+        }
+    }
+
     /// dV/dt \[m/s²\] at speed `v` \[m/s\] on grade `grade` \[rad\] under force `f_prop` \[N\].
     #[inline]
     pub fn acceleration(&self, f_prop_n: f64, v_m_s: f64, grade_rad: f64) -> f64 {

@@ -63,6 +63,45 @@ fn one_draw_for_a_group_gives_each_condition_bit_for_bit_its_own_realisation() {
 }
 
 #[test]
+fn the_in_memory_executor_gives_every_condition_its_own_realisations_bit_for_bit() {
+    // `montecarlo::in_memory` (design's and check's summaries, fit's bootstrap) computes draw
+    // groups together through the run's executor; each slot must be what `realise` gives
+    // alone, for conditions listed out of order and a range not starting at 0, across more
+    // than one chunk of the executor (2500 realisations > DEFAULT_CHUNK = 1024).
+    let study = Study::from_toml(&shared_thesis(true, ""), "shared").unwrap();
+    let model = VehicleModel::new(&study).unwrap();
+    let stride = model.layout().realisation_stride();
+    let count = model.condition_count();
+    let conditions: Vec<usize> = (0..count).rev().collect();
+    let range = 5..2505u64;
+    let slots = chassis_mc::montecarlo::in_memory(
+        &model,
+        2018,
+        &conditions,
+        range.clone(),
+        &chassis_mc::montecarlo::Silent,
+    );
+    let r = (range.end - range.start) as usize;
+    assert_eq!(slots.len(), conditions.len() * r * stride);
+    for (k, &c) in conditions.iter().enumerate() {
+        for i in [0, 1, 1023, 1024, 2047, r - 1] {
+            let mut alone = vec![0.0; stride];
+            model.realise(2018, c, range.start + i as u64, &mut alone);
+            let at = (k * r + i) * stride;
+            assert_eq!(
+                slots[at..at + stride]
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "condition {c}, realisation {}",
+                range.start + i as u64
+            );
+        }
+    }
+}
+
+#[test]
 fn shared_draws_keep_every_condition_s_mean_and_emp_se() {
     // Sharing changes which draws a condition reads, not their distribution: per condition,
     // estimator and parameter, mean and EmpSE of a shared run agree with an unshared run
