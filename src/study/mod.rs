@@ -4,7 +4,9 @@
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
-//! model's, `placement.rs` says which table a key belongs in. Every failure is a [`StudyError`] that names the file, the dotted key, its line
+//! model's, `placement.rs` says which table a key belongs in, `spacing.rs` is the rule on
+//! sample spacing, and `fit.rs` reads `fit`'s file with the same checks. Every failure is a
+//! [`StudyError`] that names the file, the dotted key, its line
 //! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
