@@ -5,6 +5,17 @@
 
 use std::path::{Path, PathBuf};
 
+/// A value or a list of values, as the list: one value stands for the list of that value
+/// (`scales = 1.0` is `scales = [1.0]`). Every reader of such a key of a `toml::Value` goes
+/// through it; the study's serde structs have the same rule as a deserialiser (which keeps
+/// each item's place in the file for errors).
+pub fn one_or_many(value: &toml::Value) -> &[toml::Value] {
+    match value {
+        toml::Value::Array(items) => items,
+        one => std::slice::from_ref(one),
+    }
+}
+
 /// A key that an extension cannot accept, and why.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct KeyError {
@@ -99,16 +110,14 @@ impl<'a> Params<'a> {
 
     /// A non-empty list of numbers > 0 (one number stands for the list of that number).
     pub fn positive_list(&self, key: &str) -> Result<Vec<f64>, KeyError> {
-        let items = match self.table.get(key) {
-            None => return Err(self.error(key, "required key is missing")),
-            Some(toml::Value::Array(items)) if !items.is_empty() => items.as_slice(),
-            Some(one @ (toml::Value::Float(_) | toml::Value::Integer(_))) => {
-                std::slice::from_ref(one)
-            }
-            Some(_) => {
-                return Err(self.error(key, "must be a number or a non-empty list of numbers"));
-            }
-        };
+        let value = self
+            .table
+            .get(key)
+            .ok_or_else(|| self.error(key, "required key is missing"))?;
+        let items = one_or_many(value);
+        if items.is_empty() || !(value.is_array() || value.is_float() || value.is_integer()) {
+            return Err(self.error(key, "must be a number or a non-empty list of numbers"));
+        }
         items
             .iter()
             .enumerate()
@@ -173,28 +182,6 @@ impl<'a> Params<'a> {
             Ok(v)
         } else {
             Err(self.error(key, format!("must be > 0, got {v}")))
-        }
-    }
-
-    /// A number ≥ 0 given alone or as a list of one (as a study's axis of one level is
-    /// written): for a key that takes one value where a study takes a list.
-    pub fn single_non_negative(&self, key: &str) -> Result<f64, KeyError> {
-        match self.table.get(key) {
-            Some(toml::Value::Array(items)) => match items.as_slice() {
-                [one] => {
-                    let table = toml::Table::from_iter([(key.to_string(), one.clone())]);
-                    Params {
-                        table: &table,
-                        ..*self
-                    }
-                    .non_negative(key)
-                }
-                _ => Err(self.error(
-                    key,
-                    format!("takes one value here, got a list of {}", items.len()),
-                )),
-            },
-            _ => self.non_negative(key),
         }
     }
 

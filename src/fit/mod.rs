@@ -2,7 +2,8 @@
 //! bootstrap (see docs/model.md#fit); and `simulate-log`, which writes such a log from a
 //! study (the project's own generator of synthetic logs).
 //!
-//! One job a file: `spec.rs` reads and checks the fit file and its log, `bootstrap.rs`
+//! One job a file: the fit file and its log are read and checked with the study files
+//! ([`crate::study::FitSpec`], `study/fit.rs`), `bootstrap.rs`
 //! builds each estimator's bootstrap world and resamples it, `outputs.rs` writes
 //! fit.parquet, fit.svg and report.html (and the printed table), `simulate_log.rs` writes
 //! a synthetic log; this file fits the log and puts the rows together.
@@ -10,11 +11,10 @@
 mod bootstrap;
 mod outputs;
 mod simulate_log;
-mod spec;
 
+pub use crate::study::FitSpec;
 pub use outputs::{format_value, table};
 pub use simulate_log::simulate_log;
-pub use spec::FitSpec;
 
 use std::path::{Path, PathBuf};
 

@@ -4,13 +4,17 @@
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
-//! model's, `placement.rs` says which table a key belongs in. Every failure is a [`StudyError`] that names the file, the dotted key, its line
+//! model's, `placement.rs` says which table a key belongs in, `spacing.rs` is the rule on
+//! sample spacing, and `fit.rs` reads `fit`'s file with the same checks. Every failure is a
+//! [`StudyError`] that names the file, the dotted key, its line
 //! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
+mod fit;
 mod line_fit;
 mod placement;
 mod raw;
+mod spacing;
 mod spans;
 mod validate;
 mod vary;
@@ -21,8 +25,10 @@ use validate::{check_realisations, serde_error, validate};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use fit::FitSpec;
 pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
+pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, uneven_reason};
 pub use spans::KeySpans;
 pub use vary::VariedKey;
 pub use vehicle::{NoiseAxes, VehicleStudy};
@@ -140,8 +146,8 @@ impl Study {
     /// from an output file's footer, with the directory recorded there).
     pub fn from_toml_in(text: &str, origin: &str, dir: &Path) -> Result<Study, StudyError> {
         let spans = KeySpans::new(text);
-        let raw: RawStudy =
-            toml::from_str(text).map_err(|e| serde_error(&e, &spans, text, origin))?;
+        let raw: RawStudy = toml::from_str(text)
+            .map_err(|e| serde_error(&e, &spans, text, origin, placement::elsewhere))?;
         // Absolute, so that the directory recorded with the output stays valid from
         // anywhere (as given when it cannot be resolved).
         let dir = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());

@@ -91,7 +91,7 @@ pub(super) fn elsewhere(table: &str, key: &str, variant: Option<(&str, &str)>) -
 }
 
 /// The error for `key`, which `[table]` does not have: where it belongs, if another table
-/// has it, else the keys `[table]` does have.
+/// of the checked file's kind has it, else the keys `[table]` does have.
 pub(super) fn unknown_key(
     c: &Checker<'_>,
     table: &str,
@@ -99,7 +99,7 @@ pub(super) fn unknown_key(
     expected: Vec<&str>,
     variant: Option<(&str, &str)>,
 ) -> StudyError {
-    let reason = match elsewhere(table, key, variant) {
+    let reason = match c.elsewhere(table, key, variant) {
         Some(place) => format!("unknown field `{key}` in [{table}]: {place}"),
         None => format!("unknown field `{key}`, expected one of {expected:?}"),
     };
@@ -116,10 +116,13 @@ mod tests {
         let err = toml::from_str::<T>("no_such_key = 1")
             .unwrap_err()
             .to_string();
+        // Two fields are listed as "expected `a` or `b`", more as "expected one of `a`, …".
         let list = err
             .split("expected one of")
             .nth(1)
-            .expect("serde lists the fields");
+            .or_else(|| err.split("expected").nth(1))
+            .expect("serde lists the fields")
+            .replace(" or ", ",");
         list.split(',')
             .map(|f| {
                 f.trim()
@@ -137,6 +140,20 @@ mod tests {
             ("estimation", serde_fields::<RawEstimation>()),
         ] {
             let keys = FIXED_KEYS.iter().find(|(t, _)| *t == table).unwrap().1;
+            assert_eq!(keys, fields.as_slice(), "[{table}]");
+        }
+    }
+
+    #[test]
+    fn the_fit_file_s_tables_keys_are_its_serde_structs_fields() {
+        use crate::study::fit::{FIT_KEYS, RawFitEstimation, RawFitVehicle, RawLog, RawReference};
+        for (table, fields) in [
+            ("log", serde_fields::<RawLog>()),
+            ("vehicle", serde_fields::<RawFitVehicle>()),
+            ("estimation", serde_fields::<RawFitEstimation>()),
+            ("reference", serde_fields::<RawReference>()),
+        ] {
+            let keys = FIT_KEYS.iter().find(|(t, _)| *t == table).unwrap().1;
             assert_eq!(keys, fields.as_slice(), "[{table}]");
         }
     }

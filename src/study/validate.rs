@@ -8,14 +8,21 @@ use super::{
     KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, placement, vehicle,
 };
 use crate::estimate::channels::Channel;
-use crate::estimate::estimators::EstimatorRef;
+use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
+use crate::settings::one_or_many;
 
-/// Turn a serde/TOML error into one message naming the key and line.
+/// Where a key unknown in a table belongs instead, in words (`None`: nowhere), for one kind
+/// of file: `(table, key, variant)` as [`placement::elsewhere`] takes them.
+pub(super) type Placement = fn(&str, &str, Option<(&str, &str)>) -> Option<String>;
+
+/// Turn a serde/TOML error into one message naming the key and line; an unknown key that
+/// `place` finds a home for says where it belongs.
 pub(super) fn serde_error(
     err: &toml::de::Error,
     spans: &KeySpans,
     text: &str,
     origin: &str,
+    place: Placement,
 ) -> StudyError {
     let message = err.message().trim().to_string();
     let span = err.span();
@@ -44,7 +51,7 @@ pub(super) fn serde_error(
         Some((key, key_line)) => {
             // A key of another table (`min_speed` under [vehicle]): say where it belongs.
             let (table, field) = key.rsplit_once('.').unwrap_or(("", &key));
-            let reason = match placement::elsewhere(table, field, None) {
+            let reason = match place(table, field, None) {
                 Some(place) if message.starts_with("unknown field") => {
                     let table = match table {
                         "" => "at the top level".to_string(),
@@ -107,14 +114,41 @@ pub(super) fn check_realisations(r: i128) -> Result<(), String> {
     }
 }
 
-/// Collects value checks for one study; the first failure wins.
+/// Collects value checks for one study (or fit file); the first failure wins.
 pub(super) struct Checker<'a> {
     spans: &'a KeySpans,
     origin: &'a str,
     dir: &'a Path,
+    place: Placement,
 }
 
-impl Checker<'_> {
+impl<'a> Checker<'a> {
+    /// The checks of the file `origin` in `dir` indexed by `spans`, whose misplaced keys
+    /// `place` places.
+    pub(super) fn new(
+        spans: &'a KeySpans,
+        origin: &'a str,
+        dir: &'a Path,
+        place: Placement,
+    ) -> Self {
+        Checker {
+            spans,
+            origin,
+            dir,
+            place,
+        }
+    }
+
+    /// Where `key`, unknown in `[table]`, belongs instead (see [`Placement`]).
+    pub(super) fn elsewhere(
+        &self,
+        table: &str,
+        key: &str,
+        variant: Option<(&str, &str)>,
+    ) -> Option<String> {
+        (self.place)(table, key, variant)
+    }
+
     /// An error at `key`, with the line of the key or, for a missing key, of the nearest
     /// enclosing one (`terrain.components[0]` for a missing `terrain.components[0].phase`).
     pub(super) fn fail(&self, key: &str, reason: impl Into<String>) -> StudyError {
@@ -133,6 +167,27 @@ impl Checker<'_> {
             key: Some(key.to_string()),
             line,
             reason: reason.into(),
+        }
+    }
+
+    /// The file checked (for messages).
+    pub(super) fn origin(&self) -> &str {
+        self.origin
+    }
+
+    /// The value named `name` at `key`, one of `named` (name, value) pairs.
+    pub(super) fn named<T: Copy>(
+        &self,
+        key: &str,
+        name: &str,
+        named: &[(&'static str, T)],
+    ) -> Result<T, StudyError> {
+        match named.iter().find(|(n, _)| *n == name) {
+            Some((_, value)) => Ok(*value),
+            None => {
+                let names: Vec<&str> = named.iter().map(|(n, _)| *n).collect();
+                Err(self.fail(key, format!("must be one of {names:?}, got \"{name}\"")))
+            }
         }
     }
 
@@ -180,11 +235,7 @@ impl Checker<'_> {
     /// that number.
     pub(super) fn numbers(&self, key: &str, value: &toml::Value) -> Result<Vec<f64>, StudyError> {
         let reason = || format!("must be a number or a list of numbers, got {value}");
-        let items = match value {
-            toml::Value::Array(items) => items.as_slice(),
-            one => std::slice::from_ref(one),
-        };
-        items
+        one_or_many(value)
             .iter()
             .map(|v| match v {
                 toml::Value::Float(x) => Ok(*x),
@@ -218,11 +269,7 @@ pub(super) fn validate(
     origin: &str,
     dir: PathBuf,
 ) -> Result<Study, StudyError> {
-    let c = Checker {
-        spans: &spans,
-        origin,
-        dir: &dir,
-    };
+    let c = Checker::new(&spans, origin, &dir, placement::elsewhere);
     if raw.name.trim().is_empty() {
         return Err(c.fail("name", "must not be empty"));
     }
@@ -263,15 +310,11 @@ pub(super) fn validate(
     let mut raw = raw;
     if let Some(n) = raw.noise.as_mut() {
         for value in n.0.values_mut() {
-            if matches!(value, toml::Value::Float(_) | toml::Value::Integer(_)) {
-                *value = toml::Value::Array(vec![value.clone()]);
-            }
-            if let toml::Value::Array(items) = value {
-                for item in items.iter_mut() {
-                    if let toml::Value::Integer(i) = *item {
-                        *item = toml::Value::Float(i as f64);
-                    }
-                }
+            if matches!(
+                value,
+                toml::Value::Float(_) | toml::Value::Integer(_) | toml::Value::Array(_)
+            ) {
+                *value = listed_floats(value);
             }
         }
         n.0.retain(|_, v| *v != toml::Value::Boolean(false));
@@ -289,15 +332,7 @@ pub(super) fn validate(
         .as_mut()
         .and_then(|d| d.params.get_mut("durations"))
     {
-        let items = match &*durations {
-            toml::Value::Array(items) => items.clone(),
-            one => vec![one.clone()],
-        };
-        let float = |v: toml::Value| match v {
-            toml::Value::Integer(i) => toml::Value::Float(i as f64),
-            other => other,
-        };
-        *durations = toml::Value::Array(items.into_iter().map(float).collect());
+        *durations = listed_floats(durations);
     }
     Ok(Study {
         name: raw.name.clone(),
@@ -309,6 +344,15 @@ pub(super) fn validate(
         raw,
         spans,
     })
+}
+
+/// A number or a list of numbers as the study as run lists it: a list of floats.
+fn listed_floats(value: &toml::Value) -> toml::Value {
+    let float = |v: &toml::Value| match v {
+        toml::Value::Integer(i) => toml::Value::Float(*i as f64),
+        other => other.clone(),
+    };
+    toml::Value::Array(one_or_many(value).iter().map(float).collect())
 }
 
 pub(super) fn validate_estimators(
@@ -337,4 +381,32 @@ pub(super) fn validate_estimators(
         estimators.push(kind);
     }
     Ok(estimators)
+}
+
+/// `[estimation]`'s `estimators` (any of the registry, none twice) and `forgetting` (in
+/// (0, 1], 1 when absent, and only with rls listed): the estimators and their settings.
+pub(super) fn validate_estimation(
+    names: &[String],
+    forgetting: Option<f64>,
+    c: &Checker<'_>,
+) -> Result<(Vec<EstimatorRef>, EstimatorSettings), StudyError> {
+    let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
+    let estimators = validate_estimators(names, &all, c)?;
+    if forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
+        return Err(c.fail(
+            "estimation.forgetting",
+            "applies to the rls estimator, which estimation.estimators does not list",
+        ));
+    }
+    let forgetting = match forgetting {
+        Some(l) if !(l > 0.0 && l <= 1.0) => {
+            return Err(c.fail(
+                "estimation.forgetting",
+                format!("must lie in (0, 1] (1: no forgetting), got {l}"),
+            ));
+        }
+        Some(l) => l,
+        None => 1.0,
+    };
+    Ok((estimators, EstimatorSettings { forgetting }))
 }

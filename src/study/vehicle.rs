@@ -5,12 +5,12 @@ use std::sync::Arc;
 
 use super::placement::{COMMON_DRIVE_KEYS, COMMON_TERRAIN_KEYS, home_of, unknown_key};
 use super::raw::{RawNoise, RawStudy};
-use super::validate::{Checker, validate_estimators};
+use super::validate::{Checker, validate_estimation};
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
-use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
-use crate::settings::{KeyError, Params};
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
+use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::profiles::PROFILES;
 use crate::terrain::{ScaleTarget, TerrainSpec};
 use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
@@ -187,24 +187,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         velocity_correlation_s,
         share_across_scales,
     } = validate_noise(n, c)?;
-    let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
-    let estimators = validate_estimators(&e.estimators, &all, c)?;
-    if e.forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
-        return Err(c.fail(
-            "estimation.forgetting",
-            "applies to the rls estimator, which estimation.estimators does not list",
-        ));
-    }
-    let forgetting = match e.forgetting {
-        Some(l) if !(l > 0.0 && l <= 1.0) => {
-            return Err(c.fail(
-                "estimation.forgetting",
-                format!("must lie in (0, 1] (1: no forgetting), got {l}"),
-            ));
-        }
-        Some(l) => l,
-        None => 1.0,
-    };
+    let (estimators, settings) = validate_estimation(&e.estimators, e.forgetting, c)?;
 
     Ok(VehicleStudy {
         vehicle,
@@ -217,7 +200,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_bias,
         velocity_correlation_s,
         estimators,
-        settings: EstimatorSettings { forgetting },
+        settings,
         acceleration: validate_acceleration(e.acceleration.as_ref(), c)?,
         share_across_scales,
     })
@@ -351,21 +334,22 @@ struct ValidatedNoise {
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
 /// `share_across_scales`, and no other key.
 fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, StudyError> {
-    let keys: Vec<&str> = Channel::ALL
-        .map(Channel::key)
-        .into_iter()
-        .chain([GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES])
-        .collect();
-    if let Some(k) = n.0.keys().find(|k| !keys.contains(&k.as_str())) {
-        return Err(unknown_key(c, "noise", k, keys, None));
-    }
+    noise_keys(
+        n,
+        c,
+        &[GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES],
+    )?;
     let mut levels = PerChannel::<Vec<f64>>::default();
     for channel in Channel::ALL {
-        let key = format!("noise.{}", channel.key());
-        levels[channel] = match (n.0.get(channel.key()), channel.default_levels()) {
-            (Some(list), _) => c.list(&key, &c.numbers(&key, list)?, Checker::non_negative)?,
+        levels[channel] = match (noise_levels(n, c, channel.key())?, channel.default_levels()) {
+            (Some(list), _) => list,
             (None, Some(default)) => default.to_vec(),
-            (None, None) => return Err(c.fail(&key, "required key is missing")),
+            (None, None) => {
+                return Err(c.fail(
+                    &format!("noise.{}", channel.key()),
+                    "required key is missing",
+                ));
+            }
         };
     }
     let grade_bias = match n.0.get(GRADE_BIAS) {
@@ -375,13 +359,7 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, Study
         }
         None => vec![0.0],
     };
-    let correlation = match n.0.get(VELOCITY_CORRELATION) {
-        Some(list) => {
-            let key = format!("noise.{VELOCITY_CORRELATION}");
-            c.list(&key, &c.numbers(&key, list)?, Checker::non_negative)?
-        }
-        None => vec![0.0],
-    };
+    let correlation = noise_levels(n, c, VELOCITY_CORRELATION)?.unwrap_or(vec![0.0]);
     let share = match n.0.get(SHARE_ACROSS_SCALES) {
         None => false,
         Some(v) => v.as_bool().ok_or_else(|| {
@@ -397,6 +375,38 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, Study
         velocity_correlation_s: correlation,
         share_across_scales: share,
     })
+}
+
+/// Fail on a `[noise]` key that is neither a channel's nor one of `extra`.
+pub(super) fn noise_keys(n: &RawNoise, c: &Checker<'_>, extra: &[&str]) -> Result<(), StudyError> {
+    let keys: Vec<&str> = Channel::ALL
+        .map(Channel::key)
+        .into_iter()
+        .chain(extra.iter().copied())
+        .collect();
+    match n.0.keys().find(|k| !keys.contains(&k.as_str())) {
+        Some(k) => Err(unknown_key(c, "noise", k, keys, None)),
+        None => Ok(()),
+    }
+}
+
+/// The levels ≥ 0 of `[noise]` key `key` (a channel's, or the correlation time's): a
+/// non-empty list, one number standing for the list of it; `None` when absent.
+pub(super) fn noise_levels(
+    n: &RawNoise,
+    c: &Checker<'_>,
+    key: &str,
+) -> Result<Option<Vec<f64>>, StudyError> {
+    let key_path = format!("noise.{key}");
+    n.0.get(key)
+        .map(|list| {
+            c.list(
+                &key_path,
+                &c.numbers(&key_path, list)?,
+                Checker::non_negative,
+            )
+        })
+        .transpose()
 }
 
 /// `estimation.acceleration`: one name or a list of names of [`Acceleration::ALL`].
@@ -420,27 +430,26 @@ fn validate_acceleration(
                 )
             })
     };
-    let levels = match value {
-        None => vec![Acceleration::Model],
-        Some(toml::Value::Array(items)) => {
-            if items.is_empty() {
-                return Err(c.fail(KEY, "must list at least one value"));
-            }
-            let mut levels = Vec::new();
-            for (i, v) in items.iter().enumerate() {
-                let a = one(&format!("{KEY}[{i}]"), v)?;
-                if levels.contains(&a) {
-                    return Err(c.fail(
-                        &format!("{KEY}[{i}]"),
-                        format!("\"{}\" is listed twice", a.name()),
-                    ));
-                }
-                levels.push(a);
-            }
-            levels
-        }
-        Some(v) => vec![one(KEY, v)?],
+    let Some(value) = value else {
+        return Ok(vec![Acceleration::Model]);
     };
+    let items = one_or_many(value);
+    if items.is_empty() {
+        return Err(c.fail(KEY, "must list at least one value"));
+    }
+    // A list's items are named by their index, one name by the key.
+    let key = |i: usize| match value {
+        toml::Value::Array(_) => format!("{KEY}[{i}]"),
+        _ => KEY.to_string(),
+    };
+    let mut levels = Vec::new();
+    for (i, v) in items.iter().enumerate() {
+        let a = one(&key(i), v)?;
+        if levels.contains(&a) {
+            return Err(c.fail(&key(i), format!("\"{}\" is listed twice", a.name())));
+        }
+        levels.push(a);
+    }
     Ok(levels)
 }
 

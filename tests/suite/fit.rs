@@ -151,6 +151,100 @@ fn a_fit_file_error_names_the_key_and_line() {
     assert_eq!(err.line, Some(13), "{err}");
 }
 
+/// 1-based line of the first line of `text` that starts with `start`.
+fn line_of(text: &str, start: &str) -> usize {
+    text.lines().position(|l| l.starts_with(start)).unwrap() + 1
+}
+
+#[test]
+fn a_fit_file_s_unknown_noise_key_or_misspelt_estimator_is_named_with_its_line() {
+    // The fit file goes through the study's checks: an unknown [noise] key, a key of
+    // another of the fit file's tables, and an estimator the registry does not have are
+    // errors naming the file, the dotted key and its line.
+    let tmp = tempfile::tempdir().unwrap();
+    let log = root().join("studies/data/fit_log.csv");
+    let text = fit_file(&log.display().to_string(), 20);
+    let check = |text: &str, key: &str, start: &str, reason: &[&str]| {
+        let err = FitSpec::parse(text, "bad.toml", tmp.path()).unwrap_err();
+        assert_eq!(err.file, "bad.toml", "{err}");
+        assert_eq!(err.key.as_deref(), Some(key), "{err}");
+        assert_eq!(err.line, Some(line_of(text, start)), "{err}");
+        for part in reason {
+            assert!(err.reason.contains(part), "{err}");
+        }
+    };
+    let typo = text.replace("velocity_sd = 0.1", "velocity_sd = 0.1\nvelocty_sd = 0.2");
+    check(
+        &typo,
+        "noise.velocty_sd",
+        "velocty_sd",
+        &["unknown field `velocty_sd`", "velocity_sd"],
+    );
+    let misplaced = text.replace("velocity_sd = 0.1", "velocity_sd = 0.1\nmin_speed = 0.75");
+    check(
+        &misplaced,
+        "noise.min_speed",
+        "min_speed = 0.75",
+        &["it belongs in [log]"],
+    );
+    let misspelt = text.replace("[\"ols\", \"bcls\"]", "[\"ols\", \"bclss\"]");
+    check(
+        &misspelt,
+        "estimation.estimators[1]",
+        "estimators",
+        &["unknown estimator \"bclss\"", "\"wbcls\""],
+    );
+}
+
+#[test]
+fn a_fit_of_an_uneven_log_refuses_correlated_noise_under_a_differentiated_acceleration() {
+    // BCLS's compensation of AR(1) speed noise under a differentiated acceleration needs
+    // evenly spaced samples (docs/model.md#sensors): a log whose steps alternate 0.1 and
+    // 0.11 s is refused with correlated speed noise, naming the fit file and
+    // noise.velocity_correlation_time with its line; with white speed noise, or with
+    // steps of 0.1 s, it is accepted.
+    let tmp = tempfile::tempdir().unwrap();
+    let write = |name: &str, step: &dyn Fn(usize) -> f64| {
+        let mut csv = String::from("time_s,speed_m_s,force_n,grade_rad\n");
+        let mut t = 0.0_f64;
+        for i in 0..50 {
+            let v = 10.0 + (0.3 * t).sin();
+            csv.push_str(&format!("{t},{v},{},0\n", 500.0 + 100.0 * (0.2 * t).cos()));
+            t += step(i);
+        }
+        std::fs::write(tmp.path().join(name), csv).unwrap();
+    };
+    write("uneven.csv", &|i| if i % 2 == 0 { 0.1 } else { 0.11 });
+    write("even.csv", &|_| 0.1);
+    let text = |log: &str, correlation: f64| {
+        fit_file(log, 20)
+            .replace("acceleration_column = \"accel_m_s2\"\n", "")
+            .replace(
+                "velocity_sd = 0.1",
+                &format!("velocity_sd = 0.1\nvelocity_correlation_time = {correlation}"),
+            )
+    };
+    let uneven = text("uneven.csv", 0.3);
+    let err = FitSpec::parse(&uneven, "uneven.toml", tmp.path()).unwrap_err();
+    assert_eq!(err.file, "uneven.toml", "{err}");
+    assert_eq!(
+        err.key.as_deref(),
+        Some("noise.velocity_correlation_time"),
+        "{err}"
+    );
+    assert_eq!(
+        err.line,
+        Some(line_of(&uneven, "velocity_correlation_time")),
+        "{err}"
+    );
+    assert!(
+        err.reason.contains("\"bcls\"") && err.reason.contains("evenly"),
+        "{err}"
+    );
+    FitSpec::parse(&text("uneven.csv", 0.0), "white.toml", tmp.path()).unwrap();
+    FitSpec::parse(&text("even.csv", 0.3), "even.toml", tmp.path()).unwrap();
+}
+
 /// The truth of studies/fit_log.toml per row of `FIT_PARAMETERS`: θ, then M and Cd.
 const FIT_TRUTH: [f64; 5] = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125, 1800.0, 0.35];
 

@@ -29,7 +29,7 @@ use crate::estimate::channels::{Channel, NoiseLevels};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
-use crate::study::{Study, StudyError, VehicleStudy};
+use crate::study::{self, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
 
@@ -101,9 +101,7 @@ impl VehicleModel {
         let segments = segments(&vs, &cycles, error_at)?;
         let durations = duration_count(&vs);
         let layout = layout(&vs);
-        if let Some(e) = vs.estimators.iter().find(|e| e.compensates_speed_noise()) {
-            uneven_differentiation(&vs, &segments, e.name(), error_at)?;
-        }
+        uneven_differentiation(&vs, &segments, error_at)?;
         let points = grid(&vs);
         let controls = study_controls(&vs);
         // Scale and duration are the outermost axes: the conditions of one draw group are
@@ -259,33 +257,30 @@ impl VehicleModel {
     }
 }
 
-/// A compensating estimator (`name`) under a differentiated acceleration with AR(1) speed
-/// noise needs evenly spaced samples: on uneven ones the noise is more correlated with one
-/// neighbour than the other, E[ỹ Ṽ²] gains a term the compensation does not remove, and
-/// the combination is an error naming it.
+/// The rule on sample spacing ([`crate::study::uneven_differentiation`]) on the spans of
+/// the study's differentiated regressions: an error naming `estimation.acceleration`.
 fn uneven_differentiation(
     vs: &VehicleStudy,
     segments: &[prepare::Segment],
-    name: &str,
     error_at: &ErrorAt<'_>,
 ) -> Result<(), StudyError> {
     let correlated = vs.velocity_correlation_s.iter().any(|&t| t > 0.0)
         && vs.noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0);
-    let uneven = segments
+    let spans = segments
         .iter()
         .flat_map(|s| s.regressions.iter().flatten())
-        .any(|r| r.differentiation.as_ref().is_some_and(|d| !d.uniform_steps));
-    if correlated && uneven {
-        return Err(error_at(
+        .filter_map(|r| r.differentiation.as_ref().map(|d| &*d.span_t));
+    match study::uneven_differentiation(correlated, &vs.estimators, spans) {
+        Some(e) => Err(error_at(
             "estimation.acceleration",
-            format!(
-                "\"differentiated\" with correlated speed noise (noise.velocity_correlation_time) \
-                 and the estimator \"{name}\" needs evenly spaced samples, and this cycle's are not: \
-                 no bias compensation is implemented for that combination"
+            study::uneven_reason(
+                e,
+                "estimation.acceleration \"differentiated\"",
+                "this cycle",
             ),
-        ));
+        )),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The sums (indices into [`CONTROLS`]) that are control variates in some condition of

@@ -1,0 +1,437 @@
+//! The fit file of `chassis-mc fit` (docs/model.md#fit): `[log]` (the measured cycle read
+//! from its file), the known `[vehicle]` quantities, the assumed `[noise]`, `[estimation]`
+//! and `[reference]`, read as serde structs and checked into a [`FitSpec`] by the study's
+//! own checks: the same [`Checker`], the same `[noise]` keys and levels (one level each
+//! here), the same estimator and `forgetting` rules, and the same sample-spacing rule.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use super::raw::{RawNoise, one_or_many};
+use super::spacing::{uneven_differentiation, uneven_reason};
+use super::validate::{Checker, check_realisations, serde_error, validate_estimation};
+use super::vehicle::{VELOCITY_CORRELATION, noise_keys, noise_levels};
+use super::{KeySpans, StudyError};
+use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
+use crate::estimate::regression::Regression;
+use crate::tabular::read_columns;
+use crate::terrain::GradeUnit;
+use crate::vehicle::{DriveCycle, VehicleParams};
+use crate::vehicle::{SpeedUnit, central_differences, positions};
+
+/// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval).
+const MIN_REALISATIONS: i64 = 20;
+
+/// A fit file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFit {
+    #[serde(default)]
+    name: Option<String>,
+    seed: i64,
+    realisations: i64,
+    log: RawLog,
+    vehicle: RawFitVehicle,
+    noise: RawNoise,
+    estimation: RawFitEstimation,
+    #[serde(default)]
+    reference: Option<RawReference>,
+}
+
+/// `[log]`: the log file and its columns.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLog {
+    file: String,
+    time_column: String,
+    speed_column: String,
+    speed_unit: String,
+    #[serde(default)]
+    force_column: Option<String>,
+    #[serde(default)]
+    torque_column: Option<String>,
+    grade_column: String,
+    grade_unit: String,
+    #[serde(default)]
+    acceleration_column: Option<String>,
+    #[serde(default)]
+    min_speed: Option<f64>,
+}
+
+/// `[vehicle]`: what is known (mass, Cd and Cr are what the fit finds).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFitVehicle {
+    frontal_area: f64,
+    air_density: f64,
+    gravity: f64,
+    #[serde(default)]
+    final_drive_ratio: Option<f64>,
+    #[serde(default)]
+    wheel_radius: Option<f64>,
+}
+
+/// `[estimation]`: a study's, without the acceleration axis (a fit's acceleration is the
+/// log's: its `acceleration_column`, else differentiated).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFitEstimation {
+    #[serde(deserialize_with = "one_or_many")]
+    estimators: Vec<String>,
+    #[serde(default)]
+    forgetting: Option<f64>,
+}
+
+/// `[reference]`: values to draw the fit against.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawReference {
+    #[serde(default)]
+    mass: Option<f64>,
+    #[serde(default)]
+    drag_coefficient: Option<f64>,
+    #[serde(default)]
+    rolling_resistance: Option<f64>,
+}
+
+/// The keys of the fit file's fixed tables (`""`: the top level), as the serde structs
+/// read them (a unit test checks the two agree); `[noise]` has the channels' keys and
+/// `velocity_correlation_time`.
+pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
+    ("", &["name", "seed", "realisations"]),
+    (
+        "log",
+        &[
+            "file",
+            "time_column",
+            "speed_column",
+            "speed_unit",
+            "force_column",
+            "torque_column",
+            "grade_column",
+            "grade_unit",
+            "acceleration_column",
+            "min_speed",
+        ],
+    ),
+    (
+        "vehicle",
+        &[
+            "frontal_area",
+            "air_density",
+            "gravity",
+            "final_drive_ratio",
+            "wheel_radius",
+        ],
+    ),
+    ("estimation", &["estimators", "forgetting"]),
+    (
+        "reference",
+        &["mass", "drag_coefficient", "rolling_resistance"],
+    ),
+];
+
+/// Where a key unknown in `[table]` of a fit file belongs instead (the fit file's
+/// [`Placement`](super::validate::Placement)).
+fn elsewhere(table: &str, key: &str, _variant: Option<(&str, &str)>) -> Option<String> {
+    let noise = Channel::ALL.iter().any(|c| c.key() == key) || key == VELOCITY_CORRELATION;
+    FIT_KEYS
+        .iter()
+        .filter(|(_, keys)| keys.contains(&key))
+        .map(|(t, _)| *t)
+        .chain(noise.then_some("noise"))
+        .find(|t| *t != table)
+        .map(|t| match t {
+            "" => "it belongs at the top of the file, before any [table]".to_string(),
+            t => format!("it belongs in [{t}]"),
+        })
+}
+
+/// A validated fit file.
+#[derive(Debug, Clone)]
+pub struct FitSpec {
+    /// Where it was read from.
+    pub origin: String,
+    /// Its directory (relative paths resolve against it).
+    pub dir: PathBuf,
+    /// The log file.
+    pub log: PathBuf,
+    /// The measured cycle (speed, force, grade, acceleration as logged or differentiated).
+    pub cycle: DriveCycle,
+    /// Which samples the regression uses.
+    pub used: Vec<bool>,
+    /// Where the acceleration comes from.
+    pub acceleration: Acceleration,
+    /// `min_speed` \[m/s\].
+    pub min_speed: f64,
+    /// Known vehicle quantities (mass, Cd and Cr are what the fit finds).
+    pub vehicle: VehicleParams,
+    /// The assumed sensor noise.
+    pub noise: NoiseLevels,
+    /// The estimators.
+    pub estimators: Vec<EstimatorRef>,
+    /// Estimator settings.
+    pub settings: EstimatorSettings,
+    /// Bootstrap seed.
+    pub seed: u64,
+    /// Bootstrap realisations.
+    pub realisations: u64,
+    /// `[reference]`: values to draw the fit against (e.g. the truth of a synthetic log),
+    /// per row of `fit::FIT_PARAMETERS`: 1/M, Cd/M, Cr, M, Cd (θ's derived from the M, Cd
+    /// and Cr given).
+    pub reference: [Option<f64>; 5],
+    /// The fit file's text.
+    pub text: String,
+}
+
+impl FitSpec {
+    /// Read and check `path`.
+    pub fn load(path: &Path) -> Result<FitSpec, StudyError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| StudyError {
+            file: origin.clone(),
+            key: None,
+            line: None,
+            reason: format!("cannot read: {e}"),
+        })?;
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Self::parse(&text, &origin, &dir)
+    }
+
+    /// Check the fit file `text` read from `origin` in `dir`.
+    pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, StudyError> {
+        let spans = KeySpans::new(text);
+        let raw: RawFit =
+            toml::from_str(text).map_err(|e| serde_error(&e, &spans, text, origin, elsewhere))?;
+        let c = Checker::new(&spans, origin, dir, elsewhere);
+        validate(raw, &c, text)
+    }
+
+    /// The regression of the log's used samples, taken as they are (measured).
+    pub fn regression(&self) -> Regression {
+        match self.acceleration {
+            Acceleration::Differentiated => {
+                Regression::differentiated(&self.cycle, &self.used, 0.0, &self.vehicle)
+            }
+            Acceleration::Model => Regression::new(&self.cycle.select(&self.used), &self.vehicle),
+        }
+    }
+}
+
+fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyError> {
+    if raw.name.as_ref().is_some_and(|n| n.trim().is_empty()) {
+        return Err(c.fail("name", "must not be empty"));
+    }
+    if raw.seed < 0 {
+        return Err(c.fail("seed", format!("must be >= 0, got {}", raw.seed)));
+    }
+    check_realisations(raw.realisations as i128).map_err(|r| c.fail("realisations", r))?;
+    if raw.realisations < MIN_REALISATIONS {
+        return Err(c.fail(
+            "realisations",
+            format!(
+                "must be at least {MIN_REALISATIONS} for a 95 % percentile interval, got {}",
+                raw.realisations
+            ),
+        ));
+    }
+
+    // [vehicle]: the known quantities.
+    let v = &raw.vehicle;
+    let vehicle = VehicleParams {
+        mass_kg: 1.0,
+        drag_coefficient: 0.0,
+        rolling_resistance: 0.0,
+        frontal_area_m2: c.positive("vehicle.frontal_area", v.frontal_area)?,
+        air_density_kg_m3: c.positive("vehicle.air_density", v.air_density)?,
+        gravity_m_s2: c.positive("vehicle.gravity", v.gravity)?,
+        drivetrain: None,
+    };
+
+    // [log]: its keys; the file is read once everything else has passed.
+    let l = &raw.log;
+    if l.file.is_empty() {
+        return Err(c.fail("log.file", "must name a file"));
+    }
+    let file = c.dir().join(&l.file);
+    let speed_unit = c.named("log.speed_unit", &l.speed_unit, &SpeedUnit::ALL)?;
+    let grade_unit = c.named("log.grade_unit", &l.grade_unit, &GradeUnit::ALL)?;
+    let min_speed = match l.min_speed {
+        Some(s) => c.non_negative("log.min_speed", s)?,
+        None => 0.0,
+    };
+    let (force, torque_factor) = match (&l.force_column, &l.torque_column) {
+        (Some(force), None) => (force, None),
+        (None, Some(torque)) => {
+            let required = |key: &str, v: Option<f64>| {
+                let key = format!("vehicle.{key}");
+                let v = v.ok_or_else(|| c.fail(&key, "required key is missing"))?;
+                c.positive(&key, v)
+            };
+            let ratio = required("final_drive_ratio", v.final_drive_ratio)?;
+            let radius = required("wheel_radius", v.wheel_radius)?;
+            (torque, Some(ratio / radius))
+        }
+        _ => {
+            return Err(c.fail(
+                "log.force_column",
+                "give exactly one of force_column [N] and torque_column [N m]",
+            ));
+        }
+    };
+
+    // [noise]: the study's keys and levels, one level each (a number, or a study's list of
+    // one), absent ones 0.
+    noise_keys(&raw.noise, c, &[VELOCITY_CORRELATION])?;
+    let one_level = |key: &str| -> Result<f64, StudyError> {
+        match noise_levels(&raw.noise, c, key)?.as_deref() {
+            None => Ok(0.0),
+            Some(&[level]) => Ok(level),
+            Some(levels) => Err(c.fail(
+                &format!("noise.{key}"),
+                format!(
+                    "takes one value in a fit, got a list of {} (a study's axis)",
+                    levels.len()
+                ),
+            )),
+        }
+    };
+    let acceleration = match l.acceleration_column {
+        Some(_) => Acceleration::Model,
+        None => Acceleration::Differentiated,
+    };
+    let mut noise = NoiseLevels {
+        acceleration,
+        ..NoiseLevels::default()
+    };
+    for channel in Channel::ALL {
+        noise[channel] = one_level(channel.key())?;
+    }
+    noise.velocity_correlation_s = one_level(VELOCITY_CORRELATION)?;
+
+    let e = &raw.estimation;
+    let (estimators, settings) = validate_estimation(&e.estimators, e.forgetting, c)?;
+
+    // [reference] (optional): M, Cd and Cr to draw the fit against.
+    let reference = match &raw.reference {
+        None => [None; 5],
+        Some(r) => {
+            let mass = r
+                .mass
+                .map(|m| c.positive("reference.mass", m))
+                .transpose()?;
+            let cd = r
+                .drag_coefficient
+                .map(|x| c.non_negative("reference.drag_coefficient", x))
+                .transpose()?;
+            let cr = r
+                .rolling_resistance
+                .map(|x| c.non_negative("reference.rolling_resistance", x))
+                .transpose()?;
+            [
+                mass.map(|m| 1.0 / m),
+                mass.zip(cd).map(|(m, cd)| cd / m),
+                cr,
+                mass,
+                cd,
+            ]
+        }
+    };
+
+    let (cycle, used) = read_log(l, &file, force, torque_factor, speed_unit, grade_unit, c)?;
+    if used.iter().filter(|u| **u).count() < 3 {
+        return Err(c.fail(
+            "log.min_speed",
+            "leaves fewer than 3 samples of the log for the regression",
+        ));
+    }
+    // The rule on sample spacing, on the whole log (see `uneven_differentiation`).
+    let differentiated = (acceleration == Acceleration::Differentiated).then_some(&cycle.t_s[..]);
+    if let Some(e) =
+        uneven_differentiation(noise.velocity_correlated(), &estimators, differentiated)
+    {
+        return Err(c.fail(
+            &format!("noise.{VELOCITY_CORRELATION}"),
+            uneven_reason(e, "no log.acceleration_column", "this log"),
+        ));
+    }
+
+    Ok(FitSpec {
+        origin: c.origin().to_string(),
+        dir: c.dir().to_path_buf(),
+        log: file,
+        cycle,
+        used,
+        acceleration,
+        min_speed,
+        vehicle,
+        noise,
+        estimators,
+        settings,
+        seed: raw.seed as u64,
+        realisations: raw.realisations as u64,
+        reference,
+        text: text.to_string(),
+    })
+}
+
+/// The log's columns as a measured cycle (acceleration differentiated without an
+/// `acceleration_column`), and the samples the regression uses: those at `min_speed` or
+/// faster, and with a differentiated acceleration not the first or last.
+fn read_log(
+    l: &RawLog,
+    file: &Path,
+    force: &str,
+    torque_factor: Option<f64>,
+    speed_unit: SpeedUnit,
+    grade_unit: GradeUnit,
+    c: &Checker<'_>,
+) -> Result<(DriveCycle, Vec<bool>), StudyError> {
+    let (time, speed, grade) = (&*l.time_column, &*l.speed_column, &*l.grade_column);
+    let mut wanted = vec![time, speed, force, grade];
+    wanted.extend(l.acceleration_column.as_deref());
+    let cols = read_columns(file, &wanted, 3).map_err(|e| c.fail("log.file", e.to_string()))?;
+    cols.strictly_increasing(time)
+        .map_err(|e| c.fail("log.file", e.to_string()))?;
+    let t = cols.get(time).to_vec();
+    let v_m_s: Vec<f64> = cols
+        .get(speed)
+        .iter()
+        .map(|&s| speed_unit.to_m_s(s))
+        .collect();
+    let f_prop_n: Vec<f64> = cols
+        .get(force)
+        .iter()
+        .map(|&x| torque_factor.map_or(x, |q| q * x))
+        .collect();
+    let grade_rad: Vec<f64> = cols
+        .get(grade)
+        .iter()
+        .map(|&g| grade_unit.to_rad(g))
+        .collect();
+    let accel_m_s2 = match &l.acceleration_column {
+        Some(a) => cols.get(a).to_vec(),
+        None => central_differences(&t, &v_m_s),
+    };
+    let min_speed = l.min_speed.unwrap_or(0.0);
+    let mut used: Vec<bool> = v_m_s.iter().map(|&s| s >= min_speed).collect();
+    if l.acceleration_column.is_none() {
+        let n = used.len();
+        used[0] = false;
+        used[n - 1] = false;
+    }
+    let cycle = DriveCycle {
+        x_m: positions(&t, &v_m_s),
+        t_s: t,
+        v_m_s,
+        grade_rad,
+        f_prop_n,
+        accel_m_s2,
+    };
+    Ok((cycle, used))
+}
