@@ -97,6 +97,12 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// Its estimate from the realisation.
     fn estimate(&self, r: &Realisation<'_>) -> Estimate;
 
+    /// Whether it reads `estimation.forgetting` ([`EstimatorSettings::forgetting`]): the key
+    /// is refused when no listed estimator does.
+    fn reads_forgetting(&self) -> bool {
+        false
+    }
+
     /// Whether it compensates the noise's bias with the noise's moments (BCLS and its kin,
     /// every channel: docs/model.md#bcls): such an estimator stays unbiased under a
     /// differentiated acceleration with AR(1) speed noise only when the samples are evenly

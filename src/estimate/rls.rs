@@ -35,6 +35,10 @@ impl Estimator for Rls {
         true
     }
 
+    fn reads_forgetting(&self) -> bool {
+        true
+    }
+
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let rows = r.rows();
         let t = &r.regression.t;

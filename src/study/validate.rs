@@ -392,10 +392,18 @@ pub(super) fn validate_estimation(
 ) -> Result<(Vec<EstimatorRef>, EstimatorSettings), StudyError> {
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(names, &all, c)?;
-    if forgetting.is_some() && !estimators.iter().any(|e| e.name() == "rls") {
+    if forgetting.is_some() && !estimators.iter().any(|e| e.reads_forgetting()) {
+        let readers: Vec<&str> = all
+            .iter()
+            .filter(|e| e.reads_forgetting())
+            .map(|e| e.name())
+            .collect();
         return Err(c.fail(
             "estimation.forgetting",
-            "applies to the rls estimator, which estimation.estimators does not list",
+            format!(
+                "applies to the {} estimator, which estimation.estimators does not list",
+                readers.join(", ")
+            ),
         ));
     }
     let forgetting = match forgetting {
