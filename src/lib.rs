@@ -55,16 +55,24 @@
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
-//! - **a noise channel**: a variant of [`estimate::channels::Channel`] and its `match` arms
-//!   (study key and column, unit, default, stream, whether it enters the regressors, the
-//!   measured columns it moves, how its draw perturbs a sample, its term of the
-//!   equation-error variance Ω, its expectations of the columns), all in
-//!   `estimate/channels.rs`; and its correction of the sums, `Moments::compensate` in
-//!   `estimate/estimators.rs`. The `[noise]` key, the condition axis, the stream, the
-//!   kernel, which control variates vary, the bounds and wbcls's weights follow.
+//! - **a noise channel**: a variant of [`estimate::channels::Channel`] and its `match` arms,
+//!   all in `estimate/channels/` (the compiler lists them): in `mod.rs` its study key and
+//!   column, unit, default, stream, whether it enters the regressors, the measured columns
+//!   it moves and how its draw perturbs a sample; in `omega.rs` its term of the
+//!   equation-error variance Ω and, where rows share its noise, its part of the sandwich off
+//!   the diagonal, the variance it adds to a differentiated ỹ and its correlation time; in
+//!   `expect.rs` its expectations of the columns (and with neighbouring rows) and the slot
+//!   for its covariances (`Channel::sum_covariance`); a channel whose noise reaches beyond a
+//!   row keeps those terms in its own file there, as `velocity.rs`. Then its correction of
+//!   the sums, `Moments::compensate` in `estimate/estimators.rs`. The `[noise]` key, the
+//!   condition axis, the stream, which control variates vary, the bounds and wbcls's
+//!   weights and left-out neighbours follow.
 //! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`
 //!   ([`estimate::sums::Sum`]); [`estimate::sums::Moments`], the general kernel's sums and
-//!   the control variates follow (the fast path's sums are in `estimate/moments.rs`).
+//!   the control variates follow; the hand-written lists (the fast path's in
+//!   `estimate/moments.rs`, the segments' in `estimate/row_sums.rs`, the noise-free ones in
+//!   `estimate/regression.rs`) name every field, so the compiler lists them, and
+//!   `every_hand_written_list_sums_each_sum_by_its_factors` checks their values.
 //! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
 //!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
 //!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.

@@ -2,10 +2,10 @@
 //! `thesis_bound` (σ² A⁻¹), `eiv_sandwich` and `eiv_crlb_linearized` from the first-order
 //! equation-error variance Ω (see docs/model.md#bounds).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
-use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
-use super::regression::{Regression, ar1_coefficients};
+use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance};
+use super::regression::Regression;
 use crate::numeric::linalg::{SolveError, inverse_spd};
 use crate::numeric::sum::ExactSum;
 
@@ -14,15 +14,12 @@ impl Regression {
     /// `θ₂²k²(4V²σ_v² + 2σ_v⁴) + θ₁²σ_F² + g²(cos θ − θ₃ sin θ)²σ_θ² + σ_y²`, each channel's
     /// term its [`Channel::omega_term`].
     pub fn equation_error_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
-        self.row_variance(theta, noise, true)
+        self.row_variance(theta, noise)
     }
 
-    /// Ω_i, with or without the speed noise's term.
-    fn row_variance(&self, theta: &[f64; 3], noise: &NoiseLevels, with_speed: bool) -> Vec<f64> {
-        let mut noise = *noise;
-        if !with_speed {
-            noise[Channel::Velocity] = 0.0;
-        }
+    /// Ω_i under `noise` (whose channels' SDs may differ from the condition's: the
+    /// sandwich zeroes those whose terms its banded part holds).
+    fn row_variance(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Vec<f64> {
         (0..self.len())
             .map(|i| {
                 noise.omega(&OmegaAt {
@@ -65,107 +62,31 @@ impl Regression {
         Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
     }
 
-    /// The covariance matrix of [`Regression::sandwich_se`].
+    /// The covariance matrix of [`Regression::sandwich_se`]: (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ with
+    /// XᵀΣX = XᵀΩX plus each channel's [`Channel::row_covariance`].
     pub fn sandwich_covariance(
         &self,
         theta: &[f64; 3],
         noise: &NoiseLevels,
     ) -> Result<Matrix3<f64>, SolveError> {
         let bread = inverse_spd(&self.xtx)?;
-        let meat = if noise.speed_noise_differentiated() {
-            self.weighted_gram(&self.row_variance(theta, noise, false))
-                + self.differentiated_speed_meat(theta, noise)
-        } else {
-            let omega = self.equation_error_variance(theta, noise);
-            let mut meat = self.weighted_gram(&omega);
-            if noise.velocity_correlated() {
-                meat += self.correlated_speed_meat(theta, noise);
+        // The channels whose noise rows share add their banded parts of XᵀΣX
+        // (docs/model.md#bounds), some in place of their diagonal Ω terms.
+        let shared: Vec<(Channel, RowCovariance)> = Channel::ALL
+            .into_iter()
+            .filter_map(|c| c.row_covariance(self, theta, noise).map(|m| (c, m)))
+            .collect();
+        let mut diagonal = *noise;
+        for (c, m) in &shared {
+            if m.replaces_omega_term {
+                diagonal[*c] = 0.0;
             }
-            meat
-        };
+        }
+        let mut meat = self.weighted_gram(&self.row_variance(theta, &diagonal));
+        for (_, m) in &shared {
+            meat += m.meat;
+        }
         Ok(bread * meat * bread)
-    }
-
-    /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
-    /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
-    /// (Gaussian e: Cov(e_i², e_j²) = 2ρ²σ⁴, Cov(e_i, e_j²) = 0). Summed in O(N) by the
-    /// recursion G_i = φ_i (G_{i−1} + a_{i−1} x_{i−1}) = Σ_{j<i} ρ_ij a_j x_j.
-    fn correlated_speed_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
-        let sd = noise[Channel::Velocity];
-        let scale = (theta[1] * self.k).powi(2);
-        let phi = ar1_coefficients(&self.t, noise.velocity_correlation_s);
-        let x = |i: usize| Vector3::new(self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]);
-        // (weight a_i, per-step factor, coefficient): the ρ term and the ρ² term.
-        let mut total = Matrix3::zeros();
-        for (square, coefficient) in [(false, 4.0 * sd * sd), (true, 2.0 * sd.powi(4))] {
-            let a = |i: usize| if square { 1.0 } else { self.v[i] };
-            let mut g = Vector3::zeros();
-            let mut half = Matrix3::zeros();
-            for (i, [p, _]) in phi.iter().enumerate().skip(1) {
-                let step = if square { p * p } else { *p };
-                g = step * (g + a(i - 1) * x(i - 1));
-                half += a(i) * x(i) * g.transpose();
-            }
-            total += coefficient * (half + half.transpose());
-        }
-        scale * total
-    }
-
-    /// The speed noise's part of XᵀΣX when the acceleration is differentiated from the
-    /// measured speed. Row i's equation error carries σ_v Σ_j L_ij e_j with
-    /// L_{i,s} = 2kθ₂V_i (through Ṽ²), L_{i,s±1} = ±1/Δt_i (through ỹ), s the row's sample,
-    /// plus kθ₂σ_v²(e_s² − 1). With loadings g_j = Σ_i L_ij x_i per logged sample j:
-    ///
-    /// ```text
-    /// σ_v² Σ_jl ρ_jl g_j g_lᵀ + 2 σ_v⁴ (kθ₂)² Σ_ii' ρ_ss'² x_i x_i'ᵀ
-    /// ```
-    ///
-    /// (ρ = 1 on the diagonal and 0 off it for white noise; for AR(1) the products of φ,
-    /// summed in O(N) by the recursion of [`correlated_speed_meat`](Self::correlated_speed_meat)).
-    fn differentiated_speed_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
-        let d = self
-            .differentiation
-            .as_ref()
-            .expect("a differentiated acceleration has its span");
-        let sd = noise[Channel::Velocity];
-        let kt = self.k * theta[1];
-        let x = |i: usize| Vector3::new(self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]);
-        let mut g = vec![Vector3::zeros(); d.span_t.len()];
-        for i in 0..self.len() {
-            let (s, xi) = (d.sample[i], x(i));
-            g[s] += 2.0 * kt * self.v[i] * xi;
-            g[s + 1] += d.inv_dt[i] * xi;
-            g[s - 1] -= d.inv_dt[i] * xi;
-        }
-        // The correlation between neighbours of a sequence at times `t` (ρ, or ρ² for the
-        // squares); none for white noise.
-        let steps = |t: &[f64], square: bool| -> Option<Vec<f64>> {
-            noise.velocity_correlated().then(|| {
-                ar1_coefficients(t, noise.velocity_correlation_s)
-                    .iter()
-                    .map(|[phi, _]| if square { phi * phi } else { *phi })
-                    .collect()
-            })
-        };
-        // Σ_jl ρ_jl a_j a_lᵀ over a sequence with correlation `steps` between neighbours.
-        let banded = |a: &dyn Fn(usize) -> Vector3<f64>, n: usize, steps: Option<Vec<f64>>| {
-            let mut total = Matrix3::zeros();
-            for j in 0..n {
-                total += a(j) * a(j).transpose();
-            }
-            if let Some(steps) = steps {
-                let mut carried = Vector3::zeros();
-                for (j, &step) in steps.iter().enumerate().skip(1) {
-                    carried = step * (carried + a(j - 1));
-                    let half = a(j) * carried.transpose();
-                    total += half + half.transpose();
-                }
-            }
-            total
-        };
-        let linear = banded(&|j| g[j], g.len(), steps(&d.span_t, false));
-        let square = banded(&x, self.len(), steps(&self.t, true));
-        sd * sd * linear + 2.0 * sd.powi(4) * kt * kt * square
     }
 
     /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised

@@ -57,16 +57,11 @@ impl Expectations {
     /// correlated speed noise over [`Regression::noise_times`] (`None` when white): per
     /// sample, the measured values are functions of independent channels' draws
     /// (docs/model.md#control-variates), so each expected product is a product of
-    /// expectations or a closed-form moment of one channel — but for w ỹ under a
-    /// differentiated acceleration with correlated speed noise, which adds the covariance
-    /// of the row's speed noise with its neighbours'.
+    /// expectations or a closed-form moment of one channel ([`Channel::expect`]) — but
+    /// where rows share a channel's noise, which adds its covariance with the neighbours'
+    /// ([`Channel::expect_shared`]: w ỹ under a differentiated acceleration with correlated
+    /// speed noise).
     pub fn new(reg: &Regression, noise: &NoiseLevels, ar1: Option<&[[f64; 2]]>) -> Self {
-        let sd_v = noise[Channel::Velocity];
-        // ỹ's derivative noise σ_v (e_{s+1} − e_{s−1}) / Δt against w = (V + σ_v e_s)².
-        let neighbours = match (&reg.differentiation, ar1) {
-            (Some(d), Some(ar1)) if noise.speed_noise_differentiated() => Some((d, ar1)),
-            _ => None,
-        };
         let mut sums: [ExactSum; CONTROL_COUNT] = Default::default();
         for i in 0..reg.len() {
             let r = TrueRow {
@@ -83,8 +78,8 @@ impl Expectations {
                     c.expect(sd, &r, &mut row);
                 }
             }
-            if let Some((d, ar1)) = neighbours {
-                row.wy_neighbours = neighbour_covariance(r.v, sd_v, ar1, d.sample[i], d.inv_dt[i]);
+            for c in Channel::ALL {
+                c.expect_shared(reg, noise, ar1, i, &mut row);
             }
             let terms = Sum::ALL.map(|s| row.of(s));
             for (sum, t) in sums.iter_mut().zip(terms) {
@@ -137,17 +132,10 @@ impl ColumnMoments {
     }
 }
 
-/// E[w σ(e_{s+1} − e_{s−1})/Δt] for w = (V + σe_s)², e the stationary AR(1) noise with
-/// coefficients `ar1` over the span (e_j = φ_j e_{j−1} + √(1 − φ_j²) z_j, so E[e_{j−1} e_j] =
-/// φ_j) and `inv_dt` = 1/Δt: 2Vσ² (φ_{s+1} − φ_s)/Δt, the third moments vanishing.
-fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64) -> f64 {
-    2.0 * v * sd * sd * (ar1[s + 1][0] - ar1[s][0]) * inv_dt
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::channels::{Acceleration, BlockNoise, grade_moments};
+    use crate::estimate::channels::{Acceleration, BlockNoise};
     use crate::estimate::moments::MomentAccumulator;
     use crate::estimate::regression::test_regression as regression;
     use crate::noise::{BLOCK, NormalStream};
@@ -168,74 +156,6 @@ mod tests {
             acc.add_block(start, len, draws, None);
         }
         acc.finish()
-    }
-
-    /// The grade moments against the integrals themselves: the trapezoid rule over
-    /// δ ∈ [−12σ, 12σ] with 4001 points (spectrally accurate for these smooth, rapidly
-    /// decaying integrands: agreement to 1e-12) at σ = 0.3 rad, where ρ = 0.956 and
-    /// ρ⁴ = 0.835 differ clearly from 1, and at grades of either sign.
-    #[test]
-    fn grade_moments_are_the_gaussian_integrals() {
-        let sd = 0.3;
-        for theta in [-0.4f64, -0.05, 0.0, 0.1, 0.7] {
-            let (n, half) = (4001, 12.0 * sd);
-            let h = 2.0 * half / (n - 1) as f64;
-            let mut q = [0.0; 4];
-            for k in 0..n {
-                let d = -half + k as f64 * h;
-                let w = h * (-0.5 * (d / sd).powi(2)).exp()
-                    / (sd * (2.0 * std::f64::consts::PI).sqrt());
-                let (s, c) = (theta + d).sin_cos();
-                for (q, v) in q.iter_mut().zip([c, c * c, s, s * c]) {
-                    *q += w * v;
-                }
-            }
-            let e = grade_moments(theta.sin(), theta.cos(), sd);
-            for j in 0..4 {
-                assert!(
-                    (e[j] - q[j]).abs() <= 1e-12,
-                    "θ = {theta}, moment {j}: {} vs {}",
-                    e[j],
-                    q[j]
-                );
-            }
-        }
-    }
-
-    /// The covariance of a row's w with the derivative noise of its differentiated ỹ,
-    /// against a Monte Carlo of the AR(1) recursion the kernel runs, on steps of 0.1 s and
-    /// 1 s around the row (τ = 0.5 s: φ = 0.82 before, 0.14 after), 400 000 draws: within
-    /// 4.5 standard errors, and the term is > 20 of them (so an error of sign or index would
-    /// show).
-    #[test]
-    fn neighbour_covariance_is_the_ar1_expectation() {
-        use crate::estimate::regression::ar1_coefficients;
-        let t = [0.0, 0.1, 1.1];
-        let ar1 = ar1_coefficients(&t, 0.5);
-        let (v, sd, inv_dt) = (12.0, 0.8, 1.0 / (t[2] - t[0]));
-        let expected = neighbour_covariance(v, sd, &ar1, 1, inv_dt);
-        let n = 400_000;
-        let mut z = vec![0.0; 3 * n];
-        NormalStream::for_realisation(3, 0, 7, 0).fill(&mut z);
-        let values: Vec<f64> = z
-            .chunks_exact(3)
-            .map(|z| {
-                let mut e = [z[0], 0.0, 0.0];
-                for j in 1..3 {
-                    e[j] = ar1[j][0] * e[j - 1] + ar1[j][1] * z[j];
-                }
-                (v + sd * e[1]).powi(2) * sd * (e[2] - e[0]) * inv_dt
-            })
-            .collect();
-        let mean = values.iter().sum::<f64>() / n as f64;
-        let se =
-            (values.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0) / n as f64)
-                .sqrt();
-        assert!(
-            (mean - expected).abs() <= 4.5 * se,
-            "{mean} vs {expected} (SE {se})"
-        );
-        assert!(expected.abs() > 20.0 * se, "{expected} vs SE {se}");
     }
 
     /// Every control variate has mean zero: for each channel alone and all together, over

@@ -28,6 +28,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
 use super::moments::{GradeSums, Moments};
+use super::sums::{Column as Factor, Sum};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
@@ -279,15 +280,19 @@ impl Regression {
             let sums = ranges
                 .iter()
                 .map(|&(a, b)| {
-                    let (f, c) = (&self.f[a..b], &self.c[a..b]);
-                    Moments {
-                        s_11: f.iter().map(|x| x * x).sum(),
-                        s_13: f.iter().zip(c).map(|(x, z)| x * z).sum(),
-                        s_33: c.iter().map(|z| z * z).sum(),
-                        s_1: f.iter().sum(),
-                        s_3: c.iter().sum(),
-                        ..Moments::default()
+                    let mut m = Moments::default();
+                    for s in Sum::ALL.into_iter().filter(|s| s.regressors_only()) {
+                        let column = |c: &Factor| match c {
+                            Factor::F => &self.f[a..b],
+                            _ => &self.c[a..b],
+                        };
+                        m[s] = match s.factors() {
+                            [x] => column(x).iter().sum(),
+                            [x, z] => column(x).iter().zip(column(z)).map(|(x, z)| x * z).sum(),
+                            _ => unreachable!("a sum has one or two factors"),
+                        };
                     }
+                    m
                 })
                 .collect();
             (ranges, sums)

@@ -6,7 +6,7 @@
 //! With x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ the noisy output, column 2 of the regression
 //! is −k w, so XᵀX and Xᵀy need only sums of products of (x̃₁, w, x̃₃, ỹ).
 
-use std::ops::Index;
+use std::ops::{Index, IndexMut};
 
 /// A measured column of the regression whose products the sums are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,8 +35,15 @@ impl Column {
 /// order of [`Sum::ALL`] and of the control-variate columns. Adding a line here adds the
 /// field of [`Moments`], its sum in the general kernel, its control variate (whose
 /// expectation and whether it varies follow from its factors, `controls.rs`) and its
-/// column. Written by hand: its BCLS correction (`Moments::compensate`), the fast path's
-/// sums (`MomentAccumulator::finish`) and the segment sums of `row_sums.rs`.
+/// column. Written by hand, each checked: its BCLS correction (`Moments::compensate`, which
+/// `every_compensated_sum_has_its_noise_free_expectation` checks), the hand-vectorised
+/// sums of the fast path (`MomentAccumulator::finish` over `kernels.rs`) and of the
+/// segments (`row_sums.rs`), and the regression's noise-free sums
+/// (`Regression::noise_free_moments`): each builds [`Moments`] with every field named (a new
+/// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments` and
+/// `every_hand_written_list_sums_each_sum_by_its_factors` check the values against
+/// [`Sum::factors`]. The noise-free segment sums (`Regression::segments`) are derived from
+/// [`Sum::regressors_only`].
 macro_rules! sums {
     ($( $variant:ident $field:ident [$first:ident $(* $second:ident)?]
         $control:literal $unit:literal $what:literal; )*) => {
@@ -63,6 +70,20 @@ macro_rules! sums {
                 match self {
                     $( Sum::$variant => &[Column::$first $(, Column::$second)?], )*
                 }
+            }
+
+            /// True when its factors are x̃₁ and x̃₃ alone (no w, no ỹ): a sum that is
+            /// constant where those columns are noise-free.
+            pub const fn regressors_only(self) -> bool {
+                let f = self.factors();
+                let mut i = 0;
+                while i < f.len() {
+                    if !matches!(f[i], Column::F | Column::C) {
+                        return false;
+                    }
+                    i += 1;
+                }
+                true
             }
 
             /// Name of its control variate's column.
@@ -143,6 +164,14 @@ macro_rules! sums {
                 }
             }
         }
+
+        impl IndexMut<Sum> for Moments {
+            fn index_mut(&mut self, s: Sum) -> &mut f64 {
+                match s {
+                    $( Sum::$variant => &mut self.$field, )*
+                }
+            }
+        }
     };
 }
 
@@ -187,20 +216,33 @@ impl GradeSums {
         self.s_ws += row[Column::W.index()] * s;
     }
 
-    /// Add every sum of `b`.
+    /// Add every sum of `b` (destructured, so that a new field fails to compile here).
     fn add(&mut self, b: &GradeSums) {
-        self.s_s += b.s_s;
-        self.s_1s += b.s_1s;
-        self.s_3s += b.s_3s;
-        self.s_ws += b.s_ws;
+        let GradeSums {
+            s_s,
+            s_1s,
+            s_3s,
+            s_ws,
+        } = *b;
+        self.s_s += s_s;
+        self.s_1s += s_1s;
+        self.s_3s += s_3s;
+        self.s_ws += s_ws;
     }
 
-    /// Add `q` times every sum of `b`.
+    /// Add `q` times every sum of `b` (destructured, so that a new field fails to compile
+    /// here).
     fn add_scaled(&mut self, b: &GradeSums, q: f64) {
-        self.s_s += q * b.s_s;
-        self.s_1s += q * b.s_1s;
-        self.s_3s += q * b.s_3s;
-        self.s_ws += q * b.s_ws;
+        let GradeSums {
+            s_s,
+            s_1s,
+            s_3s,
+            s_ws,
+        } = *b;
+        self.s_s += q * s_s;
+        self.s_1s += q * s_1s;
+        self.s_3s += q * s_3s;
+        self.s_ws += q * s_ws;
     }
 }
 
@@ -230,6 +272,75 @@ impl Moments {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimate::moments::RowsView;
+    use crate::estimate::regression::test_regression;
+    use crate::estimate::row_sums::segment_moments;
+    use crate::estimate::wbcls::SEGMENT_S;
+
+    /// The hand-written lists of sums against their definition: for every [`Sum`], the
+    /// regression's noise-free moments, its noise-free segment sums (the sums of x₁ and x₃
+    /// alone, the rest zero) and the segment sums of `row_sums.rs` (summed, and with those
+    /// of x₁ and x₃ taken from the segment sums) equal Σ of the product of the sum's
+    /// factors over the rows (the noise-free rows: the kernel's general path, from which
+    /// the fast path is checked in `fast_and_general_paths_build_the_same_moments`, sums
+    /// with the macro's own `add_row`). The lists sum in other orders (lanes, blocks,
+    /// exact sums) than this plain loop; each order's rounding error is below
+    /// (N − 1)u Σ|term| + u Σ|term| for the products (Higham, Accuracy and Stability of
+    /// Numerical Algorithms, 2nd ed., §4.2; u = ε/2), so the two agree within
+    /// N ε Σ|term|, while a wrong or missing sum is off by the size of the sum.
+    #[test]
+    fn every_hand_written_list_sums_each_sum_by_its_factors() {
+        let reg = test_regression();
+        let w: Vec<f64> = reg.v.iter().map(|v| v * v).collect();
+        let row = |i: usize| [reg.f[i], w[i], reg.c[i], reg.y[i]];
+        let check = |what: &str, m: &Moments, a: usize, b: usize, only_regressors: bool| {
+            for s in Sum::ALL {
+                let (mut sum, mut abs) = (0.0, 0.0);
+                if s.regressors_only() || !only_regressors {
+                    for i in a..b {
+                        let t: f64 = s.factors().iter().map(|c| row(i)[c.index()]).product();
+                        sum += t;
+                        abs += t.abs();
+                    }
+                }
+                let tolerance = (b - a) as f64 * f64::EPSILON * abs;
+                assert!(
+                    (m[s] - sum).abs() <= tolerance,
+                    "{what} {a}..{b} {s:?}: {} vs {sum}",
+                    m[s]
+                );
+            }
+        };
+        check(
+            "noise_free_moments",
+            &reg.noise_free_moments(),
+            0,
+            reg.len(),
+            false,
+        );
+        let view = RowsView {
+            f: &reg.f,
+            w: &w,
+            c: &reg.c,
+            y: &reg.y,
+            s: &reg.g_sin,
+            noise_free_f_c: true,
+        };
+        let (ranges, constant) = reg.segments(SEGMENT_S);
+        assert!(ranges.len() > 3);
+        for (&(a, b), k) in ranges.iter().zip(constant).step_by(7) {
+            check("segments", k, a, b, true);
+            check(
+                "segment_moments",
+                &segment_moments(view, a, b, None, false),
+                a,
+                b,
+                false,
+            );
+            let m = segment_moments(view, a, b, Some(k), false);
+            check("segment_moments with constants", &m, a, b, false);
+        }
+    }
 
     #[test]
     fn every_sum_reads_its_own_field_and_lists_its_factors_once() {

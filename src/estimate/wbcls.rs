@@ -93,45 +93,44 @@ impl Estimator for Wbcls {
     }
 }
 
-/// How many segments on each side of a segment are skipped before its neighbours: none
-/// for white noise, three correlation times for AR(1) noise, and at least one when the
-/// acceleration is differentiated (a segment's edge rows read the neighbours' samples).
+/// How many segments on each side of a segment are skipped before its neighbours, the
+/// most any channel needs: none for noise independent between rows,
+/// [`CORRELATION_TIMES_LEFT_OUT`] correlation times for noise correlated in time, and at
+/// least one for noise that enters neighbouring rows (a segment's edge rows read the
+/// neighbours' samples).
 fn segments_left_out(noise: &NoiseLevels) -> usize {
-    let correlated = if noise.velocity_correlated() {
-        (CORRELATION_TIMES_LEFT_OUT * noise.velocity_correlation_s / SEGMENT_S).ceil() as usize
-    } else {
-        0
-    };
-    if noise.speed_noise_differentiated() {
-        correlated.max(1)
-    } else {
-        correlated
-    }
+    Channel::ALL
+        .iter()
+        .map(|c| {
+            let tau = c.correlation_time_s(noise);
+            let correlated = if tau > 0.0 {
+                (CORRELATION_TIMES_LEFT_OUT * tau / SEGMENT_S).ceil() as usize
+            } else {
+                0
+            };
+            if c.enters_neighbours(noise) {
+                correlated.max(1)
+            } else {
+                correlated
+            }
+        })
+        .max()
+        .unwrap_or(0)
 }
 
-/// Per segment, the variance a differentiated acceleration adds to ỹ:
-/// σ_v² Var(e_{s+1} − e_{s−1}) / Δt² = 2σ_v² (1 − ρ) / Δt² with ρ = exp(−Δt/τ) (0 for white
-/// noise), at the segment's mean Δt = t_{s+1} − t_{s−1} (noise-free sample times).
+/// Per segment, the variance the channels add to ỹ beyond their Ω terms
+/// ([`Channel::derivative_variance`]), in [`Channel::ALL`] order (`None`: none does).
 fn derivative_variance(r: &Realisation<'_>, segments: &[(usize, usize)]) -> Option<Vec<f64>> {
-    if !r.noise.speed_noise_differentiated() {
-        return None;
-    }
-    let d = r.regression.differentiation.as_ref()?;
-    let s2 = r.noise[Channel::Velocity].powi(2);
-    let tau = r.noise.velocity_correlation_s;
-    Some(
-        segments
-            .iter()
-            .map(|&(a, b)| {
-                let span: f64 = (a..b)
-                    .map(|i| d.span_t[d.sample[i] + 1] - d.span_t[d.sample[i] - 1])
-                    .sum();
-                let dt = span / (b - a) as f64;
-                let rho = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
-                2.0 * s2 * (1.0 - rho) / (dt * dt)
-            })
-            .collect(),
-    )
+    let mut terms = Channel::ALL
+        .iter()
+        .filter_map(|c| c.derivative_variance(r.regression, r.noise, segments));
+    let first = terms.next()?;
+    Some(terms.fold(first, |mut total, t| {
+        for (a, b) in total.iter_mut().zip(t) {
+            *a += b;
+        }
+        total
+    }))
 }
 
 /// Per segment b, from the segments `skip + 1` before and after it (those that exist):

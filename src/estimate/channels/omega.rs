@@ -1,0 +1,140 @@
+//! Each channel's terms of the covariance of the equation errors (docs/model.md#bounds):
+//! its term of the first-order variance Ω of a row, and, for noise that rows share with
+//! their neighbours, its part of XᵀΣX off the diagonal, the variance a differentiated
+//! acceleration adds to ỹ and how far its correlation reaches. The sandwich, `eiv_crlb_linearized`
+//! and `wbcls` ask these; none of them knows a channel's internals.
+
+use nalgebra::Matrix3;
+
+use super::{CHANNEL_COUNT, Channel, NoiseLevels, velocity};
+use crate::estimate::regression::Regression;
+
+/// Where the first-order equation-error variance Ω is evaluated (docs/model.md#bounds): the
+/// estimate and the quantities of a row, or of a segment as local means, that the
+/// channels' terms read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OmegaAt {
+    /// θ = \[1/M, Cd/M, Cr\] at which Ω is evaluated.
+    pub theta: [f64; 3],
+    /// k of the regression's column 2 (−k w).
+    pub k: f64,
+    /// V² \[m²/s²\].
+    pub v2: f64,
+    /// What the grade noise's term is loaded with.
+    pub grade: GradeLoading,
+}
+
+/// The loading of the grade noise's term of Ω.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GradeLoading {
+    /// At a noise-free row: gravity g \[m/s²\] and the slope cos θ − θ₃ sin θ of
+    /// d/dθ \[sin θ + θ₃ cos θ\]; the term is (g σ_θ)² slope².
+    Row {
+        /// Gravity \[m/s²\].
+        g: f64,
+        /// cos θ − θ₃ sin θ.
+        slope: f64,
+    },
+    /// A local mean of x̃₃² = g² cos² θ̃ \[m²/s⁴\] (the θ₃ sin θ part, below 0.3 % of it,
+    /// left out); the term is σ_θ² times it.
+    MeanSquare(f64),
+}
+
+impl Channel {
+    /// The channels in the order their terms of Ω are added (fixed: the bounds' and the
+    /// weighted estimator's bits depend on it).
+    pub const OMEGA_ORDER: [Channel; CHANNEL_COUNT] = [
+        Channel::Velocity,
+        Channel::Force,
+        Channel::Grade,
+        Channel::Output,
+    ];
+
+    /// This channel's term of the first-order equation-error variance Ω of u = ỹ − x̃ᵀθ at
+    /// SD `sd` (docs/model.md#bounds).
+    ///
+    /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
+    /// Force: (F̃ − F)θ₁. Grade: d/dθ \[g sin θ + θ₃ g cos θ\] = g (cos θ − θ₃ sin θ).
+    /// Output: σ_y².
+    pub fn omega_term(self, sd: f64, at: &OmegaAt) -> f64 {
+        match self {
+            Channel::Velocity => {
+                let s2 = sd.powi(2);
+                (at.theta[1] * at.k).powi(2) * (4.0 * at.v2 * s2 + 2.0 * s2 * s2)
+            }
+            Channel::Force => (at.theta[0] * sd).powi(2),
+            Channel::Grade => match at.grade {
+                GradeLoading::Row { g, slope } => (g * sd).powi(2) * slope * slope,
+                GradeLoading::MeanSquare(c2) => sd.powi(2) * c2,
+            },
+            Channel::Output => sd.powi(2),
+        }
+    }
+}
+
+/// A channel's part of the sandwich's XᵀΣX that a diagonal of Ω terms does not hold: the
+/// covariance of rows that share its noise ([`Channel::row_covariance`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowCovariance {
+    /// Its part of XᵀΣX, added to XᵀΩX.
+    pub meat: Matrix3<f64>,
+    /// True when `meat` holds the channel's diagonal too (its [`Channel::omega_term`] is
+    /// then left out of Ω).
+    pub replaces_omega_term: bool,
+}
+
+impl Channel {
+    /// This channel's part of the sandwich's XᵀΣX beyond its Ω terms at the noise-free
+    /// rows of `reg` and θ = `theta` (`None`: its noise is independent across rows, or
+    /// off). Speed noise: AR(1) correlation, a differentiated acceleration.
+    pub fn row_covariance(
+        self,
+        reg: &Regression,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Option<RowCovariance> {
+        match self {
+            Channel::Velocity => velocity::row_covariance(reg, theta, noise),
+            Channel::Output | Channel::Grade | Channel::Force => None,
+        }
+    }
+
+    /// Per segment of rows (`segments`, index ranges of `reg`), the variance this channel
+    /// adds to ỹ beyond its [`Channel::omega_term`] (`None`: nothing): speed noise through
+    /// a differentiated acceleration.
+    pub fn derivative_variance(
+        self,
+        reg: &Regression,
+        noise: &NoiseLevels,
+        segments: &[(usize, usize)],
+    ) -> Option<Vec<f64>> {
+        match self {
+            Channel::Velocity => velocity::derivative_variance(reg, noise, segments),
+            Channel::Output | Channel::Grade | Channel::Force => None,
+        }
+    }
+
+    /// The correlation time of this channel's noise \[s\] under `noise` (0: independent
+    /// draws per sample, or off).
+    pub fn correlation_time_s(self, noise: &NoiseLevels) -> f64 {
+        match self {
+            Channel::Velocity => velocity::correlation_time_s(noise),
+            Channel::Output | Channel::Grade | Channel::Force => 0.0,
+        }
+    }
+
+    /// True when a row's equation error carries this channel's draws of neighbouring
+    /// samples (speed noise through a differentiated acceleration).
+    pub fn enters_neighbours(self, noise: &NoiseLevels) -> bool {
+        match self {
+            Channel::Velocity => noise.speed_noise_differentiated(),
+            Channel::Output | Channel::Grade | Channel::Force => false,
+        }
+    }
+
+    /// True when rows share this channel's noise under `noise` (correlated in time, or
+    /// entering neighbouring rows).
+    pub fn shares_rows(self, noise: &NoiseLevels) -> bool {
+        self.correlation_time_s(noise) > 0.0 || self.enters_neighbours(noise)
+    }
+}
