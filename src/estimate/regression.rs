@@ -181,7 +181,6 @@ impl Regression {
             // The span runs to the sample after the last row.
             let span_t = d.span_t.prefix(d.sample[n - 1] + 2);
             Differentiation {
-                uniform_steps: uniform_steps(&span_t),
                 span_t,
                 sample: d.sample.prefix(n),
                 inv_dt: d.inv_dt.prefix(n),
@@ -352,9 +351,6 @@ pub struct Differentiation {
     pub sample: Column<usize>,
     /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
     pub inv_dt: Column,
-    /// True when the span's steps are equal to 1e-6 relative (then AR(1) noise is as
-    /// correlated with the sample before as with the one after, which BCLS relies on).
-    pub uniform_steps: bool,
 }
 
 impl Regression {
@@ -389,7 +385,6 @@ impl Regression {
         let span_t = t[start..=rows[rows.len() - 1] + 1].to_vec();
         let mut reg = Regression::new(&selected, vehicle);
         reg.differentiation = Some(Differentiation {
-            uniform_steps: uniform_steps(&span_t),
             span_t: span_t.into(),
             sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
             inv_dt: inv_dt.into(),
@@ -402,12 +397,6 @@ impl Regression {
     pub fn noise_times(&self) -> &[f64] {
         self.differentiation.as_ref().map_or(&self.t, |d| &d.span_t)
     }
-}
-
-/// Whether the steps between the times `t` are equal to 1e-6 relative.
-fn uniform_steps(t: &[f64]) -> bool {
-    let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    steps.iter().all(|d| (d / steps[0] - 1.0).abs() <= 1e-6)
 }
 
 /// The per-row columns of a regression, before its sums.
