@@ -55,18 +55,16 @@
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
-//! - **a noise channel**: a variant of [`estimate::channels::Channel`] and its `match` arms,
-//!   all in `estimate/channels/` (the compiler lists them): in `mod.rs` its study key and
-//!   column, unit, default, stream, whether it enters the regressors, the measured columns
-//!   it moves and how its draw perturbs a sample; in `omega.rs` its term of the
-//!   equation-error variance Ω and, where rows share its noise, its part of the sandwich off
-//!   the diagonal, the variance it adds to a differentiated ỹ and its correlation time; in
-//!   `expect.rs` its expectations of the columns (and with neighbouring rows) and the slot
-//!   for its covariances (`Channel::sum_covariance`); a channel whose noise reaches beyond a
-//!   row keeps those terms in its own file there, as `velocity.rs`. Then its correction of
-//!   the sums, `Moments::compensate` in `estimate/estimators.rs`. The `[noise]` key, the
-//!   condition axis, the stream, which control variates vary, the bounds and wbcls's
-//!   weights and left-out neighbours follow.
+//! - **a noise channel**: one file in `estimate/channels/` with a unit struct implementing
+//!   [`estimate::channels::ChannelTerms`] (its study key and column, unit, default, stream,
+//!   the measured columns it moves, how its draw perturbs a sample, its term of the
+//!   equation-error variance Ω, its expectations of the columns, its BCLS correction of the
+//!   sums and, where rows share its noise, its part of the sandwich off the diagonal, the
+//!   variance it adds to a differentiated ỹ, its correlation time and the slot for its
+//!   covariances), and one line of the `channels!` registry in `estimate/channels/mod.rs`
+//!   plus its place in `Channel::OMEGA_ORDER` (the compiler asks for it). The `[noise]`
+//!   key, the condition axis, the stream, which control variates vary, the bounds, BCLS and
+//!   wbcls's weights and left-out neighbours follow.
 //! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`
 //!   ([`estimate::sums::Sum`]); [`estimate::sums::Moments`], the general kernel's sums and
 //!   the control variates follow; the hand-written lists (the fast path's in

@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::Bound;
 use super::channels::{Channel, NoiseLevels};
-use super::moments::{GradeSums, Moments, Rows, RowsView};
+use super::moments::{Moments, Rows, RowsView};
 use super::regression::Regression;
 use super::rls::Rls;
 use super::wbcls::Wbcls;
@@ -225,66 +225,9 @@ impl Moments {
 
     /// The sums corrected for `channel`'s noise at SD `sd` (docs/model.md#bcls): each sum
     /// gets the expectation it would have without that channel's noise, the other channels
-    /// left as they are.
-    ///
-    /// - speed, E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6σ²V² + 3σ⁴: `V² → Ṽ² − σ²` and
-    ///   `V⁴ → Ṽ⁴ − 6σ²Ṽ² + 3σ⁴` wherever w = Ṽ² appears;
-    /// - force, E\[F̃²\] = F² + σ²: `Σx̃₁² → Σx̃₁² − Nσ²` (F̃ enters every other sum linearly);
-    /// - grade, with ρ = e^(−σ²/2): E\[cos θ̃\] = ρ cos θ, E\[sin θ̃\] = ρ sin θ,
-    ///   E\[cos 2θ̃\] = ρ⁴ cos 2θ, E\[sin 2θ̃\] = ρ⁴ sin 2θ: a sum linear in cos θ̃ or sin θ̃ is
-    ///   divided by ρ, the products x̃₃² and x̃₃s̃ (through cos 2θ̃, sin 2θ̃) by ρ⁴ after
-    ///   removing their constant part; ỹ = ã + s̃ is split, its grade term s̃ = g sin θ̃ scaled
-    ///   apart from the rest ã (which the grade noise leaves alone);
-    /// - output: none (zero-mean, independent, and linear in every sum).
+    /// left as they are (the channel's [`ChannelTerms::compensate`](super::channels::ChannelTerms::compensate)).
     pub fn compensate(&self, channel: Channel, sd: f64, g: f64) -> Moments {
-        let s2 = sd * sd;
-        match channel {
-            Channel::Velocity => Moments {
-                s_1w: self.s_1w - s2 * self.s_1,
-                s_3w: self.s_3w - s2 * self.s_3,
-                s_ww: self.s_ww - 6.0 * s2 * self.s_w + 3.0 * s2 * s2 * self.n,
-                s_wy: self.s_wy - s2 * self.s_y,
-                s_w: self.s_w - s2 * self.n,
-                grade: self.grade.map(|gs| GradeSums {
-                    s_ws: gs.s_ws - s2 * gs.s_s,
-                    ..gs
-                }),
-                ..*self
-            },
-            Channel::Output => *self,
-            Channel::Force => Moments {
-                s_11: self.s_11 - s2 * self.n,
-                ..*self
-            },
-            Channel::Grade => {
-                let gs = self
-                    .grade
-                    .expect("the kernel sums the grade term wherever grade noise is on");
-                // 1/ρ − 1 and 1/ρ⁴ − 1, accurate for small σ.
-                let r1 = (0.5 * s2).exp_m1();
-                let r4 = (2.0 * s2).exp_m1();
-                let q1 = 1.0 + r1;
-                Moments {
-                    s_13: q1 * self.s_13,
-                    // g² cos² θ = g²(1 + cos 2θ)/2
-                    s_33: self.s_33 + r4 * (self.s_33 - 0.5 * g * g * self.n),
-                    s_1y: self.s_1y + r1 * gs.s_1s,
-                    // x̃₃ỹ = x̃₃ã + x̃₃s̃, x̃₃s̃ = −(g²/2) sin 2θ̃
-                    s_3y: q1 * (self.s_3y - gs.s_3s) + (1.0 + r4) * gs.s_3s,
-                    s_3w: q1 * self.s_3w,
-                    s_wy: self.s_wy + r1 * gs.s_ws,
-                    s_3: q1 * self.s_3,
-                    s_y: self.s_y + r1 * gs.s_s,
-                    grade: Some(GradeSums {
-                        s_s: q1 * gs.s_s,
-                        s_1s: q1 * gs.s_1s,
-                        s_3s: (1.0 + r4) * gs.s_3s,
-                        s_ws: q1 * gs.s_ws,
-                    }),
-                    ..*self
-                }
-            }
-        }
+        channel.compensate(self, sd, g)
     }
 
     fn system(

@@ -1,165 +1,291 @@
 //! The noise channels of the vehicle regression's measurements (docs/model.md#noise-channels).
 //!
-//! A channel is one variant of [`Channel`], and every term of it is a `match` arm on it in
-//! this directory, so the compiler lists every place a new channel needs:
+//! A channel is one file here: a unit struct implementing [`ChannelTerms`] (its study key
+//! and output column, unit, default, the stream that draws its noise, the measured columns
+//! it moves, how its draw perturbs a sample, its term of the equation-error variance Ω, its
+//! expectations of the measured columns, its correction of the sums for BCLS and, for noise
+//! that rows share, its terms beyond a row), and one line of the [`channels!`] registry
+//! below, which generates [`Channel`] and its dispatch. The condition axes, the study keys
+//! under `[noise]`, the streams, the kernel, the bounds, `wbcls`, the control variates and
+//! BCLS ask [`Channel`]; none of them knows a channel's internals.
 //!
-//! - here: its study key and output column, unit, default, the stream that draws its
-//!   noise, the measured columns it moves (from which the control variates that vary are
-//!   derived) and how its draw perturbs a measured sample ([`Channel::perturb`]);
-//! - `omega.rs`: its term of the equation-error variance Ω ([`Channel::omega_term`]) and,
-//!   for noise that rows share, its part of the sandwich's XᵀΣX off the diagonal, the
-//!   variance it adds to a differentiated ỹ and its correlation time (which the bounds and
-//!   `wbcls` ask);
-//! - `expect.rs`: its expectations of the measured columns ([`Channel::expect`],
-//!   [`Channel::expect_shared`]; the control variates ask) and the place for its
-//!   covariances ([`Channel::sum_covariance`], for the spread control variates);
-//! - `levels.rs`: [`NoiseLevels`], a condition's levels, and what follows from them;
-//! - `velocity.rs`: the speed sensor's terms that reach beyond a row (AR(1) correlation,
-//!   a differentiated acceleration), which the `Channel::Velocity` arms call.
-//!
-//! The condition axes, the study keys under `[noise]`, the streams and the kernel are
-//! derived from [`Channel::ALL`]. BCLS's correction of the sums (`Moments::compensate` in
-//! `estimators.rs`, an exhaustive match) is the other place a channel appears, because it
-//! is physics, not wiring.
+//! - `velocity.rs`, `output.rs`, `grade.rs`, `force.rs`: the channels;
+//! - `omega.rs`: what Ω and the sandwich's off-diagonal part are evaluated at, and the
+//!   order the channels' Ω terms are added in ([`Channel::OMEGA_ORDER`]);
+//! - `expect.rs`: the noise-free row and the expectations the control variates centre
+//!   the sums with;
+//! - `levels.rs`: [`NoiseLevels`], a condition's levels, and what follows from them.
 
 use std::ops::{Index, IndexMut};
 
-use super::sums::Column;
+use super::moments::Moments;
+use super::regression::Regression;
+use super::sums::{Column, Sum};
 
 mod expect;
+mod force;
+mod grade;
 mod levels;
 mod omega;
+mod output;
 mod velocity;
 
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance};
 
-/// An independent noise source of a realisation's measurements. Each has its own random
-/// stream, so switching one on does not change the draws of another.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Channel {
+/// One noise channel's terms, implemented by a unit struct in the channel's own file and
+/// registered by one line of [`channels!`] (docs/model.md#noise-channels). The defaults
+/// are those of noise drawn independently per sample that enters one row only.
+pub trait ChannelTerms {
+    /// The key under `[noise]` in study files, and the condition column in every table.
+    const KEY: &'static str;
+    /// Unit of the standard deviation.
+    const UNIT: &'static str;
+    /// What the standard deviation is of.
+    const DESCRIPTION: &'static str;
+    /// The levels a study gets when it does not list the key (`None`: the key is required).
+    const DEFAULT_LEVELS: Option<&'static [f64]>;
+    /// The channel's part of the ChaCha key of its stream (docs/model.md#streams). Part of
+    /// every study's numbers: never change or reuse one.
+    const STREAM: u64;
+    /// True when the noise enters a regressor (so OLS is biased), not only the output.
+    const IN_REGRESSORS: bool;
+    /// The measured columns of the regression its noise enters.
+    const COLUMNS: &'static [Column];
+    /// True when the vectorised kernel handles the channel.
+    const ON_FAST_PATH: bool = false;
+
+    /// Apply the draw `e` ~ N(0, 1) at standard deviation `sd` to a measured sample.
+    fn perturb(s: &mut Sample, sd: f64, e: f64);
+
+    /// Its term of the first-order equation-error variance Ω of u = ỹ − x̃ᵀθ at SD `sd`
+    /// (docs/model.md#bounds).
+    fn omega_term(sd: f64, at: &OmegaAt) -> f64;
+
+    /// Move the expectations `e` of row `r`'s measured columns by its noise at SD `sd` > 0:
+    /// set the moments of the columns it moves, from the noise-free row.
+    fn expect(sd: f64, r: &TrueRow, e: &mut ColumnMoments);
+
+    /// The sums `m` corrected for its noise at SD `sd` (docs/model.md#bcls): each sum gets
+    /// the expectation it would have without this noise; `g` \[m/s²\] is gravity.
+    fn compensate(m: &Moments, sd: f64, g: f64) -> Moments;
+
+    /// Its part of the sandwich's XᵀΣX beyond its Ω terms (`None`: independent across rows,
+    /// or off).
+    fn row_covariance(
+        _reg: &Regression,
+        _theta: &[f64; 3],
+        _noise: &NoiseLevels,
+    ) -> Option<RowCovariance> {
+        None
+    }
+
+    /// Per segment of rows, the variance it adds to ỹ beyond its Ω term (`None`: nothing).
+    fn derivative_variance(
+        _reg: &Regression,
+        _noise: &NoiseLevels,
+        _segments: &[(usize, usize)],
+    ) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// The correlation time of its noise \[s\] (0: independent draws per sample, or off).
+    fn correlation_time_s(_noise: &NoiseLevels) -> f64 {
+        0.0
+    }
+
+    /// True when a row's equation error carries its draws of neighbouring samples.
+    fn enters_neighbours(_noise: &NoiseLevels) -> bool {
+        false
+    }
+
+    /// Set the terms of row `i`'s expectations `e` that its noise adds through the rows it
+    /// shares with its neighbours (nothing when its rows are independent).
+    fn expect_shared(
+        _reg: &Regression,
+        _noise: &NoiseLevels,
+        _ar1: Option<&[[f64; 2]]>,
+        _i: usize,
+        _e: &mut ColumnMoments,
+    ) {
+    }
+
+    /// The place for its covariances, which the spread control variates will read
+    /// (docs/model.md#control-variates): Cov(aᵢ, bᵢ) of row `r`'s terms of sums `a` and
+    /// `b` under its noise alone at SD `sd`. `None`: not derived (no spread control variate
+    /// exists yet, so none is derived for any channel).
+    fn sum_covariance(_sd: f64, _r: &TrueRow, _a: Sum, _b: Sum) -> Option<f64> {
+        None
+    }
+}
+
+/// The registry: one line per channel, `Variant => its ChannelTerms type`, in the order of
+/// the study keys, the condition axes (the last varies fastest), the output columns and the
+/// streams' listing. Generates [`Channel`], [`Channel::ALL`] and the dispatch of every
+/// [`ChannelTerms`] item.
+macro_rules! channels {
+    ($($(#[$doc:meta])* $variant:ident => $terms:ty,)*) => {
+        /// An independent noise source of a realisation's measurements. Each has its own
+        /// random stream, so switching one on does not change the draws of another.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Channel {
+            $($(#[$doc])* $variant,)*
+        }
+
+        impl Channel {
+            /// Every channel, in the order of the study keys, the condition axes (the last
+            /// varies fastest) and the output columns.
+            pub const ALL: [Channel; [$(Channel::$variant),*].len()] = [$(Channel::$variant),*];
+
+            /// The key under `[noise]` in study files, and the condition column in every
+            /// table ([`ChannelTerms::KEY`]).
+            pub const fn key(self) -> &'static str {
+                match self { $(Channel::$variant => <$terms>::KEY,)* }
+            }
+
+            /// Unit of the standard deviation.
+            pub const fn unit(self) -> &'static str {
+                match self { $(Channel::$variant => <$terms>::UNIT,)* }
+            }
+
+            /// What the standard deviation is of.
+            pub const fn description(self) -> &'static str {
+                match self { $(Channel::$variant => <$terms>::DESCRIPTION,)* }
+            }
+
+            /// The levels a study gets when it does not list the key (`None`: required).
+            pub const fn default_levels(self) -> Option<&'static [f64]> {
+                match self { $(Channel::$variant => <$terms>::DEFAULT_LEVELS,)* }
+            }
+
+            /// The channel's part of the ChaCha key of its stream (docs/model.md#streams).
+            pub const fn stream(self) -> u64 {
+                match self { $(Channel::$variant => <$terms>::STREAM,)* }
+            }
+
+            /// True when the channel's noise enters a regressor (so OLS is biased), not
+            /// only the output.
+            pub const fn in_regressors(self) -> bool {
+                match self { $(Channel::$variant => <$terms>::IN_REGRESSORS,)* }
+            }
+
+            /// The measured columns of the regression its noise enters (speed noise enters
+            /// ỹ as well through a differentiated acceleration: [`NoiseLevels::moves`]).
+            pub const fn columns(self) -> &'static [Column] {
+                match self { $(Channel::$variant => <$terms>::COLUMNS,)* }
+            }
+
+            /// True when the vectorised kernel handles the channel.
+            pub const fn on_fast_path(self) -> bool {
+                match self { $(Channel::$variant => <$terms>::ON_FAST_PATH,)* }
+            }
+
+            /// Apply this channel's draw `e` ~ N(0, 1) at standard deviation `sd` to a
+            /// measured sample (the general kernel; see docs/model.md#noise-channels).
+            #[inline(always)]
+            pub fn perturb(self, s: &mut Sample, sd: f64, e: f64) {
+                match self { $(Channel::$variant => <$terms>::perturb(s, sd, e),)* }
+            }
+
+            /// This channel's term of the first-order equation-error variance Ω at SD `sd`
+            /// (docs/model.md#bounds).
+            pub fn omega_term(self, sd: f64, at: &OmegaAt) -> f64 {
+                match self { $(Channel::$variant => <$terms>::omega_term(sd, at),)* }
+            }
+
+            /// Move the expectations `e` of row `r`'s measured columns by this channel's
+            /// noise at SD `sd` > 0 (docs/model.md#control-variates). The channels are
+            /// independent, so the order does not matter.
+            pub fn expect(self, sd: f64, r: &TrueRow, e: &mut ColumnMoments) {
+                match self { $(Channel::$variant => <$terms>::expect(sd, r, e),)* }
+            }
+
+            /// The sums `m` corrected for this channel's noise at SD `sd`, the other
+            /// channels' left as they are (docs/model.md#bcls).
+            pub fn compensate(self, m: &Moments, sd: f64, g: f64) -> Moments {
+                match self { $(Channel::$variant => <$terms>::compensate(m, sd, g),)* }
+            }
+
+            /// This channel's part of the sandwich's XᵀΣX beyond its Ω terms at the
+            /// noise-free rows of `reg` and θ = `theta` (`None`: independent across rows).
+            pub fn row_covariance(
+                self,
+                reg: &Regression,
+                theta: &[f64; 3],
+                noise: &NoiseLevels,
+            ) -> Option<RowCovariance> {
+                match self { $(Channel::$variant => <$terms>::row_covariance(reg, theta, noise),)* }
+            }
+
+            /// Per segment of rows (`segments`, index ranges of `reg`), the variance this
+            /// channel adds to ỹ beyond its Ω term (`None`: nothing).
+            pub fn derivative_variance(
+                self,
+                reg: &Regression,
+                noise: &NoiseLevels,
+                segments: &[(usize, usize)],
+            ) -> Option<Vec<f64>> {
+                match self {
+                    $(Channel::$variant => <$terms>::derivative_variance(reg, noise, segments),)*
+                }
+            }
+
+            /// The correlation time of this channel's noise \[s\] under `noise` (0:
+            /// independent draws per sample, or off).
+            pub fn correlation_time_s(self, noise: &NoiseLevels) -> f64 {
+                match self { $(Channel::$variant => <$terms>::correlation_time_s(noise),)* }
+            }
+
+            /// True when a row's equation error carries this channel's draws of
+            /// neighbouring samples.
+            pub fn enters_neighbours(self, noise: &NoiseLevels) -> bool {
+                match self { $(Channel::$variant => <$terms>::enters_neighbours(noise),)* }
+            }
+
+            /// Set the terms of row `i`'s expectations `e` that this channel's noise adds
+            /// through the rows it shares with its neighbours; `ar1` the AR(1) coefficients
+            /// of correlated speed noise over [`Regression::noise_times`] (`None`: white).
+            pub fn expect_shared(
+                self,
+                reg: &Regression,
+                noise: &NoiseLevels,
+                ar1: Option<&[[f64; 2]]>,
+                i: usize,
+                e: &mut ColumnMoments,
+            ) {
+                match self {
+                    $(Channel::$variant => <$terms>::expect_shared(reg, noise, ar1, i, e),)*
+                }
+            }
+
+            /// Cov(aᵢ, bᵢ) of row `r`'s terms of sums `a` and `b` under this channel's noise
+            /// alone at SD `sd`, for the spread control variates (`None`: not derived).
+            pub fn sum_covariance(self, sd: f64, r: &TrueRow, a: Sum, b: Sum) -> Option<f64> {
+                match self { $(Channel::$variant => <$terms>::sum_covariance(sd, r, a, b),)* }
+            }
+        }
+    };
+}
+
+channels! {
     /// Speed-measurement noise.
-    Velocity,
+    Velocity => velocity::Speed,
     /// Additive noise on the regression output.
-    Output,
+    Output => output::OutputNoise,
     /// Noise on the measured grade signal.
-    Grade,
+    Grade => grade::GradeNoise,
     /// Noise on the measured propulsion force.
-    Force,
+    Force => force::ForceNoise,
 }
 
 /// Number of channels.
 pub const CHANNEL_COUNT: usize = Channel::ALL.len();
 
 impl Channel {
-    /// Every channel, in the order of the study keys, the condition axes (the last varies
-    /// fastest) and the output columns.
-    pub const ALL: [Channel; 4] = [
-        Channel::Velocity,
-        Channel::Output,
-        Channel::Grade,
-        Channel::Force,
-    ];
-
     /// Position in [`Channel::ALL`].
     pub const fn index(self) -> usize {
         self as usize
-    }
-
-    /// The key under `[noise]` in study files, and the condition column in every table.
-    pub const fn key(self) -> &'static str {
-        match self {
-            Channel::Velocity => "velocity_sd",
-            Channel::Output => "output_sd",
-            Channel::Grade => "grade_sd",
-            Channel::Force => "force_sd",
-        }
-    }
-
-    /// Unit of the standard deviation.
-    pub const fn unit(self) -> &'static str {
-        match self {
-            Channel::Velocity => "m/s",
-            Channel::Output => "m/s^2",
-            Channel::Grade => "rad",
-            Channel::Force => "N",
-        }
-    }
-
-    /// What the standard deviation is of.
-    pub const fn description(self) -> &'static str {
-        match self {
-            Channel::Velocity => "speed-measurement noise σ_v",
-            Channel::Output => "additive noise σ_y on the regression output (acceleration)",
-            Channel::Grade => "grade-measurement noise σ_θ",
-            Channel::Force => "propulsion-force measurement noise σ_F",
-        }
-    }
-
-    /// The levels a study gets when it does not list the key (`None`: the key is required).
-    pub const fn default_levels(self) -> Option<&'static [f64]> {
-        match self {
-            Channel::Velocity | Channel::Output => None,
-            Channel::Grade | Channel::Force => Some(&[0.0]),
-        }
-    }
-
-    /// The channel's part of the ChaCha key of its stream (docs/model.md#streams). Part of
-    /// every study's numbers: never change or reuse one.
-    pub const fn stream(self) -> u64 {
-        match self {
-            Channel::Velocity => 1,
-            Channel::Output => 2,
-            Channel::Grade => 3,
-            Channel::Force => 4,
-        }
-    }
-
-    /// True when the channel's noise enters a regressor (so OLS is biased), not only the
-    /// output.
-    pub const fn in_regressors(self) -> bool {
-        match self {
-            Channel::Velocity | Channel::Grade | Channel::Force => true,
-            Channel::Output => false,
-        }
-    }
-
-    /// The measured columns of the regression its noise enters (speed noise enters ỹ as
-    /// well through a differentiated acceleration: [`NoiseLevels::moves`]).
-    pub const fn columns(self) -> &'static [Column] {
-        match self {
-            Channel::Velocity => &[Column::W],
-            Channel::Output => &[Column::Y],
-            Channel::Grade => &[Column::C, Column::Y],
-            Channel::Force => &[Column::F],
-        }
-    }
-
-    /// True when the vectorised kernel (speed and output noise only) handles the channel.
-    pub const fn on_fast_path(self) -> bool {
-        matches!(self, Channel::Velocity | Channel::Output)
-    }
-
-    /// Apply this channel's draw `e` ~ N(0, 1) at standard deviation `sd` to a measured
-    /// sample (the general kernel; see docs/model.md#noise-channels).
-    #[inline(always)]
-    pub fn perturb(self, s: &mut Sample, sd: f64, e: f64) {
-        match self {
-            Channel::Velocity => s.v += sd * e,
-            Channel::Output => s.output_noise = sd * e,
-            Channel::Grade => {
-                if sd > 0.0 {
-                    // sin/cos of θ + δ from those of θ and δ (angle addition)
-                    let (sd, cd) = (sd * e).sin_cos();
-                    (s.sin_grade, s.cos_grade) = (
-                        s.sin_grade * cd + s.cos_grade * sd,
-                        s.cos_grade * cd - s.sin_grade * sd,
-                    );
-                }
-            }
-            Channel::Force => s.f += sd * e,
-        }
     }
 }
 

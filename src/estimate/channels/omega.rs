@@ -6,8 +6,7 @@
 
 use nalgebra::Matrix3;
 
-use super::{CHANNEL_COUNT, Channel, NoiseLevels, velocity};
-use crate::estimate::regression::Regression;
+use super::{CHANNEL_COUNT, Channel, NoiseLevels};
 
 /// Where the first-order equation-error variance Ω is evaluated (docs/model.md#bounds): the
 /// estimate and the quantities of a row, or of a segment as local means, that the
@@ -49,27 +48,6 @@ impl Channel {
         Channel::Grade,
         Channel::Output,
     ];
-
-    /// This channel's term of the first-order equation-error variance Ω of u = ỹ − x̃ᵀθ at
-    /// SD `sd` (docs/model.md#bounds).
-    ///
-    /// Speed: Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
-    /// Force: (F̃ − F)θ₁. Grade: d/dθ \[g sin θ + θ₃ g cos θ\] = g (cos θ − θ₃ sin θ).
-    /// Output: σ_y².
-    pub fn omega_term(self, sd: f64, at: &OmegaAt) -> f64 {
-        match self {
-            Channel::Velocity => {
-                let s2 = sd.powi(2);
-                (at.theta[1] * at.k).powi(2) * (4.0 * at.v2 * s2 + 2.0 * s2 * s2)
-            }
-            Channel::Force => (at.theta[0] * sd).powi(2),
-            Channel::Grade => match at.grade {
-                GradeLoading::Row { g, slope } => (g * sd).powi(2) * slope * slope,
-                GradeLoading::MeanSquare(c2) => sd.powi(2) * c2,
-            },
-            Channel::Output => sd.powi(2),
-        }
-    }
 }
 
 /// A channel's part of the sandwich's XᵀΣX that a diagonal of Ω terms does not hold: the
@@ -84,54 +62,6 @@ pub struct RowCovariance {
 }
 
 impl Channel {
-    /// This channel's part of the sandwich's XᵀΣX beyond its Ω terms at the noise-free
-    /// rows of `reg` and θ = `theta` (`None`: its noise is independent across rows, or
-    /// off). Speed noise: AR(1) correlation, a differentiated acceleration.
-    pub fn row_covariance(
-        self,
-        reg: &Regression,
-        theta: &[f64; 3],
-        noise: &NoiseLevels,
-    ) -> Option<RowCovariance> {
-        match self {
-            Channel::Velocity => velocity::row_covariance(reg, theta, noise),
-            Channel::Output | Channel::Grade | Channel::Force => None,
-        }
-    }
-
-    /// Per segment of rows (`segments`, index ranges of `reg`), the variance this channel
-    /// adds to ỹ beyond its [`Channel::omega_term`] (`None`: nothing): speed noise through
-    /// a differentiated acceleration.
-    pub fn derivative_variance(
-        self,
-        reg: &Regression,
-        noise: &NoiseLevels,
-        segments: &[(usize, usize)],
-    ) -> Option<Vec<f64>> {
-        match self {
-            Channel::Velocity => velocity::derivative_variance(reg, noise, segments),
-            Channel::Output | Channel::Grade | Channel::Force => None,
-        }
-    }
-
-    /// The correlation time of this channel's noise \[s\] under `noise` (0: independent
-    /// draws per sample, or off).
-    pub fn correlation_time_s(self, noise: &NoiseLevels) -> f64 {
-        match self {
-            Channel::Velocity => velocity::correlation_time_s(noise),
-            Channel::Output | Channel::Grade | Channel::Force => 0.0,
-        }
-    }
-
-    /// True when a row's equation error carries this channel's draws of neighbouring
-    /// samples (speed noise through a differentiated acceleration).
-    pub fn enters_neighbours(self, noise: &NoiseLevels) -> bool {
-        match self {
-            Channel::Velocity => noise.speed_noise_differentiated(),
-            Channel::Output | Channel::Grade | Channel::Force => false,
-        }
-    }
-
     /// True when rows share this channel's noise under `noise` (correlated in time, or
     /// entering neighbouring rows).
     pub fn shares_rows(self, noise: &NoiseLevels) -> bool {

@@ -1,21 +1,23 @@
-//! The speed sensor's terms that reach beyond one row (docs/model.md#noise-channels): its
-//! noise may be correlated in time (a stationary AR(1) process with correlation time
-//! `noise.velocity_correlation_s`) and may enter the output through an acceleration
-//! differentiated from the measured speed, so rows share it with their neighbours. Its
-//! per-row terms (its draw, its Ω term, its expectations) are the `Channel::Velocity` arms
-//! in the sibling files; these are the rest, which [`Channel`] dispatches to: the
-//! off-diagonal part of the sandwich's XᵀΣX, the variance a differentiated acceleration
-//! adds to ỹ, how far its correlation reaches, and the covariance of a row's w with its
-//! differentiated ỹ.
+//! The speed sensor (docs/model.md#noise-channels): white or correlated noise on the
+//! measured speed, which enters the regressor w = Ṽ². Its noise may be correlated in time (a
+//! stationary AR(1) process with correlation time `noise.velocity_correlation_s`) and may
+//! enter the output through an acceleration differentiated from the measured speed, so rows
+//! share it with their neighbours: besides its per-row terms, the off-diagonal part of the
+//! sandwich's XᵀΣX, the variance a differentiated acceleration adds to ỹ, how far its
+//! correlation reaches, and the covariance of a row's w with its differentiated ỹ.
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{Channel, ColumnMoments, NoiseLevels, RowCovariance};
+use super::{
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, RowCovariance, Sample, TrueRow,
+};
+use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::{Regression, ar1_coefficients};
+use crate::estimate::sums::Column;
 
 /// The speed noise's part of the sandwich's XᵀΣX beyond its diagonal Ω terms (`None`:
 /// rows independent).
-pub(super) fn row_covariance(
+fn row_covariance(
     reg: &Regression,
     theta: &[f64; 3],
     noise: &NoiseLevels,
@@ -121,7 +123,7 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
 /// σ_v² Var(e_{s+1} − e_{s−1}) / Δt² = 2σ_v² (1 − ρ) / Δt² with ρ = exp(−Δt/τ) (0 for white
 /// noise), at the segment's mean Δt = t_{s+1} − t_{s−1} (noise-free sample times); `None`
 /// when the acceleration is not differentiated.
-pub(super) fn derivative_variance(
+fn derivative_variance(
     reg: &Regression,
     noise: &NoiseLevels,
     segments: &[(usize, usize)],
@@ -148,7 +150,7 @@ pub(super) fn derivative_variance(
 }
 
 /// The correlation time of the speed noise \[s\] (0: white or off).
-pub(super) fn correlation_time_s(noise: &NoiseLevels) -> f64 {
+fn correlation_time_s(noise: &NoiseLevels) -> f64 {
     if noise.velocity_correlated() {
         noise.velocity_correlation_s
     } else {
@@ -159,7 +161,7 @@ pub(super) fn correlation_time_s(noise: &NoiseLevels) -> f64 {
 /// Under a differentiated acceleration with correlated speed noise, row `i`'s Cov(w, ỹ)
 /// through the noise it shares with its neighbours ([`ColumnMoments::wy_neighbours`]);
 /// `ar1` the AR(1) coefficients over [`Regression::noise_times`] (`None` when white).
-pub(super) fn expect_shared(
+fn expect_shared(
     reg: &Regression,
     noise: &NoiseLevels,
     ar1: Option<&[[f64; 2]]>,
@@ -180,6 +182,91 @@ pub(super) fn expect_shared(
 /// φ_j) and `inv_dt` = 1/Δt: 2Vσ² (φ_{s+1} − φ_s)/Δt, the third moments vanishing.
 fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64) -> f64 {
     2.0 * v * sd * sd * (ar1[s + 1][0] - ar1[s][0]) * inv_dt
+}
+
+/// The speed-noise channel.
+#[derive(Debug, Clone, Copy)]
+pub struct Speed;
+
+impl ChannelTerms for Speed {
+    const KEY: &'static str = "velocity_sd";
+    const UNIT: &'static str = "m/s";
+    const DESCRIPTION: &'static str = "speed-measurement noise σ_v";
+    const DEFAULT_LEVELS: Option<&'static [f64]> = None;
+    const STREAM: u64 = 1;
+    const IN_REGRESSORS: bool = true;
+    const COLUMNS: &'static [Column] = &[Column::W];
+    const ON_FAST_PATH: bool = true;
+
+    #[inline(always)]
+    fn perturb(s: &mut Sample, sd: f64, e: f64) {
+        s.v += sd * e;
+    }
+
+    /// Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.
+    fn omega_term(sd: f64, at: &OmegaAt) -> f64 {
+        let s2 = sd.powi(2);
+        (at.theta[1] * at.k).powi(2) * (4.0 * at.v2 * s2 + 2.0 * s2 * s2)
+    }
+
+    /// E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6σ²V² + 3σ⁴.
+    fn expect(sd: f64, r: &TrueRow, e: &mut ColumnMoments) {
+        let s2 = sd * sd;
+        let v2 = r.v * r.v;
+        e.mean[Column::W.index()] = v2 + s2;
+        e.ww = v2 * v2 + 6.0 * s2 * v2 + 3.0 * s2 * s2;
+    }
+
+    /// `V² → Ṽ² − σ²` and `V⁴ → Ṽ⁴ − 6σ²Ṽ² + 3σ⁴` wherever w = Ṽ² appears.
+    fn compensate(m: &Moments, sd: f64, _g: f64) -> Moments {
+        let s2 = sd * sd;
+        Moments {
+            s_1w: m.s_1w - s2 * m.s_1,
+            s_3w: m.s_3w - s2 * m.s_3,
+            s_ww: m.s_ww - 6.0 * s2 * m.s_w + 3.0 * s2 * s2 * m.n,
+            s_wy: m.s_wy - s2 * m.s_y,
+            s_w: m.s_w - s2 * m.n,
+            grade: m.grade.map(|gs| GradeSums {
+                s_ws: gs.s_ws - s2 * gs.s_s,
+                ..gs
+            }),
+            ..*m
+        }
+    }
+
+    fn row_covariance(
+        reg: &Regression,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+    ) -> Option<RowCovariance> {
+        row_covariance(reg, theta, noise)
+    }
+
+    fn derivative_variance(
+        reg: &Regression,
+        noise: &NoiseLevels,
+        segments: &[(usize, usize)],
+    ) -> Option<Vec<f64>> {
+        derivative_variance(reg, noise, segments)
+    }
+
+    fn correlation_time_s(noise: &NoiseLevels) -> f64 {
+        correlation_time_s(noise)
+    }
+
+    fn enters_neighbours(noise: &NoiseLevels) -> bool {
+        noise.speed_noise_differentiated()
+    }
+
+    fn expect_shared(
+        reg: &Regression,
+        noise: &NoiseLevels,
+        ar1: Option<&[[f64; 2]]>,
+        i: usize,
+        e: &mut ColumnMoments,
+    ) {
+        expect_shared(reg, noise, ar1, i, e)
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,44 @@
+//! Force noise: white noise σ_F on the measured propulsion force (docs/model.md#noise-channels).
+
+use super::{ChannelTerms, ColumnMoments, OmegaAt, Sample, TrueRow};
+use crate::estimate::moments::Moments;
+use crate::estimate::sums::Column;
+
+/// The force-noise channel.
+#[derive(Debug, Clone, Copy)]
+pub struct ForceNoise;
+
+impl ChannelTerms for ForceNoise {
+    const KEY: &'static str = "force_sd";
+    const UNIT: &'static str = "N";
+    const DESCRIPTION: &'static str = "propulsion-force measurement noise σ_F";
+    const DEFAULT_LEVELS: Option<&'static [f64]> = Some(&[0.0]);
+    const STREAM: u64 = 4;
+    const IN_REGRESSORS: bool = true;
+    const COLUMNS: &'static [Column] = &[Column::F];
+
+    #[inline(always)]
+    fn perturb(s: &mut Sample, sd: f64, e: f64) {
+        s.f += sd * e;
+    }
+
+    /// (F̃ − F)θ₁.
+    fn omega_term(sd: f64, at: &OmegaAt) -> f64 {
+        (at.theta[0] * sd).powi(2)
+    }
+
+    /// E\[F̃²\] = F² + σ².
+    fn expect(sd: f64, r: &TrueRow, e: &mut ColumnMoments) {
+        let s2 = sd * sd;
+        e.ff = r.f * r.f + s2;
+    }
+
+    /// E\[F̃²\] = F² + σ²: `Σx̃₁² → Σx̃₁² − Nσ²` (F̃ enters every other sum linearly).
+    fn compensate(m: &Moments, sd: f64, _g: f64) -> Moments {
+        let s2 = sd * sd;
+        Moments {
+            s_11: m.s_11 - s2 * m.n,
+            ..*m
+        }
+    }
+}

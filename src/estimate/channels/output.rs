@@ -1,0 +1,39 @@
+//! Output noise: additive, zero-mean noise σ_y on the regression output (the measured
+//! acceleration), independent of everything else (docs/model.md#noise-channels).
+
+use super::{ChannelTerms, ColumnMoments, OmegaAt, Sample, TrueRow};
+use crate::estimate::moments::Moments;
+use crate::estimate::sums::Column;
+
+/// The output-noise channel.
+#[derive(Debug, Clone, Copy)]
+pub struct OutputNoise;
+
+impl ChannelTerms for OutputNoise {
+    const KEY: &'static str = "output_sd";
+    const UNIT: &'static str = "m/s^2";
+    const DESCRIPTION: &'static str = "additive noise σ_y on the regression output (acceleration)";
+    const DEFAULT_LEVELS: Option<&'static [f64]> = None;
+    const STREAM: u64 = 2;
+    const IN_REGRESSORS: bool = false;
+    const COLUMNS: &'static [Column] = &[Column::Y];
+    const ON_FAST_PATH: bool = true;
+
+    #[inline(always)]
+    fn perturb(s: &mut Sample, sd: f64, e: f64) {
+        s.output_noise = sd * e;
+    }
+
+    /// σ_y².
+    fn omega_term(sd: f64, _at: &OmegaAt) -> f64 {
+        sd.powi(2)
+    }
+
+    /// Zero-mean, independent of everything else: no moment moves.
+    fn expect(_sd: f64, _r: &TrueRow, _e: &mut ColumnMoments) {}
+
+    /// None: zero-mean, independent, and linear in every sum.
+    fn compensate(m: &Moments, _sd: f64, _g: f64) -> Moments {
+        *m
+    }
+}
