@@ -4,7 +4,7 @@
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
-//! model's, `placement.rs` says which table a key belongs in. Every failure is a [`StudyError`] that names the file, the dotted key, its line
+//! model's (`truth.rs` the vehicle's `[truth]`), `placement.rs` says which table a key belongs in. Every failure is a [`StudyError`] that names the file, the dotted key, its line
 //! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
@@ -12,6 +12,7 @@ mod line_fit;
 mod placement;
 mod raw;
 mod spans;
+mod truth;
 mod validate;
 mod vary;
 mod vehicle;
@@ -24,6 +25,7 @@ use std::path::{Path, PathBuf};
 pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
 pub use spans::KeySpans;
+pub use truth::TruthAxes;
 pub use vary::VariedKey;
 pub use vehicle::{NoiseAxes, VehicleStudy};
 
