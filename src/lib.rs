@@ -84,12 +84,12 @@
 //!   [`stats::columns::BoundMeasure`] (the writer, the decoder and the figures take it from
 //!   there) and its computation in [`stats::summary`].
 //! - **a model error** (how the simulated truth differs from the regression's equation):
-//!   one [`vehicle::truth::ModelError`] impl (the force the equation leaves out at a sample,
-//!   and whether it is drawn per realisation) and one entry of
-//!   [`vehicle::truth::MODEL_ERRORS`] (its keys of `[truth]` and how it reads them), in its
-//!   own file under `vehicle/`. (Prepared, not yet wired: the study's `[truth]` table, the
-//!   drive modes' dynamics and the first-order bias are to take each entry's omitted force,
-//!   docs/model.md#model-errors.)
+//!   one [`vehicle::truth::ModelError`] impl (the inertia and force the equation leaves out
+//!   at a sample, or what it does to the logged force, and whether it is drawn per
+//!   realisation) and one entry of [`vehicle::truth::MODEL_ERRORS`] (its key of `[truth]`,
+//!   unit, neutral value, whether it is an axis), in `vehicle/truth/`; the study reads it,
+//!   the drive modes apply it and `bias_model` reports it from there
+//!   (docs/model.md#model-errors).
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
 //!   statistics, output and figures work from its [`model::Layout`].
 

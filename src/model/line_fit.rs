@@ -58,6 +58,15 @@ impl LineFitModel {
             .map_err(|e| study.error_at("line_fit.t_step", format!("design is degenerate: {e}")))?;
         let unit_se = [inv[(0, 0)].sqrt(), inv[(1, 1)].sqrt()];
         let truth = vec![ls.intercept, ls.slope];
+        // The line has no model error: the noise-free fit, minus the truth.
+        let (sy, sty) = ls.times.iter().fold((0.0, 0.0), |(sy, sty), t| {
+            let y = ls.intercept + ls.slope * t;
+            (sy + y, sty + t * y)
+        });
+        let bias_model = match solve_spd(&xtx, &Vector2::new(sy, sty)) {
+            Ok(theta) => vec![vec![theta[0] - truth[0], theta[1] - truth[1]]],
+            Err(_) => vec![vec![f64::NAN; 2]],
+        };
         let mut conditions = Vec::new();
         for &shape in &ls.noise {
             for &sd in &ls.noise_sd {
@@ -69,6 +78,7 @@ impl LineFitModel {
                         ],
                         metrics: vec![],
                         truth: truth.clone(),
+                        bias_model: bias_model.clone(),
                         applies: vec![vec![true, sd > 0.0]],
                         controls: Vec::new(),
                     },

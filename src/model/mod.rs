@@ -292,6 +292,10 @@ pub struct ConditionInfo {
     pub metrics: Vec<f64>,
     /// True θ.
     pub truth: Vec<f64>,
+    /// `bias_model[e][p]`: estimator `e`'s estimate of parameter `p` with every noise off,
+    /// minus the truth (what the model errors alone make it estimate,
+    /// docs/model.md#model-errors; NaN where unknown).
+    pub bias_model: Vec<Vec<f64>>,
     /// `applies[e][b]`: bound `b` is valid (and reported) for estimator `e`.
     pub applies: Vec<Vec<bool>>,
     /// `controls[j]`: control variate `j` of the layout is one in this condition (it

@@ -30,7 +30,9 @@ fn field(layout: &Layout, column: SummaryColumn) -> Field {
         SummaryColumn::N | SummaryColumn::NFailed | SummaryColumn::NControls => {
             Field::new(name, DataType::Int64, false)
         }
-        SummaryColumn::Measure(..) | SummaryColumn::Bound(..) => f64_field(name, true),
+        SummaryColumn::Measure(..) | SummaryColumn::Bound(..) | SummaryColumn::BiasModel => {
+            f64_field(name, true)
+        }
     }
 }
 
@@ -76,6 +78,9 @@ pub fn summary_batch(
                 SummaryColumn::Truth => {
                     Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.truth)))
                 }
+                SummaryColumn::BiasModel => Arc::new(Float64Array::from_iter(
+                    rows.iter().map(|r| finite_or_null(r.bias_model)),
+                )),
                 SummaryColumn::N => Arc::new(Int64Array::from_iter_values(
                     rows.iter().map(|r| r.n as i64),
                 )),
@@ -162,6 +167,7 @@ fn decode(
     let estimator = typed(SummaryColumn::Estimator, DataType::Utf8)?.as_string::<i32>();
     let parameter = typed(SummaryColumn::Parameter, DataType::Utf8)?.as_string::<i32>();
     let truth = typed(SummaryColumn::Truth, DataType::Float64)?;
+    let bias_model = typed(SummaryColumn::BiasModel, DataType::Float64)?;
     let n = typed(SummaryColumn::N, DataType::Int64)?.as_primitive::<Int64Type>();
     let n_failed = typed(SummaryColumn::NFailed, DataType::Int64)?.as_primitive::<Int64Type>();
     let n_controls = typed(SummaryColumn::NControls, DataType::Int64)?.as_primitive::<Int64Type>();
@@ -193,6 +199,7 @@ fn decode(
             estimator: e,
             parameter: p,
             truth: number(truth, i).unwrap_or(f64::NAN),
+            bias_model: number(bias_model, i).unwrap_or(f64::NAN),
             n: n.value(i) as u64,
             n_failed: n_failed.value(i) as u64,
             mean: Estimate::undefined(),
@@ -229,11 +236,13 @@ fn decode(
                 .map(|a| number(a, i).unwrap_or(f64::NAN))
                 .collect(),
             truth: vec![f64::NAN; layout.parameters.len()],
+            bias_model: vec![vec![f64::NAN; layout.parameters.len()]; layout.estimators.len()],
             applies: vec![vec![false; layout.bounds.len()]; layout.estimators.len()],
             // Which sums were control variates is not a summary column.
             controls: vec![false; layout.controls.len()],
         });
         info.truth[p] = row.truth;
+        info.bias_model[e][p] = row.bias_model;
         for (b, s) in row.bounds.iter().enumerate() {
             info.applies[e][b] |= s.is_some();
         }

@@ -237,6 +237,8 @@ pub enum SummaryColumn {
     Parameter,
     /// `truth` (f64).
     Truth,
+    /// `bias_model` (f64): the noise-free estimate minus the truth.
+    BiasModel,
     /// `n`: realisations with a valid estimate (int64).
     N,
     /// `n_failed`: realisations where the estimator failed (int64).
@@ -261,6 +263,7 @@ impl SummaryColumn {
             SummaryColumn::Estimator,
             SummaryColumn::Parameter,
             SummaryColumn::Truth,
+            SummaryColumn::BiasModel,
             SummaryColumn::N,
             SummaryColumn::NFailed,
         ]);
@@ -291,6 +294,7 @@ impl SummaryColumn {
             SummaryColumn::Estimator => "estimator".into(),
             SummaryColumn::Parameter => "parameter".into(),
             SummaryColumn::Truth => "truth".into(),
+            SummaryColumn::BiasModel => "bias_model".into(),
             SummaryColumn::N => "n".into(),
             SummaryColumn::NFailed => "n_failed".into(),
             SummaryColumn::NControls => "n_controls".into(),

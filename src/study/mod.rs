@@ -4,9 +4,10 @@
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
-//! model's, `placement.rs` says which table a key belongs in, `spacing.rs` is the rule on
-//! sample spacing, and `fit.rs` reads `fit`'s file with the same checks. Every failure is a
-//! [`StudyError`] that names the file, the dotted key, its line
+//! model's (`truth.rs` the vehicle's `[truth]`), `placement.rs` says which table a key
+//! belongs in, `spacing.rs` is the rule on sample spacing, and `fit.rs` reads `fit`'s file
+//! with the same checks. Every failure is a [`StudyError`] that names the file, the dotted
+//! key, its line
 //! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
@@ -16,6 +17,7 @@ mod placement;
 mod raw;
 mod spacing;
 mod spans;
+mod truth;
 mod validate;
 mod vary;
 mod vehicle;
@@ -30,6 +32,7 @@ pub use line_fit::{LineFitStudy, NoiseShape};
 use raw::RawStudy;
 pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, uneven_reason};
 pub use spans::KeySpans;
+pub use truth::TruthAxes;
 pub use vary::VariedKey;
 pub use vehicle::{NoiseAxes, VehicleStudy};
 

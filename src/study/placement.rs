@@ -66,6 +66,9 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
     {
         homes.push(("noise", None));
     }
+    if super::truth::truth_keys().contains(&key) {
+        homes.push(("truth", None));
+    }
     homes
 }
 

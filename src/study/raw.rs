@@ -45,6 +45,10 @@ pub struct RawStudy {
     /// `[estimation]`: estimators to run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimation: Option<RawEstimation>,
+    /// `[truth]`: how the simulated vehicle differs from the regression's equation (each
+    /// key read by its model error, in `truth.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<toml::Table>,
     /// `[line_fit]`: the worked example of thesis §3.2–3.3 (model = "line_fit").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub line_fit: Option<RawLineFit>,

@@ -291,6 +291,7 @@ pub(super) fn validate(
                 ("drive", raw.drive.is_some()),
                 ("terrain", raw.terrain.is_some()),
                 ("noise", raw.noise.is_some()),
+                ("truth", raw.truth.is_some()),
             ];
             if let Some((key, _)) = unused.iter().find(|(_, present)| *present) {
                 return Err(c.fail(key, "is not used by model \"line_fit\""));

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use super::placement::{COMMON_DRIVE_KEYS, COMMON_TERRAIN_KEYS, home_of, unknown_key};
 use super::raw::{RawNoise, RawStudy};
+use super::truth::{TruthAxes, validate_truth};
 use super::validate::{Checker, validate_estimation};
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::channels::Acceleration;
@@ -85,6 +86,9 @@ pub struct VehicleStudy {
     /// `noise.share_across_scales`: conditions that differ only in terrain scale and
     /// duration read the same noise draws in each realisation (default false).
     pub share_across_scales: bool,
+    /// `[truth]`: the model errors, condition axes after all the others (the truth is the
+    /// equation without the table).
+    pub truth: TruthAxes,
 }
 
 pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
@@ -203,6 +207,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         settings,
         acceleration: validate_acceleration(e.acceleration.as_ref(), c)?,
         share_across_scales,
+        truth: validate_truth(raw.truth.as_ref(), c)?,
     })
 }
 

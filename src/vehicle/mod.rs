@@ -16,6 +16,7 @@ pub mod truth;
 pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
 pub use torque::{TorqueDrive, simulate};
+pub use truth::Truth;
 
 use std::fmt;
 use std::sync::Arc;
@@ -108,9 +109,15 @@ pub struct Road<'a> {
 
 /// Where a condition's noise-free drive cycle comes from: one entry of [`DRIVE_MODES`].
 pub trait CycleSource: fmt::Debug + Send + Sync {
-    /// The noise-free cycle of `vehicle` on `road`.
-    fn cycle(&self, vehicle: &VehicleParams, road: Road<'_>)
-    -> Result<DriveCycle, SimulationError>;
+    /// The noise-free cycle of `vehicle` on `road` when the truth differs from the
+    /// equation by `truth` (docs/model.md#model-errors): its motion, the truth's
+    /// acceleration and the force the log records.
+    fn cycle(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truth: &Truth,
+    ) -> Result<DriveCycle, SimulationError>;
 
     /// The drive in a few words, for tables and figures.
     fn describe(&self) -> String;
@@ -228,9 +235,10 @@ pub struct DriveCycle {
     pub v_m_s: Vec<f64>,
     /// Grade θ(X) \[rad\].
     pub grade_rad: Vec<f64>,
-    /// Propulsion force F_prop(t) \[N\].
+    /// Propulsion force F_prop(t) \[N\], as the log records it (with a calibration error
+    /// of the truth's, the logged one).
     pub f_prop_n: Vec<f64>,
-    /// Model acceleration dV/dt at the sample's state \[m/s²\].
+    /// The truth's acceleration dV/dt at the sample's state \[m/s²\].
     pub accel_m_s2: Vec<f64>,
 }
 

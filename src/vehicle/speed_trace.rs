@@ -10,7 +10,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, VehicleParams};
+use super::truth::TruthSample;
+use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
 use crate::settings::{KeyError, Params};
 use crate::tabular::read_columns;
 use crate::terrain::{GradeUnit, MAX_GRADE_RAD};
@@ -153,6 +154,7 @@ impl CycleSource for SpeedTrace {
         &self,
         vehicle: &VehicleParams,
         road: Road<'_>,
+        truth: &Truth,
     ) -> Result<DriveCycle, SimulationError> {
         let (t, v) = (&self.t_s, &self.v_m_s);
         let n = t.len();
@@ -184,10 +186,17 @@ impl CycleSource for SpeedTrace {
         let drag = vehicle.drag_coefficient * vehicle.drag_factor_kg_m();
         let force = (0..n)
             .map(|i| {
-                m * accel[i]
+                let equation = m * accel[i]
                     + drag * v[i] * v[i]
                     + vehicle.rolling_resistance * m * g * grade[i].cos()
-                    + m * g * grade[i].sin()
+                    + m * g * grade[i].sin();
+                let sample = TruthSample {
+                    time_s: t[i],
+                    distance_m: x[i],
+                    speed_m_s: v[i],
+                    grade_rad: grade[i],
+                };
+                truth.logged_force(truth.needed_force(vehicle, &sample, accel[i], equation))
             })
             .collect();
         Ok(DriveCycle {

@@ -4,7 +4,8 @@
 
 use std::sync::Arc;
 
-use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, VehicleParams};
+use super::truth::TruthSample;
+use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
 use crate::settings::{KeyError, Params};
 use crate::terrain::GradeTable;
 
@@ -98,11 +99,12 @@ impl CycleSource for TorqueDrive {
         &self,
         vehicle: &VehicleParams,
         road: Road<'_>,
+        truth: &Truth,
     ) -> Result<DriveCycle, SimulationError> {
         let table = road
             .table
             .expect("the torque mode is validated to have a terrain profile");
-        simulate(vehicle, self, table)
+        simulate_truth(vehicle, self, table, truth)
     }
 
     fn duration_step(&self) -> Option<f64> {
@@ -129,6 +131,18 @@ pub fn simulate(
     drive: &TorqueDrive,
     terrain: &GradeTable,
 ) -> Result<DriveCycle, SimulationError> {
+    simulate_truth(vehicle, drive, terrain, &Truth::default())
+}
+
+/// [`simulate`] for a truth that differs from the equation by `truth`: RK4 on the truth's
+/// dynamics, the truth's acceleration and the logged force recorded
+/// (docs/model.md#model-errors).
+pub fn simulate_truth(
+    vehicle: &VehicleParams,
+    drive: &TorqueDrive,
+    terrain: &GradeTable,
+    truth: &Truth,
+) -> Result<DriveCycle, SimulationError> {
     let h = drive.time_step_s;
     let n = drive.samples();
     let mut cycle = DriveCycle {
@@ -140,13 +154,19 @@ pub fn simulate(
         accel_m_s2: Vec::with_capacity(n),
     };
     let end_m = terrain.end_m();
+    let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
+        time_s: t,
+        distance_m: x,
+        speed_m_s: v,
+        grade_rad: grade,
+    };
     // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
     // leaving the table.
     let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
         let grade = terrain
             .grade_at(x)
             .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        Ok(vehicle.acceleration(f, v, grade))
+        Ok(truth.acceleration(vehicle, &state(t, x, v, grade), f))
     };
 
     let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
@@ -170,8 +190,10 @@ pub fn simulate(
         cycle.x_m.push(x);
         cycle.v_m_s.push(v);
         cycle.grade_rad.push(grade);
-        cycle.f_prop_n.push(f);
-        cycle.accel_m_s2.push(vehicle.acceleration(f, v, grade));
+        cycle.f_prop_n.push(truth.logged_force(f));
+        cycle
+            .accel_m_s2
+            .push(truth.acceleration(vehicle, &state(t, x, v, grade), f));
         if i + 1 == n {
             break;
         }

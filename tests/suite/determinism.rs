@@ -48,15 +48,23 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 /// Columns added after the hashes below were pinned, each with a value the older engine
 /// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none),
 /// `velocity_correlation_time` (white noise), `used` (every sample), `rls_settle_time`
-/// (null: no estimator reports one) and `acceleration` (the model's). They are checked
+/// (null: no estimator reports one), `acceleration` (the model's), the truth's axes (the
+/// truth is the equation: each at its neutral value) and `bias_model` (the noise-free
+/// estimate of the equation's own data: the truth, to rounding). They are checked
 /// separately; the hash covers every other column.
-const ADDED_COLUMNS: [&str; 6] = [
+const ADDED_COLUMNS: [&str; 12] = [
     "duration",
     "grade_bias",
     "velocity_correlation_time",
     "used",
     "rls_settle_time",
     "acceleration",
+    "wind_speed",
+    "rotating_mass_factor",
+    "force_scale",
+    "rolling_speed_coefficient",
+    "air_density_ratio",
+    "bias_model",
 ];
 
 /// The control variates and the summary's control-variate measures: new results, not
@@ -104,6 +112,23 @@ fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
                 .all(|&t| t == 0.0)
         );
         assert!(str_col(table, "acceleration").iter().all(|a| a == "model"));
+    }
+    for table in &tables {
+        for (key, neutral) in [
+            ("wind_speed", 0.0),
+            ("rotating_mass_factor", 0.0),
+            ("force_scale", 0.0),
+            ("rolling_speed_coefficient", 0.0),
+            ("air_density_ratio", 1.0),
+        ] {
+            assert!(f64_col(table, key).iter().all(|&v| v == neutral), "{key}");
+        }
+    }
+    // Without model errors the noise-free estimate is the truth to rounding: OLS recovers
+    // θ from the model's own acceleration to ≤ 1e-9 relative (docs/model.md#vehicle).
+    let truth = f64_col(&tables[1], "truth");
+    for (b, t) in f64_col(&tables[1], "bias_model").iter().zip(&truth) {
+        assert!(b.abs() <= 1e-9 * t.abs(), "bias_model {b} of truth {t}");
     }
     assert!(
         f64_col(&tables[0], "rls_settle_time")

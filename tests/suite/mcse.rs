@@ -169,6 +169,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         axes: vec![],
         metrics: vec![],
         truth: vec![TRUTH],
+        bias_model: vec![vec![f64::NAN]],
         applies: vec![vec![true]],
         controls: vec![],
     }];

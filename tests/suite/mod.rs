@@ -14,6 +14,7 @@ mod layering;
 mod line_fit;
 mod mcse;
 mod memory;
+mod model_errors;
 mod noise;
 mod noise_free;
 mod output_integrity;

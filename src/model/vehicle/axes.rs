@@ -6,6 +6,7 @@
 use super::super::{Axis, AxisValue};
 use crate::estimate::channels::{Channel, NoiseLevels};
 use crate::study::VehicleStudy;
+use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 
 /// A condition axis of the vehicle model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,6 +24,8 @@ pub enum VehicleAxis {
     GradeBias,
     /// The source of the acceleration in the output (`estimation.acceleration`).
     Acceleration,
+    /// The value of model error `i` of [`MODEL_ERRORS`] (`truth.<key>`, an axis entry).
+    Truth(usize),
 }
 
 /// Every axis, outermost first.
@@ -35,6 +38,11 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
             VehicleAxis::GradeBias,
             VehicleAxis::Acceleration,
         ])
+        .chain(
+            (0..MODEL_ERROR_COUNT)
+                .filter(|&i| MODEL_ERRORS[i].axis)
+                .map(VehicleAxis::Truth),
+        )
 }
 
 /// One condition: the level of every axis.
@@ -48,6 +56,17 @@ pub struct Point {
     pub noise: NoiseLevels,
     /// Index into `noise.grade_bias`.
     pub grade_bias_index: usize,
+    /// Per entry of [`MODEL_ERRORS`], the index of its value in `[truth]`.
+    pub truth_levels: [usize; MODEL_ERROR_COUNT],
+}
+
+impl Point {
+    /// The index of the point's truth among the study's ([`TruthAxes::index`]).
+    ///
+    /// [`TruthAxes::index`]: crate::study::TruthAxes::index
+    pub fn truth_index(&self, study: &VehicleStudy) -> usize {
+        study.truth.index(&self.truth_levels)
+    }
 }
 
 impl VehicleAxis {
@@ -60,6 +79,7 @@ impl VehicleAxis {
             VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
             VehicleAxis::Acceleration => Axis::text("acceleration"),
+            VehicleAxis::Truth(i) => Axis::number(MODEL_ERRORS[i].key, MODEL_ERRORS[i].unit),
         }
     }
 
@@ -72,6 +92,7 @@ impl VehicleAxis {
             VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
             VehicleAxis::GradeBias => study.grade_bias.len(),
             VehicleAxis::Acceleration => study.acceleration.len(),
+            VehicleAxis::Truth(i) => study.truth.levels(i).len(),
         }
     }
 
@@ -86,6 +107,7 @@ impl VehicleAxis {
             }
             VehicleAxis::GradeBias => point.grade_bias_index = i,
             VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
+            VehicleAxis::Truth(e) => point.truth_levels[e] = i,
         }
     }
 
@@ -100,6 +122,7 @@ impl VehicleAxis {
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
             VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
+            VehicleAxis::Truth(e) => study.truth.levels(e)[point.truth_levels[e]],
             VehicleAxis::Acceleration => unreachable!("a text axis, returned above"),
         })
     }

@@ -90,8 +90,9 @@ impl Model for VehicleModel {
         }]
     }
 
-    /// cycles.parquet: block `index` is the cycle of scale `index / sources` with
-    /// acceleration source `index % sources` (study order), whatever the other axes.
+    /// cycles.parquet: block `index` is cycle `index / sources` (of a scale and a truth,
+    /// scale-major) with acceleration source `index % sources` (study order), whatever the
+    /// other axes.
     fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
         let sources = &self.study.acceleration;
         let scale = self
@@ -101,7 +102,8 @@ impl Model for VehicleModel {
         let source = sources[index % sources.len()];
         let used = used_samples(&scale.cycle, &self.study, None, source);
         Some(cycles_batch(
-            self.study.scales[index / sources.len()],
+            self.study.scales[scale.scale_index],
+            &self.study.truth.values(scale.truth_index),
             source.name(),
             &scale.cycle,
             &used,

@@ -3,7 +3,8 @@
 //! of each realisation (common random numbers); and every bound that applies.
 //!
 //! This file prepares the conditions and predicts to first order; `prepare.rs` simulates the
-//! cycles and builds their regressions, `axes.rs` lists the condition axes, `kernel.rs`
+//! cycles (one per terrain scale and truth) and builds their regressions, `bias_model.rs`
+//! estimates on the noise-free rows (what the model errors alone do), `axes.rs` lists the condition axes, `kernel.rs`
 //! computes one realisation, `layout.rs` is the row layout and the [`Model`](super::Model)
 //! implementation, `replayed.rs` builds the model of one given cycle (`for_cycle`, for the
 //! bootstrap of `fit`), and `cycles_table.rs` writes cycles.parquet.
@@ -13,6 +14,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 mod axes;
+mod bias_model;
 mod cycles_table;
 mod kernel;
 mod layout;
@@ -40,7 +42,8 @@ pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resist
 #[derive(Debug)]
 struct Condition {
     info: ConditionInfo,
-    scale_index: usize,
+    /// Its drive cycle: index into [`VehicleModel::cycles`] (scale-major, then truth).
+    cycle_index: usize,
     noise: NoiseLevels,
     regression: Arc<Regression>,
     /// AR(1) coefficients of correlated speed noise (`None` when white).
@@ -68,7 +71,7 @@ pub struct VehicleModel {
     study: VehicleStudy,
     layout: Layout,
     conditions: Vec<Condition>,
-    /// One cycle per terrain scale (kept for cycles.parquet and figures).
+    /// One cycle per terrain scale and truth (kept for cycles.parquet and figures).
     cycles: Vec<ScaleCycle>,
     /// Whether an estimator of the study reads the measured rows.
     needs_rows: bool,
@@ -113,7 +116,9 @@ impl VehicleModel {
             .map(|(c, point)| {
                 let group = if vs.share_across_scales { c % inner } else { c };
                 let noise = point.noise;
-                let k = point.scale_index * durations + point.duration_index;
+                let cycle_index =
+                    point.scale_index * vs.truth.combinations() + point.truth_index(&vs);
+                let k = cycle_index * durations + point.duration_index;
                 let segment = &segments[k];
                 let source = vs
                     .acceleration
@@ -154,10 +159,17 @@ impl VehicleModel {
                             .collect(),
                         metrics: segment.metrics.clone(),
                         truth: truth.to_vec(),
+                        bias_model: bias_model::bias_model(
+                            &regression,
+                            &noise,
+                            &vs.estimators,
+                            &vs.settings,
+                            &truth,
+                        ),
                         applies,
                         controls: controls.iter().map(|&j| expected.applies()[j]).collect(),
                     },
-                    scale_index: point.scale_index,
+                    cycle_index,
                     noise,
                     ar1,
                     regression,
@@ -187,11 +199,12 @@ impl VehicleModel {
         })
     }
 
-    /// Every condition's drive cycle (conditions with the same terrain scale share one).
+    /// Every condition's drive cycle (conditions with the same terrain scale and truth share
+    /// one).
     pub fn cycles(&self) -> Vec<Arc<DriveCycle>> {
         self.conditions
             .iter()
-            .map(|c| self.cycles[c.scale_index].cycle.clone())
+            .map(|c| self.cycles[c.cycle_index].cycle.clone())
             .collect()
     }
 

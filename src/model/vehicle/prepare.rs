@@ -1,5 +1,6 @@
-//! The drive cycles of a vehicle study, one per terrain scale, and the regression of each
-//! (scale, duration): the rows a condition's realisations are drawn on.
+//! The drive cycles of a vehicle study, one per terrain scale and truth (the steady model
+//! errors of `[truth]`), and the regression of each (scale, truth, duration): the rows a
+//! condition's realisations are drawn on.
 
 use std::sync::Arc;
 
@@ -12,9 +13,13 @@ use crate::study::{StudyError, VehicleStudy};
 use crate::terrain::{MAX_GRADE_RAD, mean_square};
 use crate::vehicle::{DriveCycle, Road};
 
-/// The drive cycle of one terrain scale.
+/// The drive cycle of one terrain scale and truth.
 #[derive(Debug)]
 pub(super) struct ScaleCycle {
+    /// Index into `terrain.scales`.
+    pub scale_index: usize,
+    /// Index of the truth ([`TruthAxes::index`](crate::study::TruthAxes::index)).
+    pub truth_index: usize,
     /// The noise-free cycle (every sample, used or not).
     pub cycle: Arc<DriveCycle>,
     /// ς over the terrain table \[rad²\] (NaN without a terrain profile).
@@ -33,16 +38,20 @@ pub(super) struct Segment {
     pub duration_s: f64,
 }
 
-/// One cycle per scale, simulated in parallel (each is independent). A scale at which the
-/// grade is too steep, the vehicle stalls or runs off the terrain is an error naming it.
+/// One cycle per (scale, truth), scale-major (index `s · truths + t`), simulated in
+/// parallel (each is independent). A scale at which the grade is too steep, the vehicle
+/// stalls or runs off the terrain is an error naming it.
 pub(super) fn scale_cycles(
     vs: &VehicleStudy,
     error_at: &ErrorAt<'_>,
 ) -> Result<Vec<ScaleCycle>, StudyError> {
-    vs.scales
-        .par_iter()
-        .enumerate()
-        .map(|(i, &scale)| {
+    let truths = vs.truth.combinations();
+    (0..vs.scales.len() * truths)
+        .into_par_iter()
+        .map(|k| {
+            let (i, truth_index) = (k / truths, k % truths);
+            let scale = vs.scales[i];
+            let truth = vs.truth.truth(truth_index);
             let key = format!("terrain.scales[{i}]");
             let table = vs.terrain.as_ref().map(|t| t.grade_table(scale));
             if let (Some(t), Some(table)) = (&vs.terrain, &table)
@@ -62,11 +71,17 @@ pub(super) fn scale_cycles(
                 table: table.as_ref(),
                 scale,
             };
+            let with_truth = match truth.is_empty() {
+                true => String::new(),
+                false => format!(" with the truth's values {:?}", vs.truth.values(truth_index)),
+            };
             let cycle = vs
                 .drive
-                .cycle(&vs.vehicle, road)
-                .map_err(|e| error_at(&key, format!("at scale {scale}: {e}")))?;
+                .cycle(&vs.vehicle, road, &truth)
+                .map_err(|e| error_at(&key, format!("at scale {scale}{with_truth}: {e}")))?;
             Ok(ScaleCycle {
+                scale_index: i,
+                truth_index,
                 cycle: Arc::new(cycle),
                 terrain_ms_grid: table.map_or(f64::NAN, |t| t.mean_square()),
             })
@@ -107,7 +122,8 @@ pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
     vs.durations.as_ref().map_or(1, Vec::len)
 }
 
-/// The segment of every (scale, duration), scale-major: index `s · durations + d`. A
+/// The segment of every (cycle, duration), cycle-major: index `k · durations + d` for
+/// cycle `k` of [`scale_cycles`]. A
 /// duration longer than the cycle, or a selection that leaves fewer than 3 rows, is an
 /// error naming the key.
 pub(super) fn segments(
@@ -118,7 +134,7 @@ pub(super) fn segments(
     let per_scale = cycles
         .par_iter()
         .enumerate()
-        .map(|(s, cycle)| scale_segments(vs, s, cycle, error_at))
+        .map(|(_, cycle)| scale_segments(vs, cycle.scale_index, cycle, error_at))
         .collect::<Vec<_>>()
         // The first error in study order, whatever the thread count.
         .into_iter()

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::{ErrorAt, VehicleModel};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
-use crate::study::{NoiseAxes, StudyError, VehicleStudy};
+use crate::study::{NoiseAxes, StudyError, TruthAxes, VehicleStudy};
 use crate::vehicle::{Replay, RowSelection, VehicleParams};
 
 impl VehicleModel {
@@ -43,6 +43,7 @@ impl VehicleModel {
             settings,
             acceleration: vec![noise.acceleration],
             share_across_scales: false,
+            truth: TruthAxes::default(),
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
             file: origin.to_string(),

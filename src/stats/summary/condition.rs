@@ -333,6 +333,7 @@ impl<'a> ConditionSummarizer<'a> {
                     estimator: e,
                     parameter: p,
                     truth,
+                    bias_model: info.bias_model[e][p],
                     n: acc.n,
                     n_failed: self.failed[e],
                     mean: measures::mean(truth, &sums),

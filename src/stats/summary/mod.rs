@@ -130,6 +130,9 @@ pub struct SummaryRow {
     pub parameter: usize,
     /// True value.
     pub truth: f64,
+    /// The estimate with every noise off minus the truth: what the model errors alone
+    /// cause (docs/model.md#model-errors).
+    pub bias_model: f64,
     /// Realisations with a valid estimate.
     pub n: u64,
     /// Realisations where the estimator failed (singular).

@@ -1,0 +1,56 @@
+//! `bias_model`: what the model errors alone make each estimator estimate
+//! (docs/model.md#model-errors).
+//!
+//! Each estimator of the study runs once on a condition's logged signals with every noise
+//! level zero (and no per-realisation entry): the pseudo-true value its model errors lead
+//! to. The condition's deterministic measurement effects stay in (a grade bias, the
+//! truncation error of a differentiated acceleration), as they are in every realisation.
+
+use nalgebra::Vector3;
+
+use crate::estimate::channels::{BlockNoise, NoiseLevels};
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
+use crate::estimate::moments::Rows;
+use crate::estimate::regression::Regression;
+use crate::noise::BLOCK;
+
+/// Per estimator, per parameter: its estimate on `regression`'s noise-free rows (the
+/// acceleration source of `noise` kept, every level zero) minus `truth`; NaN where the
+/// normal equations are singular.
+pub(super) fn bias_model(
+    regression: &Regression,
+    noise: &NoiseLevels,
+    estimators: &[EstimatorRef],
+    settings: &EstimatorSettings,
+    truth: &[f64; 3],
+) -> Vec<Vec<f64>> {
+    let quiet = NoiseLevels {
+        acceleration: noise.acceleration,
+        ..NoiseLevels::default()
+    };
+    let moments = regression.noise_free_moments();
+    let rows = estimators.iter().any(|e| e.needs_rows()).then(|| {
+        let mut rows = Rows::new(regression, &quiet);
+        let n = regression.len();
+        for start in (0..n).step_by(BLOCK) {
+            let len = BLOCK.min(n - start);
+            rows.push_block(regression, &quiet, start, len, BlockNoise::default(), None);
+        }
+        rows
+    });
+    estimators
+        .iter()
+        .map(|e| {
+            let estimate = e.estimate(&Realisation {
+                moments: &moments,
+                rows: rows.as_ref(),
+                regression,
+                noise: &quiet,
+                settings,
+                truth,
+            });
+            let theta = estimate.theta.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
+            (0..3).map(|p| theta[p] - truth[p]).collect()
+        })
+        .collect()
+}

@@ -1,0 +1,113 @@
+//! `[truth]`: how the simulated vehicle differs from the regression's equation
+//! (docs/model.md#model-errors; README, "Study file keys"). One key per entry of
+//! [`MODEL_ERRORS`]; an axis entry takes a list of values, one condition each.
+
+use super::StudyError;
+use super::placement::unknown_key;
+use super::validate::Checker;
+use crate::vehicle::Truth;
+use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
+
+/// The validated `[truth]` table: the values listed for each entry of [`MODEL_ERRORS`] (its
+/// neutral value alone when the key is absent; one value for an entry that is not an axis).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruthAxes([Vec<f64>; MODEL_ERROR_COUNT]);
+
+impl Default for TruthAxes {
+    /// The truth is the equation: every entry at its neutral value.
+    fn default() -> Self {
+        TruthAxes(MODEL_ERRORS.map(|e| vec![e.neutral]))
+    }
+}
+
+impl TruthAxes {
+    /// The values of entry `i` of [`MODEL_ERRORS`].
+    pub fn levels(&self, i: usize) -> &[f64] {
+        &self.0[i]
+    }
+
+    /// Number of distinct truths: the product of the entries' numbers of values.
+    pub fn combinations(&self) -> usize {
+        self.0.iter().map(Vec::len).product()
+    }
+
+    /// The index of the truth whose entries are at levels `levels` (the last entry
+    /// fastest, as the condition axes nest).
+    pub fn index(&self, levels: &[usize; MODEL_ERROR_COUNT]) -> usize {
+        self.0
+            .iter()
+            .zip(levels)
+            .fold(0, |index, (values, &l)| index * values.len() + l)
+    }
+
+    /// The values of truth `index` (of [`TruthAxes::index`]), per entry.
+    pub fn values(&self, index: usize) -> [f64; MODEL_ERROR_COUNT] {
+        let mut out = [0.0; MODEL_ERROR_COUNT];
+        let mut rest = index;
+        for (i, values) in self.0.iter().enumerate().rev() {
+            out[i] = values[rest % values.len()];
+            rest /= values.len();
+        }
+        out
+    }
+
+    /// The model errors of truth `index`.
+    pub fn truth(&self, index: usize) -> Truth {
+        Truth::from_values(&self.values(index))
+    }
+}
+
+/// The keys of `[truth]`, in entry order.
+pub(super) fn truth_keys() -> [&'static str; MODEL_ERROR_COUNT] {
+    MODEL_ERRORS.map(|e| e.key)
+}
+
+/// Validate `[truth]` (absent: the truth is the equation).
+pub(super) fn validate_truth(
+    table: Option<&toml::Table>,
+    c: &Checker<'_>,
+) -> Result<TruthAxes, StudyError> {
+    let mut axes = TruthAxes::default();
+    let Some(table) = table else {
+        return Ok(axes);
+    };
+    let keys = truth_keys();
+    if let Some(k) = table.keys().find(|k| !keys.contains(&k.as_str())) {
+        return Err(unknown_key(c, "truth", k, keys.to_vec(), None));
+    }
+    for (i, entry) in MODEL_ERRORS.iter().enumerate() {
+        let Some(value) = table.get(entry.key) else {
+            continue;
+        };
+        let key = format!("truth.{}", entry.key);
+        if !entry.axis && value.is_array() {
+            return Err(c.fail(&key, "takes one number (it is not an axis), got a list"));
+        }
+        let numbers = c.numbers(&key, value)?;
+        axes.0[i] = c.list(&key, &numbers, |c, k, v| match (entry.check)(v) {
+            Some(reason) => Err(c.fail(k, format!("{reason}, got {v}"))),
+            None => Ok(v),
+        })?;
+    }
+    Ok(axes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_truth_index_round_trips_through_its_levels() {
+        let mut axes = TruthAxes::default();
+        axes.0[0] = vec![0.0, 1.0, 2.0];
+        axes.0[4] = vec![1.0, 1.1];
+        assert_eq!(axes.combinations(), 6);
+        let mut levels = [0; MODEL_ERROR_COUNT];
+        levels[0] = 2;
+        levels[4] = 1;
+        let i = axes.index(&levels);
+        assert_eq!(i, 5);
+        assert_eq!(axes.values(i)[0], 2.0);
+        assert_eq!(axes.values(i)[4], 1.1);
+    }
+}

@@ -1,0 +1,254 @@
+//! Model errors: how the simulated vehicle may differ from the regression's equation
+//! (docs/model.md#model-errors).
+//!
+//! The estimators always fit the thesis's equation, `M dV/dt = F − ½ρ Cd A V² − Cr M g cos θ
+//! − M g sin θ`. A model error is something the truth has and the equation leaves out: wind,
+//! the inertia of rotating parts, a miscalibrated force signal, rolling resistance that grows
+//! with speed, another air density, a mass that drifts. Each is one [`ModelError`] (what it
+//! adds to the truth's dynamics or does to the logged force, whether it is drawn per
+//! realisation) and one entry of [`MODEL_ERRORS`] (its key of `[truth]`, unit, neutral value,
+//! and how it is built from a value). The steady entries are in `steady.rs`.
+//!
+//! An entry acts in one of two ways, or both:
+//! - **a force the truth has**, D(t) = m_D(t)·dV/dt + D₀(t) [N], opposing the motion when
+//!   positive: an inertia m_D (the part proportional to the acceleration: rotating parts, a
+//!   changing mass) and the rest D₀. The truth is `(M + Σ m_D) dV/dt = F − Σ D₀ − (the
+//!   equation's forces)`. A drive mode that integrates the motion (`torque`) integrates it;
+//!   one that prescribes the motion (`speed_trace`, `replay`) logs the force the truth
+//!   needed, the equation's F plus D.
+//! - **a calibration error of the log**: the logged force is a function of the truth's force
+//!   F (`force_scale`: (1 + s)·F); the truth's motion is unchanged in every drive mode.
+//!
+//! To first order the estimate moves by Δθ ≈ −θ₁ (XᵀX)⁻¹ Xᵀ D for a force D (the
+//! regression's normal equations applied to the output error −θ₁ D), and by the entry's own
+//! form for a calibration error: its `bias_model`. Entries combine by adding their forces
+//! and composing their calibrations; products of two entries' sizes (wind at another air
+//! density) are not modelled.
+
+mod steady;
+
+use std::fmt;
+use std::sync::Arc;
+
+use super::VehicleParams;
+pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, Wind};
+
+/// The state of the truth at one sample, as a model error sees it (its acceleration is not
+/// part of it: the part of a force proportional to the acceleration is the entry's
+/// [`ModelError::added_inertia_kg`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthSample {
+    /// Time since the start of the cycle \[s\].
+    pub time_s: f64,
+    /// Distance travelled \[m\].
+    pub distance_m: f64,
+    /// Speed V \[m/s\].
+    pub speed_m_s: f64,
+    /// Road grade θ \[rad\].
+    pub grade_rad: f64,
+}
+
+/// The random numbers a model error draws in a realisation, from its own stream (so that
+/// switching it on leaves every other draw as it was).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Draws {
+    /// None: the entry is the same in every realisation (set per condition).
+    Steady,
+    /// This many standard normal numbers once per realisation (a calibration error).
+    PerRealisation(usize),
+    /// One standard normal number per sample (a process in time, such as gusts).
+    PerSample,
+}
+
+/// One way the truth differs from the regression's equation. Every method has the neutral
+/// default (no force, no inertia, the force logged as it is), so an entry implements what it
+/// changes.
+pub trait ModelError: Send + Sync + fmt::Debug {
+    /// The inertia \[kg\] the truth has beyond the equation's M at `sample`: the part of the
+    /// omitted force proportional to dV/dt.
+    fn added_inertia_kg(&self, _vehicle: &VehicleParams, _sample: &TruthSample) -> f64 {
+        0.0
+    }
+
+    /// The rest of the force \[N\] the equation leaves out at `sample`, opposing the motion
+    /// when positive, with this realisation's `draws` (empty for a [`Draws::Steady`] entry;
+    /// the realisation's numbers for the others, and for [`Draws::PerSample`] the sample's
+    /// own number first).
+    fn omitted_force(
+        &self,
+        _vehicle: &VehicleParams,
+        _sample: &TruthSample,
+        _draws: &[f64],
+    ) -> f64 {
+        0.0
+    }
+
+    /// The force \[N\] the log records when the truth's propulsion force is `force_n` (a
+    /// calibration error; the truth's motion does not see it).
+    fn logged_force(&self, force_n: f64, _draws: &[f64]) -> f64 {
+        force_n
+    }
+
+    /// Which random numbers it draws per realisation.
+    fn draws(&self) -> Draws {
+        Draws::Steady
+    }
+
+    /// Whether it changes the motion of a drive mode that integrates it (`torque`) from one
+    /// realisation to the next: then each realisation's motion is integrated again. An
+    /// entry drawn per realisation that only miscalibrates the log overrides it to false.
+    fn moves_the_vehicle(&self) -> bool {
+        !matches!(self.draws(), Draws::Steady)
+    }
+}
+
+/// A model error as study files name it: one key of `[truth]`.
+#[derive(Debug, Clone, Copy)]
+pub struct ModelErrorEntry {
+    /// Its name in messages and docs (e.g. "steady wind").
+    pub name: &'static str,
+    /// Its key of `[truth]`.
+    pub key: &'static str,
+    /// The unit of its value (empty when dimensionless).
+    pub unit: &'static str,
+    /// Whether the key is a condition axis (a list of values, one condition each).
+    pub axis: bool,
+    /// The value that leaves the truth as the equation (the default when the key is
+    /// absent; at it no entry is built, so the numbers are those without `[truth]`).
+    pub neutral: f64,
+    /// Why a value is not accepted (`None`: it is), e.g. "must be > −1".
+    pub check: fn(f64) -> Option<&'static str>,
+    /// The model error of a value other than `neutral`.
+    pub build: fn(f64) -> Arc<dyn ModelError>,
+}
+
+/// Number of entries of [`MODEL_ERRORS`].
+pub const MODEL_ERROR_COUNT: usize = 6;
+
+/// Every model error a study can name, in the order of their keys in `[truth]` (the order
+/// of their condition axes, nested after the other axes).
+pub static MODEL_ERRORS: [ModelErrorEntry; MODEL_ERROR_COUNT] = steady::ENTRIES;
+
+/// The model errors of one condition: what the truth has beyond the equation (none: the
+/// truth is the equation, and every drive mode computes exactly what it did without them).
+#[derive(Debug, Clone, Default)]
+pub struct Truth {
+    entries: Vec<Arc<dyn ModelError>>,
+}
+
+impl Truth {
+    /// The truth with each entry of [`MODEL_ERRORS`] at its value in `values` (an entry at
+    /// its neutral value is left out).
+    pub fn from_values(values: &[f64; MODEL_ERROR_COUNT]) -> Truth {
+        Truth {
+            entries: MODEL_ERRORS
+                .iter()
+                .zip(values)
+                .filter(|(e, v)| **v != e.neutral)
+                .map(|(e, &v)| (e.build)(v))
+                .collect(),
+        }
+    }
+
+    /// Whether the truth is the equation.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The truth's dV/dt \[m/s²\] at `sample` under the propulsion force `force_n` \[N\]:
+    /// `(F − Σ D₀ − the equation's forces) / (M + Σ m_D)`; without entries exactly
+    /// [`VehicleParams::acceleration`].
+    #[inline]
+    pub fn acceleration(&self, vehicle: &VehicleParams, sample: &TruthSample, force_n: f64) -> f64 {
+        if self.entries.is_empty() {
+            return vehicle.acceleration(force_n, sample.speed_m_s, sample.grade_rad);
+        }
+        let (inertia, omitted) = self.forces(vehicle, sample);
+        let equation = vehicle.acceleration(force_n - omitted, sample.speed_m_s, sample.grade_rad);
+        equation * vehicle.mass_kg / (vehicle.mass_kg + inertia)
+    }
+
+    /// The force \[N\] the truth needs at `sample` to accelerate at `accel_m_s2`, when the
+    /// equation needs `equation_force_n` there: that plus Σ m_D·dV/dt + Σ D₀.
+    pub fn needed_force(
+        &self,
+        vehicle: &VehicleParams,
+        sample: &TruthSample,
+        accel_m_s2: f64,
+        equation_force_n: f64,
+    ) -> f64 {
+        if self.entries.is_empty() {
+            return equation_force_n;
+        }
+        let (inertia, omitted) = self.forces(vehicle, sample);
+        equation_force_n + inertia * accel_m_s2 + omitted
+    }
+
+    /// The force \[N\] the log records for the truth's force `force_n` (each entry's
+    /// calibration in turn).
+    pub fn logged_force(&self, force_n: f64) -> f64 {
+        self.entries
+            .iter()
+            .fold(force_n, |f, e| e.logged_force(f, &[]))
+    }
+
+    /// Σ m_D \[kg\] and Σ D₀ \[N\] of the steady entries at `sample`.
+    fn forces(&self, vehicle: &VehicleParams, sample: &TruthSample) -> (f64, f64) {
+        self.entries.iter().fold((0.0, 0.0), |(m, d), e| {
+            (
+                m + e.added_inertia_kg(vehicle, sample),
+                d + e.omitted_force(vehicle, sample, &[]),
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(v: f64, grade: f64) -> TruthSample {
+        TruthSample {
+            time_s: 10.0,
+            distance_m: 100.0,
+            speed_m_s: v,
+            grade_rad: grade,
+        }
+    }
+
+    #[test]
+    fn the_neutral_truth_is_the_equation_bit_for_bit() {
+        let veh = VehicleParams::thesis();
+        let neutral = MODEL_ERRORS.map(|e| e.neutral);
+        let truth = Truth::from_values(&neutral);
+        assert!(truth.is_empty());
+        let s = sample(12.3, 0.02);
+        assert_eq!(
+            truth.acceleration(&veh, &s, 2000.0),
+            veh.acceleration(2000.0, 12.3, 0.02)
+        );
+        assert_eq!(truth.needed_force(&veh, &s, 0.3, 1234.5), 1234.5);
+        assert_eq!(truth.logged_force(1234.5), 1234.5);
+    }
+
+    #[test]
+    fn the_dynamics_and_the_needed_force_are_one_equation() {
+        // Every steady entry on: the force the truth needs for the acceleration it has
+        // under F is F again (to rounding, ~1e-12 relative of forces ~1e3 N).
+        let veh = VehicleParams::thesis();
+        let truth = Truth::from_values(&[3.0, 0.03, 0.05, 0.002, 1.1, -0.01]);
+        let s = sample(15.0, 0.03);
+        let f = 2100.0;
+        let a = truth.acceleration(&veh, &s, f);
+        let m = veh.mass_kg;
+        let g = veh.gravity_m_s2;
+        let equation = m * a
+            + veh.drag_coefficient * veh.drag_factor_kg_m() * 15.0 * 15.0
+            + veh.rolling_resistance * m * g * 0.03_f64.cos()
+            + m * g * 0.03_f64.sin();
+        let needed = truth.needed_force(&veh, &s, a, equation);
+        assert!((needed - f).abs() < 1e-9, "{needed} vs {f}");
+        // The calibration acts on the log only.
+        assert!((truth.logged_force(f) - 1.05 * f).abs() < 1e-9);
+    }
+}

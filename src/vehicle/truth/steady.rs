@@ -1,0 +1,171 @@
+//! The steady model errors: the same in every realisation, set per condition
+//! (docs/model.md#model-errors, one paragraph each).
+
+use std::sync::Arc;
+
+use super::{ModelError, ModelErrorEntry, TruthSample};
+use crate::vehicle::VehicleParams;
+
+/// Steady wind along the direction of travel, `w` \[m/s\], positive a headwind: the truth's
+/// aerodynamic force is k·Cd·(V + w)·|V + w|, so D₀ = k·Cd·[(V + w)|V + w| − V²].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wind {
+    /// w \[m/s\].
+    pub speed_m_s: f64,
+}
+
+impl ModelError for Wind {
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+        let air = s.speed_m_s + self.speed_m_s;
+        let v = s.speed_m_s;
+        vehicle.drag_coefficient * vehicle.drag_factor_kg_m() * (air * air.abs() - v * v)
+    }
+}
+
+/// The inertia of rotating parts, δ: the inertial term is M(1 + δ)·dV/dt, so m_D = δ·M.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RotatingMass {
+    /// δ \[-\].
+    pub factor: f64,
+}
+
+impl ModelError for RotatingMass {
+    fn added_inertia_kg(&self, vehicle: &VehicleParams, _s: &TruthSample) -> f64 {
+        self.factor * vehicle.mass_kg
+    }
+}
+
+/// A fixed calibration error of the force signal, s: the log records (1 + s)·F. The truth's
+/// motion is unchanged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceScale {
+    /// s \[-\].
+    pub scale: f64,
+}
+
+impl ModelError for ForceScale {
+    fn logged_force(&self, force_n: f64, _draws: &[f64]) -> f64 {
+        (1.0 + self.scale) * force_n
+    }
+}
+
+/// Rolling resistance growing with speed, c_v \[s/m\]: Cr·(1 + c_v·V), so
+/// D₀ = Cr·c_v·V·M·g·cos θ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RollingSpeed {
+    /// c_v \[s/m\].
+    pub coefficient_s_m: f64,
+}
+
+impl ModelError for RollingSpeed {
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+        vehicle.rolling_resistance
+            * self.coefficient_s_m
+            * s.speed_m_s
+            * vehicle.mass_kg
+            * vehicle.gravity_m_s2
+            * s.grade_rad.cos()
+    }
+}
+
+/// The true air density over `vehicle.air_density`, r: D₀ = (r − 1)·k·Cd·V² (the
+/// regression keeps the assumed density in k).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AirDensity {
+    /// r \[-\].
+    pub ratio: f64,
+}
+
+impl ModelError for AirDensity {
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+        let v = s.speed_m_s;
+        (self.ratio - 1.0) * vehicle.drag_coefficient * vehicle.drag_factor_kg_m() * v * v
+    }
+}
+
+/// A mass changing linearly in time, ṁ \[kg/s\] (fuel burn: negative): M(t) = M + ṁ·t in the
+/// inertia, the rolling resistance and the climbing force, θ's truth the mass at t = 0. So
+/// m_D = ṁ·t and D₀ = ṁ·t·g·(Cr cos θ + sin θ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MassRate {
+    /// ṁ \[kg/s\].
+    pub rate_kg_s: f64,
+}
+
+impl ModelError for MassRate {
+    fn added_inertia_kg(&self, _vehicle: &VehicleParams, s: &TruthSample) -> f64 {
+        self.rate_kg_s * s.time_s
+    }
+
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+        let dm = self.rate_kg_s * s.time_s;
+        dm * vehicle.gravity_m_s2
+            * (vehicle.rolling_resistance * s.grade_rad.cos() + s.grade_rad.sin())
+    }
+}
+
+fn finite(v: f64) -> Option<&'static str> {
+    (!v.is_finite()).then_some("must be a finite number")
+}
+
+fn above_minus_one(v: f64) -> Option<&'static str> {
+    (!(v.is_finite() && v > -1.0)).then_some("must be a finite number > -1")
+}
+
+/// The steady entries, in the order of [`MODEL_ERRORS`](super::MODEL_ERRORS).
+pub(super) const ENTRIES: [ModelErrorEntry; 6] = [
+    ModelErrorEntry {
+        name: "steady wind",
+        key: "wind_speed",
+        unit: "m/s",
+        axis: true,
+        neutral: 0.0,
+        check: finite,
+        build: |w| Arc::new(Wind { speed_m_s: w }),
+    },
+    ModelErrorEntry {
+        name: "rotating mass",
+        key: "rotating_mass_factor",
+        unit: "",
+        axis: true,
+        neutral: 0.0,
+        check: above_minus_one,
+        build: |d| Arc::new(RotatingMass { factor: d }),
+    },
+    ModelErrorEntry {
+        name: "force calibration",
+        key: "force_scale",
+        unit: "",
+        axis: true,
+        neutral: 0.0,
+        check: above_minus_one,
+        build: |s| Arc::new(ForceScale { scale: s }),
+    },
+    ModelErrorEntry {
+        name: "speed-dependent rolling resistance",
+        key: "rolling_speed_coefficient",
+        unit: "s/m",
+        axis: true,
+        neutral: 0.0,
+        check: |c| (!(c.is_finite() && c >= 0.0)).then_some("must be a finite number >= 0"),
+        build: |c| Arc::new(RollingSpeed { coefficient_s_m: c }),
+    },
+    ModelErrorEntry {
+        name: "air density",
+        key: "air_density_ratio",
+        unit: "",
+        axis: true,
+        neutral: 1.0,
+        check: |r| (!(r.is_finite() && r > 0.0)).then_some("must be a finite number > 0"),
+        build: |r| Arc::new(AirDensity { ratio: r }),
+    },
+    ModelErrorEntry {
+        name: "mass drift",
+        key: "mass_rate",
+        unit: "kg/s",
+        axis: false,
+        neutral: 0.0,
+        check: finite,
+        build: |m| Arc::new(MassRate { rate_kg_s: m }),
+    },
+];
