@@ -22,10 +22,10 @@ pub struct TrueRow {
 /// The expectations at one row of the measured columns and of the products of two
 /// columns that the same channel moves (docs/model.md#control-variates): noise-free from
 /// [`ColumnMoments::noise_free`], then moved by each channel that is on
-/// ([`Channel::expect`]).
+/// ([`Channel::expect`](super::Channel::expect)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ColumnMoments {
-    /// E\[x̃₁\], E\[w\], E\[x̃₃\], E\[ỹ\], indexed by [`Column`].
+    /// E\[x̃₁\], E\[w\], E\[x̃₃\], E\[ỹ\], indexed by [`Column`](crate::estimate::sums::Column).
     pub mean: [f64; 4],
     /// E\[x̃₁²\].
     pub ff: f64,
@@ -36,7 +36,7 @@ pub struct ColumnMoments {
     /// E\[x̃₃ỹ\] (both carry the grade noise).
     pub cy: f64,
     /// Cov(w, ỹ), through a differentiated acceleration with correlated speed noise (0
-    /// otherwise; set by [`Channel::expect_shared`]).
+    /// otherwise; set by [`Channel::expect_shared`](super::Channel::expect_shared)).
     pub wy_neighbours: f64,
 }
 

@@ -4,7 +4,7 @@
 //! and output column, unit, default, the stream that draws its noise, the measured columns
 //! it moves, how its draw perturbs a sample, its term of the equation-error variance Ω, its
 //! expectations of the measured columns, its correction of the sums for BCLS and, for noise
-//! that rows share, its terms beyond a row), and one line of the [`channels!`] registry
+//! that rows share, its terms beyond a row), and one line of the `channels!` registry
 //! below, which generates [`Channel`] and its dispatch. The condition axes, the study keys
 //! under `[noise]`, the streams, the kernel, the bounds, `wbcls`, the control variates and
 //! BCLS ask [`Channel`]; none of them knows a channel's internals.
@@ -35,7 +35,7 @@ pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance};
 
 /// One noise channel's terms, implemented by a unit struct in the channel's own file and
-/// registered by one line of [`channels!`] (docs/model.md#noise-channels). The defaults
+/// registered by one line of `channels!` (docs/model.md#noise-channels). The defaults
 /// are those of noise drawn independently per sample that enters one row only.
 pub trait ChannelTerms {
     /// The key under `[noise]` in study files, and the condition column in every table.

@@ -10,7 +10,7 @@
 //! and how it is built from a value). The steady entries are in `steady.rs`.
 //!
 //! An entry acts in one of two ways, or both:
-//! - **a force the truth has**, D(t) = m_D(t)·dV/dt + D₀(t) [N], opposing the motion when
+//! - **a force the truth has**, D(t) = m_D(t)·dV/dt + D₀(t) \[N\], opposing the motion when
 //!   positive: an inertia m_D (the part proportional to the acceleration: rotating parts, a
 //!   changing mass) and the rest D₀. The truth is `(M + Σ m_D) dV/dt = F − Σ D₀ − (the
 //!   equation's forces)`. A drive mode that integrates the motion (`torque`) integrates it;
@@ -123,7 +123,7 @@ pub struct ModelErrorEntry {
 }
 
 /// Number of entries of [`MODEL_ERRORS`].
-pub const MODEL_ERROR_COUNT: usize = 6;
+pub const MODEL_ERROR_COUNT: usize = steady::ENTRIES.len();
 
 /// Every model error a study can name, in the order of their keys in `[truth]` (the order
 /// of their condition axes, nested after the other axes).
