@@ -15,28 +15,6 @@ use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::{Regression, ar1_coefficients};
 use crate::estimate::sums::Column;
 
-/// The speed noise's part of the sandwich's XᵀΣX beyond its diagonal Ω terms (`None`:
-/// rows independent).
-fn row_covariance(
-    reg: &Regression,
-    theta: &[f64; 3],
-    noise: &NoiseLevels,
-) -> Option<RowCovariance> {
-    if noise.speed_noise_differentiated() {
-        Some(RowCovariance {
-            meat: differentiated_meat(reg, theta, noise),
-            replaces_omega_term: true,
-        })
-    } else if noise.velocity_correlated() {
-        Some(RowCovariance {
-            meat: correlated_meat(reg, theta, noise),
-            replaces_omega_term: false,
-        })
-    } else {
-        None
-    }
-}
-
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
 /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
 /// (Gaussian e: Cov(e_i², e_j²) = 2ρ²σ⁴, Cov(e_i, e_j²) = 0). Summed in O(N) by the
@@ -119,64 +97,6 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
     sd * sd * linear + 2.0 * sd.powi(4) * kt * kt * square
 }
 
-/// Per segment, the variance a differentiated acceleration adds to ỹ:
-/// σ_v² Var(e_{s+1} − e_{s−1}) / Δt² = 2σ_v² (1 − ρ) / Δt² with ρ = exp(−Δt/τ) (0 for white
-/// noise), at the segment's mean Δt = t_{s+1} − t_{s−1} (noise-free sample times); `None`
-/// when the acceleration is not differentiated.
-fn derivative_variance(
-    reg: &Regression,
-    noise: &NoiseLevels,
-    segments: &[(usize, usize)],
-) -> Option<Vec<f64>> {
-    if !noise.speed_noise_differentiated() {
-        return None;
-    }
-    let d = reg.differentiation.as_ref()?;
-    let s2 = noise[Channel::Velocity].powi(2);
-    let tau = noise.velocity_correlation_s;
-    Some(
-        segments
-            .iter()
-            .map(|&(a, b)| {
-                let span: f64 = (a..b)
-                    .map(|i| d.span_t[d.sample[i] + 1] - d.span_t[d.sample[i] - 1])
-                    .sum();
-                let dt = span / (b - a) as f64;
-                let rho = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
-                2.0 * s2 * (1.0 - rho) / (dt * dt)
-            })
-            .collect(),
-    )
-}
-
-/// The correlation time of the speed noise \[s\] (0: white or off).
-fn correlation_time_s(noise: &NoiseLevels) -> f64 {
-    if noise.velocity_correlated() {
-        noise.velocity_correlation_s
-    } else {
-        0.0
-    }
-}
-
-/// Under a differentiated acceleration with correlated speed noise, row `i`'s Cov(w, ỹ)
-/// through the noise it shares with its neighbours ([`ColumnMoments::wy_neighbours`]);
-/// `ar1` the AR(1) coefficients over [`Regression::noise_times`] (`None` when white).
-fn expect_shared(
-    reg: &Regression,
-    noise: &NoiseLevels,
-    ar1: Option<&[[f64; 2]]>,
-    i: usize,
-    e: &mut ColumnMoments,
-) {
-    // ỹ's derivative noise σ_v (e_{s+1} − e_{s−1}) / Δt against w = (V + σ_v e_s)².
-    if let (Some(d), Some(ar1)) = (&reg.differentiation, ar1)
-        && noise.speed_noise_differentiated()
-    {
-        let sd = noise[Channel::Velocity];
-        e.wy_neighbours = neighbour_covariance(reg.v[i], sd, ar1, d.sample[i], d.inv_dt[i]);
-    }
-}
-
 /// E[w σ(e_{s+1} − e_{s−1})/Δt] for w = (V + σe_s)², e the stationary AR(1) noise with
 /// coefficients `ar1` over the span (e_j = φ_j e_{j−1} + √(1 − φ_j²) z_j, so E[e_{j−1} e_j] =
 /// φ_j) and `inv_dt` = 1/Δt: 2Vσ² (φ_{s+1} − φ_s)/Δt, the third moments vanishing.
@@ -234,30 +154,74 @@ impl ChannelTerms for Speed {
         }
     }
 
+    /// The speed noise's part of the sandwich's XᵀΣX beyond its diagonal Ω terms (`None`:
+    /// rows independent).
     fn row_covariance(
         reg: &Regression,
         theta: &[f64; 3],
         noise: &NoiseLevels,
     ) -> Option<RowCovariance> {
-        row_covariance(reg, theta, noise)
+        if noise.speed_noise_differentiated() {
+            Some(RowCovariance {
+                meat: differentiated_meat(reg, theta, noise),
+                replaces_omega_term: true,
+            })
+        } else if noise.velocity_correlated() {
+            Some(RowCovariance {
+                meat: correlated_meat(reg, theta, noise),
+                replaces_omega_term: false,
+            })
+        } else {
+            None
+        }
     }
 
+    /// Per segment, the variance a differentiated acceleration adds to ỹ:
+    /// σ_v² Var(e_{s+1} − e_{s−1}) / Δt² = 2σ_v² (1 − ρ) / Δt² with ρ = exp(−Δt/τ) (0 for white
+    /// noise), at the segment's mean Δt = t_{s+1} − t_{s−1} (noise-free sample times); `None`
+    /// when the acceleration is not differentiated.
     fn derivative_variance(
         reg: &Regression,
         noise: &NoiseLevels,
         segments: &[(usize, usize)],
     ) -> Option<Vec<f64>> {
-        derivative_variance(reg, noise, segments)
+        if !noise.speed_noise_differentiated() {
+            return None;
+        }
+        let d = reg.differentiation.as_ref()?;
+        let s2 = noise[Channel::Velocity].powi(2);
+        let tau = noise.velocity_correlation_s;
+        Some(
+            segments
+                .iter()
+                .map(|&(a, b)| {
+                    let span: f64 = (a..b)
+                        .map(|i| d.span_t[d.sample[i] + 1] - d.span_t[d.sample[i] - 1])
+                        .sum();
+                    let dt = span / (b - a) as f64;
+                    let rho = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
+                    2.0 * s2 * (1.0 - rho) / (dt * dt)
+                })
+                .collect(),
+        )
     }
 
+    /// The correlation time of the speed noise \[s\] (0: white or off).
     fn correlation_time_s(noise: &NoiseLevels) -> f64 {
-        correlation_time_s(noise)
+        if noise.velocity_correlated() {
+            noise.velocity_correlation_s
+        } else {
+            0.0
+        }
     }
 
     fn enters_neighbours(noise: &NoiseLevels) -> bool {
         noise.speed_noise_differentiated()
     }
 
+    /// Under a differentiated acceleration with correlated speed noise, row `i`'s Cov(w, ỹ)
+    /// through the noise it shares with its neighbours ([`ColumnMoments::wy_neighbours`]);
+    /// `ar1` the AR(1) coefficients over [`Regression::noise_times`] (`None` when white).
     fn expect_shared(
         reg: &Regression,
         noise: &NoiseLevels,
@@ -265,7 +229,13 @@ impl ChannelTerms for Speed {
         i: usize,
         e: &mut ColumnMoments,
     ) {
-        expect_shared(reg, noise, ar1, i, e)
+        // ỹ's derivative noise σ_v (e_{s+1} − e_{s−1}) / Δt against w = (V + σ_v e_s)².
+        if let (Some(d), Some(ar1)) = (&reg.differentiation, ar1)
+            && noise.speed_noise_differentiated()
+        {
+            let sd = noise[Channel::Velocity];
+            e.wy_neighbours = neighbour_covariance(reg.v[i], sd, ar1, d.sample[i], d.inv_dt[i]);
+        }
     }
 }
 
