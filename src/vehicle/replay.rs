@@ -7,7 +7,6 @@
 
 use std::sync::Arc;
 
-use super::truth::TruthSample;
 use super::{
     CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams, positions,
 };
@@ -94,22 +93,10 @@ impl CycleSource for Replay {
         _road: Road<'_>,
         truth: &Truth,
     ) -> Result<DriveCycle, SimulationError> {
-        let mut cycle = self.cycle.clone();
-        if truth.is_empty() {
-            return Ok(cycle);
-        }
         // The replayed cycle obeys the equation; the truth needed its force plus D, and the
         // log records that (docs/model.md#model-errors).
-        let c = &self.cycle;
-        for (i, f) in cycle.f_prop_n.iter_mut().enumerate() {
-            let sample = TruthSample {
-                time_s: c.t_s[i],
-                distance_m: c.x_m[i],
-                speed_m_s: c.v_m_s[i],
-                grade_rad: c.grade_rad[i],
-            };
-            *f = truth.logged_force(truth.needed_force(vehicle, &sample, c.accel_m_s2[i], *f));
-        }
+        let mut cycle = self.cycle.clone();
+        cycle.f_prop_n = truth.logged_forces(vehicle, &self.cycle);
         Ok(cycle)
     }
 

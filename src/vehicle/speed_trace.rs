@@ -10,7 +10,6 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::truth::TruthSample;
 use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
 use crate::settings::{KeyError, Params};
 use crate::tabular::read_columns;
@@ -186,27 +185,24 @@ impl CycleSource for SpeedTrace {
         let drag = vehicle.drag_coefficient * vehicle.drag_factor_kg_m();
         let force = (0..n)
             .map(|i| {
-                let equation = m * accel[i]
+                m * accel[i]
                     + drag * v[i] * v[i]
                     + vehicle.rolling_resistance * m * g * grade[i].cos()
-                    + m * g * grade[i].sin();
-                let sample = TruthSample {
-                    time_s: t[i],
-                    distance_m: x[i],
-                    speed_m_s: v[i],
-                    grade_rad: grade[i],
-                };
-                truth.logged_force(truth.needed_force(vehicle, &sample, accel[i], equation))
+                    + m * g * grade[i].sin()
             })
             .collect();
-        Ok(DriveCycle {
+        // The force the equation needs for the trace; the truth needed more, and the log
+        // records that (docs/model.md#model-errors).
+        let mut cycle = DriveCycle {
             t_s: t.clone(),
             x_m: x,
             v_m_s: v.clone(),
             grade_rad: grade,
             f_prop_n: force,
             accel_m_s2: accel,
-        })
+        };
+        cycle.f_prop_n = truth.logged_forces(vehicle, &cycle);
+        Ok(cycle)
     }
 
     fn needs_terrain(&self) -> bool {

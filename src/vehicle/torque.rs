@@ -137,7 +137,7 @@ pub fn simulate(
 /// [`simulate`] for a truth that differs from the equation by `truth`: RK4 on the truth's
 /// dynamics, the truth's acceleration and the logged force recorded
 /// (docs/model.md#model-errors).
-pub fn simulate_truth(
+fn simulate_truth(
     vehicle: &VehicleParams,
     drive: &TorqueDrive,
     terrain: &GradeTable,

@@ -30,7 +30,7 @@ mod steady;
 use std::fmt;
 use std::sync::Arc;
 
-use super::VehicleParams;
+use super::{DriveCycle, VehicleParams};
 pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, Wind};
 
 /// The state of the truth at one sample, as a model error sees it (its acceleration is not
@@ -182,6 +182,31 @@ impl Truth {
         }
         let (inertia, omitted) = self.forces(vehicle, sample);
         equation_force_n + inertia * accel_m_s2 + omitted
+    }
+
+    /// The force \[N\] the log records at every sample of `cycle`, whose `f_prop_n` is the
+    /// force the equation needs for the cycle's motion (a drive mode that prescribes the
+    /// motion): the truth needed that plus D ([`Truth::needed_force`]), recorded through each
+    /// calibration. Time is counted from the cycle's first sample. Without entries,
+    /// `f_prop_n` itself.
+    pub fn logged_forces(&self, vehicle: &VehicleParams, cycle: &DriveCycle) -> Vec<f64> {
+        if self.entries.is_empty() {
+            return cycle.f_prop_n.clone();
+        }
+        let start = cycle.t_s.first().copied().unwrap_or(0.0);
+        (0..cycle.t_s.len())
+            .map(|i| {
+                let sample = TruthSample {
+                    time_s: cycle.t_s[i] - start,
+                    distance_m: cycle.x_m[i],
+                    speed_m_s: cycle.v_m_s[i],
+                    grade_rad: cycle.grade_rad[i],
+                };
+                let needed =
+                    self.needed_force(vehicle, &sample, cycle.accel_m_s2[i], cycle.f_prop_n[i]);
+                self.logged_force(needed)
+            })
+            .collect()
     }
 
     /// The force \[N\] the log records for the truth's force `force_n` (each entry's
