@@ -11,11 +11,12 @@ use std::ops::Deref;
 use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::Bound;
-use super::channels::{Channel, NoiseLevels};
+use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::moments::{Moments, Rows, RowsView};
 use super::regression::Regression;
 use super::rls::Rls;
 use super::wbcls::Wbcls;
+use crate::noise::BLOCK;
 use crate::numeric::linalg::{SolveError, solve_spd};
 
 /// Everything an estimator may use from one realisation: what a real log would give (the
@@ -196,6 +197,43 @@ impl PartialEq for EstimatorRef {
 }
 
 impl Eq for EstimatorRef {}
+
+/// Each estimator's estimate on the rows of `reg` as they are, with no draws: a simulated
+/// regression's noise-free rows (`bias_model`), or a log's measured ones (`fit`). The rows
+/// are laid out as for `rows_noise`; the estimators are told `noise` (the levels they assume)
+/// and `truth` (NaN where unknown). The rows are built only when an estimator reads them.
+pub fn estimates_without_draws(
+    reg: &Regression,
+    rows_noise: &NoiseLevels,
+    noise: &NoiseLevels,
+    estimators: &[EstimatorRef],
+    settings: &EstimatorSettings,
+    truth: &[f64; 3],
+) -> Vec<Estimate> {
+    let moments = reg.noise_free_moments();
+    let rows = estimators.iter().any(|e| e.needs_rows()).then(|| {
+        let mut rows = Rows::new(reg, rows_noise);
+        let n = reg.len();
+        for start in (0..n).step_by(BLOCK) {
+            let len = BLOCK.min(n - start);
+            rows.push_block(reg, rows_noise, start, len, BlockNoise::default(), None);
+        }
+        rows
+    });
+    estimators
+        .iter()
+        .map(|e| {
+            e.estimate(&Realisation {
+                moments: &moments,
+                rows: rows.as_ref(),
+                regression: reg,
+                noise,
+                settings,
+                truth,
+            })
+        })
+        .collect()
+}
 
 impl Moments {
     /// OLS normal equations X̃ᵀX̃ θ = X̃ᵀỹ (thesis eq. 20).

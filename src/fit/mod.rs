@@ -22,8 +22,7 @@ use nalgebra::{Matrix3, Vector3};
 use thiserror::Error;
 
 use crate::estimate::channels::NoiseLevels;
-use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
-use crate::estimate::moments::Rows;
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
 use crate::estimate::regression::Regression;
 use crate::figures::FigureError;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
@@ -77,34 +76,17 @@ fn estimates(
     estimators: &[EstimatorRef],
     settings: &EstimatorSettings,
 ) -> Vec<Option<Vector3<f64>>> {
-    let moments = reg.noise_free_moments();
-    let mut rows = Rows::new(reg, &NoiseLevels::default());
-    for start in (0..reg.len()).step_by(crate::noise::BLOCK) {
-        let len = crate::noise::BLOCK.min(reg.len() - start);
-        rows.push_block(
-            reg,
-            &NoiseLevels::default(),
-            start,
-            len,
-            Default::default(),
-            None,
-        );
-    }
-    estimators
-        .iter()
-        .map(|e| {
-            e.estimate(&Realisation {
-                moments: &moments,
-                rows: Some(&rows),
-                regression: reg,
-                noise,
-                settings,
-                truth: &[f64::NAN; 3],
-            })
-            .theta
-            .ok()
-        })
-        .collect()
+    estimates_without_draws(
+        reg,
+        &NoiseLevels::default(),
+        noise,
+        estimators,
+        settings,
+        &[f64::NAN; 3],
+    )
+    .into_iter()
+    .map(|e| e.theta.ok())
+    .collect()
 }
 
 /// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁ (a quotient, where a run's `drag` column

@@ -8,11 +8,9 @@
 
 use nalgebra::Vector3;
 
-use crate::estimate::channels::{BlockNoise, NoiseLevels};
-use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, Realisation};
-use crate::estimate::moments::Rows;
+use crate::estimate::channels::NoiseLevels;
+use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
 use crate::estimate::regression::Regression;
-use crate::noise::BLOCK;
 
 /// Per estimator, per parameter: its estimate on `regression`'s noise-free rows (the
 /// acceleration source of `noise` kept, every level zero) minus `truth`; NaN where the
@@ -28,27 +26,9 @@ pub(super) fn bias_model(
         acceleration: noise.acceleration,
         ..NoiseLevels::default()
     };
-    let moments = regression.noise_free_moments();
-    let rows = estimators.iter().any(|e| e.needs_rows()).then(|| {
-        let mut rows = Rows::new(regression, &quiet);
-        let n = regression.len();
-        for start in (0..n).step_by(BLOCK) {
-            let len = BLOCK.min(n - start);
-            rows.push_block(regression, &quiet, start, len, BlockNoise::default(), None);
-        }
-        rows
-    });
-    estimators
-        .iter()
-        .map(|e| {
-            let estimate = e.estimate(&Realisation {
-                moments: &moments,
-                rows: rows.as_ref(),
-                regression,
-                noise: &quiet,
-                settings,
-                truth,
-            });
+    estimates_without_draws(regression, &quiet, &quiet, estimators, settings, truth)
+        .into_iter()
+        .map(|estimate| {
             let theta = estimate.theta.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             (0..3).map(|p| theta[p] - truth[p]).collect()
         })
