@@ -117,7 +117,7 @@ impl VehicleModel {
                 let group = if vs.share_across_scales { c % inner } else { c };
                 let noise = point.noise;
                 let cycle_index =
-                    point.scale_index * vs.truth.combinations() + point.truth_index(&vs);
+                    prepare::cycle_index(&vs, point.scale_index, point.truth_index(&vs));
                 let k = cycle_index * durations + point.duration_index;
                 let segment = &segments[k];
                 let source = vs

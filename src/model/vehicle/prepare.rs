@@ -10,7 +10,7 @@ use super::ErrorAt;
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::study::{StudyError, VehicleStudy};
-use crate::terrain::{MAX_GRADE_RAD, mean_square};
+use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
 use crate::vehicle::{DriveCycle, Road};
 
 /// The drive cycle of one terrain scale and truth.
@@ -46,15 +46,22 @@ pub(super) fn scale_cycles(
     error_at: &ErrorAt<'_>,
 ) -> Result<Vec<ScaleCycle>, StudyError> {
     let truths = vs.truth.combinations();
+    // The grade table of each scale, built once for all its truths.
+    let tables: Vec<Option<GradeTable>> = vs
+        .scales
+        .par_iter()
+        .map(|&scale| vs.terrain.as_ref().map(|t| t.grade_table(scale)))
+        .collect();
     (0..vs.scales.len() * truths)
         .into_par_iter()
         .map(|k| {
             let (i, truth_index) = (k / truths, k % truths);
+            debug_assert_eq!(k, cycle_index(vs, i, truth_index));
             let scale = vs.scales[i];
             let truth = vs.truth.truth(truth_index);
             let key = format!("terrain.scales[{i}]");
-            let table = vs.terrain.as_ref().map(|t| t.grade_table(scale));
-            if let (Some(t), Some(table)) = (&vs.terrain, &table)
+            let table = tables[i].as_ref();
+            if let (Some(t), Some(table)) = (&vs.terrain, table)
                 && let Some((grade, x)) = table.steepest_beyond_limit()
             {
                 return Err(error_at(
@@ -67,10 +74,7 @@ pub(super) fn scale_cycles(
                     ),
                 ));
             }
-            let road = Road {
-                table: table.as_ref(),
-                scale,
-            };
+            let road = Road { table, scale };
             let with_truth = match truth.is_empty() {
                 true => String::new(),
                 false => format!(" with the truth's values {:?}", vs.truth.values(truth_index)),
@@ -90,6 +94,12 @@ pub(super) fn scale_cycles(
         // The first error in study order, whatever the thread count.
         .into_iter()
         .collect()
+}
+
+/// The index in [`scale_cycles`] of the cycle of scale `scale_index` and truth
+/// `truth_index`: scale-major.
+pub(super) fn cycle_index(vs: &VehicleStudy, scale_index: usize, truth_index: usize) -> usize {
+    scale_index * vs.truth.combinations() + truth_index
 }
 
 /// Which samples of `cycle` a regression with acceleration `source` uses: those the row
@@ -133,8 +143,7 @@ pub(super) fn segments(
 ) -> Result<Vec<Segment>, StudyError> {
     let per_scale = cycles
         .par_iter()
-        .enumerate()
-        .map(|(_, cycle)| scale_segments(vs, cycle.scale_index, cycle, error_at))
+        .map(|cycle| scale_segments(vs, cycle.scale_index, cycle, error_at))
         .collect::<Vec<_>>()
         // The first error in study order, whatever the thread count.
         .into_iter()
