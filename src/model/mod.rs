@@ -248,6 +248,9 @@ pub enum Status {
     Ok = 0,
     /// The normal equations were singular; estimates are NaN.
     Singular = 1,
+    /// The realisation's truth could not be simulated (its drawn model errors stalled the
+    /// vehicle or ran it off the terrain); estimates are NaN.
+    Unsimulated = 2,
 }
 
 impl Status {
@@ -256,21 +259,22 @@ impl Status {
         match self {
             Status::Ok => "ok",
             Status::Singular => "singular",
+            Status::Unsimulated => "unsimulated",
         }
     }
 
     /// Status from its slot value.
     pub fn from_slot(v: f64) -> Status {
-        if v == 0.0 {
-            Status::Ok
-        } else {
-            Status::Singular
+        match v {
+            0.0 => Status::Ok,
+            2.0 => Status::Unsimulated,
+            _ => Status::Singular,
         }
     }
 
     /// Status from its column name.
     pub fn from_name(name: &str) -> Option<Status> {
-        [Status::Ok, Status::Singular]
+        [Status::Ok, Status::Singular, Status::Unsimulated]
             .into_iter()
             .find(|s| s.name() == name)
     }

@@ -34,7 +34,7 @@ pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, u
 pub use spans::KeySpans;
 pub use truth::TruthAxes;
 pub use vary::VariedKey;
-pub use vehicle::{NoiseAxes, VehicleStudy};
+pub use vehicle::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, NoiseAxes, VehicleStudy};
 
 pub use crate::vehicle::MAX_SAMPLES;
 

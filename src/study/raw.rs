@@ -151,6 +151,9 @@ pub struct RawEstimation {
     /// A name or a list of names (an axis).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceleration: Option<toml::Value>,
+    /// What the drag regressor reads: "ground" or "measured".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub air_speed: Option<String>,
 }
 
 /// A list, or one value standing for the list of that value (`scales = 1.0` is

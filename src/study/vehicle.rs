@@ -86,9 +86,43 @@ pub struct VehicleStudy {
     /// `noise.share_across_scales`: conditions that differ only in terrain scale and
     /// duration read the same noise draws in each realisation (default false).
     pub share_across_scales: bool,
+    /// `noise.grade_map_sd` \[m\]: the elevation map's error, one condition axis (`[0.0]`
+    /// without the key; docs/model.md#grade-map).
+    pub grade_map_sd: Vec<f64>,
+    /// `noise.grade_map_length` \[m\]: the correlation length of the map's error (200 m
+    /// without the key).
+    pub grade_map_length_m: f64,
+    /// `estimation.air_speed`: what the drag regressor reads.
+    pub air_speed: AirSpeed,
+    /// `noise.air_speed_sd` \[m/s\]: the air-speed sensor's noise, one condition axis
+    /// (`[0.0]` without the key; docs/model.md#air-speed).
+    pub air_speed_sd: Vec<f64>,
     /// `[truth]`: the model errors, condition axes after all the others (the truth is the
     /// equation without the table).
     pub truth: TruthAxes,
+}
+
+/// What the drag regressor reads (`estimation.air_speed`; docs/model.md#air-speed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AirSpeed {
+    /// The measured vehicle speed Ṽ (the thesis).
+    Ground,
+    /// A measured air speed V + w + e_a (a mobile anemometer): the truth's wind is in the
+    /// regressor, and the air-speed sensor's noise takes the place of the speed noise in it.
+    Measured,
+}
+
+impl AirSpeed {
+    /// Every value, as study files name them.
+    pub const ALL: [AirSpeed; 2] = [AirSpeed::Ground, AirSpeed::Measured];
+
+    /// The name in study files.
+    pub fn name(self) -> &'static str {
+        match self {
+            AirSpeed::Ground => "ground",
+            AirSpeed::Measured => "measured",
+        }
+    }
 }
 
 pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, StudyError> {
@@ -190,8 +224,19 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_bias,
         velocity_correlation_s,
         share_across_scales,
+        grade_map_sd,
+        grade_map_length_m,
+        air_speed_sd,
     } = validate_noise(n, c)?;
     let (estimators, settings) = validate_estimation(&e.estimators, e.forgetting, c)?;
+    let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
+    let air_speed = validate_air_speed(
+        e.air_speed.as_deref(),
+        &noise,
+        &air_speed_sd,
+        &acceleration,
+        c,
+    )?;
 
     Ok(VehicleStudy {
         vehicle,
@@ -205,10 +250,63 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         velocity_correlation_s,
         estimators,
         settings,
-        acceleration: validate_acceleration(e.acceleration.as_ref(), c)?,
+        acceleration,
         share_across_scales,
+        grade_map_sd,
+        grade_map_length_m,
+        air_speed,
+        air_speed_sd,
         truth: validate_truth(raw.truth.as_ref(), c)?,
     })
+}
+
+/// `estimation.air_speed` (default "ground"), checked against the noise it needs: a
+/// measured air speed replaces the speed in the drag regressor, so the speed sensor's noise
+/// must be off and the acceleration the model's (a differentiated one would read the
+/// ground speed, whose noise would then enter only the output); a ground speed has no
+/// air-speed sensor.
+fn validate_air_speed(
+    value: Option<&str>,
+    noise: &NoiseAxes,
+    air_speed_sd: &[f64],
+    acceleration: &[Acceleration],
+    c: &Checker<'_>,
+) -> Result<AirSpeed, StudyError> {
+    const KEY: &str = "estimation.air_speed";
+    let names: Vec<&str> = AirSpeed::ALL.map(AirSpeed::name).to_vec();
+    let air_speed = match value {
+        None => AirSpeed::Ground,
+        Some(name) => AirSpeed::ALL
+            .into_iter()
+            .find(|a| a.name() == name)
+            .ok_or_else(|| {
+                c.fail(
+                    KEY,
+                    format!("unknown value \"{name}\"; expected one of {names:?}"),
+                )
+            })?,
+    };
+    match air_speed {
+        AirSpeed::Ground if air_speed_sd.iter().any(|&s| s > 0.0) => Err(c.fail(
+            &format!("noise.{AIR_SPEED_SD}"),
+            "is the noise of a measured air speed, but the drag regressor reads the ground \
+             speed (estimation.air_speed = \"ground\", the default); set estimation.air_speed \
+             = \"measured\" or leave the key out",
+        )),
+        AirSpeed::Measured if noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0) => Err(c
+            .fail(
+                &format!("noise.{}", Channel::Velocity.key()),
+                "must be [0] with estimation.air_speed = \"measured\": the drag regressor reads \
+                 the air-speed sensor (noise.air_speed_sd) and the acceleration is the model's, \
+                 so the speed sensor's noise enters no column",
+            )),
+        AirSpeed::Measured if acceleration.contains(&Acceleration::Differentiated) => Err(c.fail(
+            KEY,
+            "\"measured\" needs estimation.acceleration = \"model\": an acceleration \
+             differentiated from the ground speed is not supported with a measured air speed",
+        )),
+        _ => Ok(air_speed),
+    }
 }
 
 /// `[terrain]`: the profile and its grid (required when the drive mode `needs` them, else
@@ -334,6 +432,12 @@ struct ValidatedNoise {
     velocity_correlation_s: Vec<f64>,
     /// `noise.share_across_scales`.
     share_across_scales: bool,
+    /// `noise.grade_map_sd` \[m\] (an axis).
+    grade_map_sd: Vec<f64>,
+    /// `noise.grade_map_length` \[m\].
+    grade_map_length_m: f64,
+    /// `noise.air_speed_sd` \[m/s\] (an axis).
+    air_speed_sd: Vec<f64>,
 }
 
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
@@ -342,7 +446,14 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, Study
     noise_keys(
         n,
         c,
-        &[GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES],
+        &[
+            GRADE_BIAS,
+            VELOCITY_CORRELATION,
+            SHARE_ACROSS_SCALES,
+            GRADE_MAP_SD,
+            GRADE_MAP_LENGTH,
+            AIR_SPEED_SD,
+        ],
     )?;
     let mut levels = PerChannel::<Vec<f64>>::default();
     for channel in Channel::ALL {
@@ -374,11 +485,27 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, Study
             )
         })?,
     };
+    let grade_map_sd = noise_levels(n, c, GRADE_MAP_SD)?.unwrap_or(vec![0.0]);
+    let grade_map_length_m = match n.0.get(GRADE_MAP_LENGTH) {
+        None => 200.0,
+        Some(v) => {
+            let key = format!("noise.{GRADE_MAP_LENGTH}");
+            let length = v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .ok_or_else(|| c.fail(&key, format!("must be a number of metres, got {v}")))?;
+            c.positive(&key, length)?
+        }
+    };
+    let air_speed_sd = noise_levels(n, c, AIR_SPEED_SD)?.unwrap_or(vec![0.0]);
     Ok(ValidatedNoise {
         axes: NoiseAxes::new(levels),
         grade_bias,
         velocity_correlation_s: correlation,
         share_across_scales: share,
+        grade_map_sd,
+        grade_map_length_m,
+        air_speed_sd,
     })
 }
 
@@ -468,3 +595,12 @@ pub(super) const SHARE_ACROSS_SCALES: &str = "share_across_scales";
 
 /// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
 pub(super) const GRADE_BIAS: &str = "grade_bias";
+
+/// The `[noise]` key of the elevation map's error \[m\] (an axis; default `[0]`).
+pub const GRADE_MAP_SD: &str = "grade_map_sd";
+
+/// The `[noise]` key of the correlation length of the map's error \[m\] (default 200).
+pub(super) const GRADE_MAP_LENGTH: &str = "grade_map_length";
+
+/// The `[noise]` key of the air-speed sensor's noise \[m/s\] (an axis; default `[0]`).
+pub const AIR_SPEED_SD: &str = "air_speed_sd";

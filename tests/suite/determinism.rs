@@ -52,7 +52,7 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 /// truth is the equation: each at its neutral value) and `bias_model` (the noise-free
 /// estimate of the equation's own data: the truth, to rounding). They are checked
 /// separately; the hash covers every other column.
-const ADDED_COLUMNS: [&str; 12] = [
+const ADDED_COLUMNS: [&str; 16] = [
     "duration",
     "grade_bias",
     "velocity_correlation_time",
@@ -65,6 +65,10 @@ const ADDED_COLUMNS: [&str; 12] = [
     "rolling_speed_coefficient",
     "air_density_ratio",
     "bias_model",
+    "grade_map_sd",
+    "air_speed_sd",
+    "wind_gust_sd",
+    "force_scale_sd",
 ];
 
 /// The control variates and the summary's control-variate measures: new results, not
@@ -112,6 +116,9 @@ fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
                 .all(|&t| t == 0.0)
         );
         assert!(str_col(table, "acceleration").iter().all(|a| a == "model"));
+        for key in ["grade_map_sd", "air_speed_sd"] {
+            assert!(f64_col(table, key).iter().all(|&v| v == 0.0), "{key}");
+        }
     }
     for table in &tables {
         for (key, neutral) in [
@@ -120,6 +127,8 @@ fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
             ("force_scale", 0.0),
             ("rolling_speed_coefficient", 0.0),
             ("air_density_ratio", 1.0),
+            ("wind_gust_sd", 0.0),
+            ("force_scale_sd", 0.0),
         ] {
             assert!(f64_col(table, key).iter().all(|&v| v == neutral), "{key}");
         }

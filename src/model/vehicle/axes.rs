@@ -5,7 +5,7 @@
 
 use super::super::{Axis, AxisValue};
 use crate::estimate::channels::{Channel, NoiseLevels};
-use crate::study::VehicleStudy;
+use crate::study::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, VehicleStudy};
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 
 /// A condition axis of the vehicle model.
@@ -24,6 +24,12 @@ pub enum VehicleAxis {
     GradeBias,
     /// The source of the acceleration in the output (`estimation.acceleration`).
     Acceleration,
+    /// The elevation map's error \[m\] (`noise.grade_map_sd`).
+    GradeMap,
+    /// The air-speed sensor's noise \[m/s\] (`noise.air_speed_sd`). With a measured air
+    /// speed it is the level of the noise in the drag regressor: the speed channel's level
+    /// of the condition (docs/model.md#air-speed).
+    AirSpeed,
     /// The value of model error `i` of [`MODEL_ERRORS`] (`truth.<key>`, an axis entry).
     Truth(usize),
 }
@@ -37,6 +43,8 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
             VehicleAxis::VelocityCorrelation,
             VehicleAxis::GradeBias,
             VehicleAxis::Acceleration,
+            VehicleAxis::GradeMap,
+            VehicleAxis::AirSpeed,
         ])
         .chain(
             (0..MODEL_ERROR_COUNT)
@@ -56,6 +64,8 @@ pub struct Point {
     pub noise: NoiseLevels,
     /// Index into `noise.grade_bias`.
     pub grade_bias_index: usize,
+    /// The elevation map's error \[m\] (0: the map is exact).
+    pub grade_map_sd: f64,
     /// Per entry of [`MODEL_ERRORS`], the index of its value in `[truth]`.
     pub truth_levels: [usize; MODEL_ERROR_COUNT],
 }
@@ -79,6 +89,8 @@ impl VehicleAxis {
             VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
             VehicleAxis::Acceleration => Axis::text("acceleration"),
+            VehicleAxis::GradeMap => Axis::number(GRADE_MAP_SD, "m"),
+            VehicleAxis::AirSpeed => Axis::number(AIR_SPEED_SD, Channel::Velocity.unit()),
             VehicleAxis::Truth(i) => Axis::number(MODEL_ERRORS[i].key, MODEL_ERRORS[i].unit),
         }
     }
@@ -92,6 +104,8 @@ impl VehicleAxis {
             VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
             VehicleAxis::GradeBias => study.grade_bias.len(),
             VehicleAxis::Acceleration => study.acceleration.len(),
+            VehicleAxis::GradeMap => study.grade_map_sd.len(),
+            VehicleAxis::AirSpeed => study.air_speed_sd.len(),
             VehicleAxis::Truth(i) => study.truth.levels(i).len(),
         }
     }
@@ -107,6 +121,13 @@ impl VehicleAxis {
             }
             VehicleAxis::GradeBias => point.grade_bias_index = i,
             VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
+            VehicleAxis::GradeMap => point.grade_map_sd = study.grade_map_sd[i],
+            // The speed channel's level is then 0 (validated): the sensor in the drag
+            // regressor is the air-speed sensor.
+            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => {
+                point.noise[Channel::Velocity] = study.air_speed_sd[i]
+            }
+            VehicleAxis::AirSpeed => {}
             VehicleAxis::Truth(e) => point.truth_levels[e] = i,
         }
     }
@@ -119,7 +140,13 @@ impl VehicleAxis {
         AxisValue::Number(match self {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
+            VehicleAxis::Noise(Channel::Velocity) if study.air_speed == AirSpeed::Measured => 0.0,
             VehicleAxis::Noise(c) => point.noise[c],
+            VehicleAxis::GradeMap => point.grade_map_sd,
+            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => {
+                point.noise[Channel::Velocity]
+            }
+            VehicleAxis::AirSpeed => 0.0,
             VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
             VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
             VehicleAxis::Truth(e) => study.truth.levels(e)[point.truth_levels[e]],

@@ -10,6 +10,7 @@ use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
+use crate::estimate::regression::Regression;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
 use crate::numeric::linalg::condition_number;
@@ -26,17 +27,66 @@ impl VehicleModel {
     }
 
     /// The moments of realisation `r` of condition `c`: the kernel. Draws each active
-    /// channel's normals block by block and accumulates the normal-equation sums.
+    /// channel's normals block by block and accumulates the normal-equation sums (N is NaN,
+    /// the sums zero, when the realisation's truth cannot be simulated).
     pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
-        self.measure(seed, c, r, None)
+        match self.regression_of(seed, c, r) {
+            Ok(world) => {
+                let (reg, ar1) = world.as_ref().map_or_else(
+                    || {
+                        (
+                            &*self.conditions[c].regression,
+                            self.conditions[c].ar1.as_deref(),
+                        )
+                    },
+                    |(reg, ar1)| (reg, ar1.as_deref()),
+                );
+                self.measure(seed, c, r, reg, ar1, None)
+            }
+            Err(_) => Moments {
+                n: f64::NAN,
+                ..Moments::default()
+            },
+        }
     }
 
-    /// The moments of realisation `r` of condition `c`, and, into `rows` when given, its
+    /// The regression of realisation `r` of condition `c` and the AR(1) coefficients of its
+    /// correlated speed noise, when the realisation has its own (a condition with a
+    /// [`World`](super::world::World); `None`: the condition's); an error says why its truth
+    /// cannot be simulated.
+    #[allow(clippy::type_complexity)]
+    fn regression_of(
+        &self,
+        seed: u64,
+        c: usize,
+        r: u64,
+    ) -> Result<Option<(Regression, Option<Vec<[f64; 2]>>)>, String> {
+        let cond = &self.conditions[c];
+        let Some(world) = &cond.world else {
+            return Ok(None);
+        };
+        let reg = world.regression(&self.study, seed, self.stream_key(c), r)?;
+        let ar1 = cond
+            .noise
+            .velocity_correlated()
+            .then(|| reg.ar1_coefficients(cond.noise.velocity_correlation_s));
+        Ok(Some((reg, ar1)))
+    }
+
+    /// The moments of realisation `r` of condition `c` on the regression `reg` (with AR(1)
+    /// coefficients `ar1` of correlated speed noise), and, into `rows` when given, its
     /// measured rows (from the same draws).
     #[inline]
-    pub fn measure(&self, seed: u64, c: usize, r: u64, mut rows: Option<&mut Rows>) -> Moments {
+    fn measure(
+        &self,
+        seed: u64,
+        c: usize,
+        r: u64,
+        reg: &Regression,
+        ar1: Option<&[[f64; 2]]>,
+        mut rows: Option<&mut Rows>,
+    ) -> Moments {
         let cond = &self.conditions[c];
-        let reg = &*cond.regression;
         let noise = cond.noise;
         let mut streams = PerChannel::from_fn(|channel| {
             noise
@@ -52,7 +102,7 @@ impl VehicleModel {
             (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
                 let mut e = vec![0.0; d.span_t.len()];
                 stream.fill(&mut e);
-                if let Some(ar1) = &cond.ar1 {
+                if let Some(ar1) = ar1 {
                     let mut previous = 0.0;
                     for (z, [phi, scale]) in e.iter_mut().zip(ar1) {
                         *z = phi * previous + scale * *z;
@@ -77,7 +127,7 @@ impl VehicleModel {
                     buffer[j] = e[s];
                     derivative[j] = sd * (e[s + 1] - e[s - 1]) * d.inv_dt[i];
                 }
-            } else if let (Some(ar1), Some(stream)) = (&cond.ar1, &mut streams[Channel::Velocity]) {
+            } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[Channel::Velocity]) {
                 let buffer = &mut buffers[Channel::Velocity][..len];
                 stream.fill(buffer);
                 for (z, [phi, scale]) in buffer.iter_mut().zip(&ar1[start..start + len]) {
@@ -86,7 +136,7 @@ impl VehicleModel {
                 }
             }
             // The speed noise is drawn above when it is correlated or differentiated.
-            let speed_drawn = cond.ar1.is_some() || span_noise.is_some();
+            let speed_drawn = ar1.is_some() || span_noise.is_some();
             let mut draws = BlockNoise::default();
             for (channel, ((stream, buffer), draw)) in Channel::ALL
                 .into_iter()
@@ -156,16 +206,36 @@ impl VehicleModel {
         slots: &mut [f64],
     ) {
         let cond = &self.conditions[c];
+        let world = match self.regression_of(seed, c, r) {
+            Ok(world) => world,
+            Err(_) => return self.unsimulated(slots),
+        };
+        let (reg, ar1) = world.as_ref().map_or_else(
+            || (&*cond.regression, cond.ar1.as_deref()),
+            |(reg, ar1)| (reg, ar1.as_deref()),
+        );
         let rows = self.needs_rows.then(|| {
-            rows.reset(&cond.regression, &cond.noise);
+            rows.reset(reg, &cond.noise);
             rows
         });
         match rows {
             Some(rows) => {
-                let moments = self.measure(seed, c, r, Some(&mut *rows));
-                self.conclude(c, &moments, Some(rows), slots);
+                let moments = self.measure(seed, c, r, reg, ar1, Some(&mut *rows));
+                self.conclude(c, reg, &moments, Some(rows), slots);
             }
-            None => self.conclude(c, &self.measure(seed, c, r, None), None, slots),
+            None => {
+                let moments = self.measure(seed, c, r, reg, ar1, None);
+                self.conclude(c, reg, &moments, None, slots)
+            }
+        }
+    }
+
+    /// The slots of a realisation whose truth cannot be simulated: every estimator's
+    /// status [`Status::Unsimulated`], every number NaN.
+    fn unsimulated(&self, slots: &mut [f64]) {
+        slots.fill(f64::NAN);
+        for ei in 0..self.study.estimators.len() {
+            slots[self.layout.status_at(ei)] = Status::Unsimulated as u8 as f64;
         }
     }
 
@@ -179,6 +249,7 @@ impl VehicleModel {
             && conditions.iter().all(|&c| {
                 let cond = &self.conditions[c];
                 cond.ar1.is_none()
+                    && cond.world.is_none()
                     && !(cond.regression.differentiation.is_some()
                         && cond.noise.speed_noise_differentiated())
             })
@@ -255,17 +326,18 @@ impl VehicleModel {
             .collect()
     }
 
-    /// Estimates, bounds and extras of condition `c` from its realisation's moments (and
-    /// rows, when an estimator reads them) into `slots`.
+    /// Estimates, bounds and extras of condition `c` from its realisation's moments on the
+    /// regression `reg` (and rows, when an estimator reads them) into `slots`.
     pub(super) fn conclude(
         &self,
         c: usize,
+        reg: &Regression,
         moments: &Moments,
         rows: Option<&Rows>,
         slots: &mut [f64],
     ) {
         let cond = &self.conditions[c];
-        let k = cond.regression.k;
+        let k = reg.k;
         let noisy_xtx = moments.ols_system(k).0;
         let fisher_condition = condition_number(&noisy_xtx);
         let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise);
@@ -285,7 +357,7 @@ impl VehicleModel {
             let estimate = est.estimate(&Realisation {
                 moments,
                 rows,
-                regression: &cond.regression,
+                regression: reg,
                 noise: &cond.noise,
                 settings: &self.study.settings,
                 truth: &self.truth,

@@ -20,6 +20,7 @@ mod kernel;
 mod layout;
 mod prepare;
 mod replayed;
+mod world;
 
 pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
@@ -34,6 +35,7 @@ use crate::estimate::regression::Regression;
 use crate::study::{self, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
+use world::{GradeMap, World};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
@@ -56,6 +58,9 @@ struct Condition {
     group: usize,
     /// The expected moments: what the control variates are centred on.
     expected: Expectations,
+    /// What each realisation draws beyond its sensor noise, when something is (its own
+    /// regression then, made from its own truth and map).
+    world: Option<World>,
 }
 
 /// An error about key `key` (dotted) of the study a model is prepared from, for `reason`.
@@ -152,6 +157,30 @@ impl VehicleModel {
                     .velocity_correlated()
                     .then(|| regression.ar1_coefficients(noise.velocity_correlation_s));
                 let expected = Expectations::new(&regression, &noise, ar1.as_deref());
+                let condition_truth = vs.truth.truth(point.truth_index(&vs));
+                let grade_map = (point.grade_map_sd > 0.0).then_some(GradeMap {
+                    sd_m: point.grade_map_sd,
+                    length_m: vs.grade_map_length_m,
+                });
+                let world = (condition_truth.is_drawn() || grade_map.is_some()).then(|| {
+                    let cycle = &cycles[cycle_index];
+                    World {
+                        truth: condition_truth,
+                        cycle: cycle.cycle.clone(),
+                        table: cycle.table.clone(),
+                        scale: vs.scales[point.scale_index],
+                        duration_s: vs.durations.as_ref().map(|d| d[point.duration_index]),
+                        source: noise.acceleration,
+                        grade_bias_rad: vs.grade_bias[point.grade_bias_index],
+                        grade_map,
+                    }
+                });
+                // The control variates are centred on the condition's regression: with
+                // another regression in every realisation, none applies.
+                let controls = controls
+                    .iter()
+                    .map(|&j| expected.applies()[j] && world.is_none())
+                    .collect();
                 Condition {
                     info: ConditionInfo {
                         axes: axes()
@@ -167,7 +196,7 @@ impl VehicleModel {
                             &truth,
                         ),
                         applies,
-                        controls: controls.iter().map(|&j| expected.applies()[j]).collect(),
+                        controls,
                     },
                     cycle_index,
                     noise,
@@ -176,6 +205,7 @@ impl VehicleModel {
                     constant_bounds,
                     group,
                     expected,
+                    world,
                 }
             })
             .collect();

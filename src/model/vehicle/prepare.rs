@@ -9,9 +9,9 @@ use rayon::prelude::*;
 use super::ErrorAt;
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
-use crate::study::{StudyError, VehicleStudy};
+use crate::study::{AirSpeed, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
-use crate::vehicle::{DriveCycle, Road};
+use crate::vehicle::{DriveCycle, Road, Truth};
 
 /// The drive cycle of one terrain scale and truth.
 #[derive(Debug)]
@@ -20,8 +20,10 @@ pub(super) struct ScaleCycle {
     pub scale_index: usize,
     /// Index of the truth ([`TruthAxes::index`](crate::study::TruthAxes::index)).
     pub truth_index: usize,
-    /// The noise-free cycle (every sample, used or not).
+    /// The noise-free cycle (every sample, used or not), with the truth's steady entries.
     pub cycle: Arc<DriveCycle>,
+    /// The grade table of its scale (`None` without a terrain profile).
+    pub table: Option<Arc<GradeTable>>,
     /// ς over the terrain table \[rad²\] (NaN without a terrain profile).
     pub terrain_ms_grid: f64,
 }
@@ -47,10 +49,10 @@ pub(super) fn scale_cycles(
 ) -> Result<Vec<ScaleCycle>, StudyError> {
     let truths = vs.truth.combinations();
     // The grade table of each scale, built once for all its truths.
-    let tables: Vec<Option<GradeTable>> = vs
+    let tables: Vec<Option<Arc<GradeTable>>> = vs
         .scales
         .par_iter()
-        .map(|&scale| vs.terrain.as_ref().map(|t| t.grade_table(scale)))
+        .map(|&scale| vs.terrain.as_ref().map(|t| Arc::new(t.grade_table(scale))))
         .collect();
     (0..vs.scales.len() * truths)
         .into_par_iter()
@@ -58,9 +60,9 @@ pub(super) fn scale_cycles(
             let (i, truth_index) = (k / truths, k % truths);
             debug_assert_eq!(k, cycle_index(vs, i, truth_index));
             let scale = vs.scales[i];
-            let truth = vs.truth.truth(truth_index);
+            let truth = vs.truth.truth(truth_index).steady();
             let key = format!("terrain.scales[{i}]");
-            let table = tables[i].as_ref();
+            let table = tables[i].as_deref();
             if let (Some(t), Some(table)) = (&vs.terrain, table)
                 && let Some((grade, x)) = table.steepest_beyond_limit()
             {
@@ -87,6 +89,7 @@ pub(super) fn scale_cycles(
                 scale_index: i,
                 truth_index,
                 cycle: Arc::new(cycle),
+                table: tables[i].clone(),
                 terrain_ms_grid: table.map_or(f64::NAN, |t| t.mean_square()),
             })
         })
@@ -100,6 +103,16 @@ pub(super) fn scale_cycles(
 /// `truth_index`: scale-major.
 pub(super) fn cycle_index(vs: &VehicleStudy, scale_index: usize, truth_index: usize) -> usize {
     scale_index * vs.truth.combinations() + truth_index
+}
+
+/// The speeds the drag regressor reads at the samples of `cycle` when they are not its
+/// speeds: with a measured air speed, V plus the wind of `truth` (`None`: the speeds).
+pub(super) fn measured_speeds(
+    vs: &VehicleStudy,
+    truth: &Truth,
+    cycle: &DriveCycle,
+) -> Option<Vec<f64>> {
+    (vs.air_speed == AirSpeed::Measured).then(|| truth.air_speeds(cycle))
 }
 
 /// Which samples of `cycle` a regression with acceleration `source` uses: those the row
@@ -162,6 +175,15 @@ fn scale_segments(
     error_at: &ErrorAt<'_>,
 ) -> Result<Vec<Segment>, StudyError> {
     let cycle = &scale.cycle;
+    // The cycle as the regression reads it (samples are selected on the true one).
+    let truth = vs.truth.truth(scale.truth_index).steady();
+    let measured = match measured_speeds(vs, &truth, cycle) {
+        None => cycle.clone(),
+        Some(air) => Arc::new(DriveCycle {
+            v_m_s: air,
+            ..(**cycle).clone()
+        }),
+    };
     let length = cycle.length_s();
     let n = duration_count(vs);
     let duration = |d: usize| vs.durations.as_ref().map(|ds| ds[d]);
@@ -214,7 +236,7 @@ fn scale_segments(
         .acceleration
         .iter()
         .zip(&used[longest])
-        .map(|(&source, u)| regressions(vs, cycle, u, source))
+        .map(|(&source, u)| regressions(vs, &measured, u, source))
         .collect();
     Ok((0..n)
         .map(|d| {
@@ -226,7 +248,7 @@ fn scale_segments(
                     let (mine, theirs) = (&used[d][a], &used[longest][a]);
                     if !is_prefix(mine, theirs) {
                         // Times out of order (a trace): built on their own.
-                        return regressions(vs, cycle, mine, source);
+                        return regressions(vs, &measured, mine, source);
                     }
                     let rows = mine.iter().filter(|u| **u).count();
                     full[a]

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use super::{ErrorAt, VehicleModel};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
-use crate::study::{NoiseAxes, StudyError, TruthAxes, VehicleStudy};
+use crate::study::{AirSpeed, NoiseAxes, StudyError, TruthAxes, VehicleStudy};
 use crate::vehicle::{Replay, RowSelection, VehicleParams};
 
 impl VehicleModel {
@@ -43,6 +43,10 @@ impl VehicleModel {
             settings,
             acceleration: vec![noise.acceleration],
             share_across_scales: false,
+            grade_map_sd: vec![0.0],
+            grade_map_length_m: 200.0,
+            air_speed: AirSpeed::Ground,
+            air_speed_sd: vec![0.0],
             truth: TruthAxes::default(),
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {

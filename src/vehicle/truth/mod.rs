@@ -25,12 +25,15 @@
 //! and composing their calibrations; products of two entries' sizes (wind at another air
 //! density) are not modelled.
 
+mod drawn;
 mod steady;
 
 use std::fmt;
 use std::sync::Arc;
 
 use super::{DriveCycle, VehicleParams};
+use crate::noise::NormalSequence;
+pub use drawn::{ForceScaleDrawn, Gust, WindSeries};
 pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, Wind};
 
 /// The state of the truth at one sample, as a model error sees it (its acceleration is not
@@ -48,21 +51,23 @@ pub struct TruthSample {
     pub grade_rad: f64,
 }
 
-/// The random numbers a model error draws in a realisation, from its own stream (so that
-/// switching it on leaves every other draw as it was).
+/// How a model error drawn anew in every realisation draws: its own stream of normals (so
+/// that switching it on leaves every other draw as it was), and whether it changes the
+/// truth's motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Draws {
-    /// None: the entry is the same in every realisation (set per condition).
-    Steady,
-    /// This many standard normal numbers once per realisation (a calibration error).
-    PerRealisation(usize),
-    /// One standard normal number per sample (a process in time, such as gusts).
-    PerSample,
+pub struct Drawn {
+    /// The entry's part of the ChaCha key of its stream (docs/model.md#streams). Part of
+    /// every study's numbers: never change or reuse one.
+    pub stream: u64,
+    /// Whether it changes the force the truth needs (a drive mode that integrates the
+    /// motion integrates each realisation again; one that prescribes it logs another
+    /// force), not only how the log records the force.
+    pub moves_the_vehicle: bool,
 }
 
 /// One way the truth differs from the regression's equation. Every method has the neutral
-/// default (no force, no inertia, the force logged as it is), so an entry implements what it
-/// changes.
+/// default (no force, no inertia, no wind, the assumed air density, the force logged as it
+/// is, the same in every realisation), so an entry implements what it changes.
 pub trait ModelError: Send + Sync + fmt::Debug {
     /// The inertia \[kg\] the truth has beyond the equation's M at `sample`: the part of the
     /// omitted force proportional to dV/dt.
@@ -71,34 +76,40 @@ pub trait ModelError: Send + Sync + fmt::Debug {
     }
 
     /// The rest of the force \[N\] the equation leaves out at `sample`, opposing the motion
-    /// when positive, with this realisation's `draws` (empty for a [`Draws::Steady`] entry;
-    /// the realisation's numbers for the others, and for [`Draws::PerSample`] the sample's
-    /// own number first).
-    fn omitted_force(
-        &self,
-        _vehicle: &VehicleParams,
-        _sample: &TruthSample,
-        _draws: &[f64],
-    ) -> f64 {
+    /// when positive, beyond the aerodynamic force (which the truth makes of every entry's
+    /// wind and air density together).
+    fn omitted_force(&self, _vehicle: &VehicleParams, _sample: &TruthSample) -> f64 {
         0.0
+    }
+
+    /// The wind \[m/s\] along the direction of travel it adds at `sample`, positive a
+    /// headwind: the air speed is V plus every entry's wind.
+    fn wind_m_s(&self, _sample: &TruthSample) -> f64 {
+        0.0
+    }
+
+    /// The factor by which it multiplies the air density the regression assumes.
+    fn air_density_factor(&self) -> f64 {
+        1.0
     }
 
     /// The force \[N\] the log records when the truth's propulsion force is `force_n` (a
     /// calibration error; the truth's motion does not see it).
-    fn logged_force(&self, force_n: f64, _draws: &[f64]) -> f64 {
+    fn logged_force(&self, force_n: f64) -> f64 {
         force_n
     }
 
-    /// Which random numbers it draws per realisation.
-    fn draws(&self) -> Draws {
-        Draws::Steady
+    /// How it draws, when it is drawn anew in every realisation (`None`: the same in every
+    /// realisation, set per condition).
+    fn drawn(&self) -> Option<Drawn> {
+        None
     }
 
-    /// Whether it changes the motion of a drive mode that integrates it (`torque`) from one
-    /// realisation to the next: then each realisation's motion is integrated again. An
-    /// entry drawn per realisation that only miscalibrates the log overrides it to false.
-    fn moves_the_vehicle(&self) -> bool {
-        !matches!(self.draws(), Draws::Steady)
+    /// Its value in one realisation: a steady model error made from the realisation's
+    /// `normals` (its own stream) for a cycle sampled at `times_s` (from 0). Only an entry
+    /// that is [`drawn`](ModelError::drawn) is asked.
+    fn realise(&self, _normals: &mut NormalSequence, _times_s: &[f64]) -> Arc<dyn ModelError> {
+        unreachable!("only a drawn model error is realised")
     }
 }
 
@@ -113,21 +124,44 @@ pub struct ModelErrorEntry {
     pub unit: &'static str,
     /// Whether the key is a condition axis (a list of values, one condition each).
     pub axis: bool,
+    /// Whether it is drawn anew in every realisation (so not a steady key `design` varies).
+    pub drawn: bool,
     /// The value that leaves the truth as the equation (the default when the key is
     /// absent; at it no entry is built, so the numbers are those without `[truth]`).
     pub neutral: f64,
     /// Why a value is not accepted (`None`: it is), e.g. "must be > −1".
     pub check: fn(f64) -> Option<&'static str>,
-    /// The model error of a value other than `neutral`.
-    pub build: fn(f64) -> Arc<dyn ModelError>,
+    /// The model error of a value other than `neutral`, given every entry's value (in the
+    /// order of [`MODEL_ERRORS`]; a key that only sets another entry's parameter, such as
+    /// `wind_gust_time`, builds none).
+    pub build: BuildModelError,
 }
 
+/// How an entry of [`MODEL_ERRORS`] builds its model error from its value and every
+/// entry's values.
+pub type BuildModelError = fn(f64, &[f64; MODEL_ERROR_COUNT]) -> Option<Arc<dyn ModelError>>;
+
 /// Number of entries of [`MODEL_ERRORS`].
-pub const MODEL_ERROR_COUNT: usize = steady::ENTRIES.len();
+pub const MODEL_ERROR_COUNT: usize = 9;
 
 /// Every model error a study can name, in the order of their keys in `[truth]` (the order
 /// of their condition axes, nested after the other axes).
-pub static MODEL_ERRORS: [ModelErrorEntry; MODEL_ERROR_COUNT] = steady::ENTRIES;
+pub static MODEL_ERRORS: [ModelErrorEntry; MODEL_ERROR_COUNT] = [
+    steady::WIND,
+    drawn::GUST,
+    drawn::GUST_TIME,
+    steady::ROTATING_MASS,
+    steady::FORCE_SCALE,
+    drawn::FORCE_SCALE_SD,
+    steady::ROLLING_SPEED,
+    steady::AIR_DENSITY,
+    steady::MASS_RATE,
+];
+
+/// The position in [`MODEL_ERRORS`] of the entry with key `key`.
+pub fn entry_index(key: &str) -> Option<usize> {
+    MODEL_ERRORS.iter().position(|e| e.key == key)
+}
 
 /// The model errors of one condition: what the truth has beyond the equation (none: the
 /// truth is the equation, and every drive mode computes exactly what it did without them).
@@ -145,7 +179,7 @@ impl Truth {
                 .iter()
                 .zip(values)
                 .filter(|(e, v)| **v != e.neutral)
-                .map(|(e, &v)| (e.build)(v))
+                .filter_map(|(e, &v)| (e.build)(v, values))
                 .collect(),
         }
     }
@@ -153,6 +187,63 @@ impl Truth {
     /// Whether the truth is the equation.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
+    }
+
+    /// Whether an entry is drawn anew in every realisation.
+    pub fn is_drawn(&self) -> bool {
+        self.entries.iter().any(|e| e.drawn().is_some())
+    }
+
+    /// Whether an entry drawn in every realisation changes the force the truth needs (so
+    /// each realisation's cycle is made again, not only its log recalibrated).
+    pub fn moves_per_realisation(&self) -> bool {
+        self.entries
+            .iter()
+            .any(|e| e.drawn().is_some_and(|d| d.moves_the_vehicle))
+    }
+
+    /// The truth with its drawn entries left out: what `bias_model` and cycles.parquet
+    /// describe.
+    pub fn steady(&self) -> Truth {
+        Truth {
+            entries: self
+                .entries
+                .iter()
+                .filter(|e| e.drawn().is_none())
+                .cloned()
+                .collect(),
+        }
+    }
+
+    /// The truth's drawn entries alone.
+    pub fn drawn_part(&self) -> Truth {
+        Truth {
+            entries: self
+                .entries
+                .iter()
+                .filter(|e| e.drawn().is_some())
+                .cloned()
+                .collect(),
+        }
+    }
+
+    /// The truth of realisation `r`: each drawn entry realised from its own stream of
+    /// (`seed`, `key`, its stream, `r`) for a cycle sampled at `times_s` (from 0); the
+    /// steady entries as they are.
+    pub fn realise(&self, seed: u64, key: u64, r: u64, times_s: &[f64]) -> Truth {
+        Truth {
+            entries: self
+                .entries
+                .iter()
+                .map(|e| match e.drawn() {
+                    Some(d) => {
+                        let mut normals = NormalSequence::for_realisation(seed, key, d.stream, r);
+                        e.realise(&mut normals, times_s)
+                    }
+                    None => e.clone(),
+                })
+                .collect(),
+        }
     }
 
     /// The truth's dV/dt \[m/s²\] at `sample` under the propulsion force `force_n` \[N\]:
@@ -193,15 +284,9 @@ impl Truth {
         if self.entries.is_empty() {
             return cycle.f_prop_n.clone();
         }
-        let start = cycle.t_s.first().copied().unwrap_or(0.0);
         (0..cycle.t_s.len())
             .map(|i| {
-                let sample = TruthSample {
-                    time_s: cycle.t_s[i] - start,
-                    distance_m: cycle.x_m[i],
-                    speed_m_s: cycle.v_m_s[i],
-                    grade_rad: cycle.grade_rad[i],
-                };
+                let sample = sample_of(cycle, i);
                 let needed =
                     self.needed_force(vehicle, &sample, cycle.accel_m_s2[i], cycle.f_prop_n[i]);
                 self.logged_force(needed)
@@ -212,19 +297,63 @@ impl Truth {
     /// The force \[N\] the log records for the truth's force `force_n` (each entry's
     /// calibration in turn).
     pub fn logged_force(&self, force_n: f64) -> f64 {
-        self.entries
-            .iter()
-            .fold(force_n, |f, e| e.logged_force(f, &[]))
+        self.entries.iter().fold(force_n, |f, e| e.logged_force(f))
     }
 
-    /// Σ m_D \[kg\] and Σ D₀ \[N\] of the steady entries at `sample`.
+    /// The wind \[m/s\] at `sample`, positive a headwind: the sum of the entries' (so the
+    /// air speed is V plus this).
+    pub fn wind_m_s(&self, sample: &TruthSample) -> f64 {
+        self.entries.iter().map(|e| e.wind_m_s(sample)).sum()
+    }
+
+    /// The air speed \[m/s\] at every sample of `cycle`: V + the truth's wind (time from
+    /// the cycle's first sample). Without wind, the speed itself.
+    pub fn air_speeds(&self, cycle: &DriveCycle) -> Vec<f64> {
+        (0..cycle.t_s.len())
+            .map(|i| {
+                let sample = sample_of(cycle, i);
+                sample.speed_m_s + self.wind_m_s(&sample)
+            })
+            .collect()
+    }
+
+    /// Σ m_D \[kg\] and Σ D₀ \[N\] at `sample`, D₀ including the aerodynamic force the
+    /// equation leaves out: k·Cd·[r·(V + w)|V + w| − V²] for the entries' wind w and
+    /// air-density factor r (zero without either).
     fn forces(&self, vehicle: &VehicleParams, sample: &TruthSample) -> (f64, f64) {
-        self.entries.iter().fold((0.0, 0.0), |(m, d), e| {
-            (
-                m + e.added_inertia_kg(vehicle, sample),
-                d + e.omitted_force(vehicle, sample, &[]),
-            )
-        })
+        let (inertia, omitted, wind, density) =
+            self.entries
+                .iter()
+                .fold((0.0, 0.0, 0.0, 1.0), |(m, d, w, r), e| {
+                    (
+                        m + e.added_inertia_kg(vehicle, sample),
+                        d + e.omitted_force(vehicle, sample),
+                        w + e.wind_m_s(sample),
+                        r * e.air_density_factor(),
+                    )
+                });
+        let aero = match wind == 0.0 && density == 1.0 {
+            true => 0.0,
+            false => {
+                let v = sample.speed_m_s;
+                let air = v + wind;
+                vehicle.drag_coefficient
+                    * vehicle.drag_factor_kg_m()
+                    * (density * air * air.abs() - v * v)
+            }
+        };
+        (inertia, omitted + aero)
+    }
+}
+
+/// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample).
+fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
+    let start = cycle.t_s.first().copied().unwrap_or(0.0);
+    TruthSample {
+        time_s: cycle.t_s[i] - start,
+        distance_m: cycle.x_m[i],
+        speed_m_s: cycle.v_m_s[i],
+        grade_rad: cycle.grade_rad[i],
     }
 }
 
@@ -261,7 +390,7 @@ mod tests {
         // Every steady entry on: the force the truth needs for the acceleration it has
         // under F is F again (to rounding, ~1e-12 relative of forces ~1e3 N).
         let veh = VehicleParams::thesis();
-        let truth = Truth::from_values(&[3.0, 0.03, 0.05, 0.002, 1.1, -0.01]);
+        let truth = Truth::from_values(&[3.0, 0.0, 10.0, 0.03, 0.05, 0.0, 0.002, 1.1, -0.01]);
         let s = sample(15.0, 0.03);
         let f = 2100.0;
         let a = truth.acceleration(&veh, &s, f);

@@ -7,7 +7,8 @@ use super::{ModelError, ModelErrorEntry, TruthSample};
 use crate::vehicle::VehicleParams;
 
 /// Steady wind along the direction of travel, `w` \[m/s\], positive a headwind: the truth's
-/// aerodynamic force is k·Cd·(V + w)·|V + w|, so D₀ = k·Cd·[(V + w)|V + w| − V²].
+/// aerodynamic force is k·Cd·(V + w)·|V + w|, so D₀ = k·Cd·[(V + w)|V + w| − V²] (made by
+/// [`Truth`](super::Truth) from every entry's wind together).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wind {
     /// w \[m/s\].
@@ -15,10 +16,8 @@ pub struct Wind {
 }
 
 impl ModelError for Wind {
-    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
-        let air = s.speed_m_s + self.speed_m_s;
-        let v = s.speed_m_s;
-        vehicle.drag_coefficient * vehicle.drag_factor_kg_m() * (air * air.abs() - v * v)
+    fn wind_m_s(&self, _s: &TruthSample) -> f64 {
+        self.speed_m_s
     }
 }
 
@@ -44,7 +43,7 @@ pub struct ForceScale {
 }
 
 impl ModelError for ForceScale {
-    fn logged_force(&self, force_n: f64, _draws: &[f64]) -> f64 {
+    fn logged_force(&self, force_n: f64) -> f64 {
         (1.0 + self.scale) * force_n
     }
 }
@@ -58,7 +57,7 @@ pub struct RollingSpeed {
 }
 
 impl ModelError for RollingSpeed {
-    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample) -> f64 {
         vehicle.rolling_resistance
             * self.coefficient_s_m
             * s.speed_m_s
@@ -68,8 +67,8 @@ impl ModelError for RollingSpeed {
     }
 }
 
-/// The true air density over `vehicle.air_density`, r: D₀ = (r − 1)·k·Cd·V² (the
-/// regression keeps the assumed density in k).
+/// The true air density over `vehicle.air_density`, r: the truth's aerodynamic force is
+/// r·k·Cd·V², so D₀ = (r − 1)·k·Cd·V² (the regression keeps the assumed density in k).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AirDensity {
     /// r \[-\].
@@ -77,9 +76,8 @@ pub struct AirDensity {
 }
 
 impl ModelError for AirDensity {
-    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
-        let v = s.speed_m_s;
-        (self.ratio - 1.0) * vehicle.drag_coefficient * vehicle.drag_factor_kg_m() * v * v
+    fn air_density_factor(&self) -> f64 {
+        self.ratio
     }
 }
 
@@ -97,7 +95,7 @@ impl ModelError for MassRate {
         self.rate_kg_s * s.time_s
     }
 
-    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample, _draws: &[f64]) -> f64 {
+    fn omitted_force(&self, vehicle: &VehicleParams, s: &TruthSample) -> f64 {
         let dm = self.rate_kg_s * s.time_s;
         dm * vehicle.gravity_m_s2
             * (vehicle.rolling_resistance * s.grade_rad.cos() + s.grade_rad.sin())
@@ -112,60 +110,74 @@ fn above_minus_one(v: f64) -> Option<&'static str> {
     (!(v.is_finite() && v > -1.0)).then_some("must be a finite number > -1")
 }
 
-/// The steady entries, in the order of [`MODEL_ERRORS`](super::MODEL_ERRORS).
-pub(super) const ENTRIES: [ModelErrorEntry; 6] = [
-    ModelErrorEntry {
-        name: "steady wind",
-        key: "wind_speed",
-        unit: "m/s",
-        axis: true,
-        neutral: 0.0,
-        check: finite,
-        build: |w| Arc::new(Wind { speed_m_s: w }),
-    },
-    ModelErrorEntry {
-        name: "rotating mass",
-        key: "rotating_mass_factor",
-        unit: "",
-        axis: true,
-        neutral: 0.0,
-        check: above_minus_one,
-        build: |d| Arc::new(RotatingMass { factor: d }),
-    },
-    ModelErrorEntry {
-        name: "force calibration",
-        key: "force_scale",
-        unit: "",
-        axis: true,
-        neutral: 0.0,
-        check: above_minus_one,
-        build: |s| Arc::new(ForceScale { scale: s }),
-    },
-    ModelErrorEntry {
-        name: "speed-dependent rolling resistance",
-        key: "rolling_speed_coefficient",
-        unit: "s/m",
-        axis: true,
-        neutral: 0.0,
-        check: |c| (!(c.is_finite() && c >= 0.0)).then_some("must be a finite number >= 0"),
-        build: |c| Arc::new(RollingSpeed { coefficient_s_m: c }),
-    },
-    ModelErrorEntry {
-        name: "air density",
-        key: "air_density_ratio",
-        unit: "",
-        axis: true,
-        neutral: 1.0,
-        check: |r| (!(r.is_finite() && r > 0.0)).then_some("must be a finite number > 0"),
-        build: |r| Arc::new(AirDensity { ratio: r }),
-    },
-    ModelErrorEntry {
-        name: "mass drift",
-        key: "mass_rate",
-        unit: "kg/s",
-        axis: false,
-        neutral: 0.0,
-        check: finite,
-        build: |m| Arc::new(MassRate { rate_kg_s: m }),
-    },
-];
+/// `truth.wind_speed`.
+pub(super) const WIND: ModelErrorEntry = ModelErrorEntry {
+    name: "steady wind",
+    key: "wind_speed",
+    unit: "m/s",
+    axis: true,
+    drawn: false,
+    neutral: 0.0,
+    check: finite,
+    build: |w, _| Some(Arc::new(Wind { speed_m_s: w })),
+};
+
+/// `truth.rotating_mass_factor`.
+pub(super) const ROTATING_MASS: ModelErrorEntry = ModelErrorEntry {
+    name: "rotating mass",
+    key: "rotating_mass_factor",
+    unit: "",
+    axis: true,
+    drawn: false,
+    neutral: 0.0,
+    check: above_minus_one,
+    build: |d, _| Some(Arc::new(RotatingMass { factor: d })),
+};
+
+/// `truth.force_scale`.
+pub(super) const FORCE_SCALE: ModelErrorEntry = ModelErrorEntry {
+    name: "force calibration",
+    key: "force_scale",
+    unit: "",
+    axis: true,
+    drawn: false,
+    neutral: 0.0,
+    check: above_minus_one,
+    build: |s, _| Some(Arc::new(ForceScale { scale: s })),
+};
+
+/// `truth.rolling_speed_coefficient`.
+pub(super) const ROLLING_SPEED: ModelErrorEntry = ModelErrorEntry {
+    name: "speed-dependent rolling resistance",
+    key: "rolling_speed_coefficient",
+    unit: "s/m",
+    axis: true,
+    drawn: false,
+    neutral: 0.0,
+    check: |c| (!(c.is_finite() && c >= 0.0)).then_some("must be a finite number >= 0"),
+    build: |c, _| Some(Arc::new(RollingSpeed { coefficient_s_m: c })),
+};
+
+/// `truth.air_density_ratio`.
+pub(super) const AIR_DENSITY: ModelErrorEntry = ModelErrorEntry {
+    name: "air density",
+    key: "air_density_ratio",
+    unit: "",
+    axis: true,
+    drawn: false,
+    neutral: 1.0,
+    check: |r| (!(r.is_finite() && r > 0.0)).then_some("must be a finite number > 0"),
+    build: |r, _| Some(Arc::new(AirDensity { ratio: r })),
+};
+
+/// `truth.mass_rate`.
+pub(super) const MASS_RATE: ModelErrorEntry = ModelErrorEntry {
+    name: "mass drift",
+    key: "mass_rate",
+    unit: "kg/s",
+    axis: false,
+    drawn: false,
+    neutral: 0.0,
+    check: finite,
+    build: |m, _| Some(Arc::new(MassRate { rate_kg_s: m })),
+};

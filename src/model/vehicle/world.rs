@@ -1,0 +1,174 @@
+//! What a condition draws anew in every realisation beyond its sensor noise: the truth's
+//! drawn model errors (gusts, a random force calibration) and the elevation map's error in
+//! the measured grade. Such a realisation has its own regression, made as the condition's
+//! is, from its own truth and map (docs/model.md#model-errors, docs/model.md#grade-map).
+
+use std::sync::Arc;
+
+use super::prepare::{measured_speeds, used_samples};
+use crate::estimate::channels::Acceleration;
+use crate::estimate::regression::Regression;
+use crate::noise::NormalSequence;
+use crate::study::VehicleStudy;
+use crate::terrain::{GRID_STEP_M, GradeTable};
+use crate::vehicle::{DriveCycle, Road, Truth};
+
+/// The ChaCha stream of the elevation map's error (docs/model.md#streams). Part of every
+/// study's numbers: never change or reuse it.
+const GRADE_MAP_STREAM: u64 = 8;
+
+/// The elevation map's error: a stationary AR(1) process along the distance on the terrain
+/// grid (σ_h \[m\], correlation length L \[m\]); the measured grade is the forward
+/// difference of the erroneous elevation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct GradeMap {
+    /// σ_h \[m\].
+    pub sd_m: f64,
+    /// L \[m\].
+    pub length_m: f64,
+}
+
+impl GradeMap {
+    /// The forward differences dⱼ = eⱼ₊₁ − eⱼ of one realisation's map error e on the
+    /// grid x = 0, 1, … m, far enough to cover `end_m`, from `normals`.
+    fn differences(&self, normals: &mut NormalSequence, end_m: f64) -> Vec<f64> {
+        let points = (end_m.max(0.0) / GRID_STEP_M).floor() as usize + 3;
+        let mut e = vec![0.0; points];
+        normals.fill(&mut e);
+        let phi = (-GRID_STEP_M / self.length_m).exp();
+        let innovation = self.sd_m * (1.0 - phi * phi).sqrt();
+        e[0] *= self.sd_m;
+        for j in 1..points {
+            e[j] = phi * e[j - 1] + innovation * e[j];
+        }
+        e.windows(2).map(|w| w[1] - w[0]).collect()
+    }
+}
+
+/// The grade \[rad\] measured from the map at `x_m` where the true grade is `grade_rad`:
+/// atan(tan θ + d(x)), d the map's forward differences `d` per grid step, linear between
+/// grid points (as the terrain's grade is).
+fn mapped_grade(grade_rad: f64, x_m: f64, d: &[f64]) -> f64 {
+    let u = (x_m / GRID_STEP_M).max(0.0);
+    let j = (u.floor() as usize).min(d.len() - 2);
+    let error = d[j] + (u - j as f64) * (d[j + 1] - d[j]);
+    (grade_rad.tan() + error / GRID_STEP_M).atan()
+}
+
+/// A condition whose realisations each have their own regression.
+#[derive(Debug)]
+pub(super) struct World {
+    /// The condition's truth, its drawn entries included.
+    pub truth: Truth,
+    /// The condition's noise-free cycle (the steady entries only).
+    pub cycle: Arc<DriveCycle>,
+    /// Its grade table, when the study has a terrain profile.
+    pub table: Option<Arc<GradeTable>>,
+    /// Its terrain scale.
+    pub scale: f64,
+    /// Its duration \[s\] (`None`: the whole cycle).
+    pub duration_s: Option<f64>,
+    /// Its acceleration source.
+    pub source: Acceleration,
+    /// Its grade bias \[rad\].
+    pub grade_bias_rad: f64,
+    /// The map's error (`None`: the map is exact).
+    pub grade_map: Option<GradeMap>,
+}
+
+impl World {
+    /// The regression of realisation `r`: its truth (each drawn entry from its own stream
+    /// of (`seed`, `key`)) driven or logged, its map's grade, the rows selected as the
+    /// condition's are. An error says why the realisation's truth cannot be used (the
+    /// vehicle stalled or ran off the terrain, or too few rows are left).
+    pub fn regression(
+        &self,
+        vs: &VehicleStudy,
+        seed: u64,
+        key: u64,
+        r: u64,
+    ) -> Result<Regression, String> {
+        let nominal = &*self.cycle;
+        let start = nominal.t_s.first().copied().unwrap_or(0.0);
+        let times = || -> Vec<f64> { nominal.t_s.iter().map(|t| t - start).collect() };
+        let (mut cycle, truth) = if !self.truth.is_drawn() {
+            (nominal.clone(), self.truth.clone())
+        } else if self.truth.moves_per_realisation() {
+            // The force the truth needs changes: the drive mode makes the cycle again
+            // (integrates it, or logs another force for the same motion).
+            let truth = self.truth.realise(seed, key, r, &times());
+            let road = Road {
+                table: self.table.as_deref(),
+                scale: self.scale,
+            };
+            let cycle = vs
+                .drive
+                .cycle(&vs.vehicle, road, &truth)
+                .map_err(|e| e.to_string())?;
+            (cycle, truth)
+        } else {
+            // Only a calibration is drawn: the noise-free cycle's log through it.
+            let drawn = self.truth.drawn_part().realise(seed, key, r, &times());
+            let mut cycle = nominal.clone();
+            for f in &mut cycle.f_prop_n {
+                *f = drawn.logged_force(*f);
+            }
+            (cycle, self.truth.steady())
+        };
+        let used = used_samples(&cycle, vs, self.duration_s, self.source);
+        if used.iter().filter(|u| **u).count() < 3 {
+            return Err("fewer than 3 samples are left for the regression".into());
+        }
+        if let Some(air) = measured_speeds(vs, &truth, &cycle) {
+            cycle.v_m_s = air;
+        }
+        if let Some(map) = &self.grade_map {
+            let mut normals = NormalSequence::for_realisation(seed, key, GRADE_MAP_STREAM, r);
+            let end = cycle.x_m.iter().copied().fold(0.0, f64::max);
+            let d = map.differences(&mut normals, end);
+            for (g, &x) in cycle.grade_rad.iter_mut().zip(&cycle.x_m) {
+                *g = mapped_grade(*g, x, &d);
+            }
+        }
+        Ok(match self.source {
+            Acceleration::Differentiated => {
+                Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle)
+            }
+            Acceleration::Model => {
+                let mut selected = cycle.select(&used);
+                if self.grade_bias_rad != 0.0 {
+                    selected
+                        .grade_rad
+                        .iter_mut()
+                        .for_each(|g| *g += self.grade_bias_rad);
+                }
+                Regression::new(&selected, &vs.vehicle)
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_maps_grade_error_has_the_variance_of_its_forward_difference() {
+        // Var(e_{j+1} − e_j) = 2σ²(1 − φ), φ = exp(−Δx/L), for the stationary AR(1) e.
+        let map = GradeMap {
+            sd_m: 0.5,
+            length_m: 50.0,
+        };
+        let mut normals = NormalSequence::for_realisation(7, 0, GRADE_MAP_STREAM, 0);
+        let d = map.differences(&mut normals, 400_000.0);
+        let n = d.len() as f64;
+        let var = d.iter().map(|x| x * x).sum::<f64>() / n;
+        let expected = 2.0 * 0.25 * (1.0 - (-1.0f64 / 50.0).exp());
+        // d is a moving difference of an AR(1) with L = 50 grid steps: its sample variance
+        // over 4e5 steps has a relative SE of about sqrt(2/4e5) ≈ 0.22 % (d's autocorrelation
+        // beyond lag 1 is tiny); 5 % is over 20 SE.
+        assert!((var / expected - 1.0).abs() < 0.05, "{var} vs {expected}");
+        // At a grid point on a flat road the measured grade is atan(d_j).
+        assert_eq!(mapped_grade(0.0, 10.0, &d), d[10].atan());
+    }
+}

@@ -1,0 +1,158 @@
+//! The model errors drawn anew in every realisation, each from its own stream: gusts (a
+//! wind that is another day's in every realisation) and a random force calibration
+//! (another sensor's in every realisation). Each realises as a steady entry of `steady.rs`
+//! or as a [`WindSeries`] (docs/model.md#model-errors).
+
+use std::sync::Arc;
+
+use super::steady::ForceScale;
+use super::{Drawn, MODEL_ERROR_COUNT, ModelError, ModelErrorEntry, TruthSample, entry_index};
+use crate::noise::NormalSequence;
+
+/// A random wind component along the direction of travel: a stationary AR(1) process in time
+/// with standard deviation σ_w \[m/s\] and correlation time τ \[s\], drawn per realisation at
+/// the cycle's sample times (w₀ = σ_w z₀, wᵢ = φᵢ wᵢ₋₁ + σ_w √(1 − φᵢ²) zᵢ,
+/// φᵢ = exp(−(tᵢ − tᵢ₋₁)/τ)) and linear between them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gust {
+    /// σ_w \[m/s\].
+    pub sd_m_s: f64,
+    /// τ \[s\].
+    pub time_s: f64,
+}
+
+impl ModelError for Gust {
+    fn drawn(&self) -> Option<Drawn> {
+        Some(Drawn {
+            stream: 6,
+            moves_the_vehicle: true,
+        })
+    }
+
+    fn realise(&self, normals: &mut NormalSequence, times_s: &[f64]) -> Arc<dyn ModelError> {
+        let mut w = vec![0.0; times_s.len()];
+        normals.fill(&mut w);
+        let mut previous = 0.0;
+        for (i, z) in w.iter_mut().enumerate() {
+            *z = match i {
+                0 => self.sd_m_s * *z,
+                _ => {
+                    let phi = (-(times_s[i] - times_s[i - 1]) / self.time_s).exp();
+                    phi * previous + self.sd_m_s * (1.0 - phi * phi).sqrt() * *z
+                }
+            };
+            previous = *z;
+        }
+        Arc::new(WindSeries {
+            times_s: times_s.to_vec(),
+            wind_m_s: w,
+        })
+    }
+}
+
+/// A wind known at sample times (one realisation's gusts), linear between them and held
+/// beyond the ends.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WindSeries {
+    /// Times from the cycle's start \[s\], increasing.
+    pub times_s: Vec<f64>,
+    /// The wind at each \[m/s\], positive a headwind.
+    pub wind_m_s: Vec<f64>,
+}
+
+impl WindSeries {
+    /// The wind \[m/s\] at time `t_s` from the cycle's start: exactly the sample's value at
+    /// a sample time.
+    pub fn at(&self, t_s: f64) -> f64 {
+        let (t, w) = (&self.times_s, &self.wind_m_s);
+        let j = t.partition_point(|&x| x <= t_s);
+        match j {
+            0 => w[0],
+            j if j == t.len() => w[j - 1],
+            j => {
+                let u = (t_s - t[j - 1]) / (t[j] - t[j - 1]);
+                w[j - 1] + u * (w[j] - w[j - 1])
+            }
+        }
+    }
+}
+
+impl ModelError for WindSeries {
+    fn wind_m_s(&self, s: &TruthSample) -> f64 {
+        self.at(s.time_s)
+    }
+}
+
+/// A random calibration error of the force signal: the log records (1 + ε)·F with
+/// ε ~ N(0, s²) drawn once per realisation. The truth's motion is unchanged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceScaleDrawn {
+    /// s \[-\].
+    pub sd: f64,
+}
+
+impl ModelError for ForceScaleDrawn {
+    fn drawn(&self) -> Option<Drawn> {
+        Some(Drawn {
+            stream: 7,
+            moves_the_vehicle: false,
+        })
+    }
+
+    fn realise(&self, normals: &mut NormalSequence, _times_s: &[f64]) -> Arc<dyn ModelError> {
+        let mut z = [0.0];
+        normals.fill(&mut z);
+        Arc::new(ForceScale {
+            scale: self.sd * z[0],
+        })
+    }
+}
+
+/// The value of `truth.wind_gust_time` among every entry's `values`.
+fn gust_time(values: &[f64; MODEL_ERROR_COUNT]) -> f64 {
+    values[entry_index(GUST_TIME.key).expect("the gust time is an entry")]
+}
+
+/// `truth.wind_gust_sd`.
+pub(super) const GUST: ModelErrorEntry = ModelErrorEntry {
+    name: "gusts",
+    key: "wind_gust_sd",
+    unit: "m/s",
+    axis: true,
+    drawn: true,
+    neutral: 0.0,
+    check: |s| (!(s.is_finite() && s >= 0.0)).then_some("must be a finite number >= 0"),
+    build: |s, values| {
+        Some(Arc::new(Gust {
+            sd_m_s: s,
+            time_s: gust_time(values),
+        }))
+    },
+};
+
+/// `truth.wind_gust_time`: the correlation time of the gusts (a parameter of
+/// `wind_gust_sd`, which it builds nothing without).
+pub(super) const GUST_TIME: ModelErrorEntry = ModelErrorEntry {
+    name: "gusts' correlation time",
+    key: "wind_gust_time",
+    unit: "s",
+    axis: false,
+    drawn: true,
+    neutral: 10.0,
+    check: |t| (!(t.is_finite() && t > 0.0)).then_some("must be a finite number > 0"),
+    build: |_, _| None,
+};
+
+/// `truth.force_scale_sd`.
+pub(super) const FORCE_SCALE_SD: ModelErrorEntry = ModelErrorEntry {
+    name: "random force calibration",
+    key: "force_scale_sd",
+    unit: "",
+    axis: true,
+    drawn: true,
+    neutral: 0.0,
+    check: |s| {
+        (!(s.is_finite() && (0.0..1.0).contains(&s))).then_some("must be a finite number in [0, 1)")
+    },
+    build: |s, _| Some(Arc::new(ForceScaleDrawn { sd: s })),
+};
