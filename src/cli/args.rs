@@ -69,26 +69,9 @@ pub enum Command {
         Example: chassis-mc summarize results/thesis"
     )]
     Summarize(SummarizeArgs),
-    /// Find the smallest duration or terrain scale (or the largest speed noise) at which a
-    /// target precision holds.
-    #[command(
-        long_about = "Find the smallest value of KEY in [FROM, TO] (the largest, for \
-        noise.velocity_sd) at which a target on one parameter holds for one estimator.\n\n\
-        KEY is drive.duration [s] (torque drive mode; the answer is a whole number of time \
-        steps), terrain.scale or noise.velocity_sd [m/s]; the study must have one condition \
-        once KEY is set. The target is PARAMETER:MEASURE<=VALUE with MEASURE rel_rmse, \
-        rel_emp_se or abs_rel_bias (fractions of the true value). First-order predictions \
-        (the bound's SE and the first-order speed-noise bias) on a grid of 25 values bracket \
-        the answer; Monte Carlo runs of the study (its realisations and seed) confirm and \
-        bisect it to 1 % of the range. A value holds when the Monte Carlo estimate of the \
-        measure is at most the target. Prints the answer with the measure's MCSE there and \
-        writes, into --out DIR, design.parquet (every value evaluated: predicted and \
-        simulated measure with its MCSE, is_answer; the answer also in the footer key \
-        chassis_mc.design.answer), figures/design.svg and report.html.\n\n\
-        Example: chassis-mc design studies/design_thesis.toml --vary drive.duration --from 60 \
-        --to 600 --target 'drag_over_mass:rel_rmse<=0.001' --estimator bcls --out \
-        results/design"
-    )]
+    /// Find the smallest duration or terrain scale (or the largest speed noise or model
+    /// error) at which a target precision holds.
+    #[command(long_about = design_about())]
     Design(DesignArgs),
     /// Estimate mass, drag and rolling resistance from a measured log, with sandwich SEs and
     /// a parametric bootstrap.
@@ -205,13 +188,62 @@ pub struct SummarizeArgs {
     pub quiet: bool,
 }
 
+/// `--vary`'s help: every key `design` varies, from [`DesignKey::all`].
+fn vary_help() -> String {
+    let names: Vec<&str> = DesignKey::all().into_iter().map(DesignKey::name).collect();
+    format!("The key varied: {}.", names.join(", "))
+}
+
+/// `design --help`'s long text; the keys it lists are [`DesignKey::all`] (the model errors
+/// that are axes of `[truth]` among them).
+fn design_about() -> String {
+    let truth: Vec<String> = DesignKey::all()
+        .into_iter()
+        .filter(|k| matches!(k, DesignKey::Truth(_)))
+        .map(|k| {
+            let neutral = match k {
+                DesignKey::Truth(t) => t.entry().neutral,
+                _ => unreachable!("filtered to the truth keys"),
+            };
+            match k.unit() {
+                "-" => format!("{} ({neutral})", k.name()),
+                unit => format!("{} [{unit}] ({neutral})", k.name()),
+            }
+        })
+        .collect();
+    format!(
+        "Find the smallest value of KEY in [FROM, TO] (the largest, for noise.velocity_sd and \
+         the truth.* keys) at which a target on one parameter holds for one estimator.\n\n\
+         KEY is drive.duration [s] (torque drive mode; the answer is a whole number of time \
+         steps), terrain.scale, noise.velocity_sd [m/s], or a steady model error of [truth] \
+         (docs/model.md#model-errors): {}; the study must have one condition once KEY is set. \
+         For a truth.* key FROM may be its value without the error (in parentheses) and the \
+         answer is the end of the run of values that hold from FROM upward (a bias may change \
+         sign further out; for a headwind search e.g. --from 0 --to 8). The target is \
+         PARAMETER:MEASURE<=VALUE with MEASURE rel_rmse, rel_emp_se or abs_rel_bias \
+         (fractions of the true value). First-order predictions (the bound's SE and the \
+         first-order bias: the speed noise's, and the model errors' through the noise-free \
+         rows) on a grid of 25 values bracket the answer; Monte Carlo runs of the study (its \
+         realisations and seed) confirm and bisect it to 1 % of the range. A value holds when \
+         the Monte Carlo estimate of the measure is at most the target. Prints the answer \
+         with the measure's MCSE there and writes, into --out DIR, design.parquet (every \
+         value evaluated: predicted and simulated measure with its MCSE, is_answer; the \
+         answer also in the footer key chassis_mc.design.answer), figures/design.svg and \
+         report.html.\n\n\
+         Example: chassis-mc design studies/design_thesis.toml --vary drive.duration --from \
+         60 --to 600 --target 'drag_over_mass:rel_rmse<=0.001' --estimator bcls --out \
+         results/design",
+        truth.join(", ")
+    )
+}
+
 // The arguments of `Design`.
 #[derive(Debug, clap::Args)]
 pub struct DesignArgs {
     /// The study file (TOML).
     pub study: PathBuf,
-    /// The key varied: drive.duration, terrain.scale or noise.velocity_sd.
-    #[arg(long, value_name = "KEY", value_parser = DesignKey::parse)]
+    /// The key varied (`design --help` lists them).
+    #[arg(long, value_name = "KEY", value_parser = DesignKey::parse, help = vary_help())]
     pub vary: DesignKey,
     /// The lower end of the range searched.
     #[arg(long, value_name = "A", allow_negative_numbers = true)]

@@ -1,14 +1,16 @@
-//! `design`: the smallest drive duration or terrain scale (or the largest speed-noise level)
-//! at which a target on one parameter's relative RMSE, relative EmpSE or relative bias holds
-//! for one estimator (see docs/model.md#design).
+//! `design`: the smallest drive duration or terrain scale (or the largest speed-noise level
+//! or model error) at which a target on one parameter's relative RMSE, relative EmpSE or
+//! relative bias holds for one estimator (see docs/model.md#design).
 //!
 //! The first-order predictions (the bound's SE and the first-order bias of
 //! [`VehicleModel::first_order`](crate::model::vehicle::VehicleModel::first_order)) on a
 //! grid of the key bracket the answer in milliseconds; Monte Carlo runs of the study at the
 //! bracket's ends and by bisection then decide it. A value *holds* when the Monte Carlo
 //! estimate of the measure is at most the target; the answer is the smallest value that
-//! holds (the largest, for a noise level) within the search's resolution of one that does
-//! not, with the measure's MCSE there.
+//! holds (the largest, for a noise level or a model error) within the search's resolution
+//! of one that does not, with the measure's MCSE there. For a model error the answer is the
+//! end of the run of values that hold from `--from` on (the largest headwind up to which the
+//! target holds), not a value beyond a failing one where two biases happen to cancel.
 //!
 //! `search.rs` brackets and bisects the answer on typed variants of the study
 //! ([`Study::varied`](crate::study::Study::varied)), `target.rs` reads the target,
@@ -41,10 +43,19 @@ pub const DESIGN_FILE: &str = "design.parquet";
 /// The footer key holding the answer (empty when there is none in the range).
 pub const ANSWER_KEY: &str = "chassis_mc.design.answer";
 
-/// True when the answer for `key` is the largest value that holds (a noise level), false
-/// when it is the smallest.
+/// True when the answer for `key` is the largest value that holds (a noise level, a model
+/// error's size), false when it is the smallest.
 fn largest(key: DesignKey) -> bool {
-    key == DesignKey::VelocitySd
+    matches!(key, DesignKey::VelocitySd | DesignKey::Truth(_))
+}
+
+/// True when the answer for `key` is the end of the run of values that hold starting at
+/// `--from`, the measure being the one without the error there and growing from it though
+/// not necessarily monotonically (a model error: a bias may pass through zero and change
+/// sign further out, where the errors cancel by chance); false when it is the value that
+/// holds nearest the range's other end, the measure being monotone in the key.
+fn from_the_good_end(key: DesignKey) -> bool {
+    matches!(key, DesignKey::Truth(_))
 }
 
 /// What to search.

@@ -3,7 +3,8 @@
 
 use super::output::finish;
 use super::{
-    DesignError, DesignKey, DesignMeasure, DesignPoint, DesignRequest, DesignResult, largest,
+    DesignError, DesignKey, DesignMeasure, DesignPoint, DesignRequest, DesignResult,
+    from_the_good_end, largest,
 };
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
@@ -84,9 +85,15 @@ impl Search<'_> {
 /// write `design.parquet`, `figures/design.svg` and `report.html` into the output directory.
 pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, DesignError> {
     let (from, to) = (request.from, request.to);
-    if !(from.is_finite() && to.is_finite() && from > 0.0 && from < to) {
+    if !(from.is_finite() && to.is_finite() && from < to) {
         return Err(DesignError::Request(format!(
-            "--from {from} --to {to}: need 0 < from < to"
+            "--from {from} --to {to}: need finite from < to"
+        )));
+    }
+    if request.key.positive() && from <= 0.0 {
+        return Err(DesignError::Request(format!(
+            "--from {from} --to {to}: {} needs 0 < from < to",
+            request.key.name()
         )));
     }
     let vs = study
@@ -132,20 +139,31 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         variants.push((value, v));
     }
     let holds = |m: f64| m <= target;
-    // In search order (ascending for a duration or scale, descending for a noise level):
-    // the first grid value predicted to hold.
+    // In search order (ascending for a duration or scale, descending for a noise level or a
+    // model error), from the range's bad end to its good end: the first grid value predicted
+    // to hold or, for a model error, the one just past the last predicted to fail.
     let order: Vec<usize> = if largest {
         (0..points.len()).rev().collect()
     } else {
         (0..points.len()).collect()
     };
-    let hit = order
-        .iter()
-        .position(|&i| holds(points[i].predicted))
-        .unwrap_or(order.len() - 1);
-    // good: a value known (or expected) to hold; bad: one that does not, nearer the start.
-    let mut good = points[order[hit]].value;
-    let mut bad = (hit > 0).then(|| points[order[hit - 1]].value);
+    let hit = if from_the_good_end(request.key) {
+        // The end of the run predicted to hold from the good end (`--from`).
+        order
+            .iter()
+            .rposition(|&i| !holds(points[i].predicted))
+            .map_or(0, |j| (j + 1).min(order.len() - 1))
+    } else {
+        order
+            .iter()
+            .position(|&i| holds(points[i].predicted))
+            .unwrap_or(order.len() - 1)
+    };
+    // good: a value known (or expected) to hold; bad: one that does not, nearer the start
+    // (the bad end). The grid's values in search order.
+    let ordered: Vec<f64> = order.iter().map(|&i| points[i].value).collect();
+    let mut good = ordered[hit];
+    let mut bad = (hit > 0).then(|| ordered[hit - 1]);
 
     let mut evaluate = |value: f64, points: &mut Vec<DesignPoint>| -> Result<f64, DesignError> {
         if let Some(p) = points
@@ -185,12 +203,26 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
     {
         good = b;
         bad = None;
-        let first = search.snap(start);
-        if good != first {
-            if holds(evaluate(first, &mut points)?) {
-                good = first;
-            } else {
-                bad = Some(first);
+        if from_the_good_end(request.key) {
+            // On along the grid, one value at a time, to the first that fails: the range's
+            // far end may hold again where biases cancel.
+            for j in (0..hit - 1).rev() {
+                let value = ordered[j];
+                if holds(evaluate(value, &mut points)?) {
+                    good = value;
+                } else {
+                    bad = Some(value);
+                    break;
+                }
+            }
+        } else {
+            let first = search.snap(start);
+            if good != first {
+                if holds(evaluate(first, &mut points)?) {
+                    good = first;
+                } else {
+                    bad = Some(first);
+                }
             }
         }
     }

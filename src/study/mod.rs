@@ -33,7 +33,7 @@ use raw::RawStudy;
 pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, uneven_reason};
 pub use spans::KeySpans;
 pub use truth::TruthAxes;
-pub use vary::VariedKey;
+pub use vary::{TruthKey, VariedKey};
 pub use vehicle::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, NoiseAxes, VehicleStudy};
 
 pub use crate::vehicle::MAX_SAMPLES;

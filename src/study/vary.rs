@@ -2,9 +2,12 @@
 //! exactly as a study file is. `design` searches over such a setting (docs/model.md#design);
 //! the study stays typed throughout, with no text written to be parsed again.
 
+use std::sync::LazyLock;
+
 use super::validate::validate;
 use super::{Study, StudyError};
 use crate::estimate::channels::Channel;
+use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
 
 /// A setting of a vehicle study that can be given one value by [`Study::varied`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -15,11 +18,43 @@ pub enum VariedKey {
     Scale,
     /// `noise.velocity_sd` \[m/s\]: the one level of the speed noise.
     VelocitySd,
+    /// `truth.<key>`: the one value of a model error that is a condition axis.
+    Truth(TruthKey),
 }
 
+/// A steady model error of [`MODEL_ERRORS`] that is a condition axis (`axis: true`,
+/// `drawn: false`): the `[truth]` keys [`Study::varied`] can set. Only the registry makes
+/// one, so every such entry is one and no other is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TruthKey(usize);
+
+impl TruthKey {
+    /// Every steady model error that is an axis, in the registry's order.
+    pub fn all() -> impl Iterator<Item = TruthKey> {
+        (0..MODEL_ERROR_COUNT)
+            .filter(|&i| MODEL_ERRORS[i].axis && !MODEL_ERRORS[i].drawn)
+            .map(TruthKey)
+    }
+
+    /// Its entry of [`MODEL_ERRORS`].
+    pub fn entry(self) -> &'static ModelErrorEntry {
+        &MODEL_ERRORS[self.0]
+    }
+}
+
+/// `truth.<key>` of every entry of [`MODEL_ERRORS`], by index (their command-line names).
+static TRUTH_NAMES: LazyLock<[String; MODEL_ERROR_COUNT]> =
+    LazyLock::new(|| MODEL_ERRORS.map(|e| format!("truth.{}", e.key)));
+
 impl VariedKey {
-    /// Every key, as named on the command line.
-    pub const ALL: [VariedKey; 3] = [VariedKey::Duration, VariedKey::Scale, VariedKey::VelocitySd];
+    /// Every key, as named on the command line: the fixed ones, then each model error that
+    /// is an axis.
+    pub fn all() -> Vec<VariedKey> {
+        [VariedKey::Duration, VariedKey::Scale, VariedKey::VelocitySd]
+            .into_iter()
+            .chain(TruthKey::all().map(VariedKey::Truth))
+            .collect()
+    }
 
     /// The name on the command line and in `design.parquet`.
     pub fn name(self) -> &'static str {
@@ -27,33 +62,60 @@ impl VariedKey {
             VariedKey::Duration => "drive.duration",
             VariedKey::Scale => "terrain.scale",
             VariedKey::VelocitySd => "noise.velocity_sd",
+            VariedKey::Truth(t) => &TRUTH_NAMES[t.0],
         }
     }
 
-    /// The key's unit.
+    /// The key's unit (`-` when dimensionless).
     pub fn unit(self) -> &'static str {
         match self {
             VariedKey::Duration => "s",
             VariedKey::Scale => "-",
             VariedKey::VelocitySd => Channel::Velocity.unit(),
+            VariedKey::Truth(t) => match t.entry().unit {
+                "" => "-",
+                unit => unit,
+            },
         }
     }
 
-    /// Parse a command-line name.
+    /// Whether the key's values must be positive: a duration, a scale or a noise level. A
+    /// model error takes the values its entry accepts, which the varied study checks.
+    pub fn positive(self) -> bool {
+        !matches!(self, VariedKey::Truth(_))
+    }
+
+    /// Parse a command-line name; an unknown one is refused with every accepted name (and,
+    /// for a `[truth]` key that is not an axis, why).
     pub fn parse(text: &str) -> Result<VariedKey, String> {
-        VariedKey::ALL
-            .into_iter()
-            .find(|k| k.name() == text)
-            .ok_or_else(|| {
-                let names: Vec<&str> = VariedKey::ALL.map(VariedKey::name).to_vec();
-                format!("unknown key \"{text}\"; expected one of {names:?}")
-            })
+        let all = VariedKey::all();
+        if let Some(key) = all.iter().find(|k| k.name() == text) {
+            return Ok(*key);
+        }
+        let names: Vec<&str> = all.iter().map(|k| k.name()).collect();
+        let not_axis = MODEL_ERRORS
+            .iter()
+            .find(|e| (!e.axis || e.drawn) && text.strip_prefix("truth.") == Some(e.key));
+        Err(match not_axis {
+            Some(e) if e.drawn => format!(
+                "\"{text}\" ({}) is drawn anew in every realisation, and design predicts \
+                 only the steady model errors; the keys design varies are {names:?}",
+                e.name
+            ),
+            Some(e) => format!(
+                "\"{text}\" ({}) takes one value per study, not a list of conditions, so \
+                 design cannot vary it; the keys design varies are {names:?}",
+                e.name
+            ),
+            None => format!("unknown key \"{text}\"; expected one of {names:?}"),
+        })
     }
 }
 
 impl Study {
-    /// This study with `key` set to `value` (a list of that one value, for an axis),
-    /// validated as a study file is; errors name this study's file with the edit
+    /// This study with `key` set to `value` (a list of that one value, for an axis; a
+    /// `[truth]` key in a `[truth]` table made when the study has none), validated as a
+    /// study file is; errors name this study's file with the edit
     /// (`study.toml with drive.duration = 60`) and the key.
     pub fn varied(&self, key: VariedKey, value: f64) -> Result<Study, StudyError> {
         let origin = format!("{} with {} = {value}", self.origin, key.name());
@@ -108,6 +170,12 @@ impl Study {
                     ));
                 }
             },
+            VariedKey::Truth(t) => {
+                raw.truth.get_or_insert_with(toml::Table::new).insert(
+                    t.entry().key.into(),
+                    toml::Value::Array(vec![toml::Value::Float(value)]),
+                );
+            }
         }
         validate(raw, self.spans.clone(), &origin, self.dir.clone())
     }

@@ -1,5 +1,5 @@
-//! `design`: the smallest duration (the largest speed noise) that meets a target, checked
-//! by independent runs at the answer and beyond it.
+//! `design`: the smallest duration (the largest speed noise, the largest headwind) that
+//! meets a target, checked by independent runs at the answer and beyond it.
 
 use std::ffi::OsStr;
 
@@ -284,6 +284,45 @@ fn a_varied_study_is_the_study_its_edited_file_would_be() {
         assert_eq!(varied.to_toml(), edited.to_toml(), "{key:?}");
         assert_eq!(varied.identity(), edited.identity(), "{key:?}");
     }
+    // A model error that is an axis: its `[truth]` key, the table made when the study has
+    // none; one that has the table keeps its other keys.
+    for key in VariedKey::all() {
+        let VariedKey::Truth(t) = key else { continue };
+        let entry = t.entry();
+        let value = entry.neutral + 0.0125;
+        let varied = base.varied(key, value).unwrap();
+        let written = format!("{text}\n[truth]\n{} = [{value}]\n", entry.key);
+        let edited = Study::from_toml(&written, &path.to_string_lossy()).unwrap();
+        assert_eq!(varied.to_toml(), edited.to_toml(), "{key:?}");
+        assert_eq!(varied.identity(), edited.identity(), "{key:?}");
+    }
+    let with_truth = format!("{text}\n[truth]\nwind_speed = [0.0, 3.0]\nforce_scale = [0.02]\n");
+    let base = Study::from_toml(&with_truth, &path.to_string_lossy()).unwrap();
+    let wind = VariedKey::parse("truth.wind_speed").unwrap();
+    let varied = base.varied(wind, 1.5).unwrap();
+    let written = format!("{text}\n[truth]\nwind_speed = [1.5]\nforce_scale = [0.02]\n");
+    let edited = Study::from_toml(&written, &path.to_string_lossy()).unwrap();
+    assert_eq!(varied.to_toml(), edited.to_toml());
+}
+
+#[test]
+fn every_model_error_that_is_an_axis_is_a_design_key_and_no_other() {
+    // The truth keys `design` varies come from the registry of model errors: each steady
+    // entry that is a condition axis, and no entry that takes one value per study or is
+    // drawn anew in every realisation.
+    use chassis_mc::study::VariedKey;
+    use chassis_mc::vehicle::truth::MODEL_ERRORS;
+    let names: Vec<&str> = VariedKey::all().into_iter().map(VariedKey::name).collect();
+    for e in &MODEL_ERRORS {
+        let name = format!("truth.{}", e.key);
+        let steady_axis = e.axis && !e.drawn;
+        assert_eq!(names.contains(&name.as_str()), steady_axis, "{name}");
+        match VariedKey::parse(&name) {
+            Ok(key) => assert_eq!(key.unit(), if e.unit.is_empty() { "-" } else { e.unit }),
+            Err(reason) if e.drawn => assert!(reason.contains("drawn anew"), "{reason}"),
+            Err(reason) => assert!(!e.axis && reason.contains("design cannot vary it")),
+        }
+    }
 }
 
 #[test]
@@ -353,4 +392,189 @@ fn design_snaps_the_duration_to_a_time_step_written_as_an_integer() {
     let values = f64_col(&read_table(&out.join("design.parquet")), "value");
     assert!(values.len() >= 25, "{values:?}");
     assert!(values.iter().all(|v| v.fract() == 0.0), "{values:?}");
+}
+
+/// `design_thesis.toml` (the thesis drive at scale 1) at speed noise `velocity_sd`, OLS only,
+/// R = `realisations`, written into `dir`.
+fn wind_study(dir: &std::path::Path, velocity_sd: f64, realisations: u64) -> std::path::PathBuf {
+    let text = set_key(
+        &study_text("design_thesis.toml"),
+        "velocity_sd",
+        &format!("[{velocity_sd}]"),
+    );
+    let text = set_key(&text, "estimators", "[\"ols\"]");
+    let text = set_key(&text, "realisations", &realisations.to_string());
+    let path = dir.join("wind.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Cd/M's |bias|/θ and its MCSE (relative) from an independent `chassis-mc run` (seed 99)
+/// of the study at `path` with `[truth] wind_speed = [w]`.
+fn drag_bias_at(path: &std::path::Path, w: f64) -> (f64, f64) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("at.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    std::fs::write(&file, format!("{text}\n[truth]\nwind_speed = [{w}]\n")).unwrap();
+    let out = dir.path().join("out");
+    let args: Vec<&OsStr> = vec![
+        "run".as_ref(),
+        file.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--seed".as_ref(),
+        "99".as_ref(),
+        "--no-figures".as_ref(),
+        "--quiet".as_ref(),
+    ];
+    let (code, stdout, stderr) = cli(&args, dir.path());
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    let s = read_table(&out.join("summary.parquet"));
+    let param = str_col(&s, "parameter");
+    let (bias, mcse) = (f64_col(&s, "bias"), f64_col(&s, "bias_mcse"));
+    assert_eq!(f64_col(&s, "wind_speed"), vec![w; s.num_rows()]);
+    let i = (0..s.num_rows())
+        .find(|&i| param[i] == "drag_over_mass")
+        .unwrap();
+    let truth = 0.35 / 1800.0;
+    (bias[i].abs() / truth, mcse[i] / truth)
+}
+
+#[test]
+fn design_finds_the_largest_headwind_at_which_the_drag_estimate_stays_within_one_percent() {
+    // OLS on the thesis drive with a good speed sensor (σ_v = 0.2 m/s: its own bias on
+    // Cd/M is −0.2 %, the wind's +3.5 % per m/s), R = 100: the largest headwind in
+    // [0, 2] m/s at which |bias| of Cd/M ≤ 1 %. Independent runs (the `run` command,
+    // another seed) at the answer and at 1.25× decide it. Tolerance: design's own estimate
+    // at the answer is ≤ 1 %, and an independent one differs from it by the difference of
+    // two Monte Carlo errors, SD √2·MCSE; 3√2·MCSE covers that but for 0.3 % of draws. At
+    // 1.25× the bias is ~0.3 % of Cd/M larger (~200 MCSE), so it must exceed the target
+    // by more than the same tolerance.
+    let tmp = tempfile::tempdir().unwrap();
+    let path = wind_study(tmp.path(), 0.2, 100);
+    let target = 0.01;
+    let answer = design(
+        &path,
+        &tmp.path().join("out"),
+        &[
+            "--vary",
+            "truth.wind_speed",
+            "--from",
+            "0",
+            "--to",
+            "2",
+            "--target",
+            "drag_over_mass:abs_rel_bias<=0.01",
+        ],
+    );
+    assert!(answer > 0.0 && answer < 2.0, "{answer}");
+    let tolerance = |mcse: f64| 3.0 * 2f64.sqrt() * mcse;
+    let (m, s) = drag_bias_at(&path, answer);
+    println!("at {answer} m/s: {m:.4e} ± {s:.1e}");
+    assert!(m <= target + tolerance(s), "at {answer} m/s: {m} ± {s}");
+    let (m, s) = drag_bias_at(&path, 1.25 * answer);
+    println!("at 1.25 × {answer} m/s: {m:.4e} ± {s:.1e}");
+    assert!(
+        m > target + tolerance(s),
+        "at 1.25 × {answer} m/s: {m} ± {s}"
+    );
+}
+
+#[test]
+fn design_finds_no_tolerable_headwind_where_the_target_only_holds_as_biases_cancel() {
+    // OLS at σ_v = 1 m/s: the speed noise biases Cd/M by −5.5 % without wind, and a
+    // headwind's positive bias cancels it near 1.7 m/s, so the target |bias| ≤ 1 % holds
+    // in a window there and nowhere from 0 up. The largest tolerable headwind is then
+    // none: a wind of 1.7 m/s is not tolerated by a test whose calm days fail. The
+    // first-order grid shows the window; design runs Monte Carlo at 0 m/s only, where it
+    // fails (by 4.5 % of Cd/M, ~1000 MCSE at R = 20), and exits with status 1.
+    let tmp = tempfile::tempdir().unwrap();
+    let path = wind_study(tmp.path(), 1.0, 20);
+    let out = tmp.path().join("out");
+    let args: Vec<&OsStr> = [
+        "design",
+        path.to_str().unwrap(),
+        "--vary",
+        "truth.wind_speed",
+        "--from",
+        "0",
+        "--to",
+        "8",
+        "--target",
+        "drag_over_mass:abs_rel_bias<=0.01",
+        "--out",
+        out.to_str().unwrap(),
+    ]
+    .map(OsStr::new)
+    .to_vec();
+    let (code, stdout, stderr) = cli(&args, tmp.path());
+    assert_eq!(code, 1, "{stdout}{stderr}");
+    assert!(stdout.contains("holds at no truth.wind_speed"), "{stdout}");
+    let t = read_table(&out.join("design.parquet"));
+    let (values, predicted, simulated) = (
+        f64_col(&t, "value"),
+        f64_col(&t, "predicted"),
+        f64_col(&t, "simulated"),
+    );
+    // The window where the biases cancel, predicted beyond a value that fails.
+    assert!(predicted[0] > 0.01, "{predicted:?}");
+    assert!(
+        (0..values.len()).any(|i| values[i] > 1.0 && predicted[i] <= 0.01),
+        "{values:?} {predicted:?}"
+    );
+    // One Monte Carlo evaluation, at 0 m/s, which fails.
+    let run: Vec<usize> = (0..t.num_rows())
+        .filter(|&i| simulated[i].is_finite())
+        .collect();
+    assert_eq!(run, vec![0], "{simulated:?}");
+    assert_eq!(values[0], 0.0);
+    assert!(simulated[0] > 0.01, "{simulated:?}");
+    let meta = chassis_mc::output::read_metadata(&out.join("design.parquet")).unwrap();
+    assert_eq!(meta.get("chassis_mc.design.answer").unwrap(), "");
+}
+
+#[test]
+fn design_refuses_a_truth_key_it_cannot_vary_naming_it_and_the_keys_it_can() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = wind_study(tmp.path(), 0.2, 10);
+    let out = tmp.path().join("out");
+    let run = |key: &str, from: &str| {
+        let args: Vec<&OsStr> = [
+            "design",
+            path.to_str().unwrap(),
+            "--vary",
+            key,
+            "--from",
+            from,
+            "--to",
+            "1",
+            "--target",
+            "drag_over_mass:abs_rel_bias<=0.01",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(OsStr::new)
+        .to_vec();
+        cli(&args, tmp.path())
+    };
+    // Not an axis: one value per study.
+    let (code, _, err) = run("truth.mass_rate", "0");
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("truth.mass_rate"), "{err}");
+    assert!(err.contains("design cannot vary it"), "{err}");
+    assert!(
+        err.contains("truth.wind_speed") && err.contains("drive.duration"),
+        "{err}"
+    );
+    // Not a key at all.
+    let (code, _, err) = run("truth.nonsense", "0");
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("unknown key \"truth.nonsense\""), "{err}");
+    assert!(err.contains("truth.air_density_ratio"), "{err}");
+    // A value the entry does not accept, refused by the varied study's validation.
+    let (code, _, err) = run("truth.rolling_speed_coefficient", "-0.5");
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("truth.rolling_speed_coefficient"), "{err}");
+    assert!(err.contains(">= 0"), "{err}");
+    assert!(!out.join("design.parquet").exists());
 }

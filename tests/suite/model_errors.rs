@@ -358,3 +358,95 @@ fn mass_drift_counts_time_from_the_start_of_a_trace_whatever_its_clock() {
         );
     }
 }
+
+/// `design_thesis.toml` (the thesis drive at scale 1, OLS and BCLS) at speed noise
+/// `velocity_sd` with `truth` as its `[truth]` table, `realisations` per condition.
+fn design_thesis(velocity_sd: f64, truth: &str, realisations: u64) -> Study {
+    let text = set_key(
+        &study_text("design_thesis.toml"),
+        "velocity_sd",
+        &format!("[{velocity_sd}]"),
+    );
+    Study::from_toml(
+        &format!("{text}\n[truth]\n{truth}\n"),
+        study_path("x.toml").to_str().unwrap(),
+    )
+    .unwrap()
+    .with_overrides(Some(realisations), None)
+    .unwrap()
+}
+
+#[test]
+fn the_first_order_bias_of_ols_is_bias_model_without_noise_under_each_entry() {
+    // `design` predicts OLS's bias from the expected sums of the condition's rows, which
+    // carry the truth: without noise that is the estimate on those rows, i.e. bias_model
+    // (the same normal equations summed in another order: rounding, ~1e-12 relative for
+    // their conditioning; asserted 1e-9 of θ).
+    for truth in [
+        "wind_speed = [1.0]",
+        "rotating_mass_factor = [0.03]",
+        "force_scale = [0.05]",
+        "rolling_speed_coefficient = [0.002]",
+        "air_density_ratio = [1.1]",
+    ] {
+        let model = VehicleModel::new(&design_thesis(0.0, truth, 2)).unwrap();
+        let (bias, _) = model.first_order(0, 0);
+        let bias_model = &model.condition_info(0).bias_model[0];
+        for p in 0..3 {
+            assert!(
+                (bias[p] - bias_model[p]).abs() <= 1e-9 * THETA[p],
+                "{truth}, θ{p}: predicted {} vs bias_model {}",
+                bias[p],
+                bias_model[p]
+            );
+        }
+        // The entry does move the estimate (so the comparison is not 0 = 0).
+        assert!(
+            bias_model
+                .iter()
+                .zip(THETA)
+                .any(|(b, t)| b.abs() > 1e-3 * t),
+            "{truth}: {bias_model:?}"
+        );
+    }
+}
+
+#[test]
+fn the_first_order_bias_of_a_compensating_estimator_includes_the_model_errors() {
+    // σ_v = 0.5 m/s and a 1 m/s headwind on the thesis drive, R = 200. BCLS compensates the
+    // speed noise, not the wind: its bias is the wind's (bias_model, +3.5 % of Cd/M here),
+    // which first_order predicted as 0 before it knew the truth. OLS's prediction adds the
+    // speed noise's bias to the truth's rows. The Monte Carlo bias (seed 2018) must agree
+    // with each prediction within 3 MCSE: the prediction is the ratio of expectations, off
+    // from the expectation of the ratio by O((EmpSE/θ)²) ≈ 1e-7 relative here, far below
+    // the MCSE (≈ 2e-5 relative).
+    let study = design_thesis(0.5, "wind_speed = [1.0]", 200);
+    let model = VehicleModel::new(&study).unwrap();
+    let s = super::common::run_summary(&study);
+    let (est, param) = (str_col(&s, "estimator"), str_col(&s, "parameter"));
+    let (bias, mcse) = (f64_col(&s, "bias"), f64_col(&s, "bias_mcse"));
+    for (e, name) in [(0, "ols"), (1, "bcls")] {
+        let (predicted, _) = model.first_order(0, e);
+        for (p, parameter) in ["inv_mass", "drag_over_mass", "rolling_resistance"]
+            .into_iter()
+            .enumerate()
+        {
+            let i = (0..s.num_rows())
+                .find(|&i| est[i] == name && param[i] == parameter)
+                .unwrap();
+            println!(
+                "{name} {parameter}: predicted {:.4e}, Monte Carlo {:.4e} ± {:.1e}",
+                predicted[p], bias[i], mcse[i]
+            );
+            assert!(
+                (predicted[p] - bias[i]).abs() <= 3.0 * mcse[i],
+                "{name} {parameter}: predicted {} vs {} ± {}",
+                predicted[p],
+                bias[i],
+                mcse[i]
+            );
+        }
+    }
+    let (bcls, _) = model.first_order(0, 1);
+    assert!(bcls[1] > 0.02 * THETA[1], "{bcls:?}");
+}

@@ -239,11 +239,15 @@ impl VehicleModel {
     }
 
     /// The first-order prediction of estimator `e`'s (index in the study's list) bias and
-    /// standard error in condition `c`, per parameter: the bias of the ratio of expectations
-    /// (the normal equations' expected sums under the condition's speed noise, solved;
-    /// zero for an estimator that compensates the noise, every channel's; other channels'
-    /// biases of OLS are not predicted), and the SE of the first bound the estimator reports among `crlb_output`,
-    /// `eiv_sandwich` and `eiv_crlb_linearized` (NaN where none applies).
+    /// standard error in condition `c`, per parameter, and the SE of the first bound the
+    /// estimator reports among `crlb_output`, `eiv_sandwich` and `eiv_crlb_linearized` (NaN
+    /// where none applies). The bias is that of the ratio of expectations: the normal
+    /// equations' expected sums under the condition's speed noise, solved, for an estimator
+    /// that does not compensate the noise (other channels' biases are not predicted); for
+    /// one that compensates it (every channel's), the compensated sums' expectations are the
+    /// noise-free sums, so its bias is the condition's `bias_model`, what the model errors
+    /// alone make it estimate, and zero without model errors (docs/model.md#design). The
+    /// noise-free sums are those of the truth's logged rows, so the model errors are in both.
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
         let est = &self.study.estimators[e];
@@ -257,7 +261,12 @@ impl VehicleModel {
         .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
         if est.compensates_speed_noise() {
-            return ([0.0; 3], se);
+            let truth = self.cycles[cond.cycle_index].truth_index;
+            let bias = match self.study.truth.truth(truth).is_empty() {
+                true => [0.0; 3],
+                false => [0, 1, 2].map(|p| cond.info.bias_model[e][p]),
+            };
+            return (bias, se);
         }
         let reg = &*cond.regression;
         let s2 = cond.noise[Channel::Velocity].powi(2);
