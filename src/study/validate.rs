@@ -4,12 +4,14 @@
 use std::path::{Path, PathBuf};
 
 use super::raw::RawStudy;
+use super::vehicle::GRADE_MAP_LENGTH;
 use super::{
     KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, placement, vehicle,
 };
 use crate::estimate::channels::Channel;
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
 use crate::settings::one_or_many;
+use crate::vehicle::truth::MODEL_ERRORS;
 
 /// Where a key unknown in a table belongs instead, in words (`None`: nowhere), for one kind
 /// of file: `(table, key, variant)` as [`placement::elsewhere`] takes them.
@@ -306,12 +308,15 @@ pub(super) fn validate(
         }
     };
     // The study as run lists every channel's levels, defaults included, every list of
-    // numbers as floats (`1`, `[1]` and `[1.0]` are the same study), and `share_across_scales`
-    // only when it is on (absent and false are the same study).
+    // numbers as floats (`1`, `[1]` and `[1.0]` are the same study), a single number as a
+    // float, and `share_across_scales` only when it is on (absent and false are the same
+    // study). Likewise every `[truth]` key.
     let mut raw = raw;
     if let Some(n) = raw.noise.as_mut() {
-        for value in n.0.values_mut() {
-            if matches!(
+        for (key, value) in n.0.iter_mut() {
+            if key == GRADE_MAP_LENGTH {
+                *value = single_float(value);
+            } else if matches!(
                 value,
                 toml::Value::Float(_) | toml::Value::Integer(_) | toml::Value::Array(_)
             ) {
@@ -324,6 +329,16 @@ pub(super) fn validate(
                 n.0.entry(channel.key().to_string()).or_insert_with(|| {
                     toml::Value::Array(default.iter().map(|&v| toml::Value::Float(v)).collect())
                 });
+            }
+        }
+    }
+    if let Some(t) = raw.truth.as_mut() {
+        for entry in &MODEL_ERRORS {
+            if let Some(value) = t.get_mut(entry.key) {
+                *value = match entry.axis {
+                    true => listed_floats(value),
+                    false => single_float(value),
+                };
             }
         }
     }
@@ -345,6 +360,14 @@ pub(super) fn validate(
         raw,
         spans,
     })
+}
+
+/// A single number as the study as run writes it: a float.
+fn single_float(value: &toml::Value) -> toml::Value {
+    match value {
+        toml::Value::Integer(i) => toml::Value::Float(*i as f64),
+        other => other.clone(),
+    }
 }
 
 /// A number or a list of numbers as the study as run lists it: a list of floats.

@@ -600,7 +600,7 @@ pub(super) const GRADE_BIAS: &str = "grade_bias";
 pub const GRADE_MAP_SD: &str = "grade_map_sd";
 
 /// The `[noise]` key of the correlation length of the map's error \[m\] (default 200).
-pub(super) const GRADE_MAP_LENGTH: &str = "grade_map_length";
+pub(crate) const GRADE_MAP_LENGTH: &str = "grade_map_length";
 
 /// The `[noise]` key of the air-speed sensor's noise \[m/s\] (an axis; default `[0]`).
 pub const AIR_SPEED_SD: &str = "air_speed_sd";

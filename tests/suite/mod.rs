@@ -6,6 +6,7 @@ mod compensation;
 mod control_variates;
 mod design;
 mod determinism;
+mod drawn_errors;
 mod figures;
 mod fit;
 mod grid_cost;
