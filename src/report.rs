@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 mod html;
 
-pub use html::{Page, escape, head, page, warnings};
+pub use html::{Page, escape, head, model_error_warnings, page, warnings};
 
 use crate::model::{AxisValue, ConditionInfo, Layout};
 use crate::stats::summary::{BoundSummary, SummaryRow};

@@ -88,8 +88,11 @@ pub enum Command {
         the fitted vehicle replayed on the log's rows (along the smoothed measured speed, or \
         simulated under the logged force when the speed is differentiated), the assumed \
         noise re-drawn, re-estimated R times (boot_mean, boot_bias, bias_corrected, 95 % \
-        percentile interval). Writes DIR/fit.parquet, DIR/fit.svg and DIR/report.html and \
-        prints the table.\n\n\
+        percentile interval). An optional [systematic] table gives magnitudes of the model \
+        errors of a study's [truth] (e.g. wind_speed = 2.0, rotating_mass_factor = 0.03, \
+        force_scale = 0.05): how far each estimate moves under each is reported beside the \
+        interval (DIR/systematic.parquet and a second table). Writes DIR/fit.parquet, \
+        DIR/fit.svg and DIR/report.html and prints the table.\n\n\
         Example: chassis-mc fit studies/fit_example.toml --out results/fit"
     )]
     Fit(FitArgs),

@@ -13,6 +13,7 @@ pub fn fit(args: FitArgs) -> Result<(), Failure> {
     let spec = FitSpec::load(&fit).map_err(FitError::from)?;
     let result = chassis_mc::fit::fit(&spec, &out)?;
     print!("{}", chassis_mc::fit::table(&result.rows));
+    print!("{}", chassis_mc::fit::budget_table(&result.systematic));
     println!("wrote:");
     for f in &result.files {
         println!("  {}", f.display());

@@ -9,6 +9,7 @@ use crate::estimate::estimators::EstimatorRef;
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
 use crate::montecarlo::{self, Silent};
+use crate::study::TruthAxes;
 use crate::vehicle::{DriveCycle, Replay};
 use crate::vehicle::{central_differences, positions};
 
@@ -70,14 +71,9 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
     v
 }
 
-/// The world of the parametric bootstrap of one estimator's fit: the vehicle with
-/// θ = `theta` replayed on the log's rows (docs/model.md#fit) with the assumed noise, as a
-/// one-condition model of `estimator`.
-pub(super) fn world(
-    spec: &FitSpec,
-    estimator: EstimatorRef,
-    theta: &Vector3<f64>,
-) -> Result<VehicleModel, FitError> {
+/// The cycle of the world of one estimator's fit: the vehicle with θ = `theta` replayed on
+/// the log's rows (docs/model.md#fit), fitting θ exactly on every row.
+pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f64>) -> Replay {
     let c = &spec.cycle;
     let n = c.t_s.len();
     let smooth = smoothed_speed(c);
@@ -116,19 +112,37 @@ pub(super) fn world(
         f_prop_n,
         accel_m_s2,
     };
-    let replay = Replay {
+    Replay {
         source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
         cycle,
         used: Some(spec.used.clone()),
-    };
+    }
+}
+
+/// The world of one estimator's fit, the vehicle with θ = `theta` replayed on `replay`
+/// ([`replay`]) with the model errors of `truth`, measured with the assumed noise, as a
+/// one-condition model of `estimator`: without model errors the parametric bootstrap's
+/// world; with one, the world of its systematic shift (docs/model.md#fit).
+pub(super) fn world(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+    replay: Replay,
+    truth: TruthAxes,
+) -> Result<VehicleModel, FitError> {
     let vehicle = spec.vehicle.with_theta([theta[0], theta[1], theta[2]]);
-    let origin = format!("{} (bootstrap of {})", spec.origin, estimator.name());
+    let world = match truth == TruthAxes::default() {
+        true => "bootstrap",
+        false => "systematic shift",
+    };
+    let origin = format!("{} ({world} of {})", spec.origin, estimator.name());
     Ok(VehicleModel::for_cycle(
         replay,
         vehicle,
         spec.noise,
         vec![estimator],
         spec.settings,
+        truth,
         &origin,
     )?)
 }

@@ -4,17 +4,20 @@
 //!
 //! One job a file: the fit file and its log are read and checked with the study files
 //! ([`crate::study::FitSpec`], `study/fit.rs`), `bootstrap.rs`
-//! builds each estimator's bootstrap world and resamples it, `outputs.rs` writes
-//! fit.parquet, fit.svg and report.html (and the printed table), `simulate_log.rs` writes
-//! a synthetic log; this file fits the log and puts the rows together.
+//! builds each estimator's bootstrap world and resamples it, `systematic.rs` moves the
+//! estimates under the model errors of `[systematic]`, `outputs.rs` writes fit.parquet,
+//! systematic.parquet, fit.svg and report.html (and the printed tables), `simulate_log.rs`
+//! writes a synthetic log; this file fits the log and puts the rows together.
 
 mod bootstrap;
 mod outputs;
 mod simulate_log;
+mod systematic;
 
 pub use crate::study::FitSpec;
-pub use outputs::{format_value, table};
+pub use outputs::{budget_table, format_value, table};
 pub use simulate_log::simulate_log;
+pub use systematic::SystematicRow;
 
 use std::path::{Path, PathBuf};
 
@@ -28,10 +31,15 @@ use crate::figures::FigureError;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, PendingFile, set};
-use crate::study::StudyError;
+use crate::study::{StudyError, TruthAxes};
+use crate::vehicle::Replay;
+use crate::vehicle::truth::MODEL_ERRORS;
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";
+
+/// The systematic-error budget of `fit`, written when the fit file has `[systematic]`.
+pub const SYSTEMATIC_FILE: &str = "systematic.parquet";
 
 /// The figure of `fit`: each estimator's estimate and 95 % bootstrap interval of M, Cd and
 /// Cr, against the `[reference]` values when given.
@@ -154,6 +162,9 @@ pub struct FitRow {
 pub struct FitResult {
     /// One row per estimator × parameter.
     pub rows: Vec<FitRow>,
+    /// The systematic-error budget: one row per estimator × parameter × model error of
+    /// `[systematic]` (empty without it).
+    pub systematic: Vec<SystematicRow>,
     /// Files written.
     pub files: Vec<PathBuf>,
 }
@@ -206,16 +217,32 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         }
         thetas.push((*est, theta));
     }
+    let replays: Vec<Replay> = thetas
+        .iter()
+        .map(|(est, theta)| bootstrap::replay(spec, *est, theta))
+        .collect();
     let worlds = thetas
         .iter()
-        .map(|(est, theta)| bootstrap::world(spec, *est, theta))
+        .zip(&replays)
+        .map(|((est, theta), replay)| {
+            bootstrap::world(spec, *est, theta, replay.clone(), TruthAxes::default())
+        })
         .collect::<Result<Vec<VehicleModel>, FitError>>()?;
+    // Per estimator, per model error of [systematic], per parameter.
+    let shifts = thetas
+        .iter()
+        .zip(&replays)
+        .zip(&worlds)
+        .map(|(((est, theta), replay), world)| systematic::shifts(spec, *est, theta, replay, world))
+        .collect::<Result<Vec<Vec<[f64; 5]>>, FitError>>()?;
+    drop(replays);
 
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
     let mut rows = Vec::new();
-    for ((est, theta), model) in thetas.iter().zip(&worlds) {
+    let mut budget = Vec::new();
+    for (((est, theta), model), shifts) in thetas.iter().zip(&worlds).zip(&shifts) {
         let se = reg
             .sandwich_covariance(&[theta[0], theta[1], theta[2]], &spec.noise)
             .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
@@ -239,6 +266,22 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 reference: spec.reference[p],
             });
         }
+        let mine = &rows[rows.len() - FIT_PARAMETERS.len()..];
+        for (p, row) in mine.iter().enumerate() {
+            for (&(entry, magnitude), shift) in spec.systematic.iter().zip(shifts) {
+                let entry = &MODEL_ERRORS[entry];
+                budget.push(SystematicRow {
+                    estimator: row.estimator,
+                    parameter: row.parameter,
+                    entry: entry.key,
+                    unit: entry.unit,
+                    magnitude,
+                    shift: shift[p],
+                    rel_shift: shift[p] / row.estimate,
+                    ci_half_width: 0.5 * (row.ci_high - row.ci_low),
+                });
+            }
+        }
     }
     let meta = FileMetadata {
         study_toml: spec.text.clone(),
@@ -251,13 +294,21 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let svg = outputs::figure(&rows)?;
     let figure_tmp = out.join(output::temporary_name(FIT_FIGURE));
     std::fs::write(&figure_tmp, &svg).map_err(|e| OutputError::io(&figure_tmp, e))?;
-    let pending = vec![
+    let mut pending = vec![
         outputs::write_rows(out, &rows, &meta)?,
         PendingFile::new(figure_tmp, out.join(FIT_FIGURE)),
-        outputs::write_report(out, spec, &rows, &svg)?,
+        outputs::write_report(out, spec, &rows, &budget, &svg)?,
     ];
+    if !budget.is_empty() {
+        pending.push(outputs::write_budget(out, &budget, &meta)?);
+    }
+    // An earlier fit's budget is replaced, or removed when this one has none.
     let files = set::commit(out, pending, &|p| {
-        p == FIT_FILE || p == FIT_FIGURE || p == "report.html"
+        p == FIT_FILE || p == FIT_FIGURE || p == "report.html" || p == SYSTEMATIC_FILE
     })?;
-    Ok(FitResult { rows, files })
+    Ok(FitResult {
+        rows,
+        systematic: budget,
+        files,
+    })
 }

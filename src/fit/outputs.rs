@@ -11,7 +11,11 @@ use arrow::datatypes::{DataType, Field, Schema};
 use crate::figures::FigureError;
 use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile};
 
-use super::{FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FitRow, FitSpec};
+use super::{
+    FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FitRow, FitSpec, SYSTEMATIC_FILE, SystematicRow,
+};
+use crate::model::ModelErrorValue;
+use crate::stats::measures::Z_95;
 
 pub(super) fn write_rows(
     out: &Path,
@@ -142,7 +146,13 @@ pub fn table(rows: &[FitRow]) -> String {
             ]);
         }
     }
-    let widths: Vec<usize> = (0..8)
+    aligned(&lines, 2)
+}
+
+/// `lines` of cells as text columns two spaces apart: the first `left` columns aligned
+/// left, the others right.
+fn aligned<const N: usize>(lines: &[[String; N]], left: usize) -> String {
+    let widths: Vec<usize> = (0..N)
         .map(|c| {
             lines
                 .iter()
@@ -152,11 +162,11 @@ pub fn table(rows: &[FitRow]) -> String {
         })
         .collect();
     let mut out = String::new();
-    for line in &lines {
+    for line in lines {
         let mut text = String::new();
         for (c, cell) in line.iter().enumerate() {
             let pad = widths[c] - cell.chars().count();
-            if c < 2 {
+            if c < left {
                 let _ = write!(text, "{cell}{}  ", " ".repeat(pad));
             } else {
                 let _ = write!(text, "{}{cell}  ", " ".repeat(pad));
@@ -166,6 +176,111 @@ pub fn table(rows: &[FitRow]) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The systematic-error budget `fit` prints and its report shows (docs/model.md#fit): per
+/// estimator, for M, Cd and Cr, each model error of `[systematic]` at its magnitude, the
+/// shift it causes (to the digits of the interval's half-width / 1.96, about the SE), that
+/// in % of the estimate, and the half-width of the 95 % bootstrap interval beside it.
+/// Empty without `[systematic]`.
+pub fn budget_table(budget: &[SystematicRow]) -> String {
+    if budget.is_empty() {
+        return String::new();
+    }
+    let mut lines = vec![[
+        "estimator".to_string(),
+        "parameter".into(),
+        "model error".into(),
+        "shift".into(),
+        "shift [%]".into(),
+        "95 % half-width".into(),
+    ]];
+    let mut estimators: Vec<&str> = budget.iter().map(|r| r.estimator).collect();
+    estimators.dedup();
+    for est in estimators {
+        for (p, label) in &SHOWN[..3] {
+            for r in budget
+                .iter()
+                .filter(|r| r.estimator == est && r.parameter == FIT_PARAMETERS[*p])
+            {
+                let spread = r.ci_half_width / Z_95;
+                let error = ModelErrorValue {
+                    key: r.entry,
+                    unit: r.unit,
+                    value: r.magnitude,
+                };
+                lines.push([
+                    est.to_string(),
+                    label.to_string(),
+                    error.to_string(),
+                    format_value(rounded(r.shift, spread), spread),
+                    format!("{:+.3}", rounded(100.0 * r.rel_shift, 0.01)),
+                    format_value(r.ci_half_width, spread),
+                ]);
+            }
+        }
+    }
+    let mut out = String::from(
+        "systematic-error budget: how far each estimate moves under each model error of \
+         [systematic] (noise-free, in the fit's world), beside the 95 % bootstrap interval\n",
+    );
+    out.push_str(&aligned(&lines, 3));
+    out
+}
+
+/// `value` rounded to the last digit [`format_value`] shows for `spread`, and a zero
+/// unsigned (so that a shift far below the spread reads 0, not −4e-15).
+fn rounded(value: f64, spread: f64) -> f64 {
+    if !(spread.is_finite() && spread > 0.0) {
+        return value;
+    }
+    let unit = 10f64.powi(spread.log10().floor() as i32 - 1);
+    match (value / unit).round() {
+        0.0 => 0.0,
+        steps => steps * unit,
+    }
+}
+
+/// Write `systematic.parquet`: one row per estimator × parameter × model error of
+/// `[systematic]` (README, "fit").
+pub(super) fn write_budget(
+    out: &Path,
+    budget: &[SystematicRow],
+    meta: &FileMetadata,
+) -> Result<PendingFile, OutputError> {
+    let schema = Arc::new(Schema::new(vec![
+        Field::new("estimator", DataType::Utf8, false),
+        Field::new("parameter", DataType::Utf8, false),
+        Field::new("entry", DataType::Utf8, false),
+        Field::new("magnitude", DataType::Float64, false),
+        Field::new("shift", DataType::Float64, true),
+        Field::new("rel_shift", DataType::Float64, true),
+        Field::new("ci_half_width", DataType::Float64, true),
+    ]));
+    let text = |f: fn(&SystematicRow) -> &'static str| -> ArrayRef {
+        Arc::new(StringArray::from_iter_values(budget.iter().map(f)))
+    };
+    let col = |f: fn(&SystematicRow) -> f64| -> ArrayRef {
+        Arc::new(Float64Array::from_iter(
+            budget.iter().map(|r| Some(f(r)).filter(|v| v.is_finite())),
+        ))
+    };
+    let columns: Vec<ArrayRef> = vec![
+        text(|r| r.estimator),
+        text(|r| r.parameter),
+        text(|r| r.entry),
+        Arc::new(Float64Array::from_iter_values(
+            budget.iter().map(|r| r.magnitude),
+        )),
+        col(|r| r.shift),
+        col(|r| r.rel_shift),
+        col(|r| r.ci_half_width),
+    ];
+    let batch =
+        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
+    let mut sink = ParquetSink::create(out, SYSTEMATIC_FILE, schema, meta, "systematic")?;
+    sink.write(&batch)?;
+    sink.finish()
 }
 
 /// The figure of [`FIT_FIGURE`] as SVG text: one panel per parameter (M, Cd, Cr), one line
@@ -281,6 +396,7 @@ pub(super) fn write_report(
     out: &Path,
     spec: &FitSpec,
     rows: &[FitRow],
+    budget: &[SystematicRow],
     svg: &str,
 ) -> Result<PendingFile, OutputError> {
     use crate::report::escape;
@@ -296,7 +412,7 @@ pub(super) fn write_report(
          estimate with it.</p>\n\
          <figure>\n{svg}\n<figcaption>{figure}: estimate and 95 % bootstrap interval per \
          estimator{against}</figcaption>\n</figure>\n\
-         <pre>{table}</pre>\n<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
+         <pre>{table}</pre>\n{budget}<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
         head = crate::report::head(&title),
         log = escape(&spec.log.display().to_string()),
         n = spec.cycle.t_s.len(),
@@ -312,6 +428,17 @@ pub(super) fn write_report(
             ""
         },
         table = escape(&table(rows)),
+        budget = match budget.is_empty() {
+            true => String::new(),
+            false => format!(
+                "<h2>Systematic-error budget</h2>\n<p>How far each estimate moves when the \
+                 truth has one model error of the fit file's [systematic] at its magnitude: \
+                 the estimator on the noise-free rows of the world its fit defines, with the \
+                 error and without it (docs/model.md#fit). No interval above includes these \
+                 shifts; compare each with the interval's half-width.</p>\n<pre>{}</pre>\n",
+                escape(&budget_table(budget))
+            ),
+        },
         text = escape(&spec.text),
     );
     let tmp = out.join(output::temporary_name("report.html"));

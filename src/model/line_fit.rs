@@ -79,6 +79,7 @@ impl LineFitModel {
                         metrics: vec![],
                         truth: truth.clone(),
                         bias_model: bias_model.clone(),
+                        model_errors: Vec::new(),
                         applies: vec![vec![true, sd > 0.0]],
                         controls: Vec::new(),
                     },

@@ -300,11 +300,35 @@ pub struct ConditionInfo {
     /// minus the truth (what the model errors alone make it estimate,
     /// docs/model.md#model-errors; NaN where unknown).
     pub bias_model: Vec<Vec<f64>>,
+    /// The model errors the condition's truth has (docs/model.md#model-errors), each at its
+    /// value; empty where the truth is the equation (and for a model without model errors).
+    pub model_errors: Vec<ModelErrorValue>,
     /// `applies[e][b]`: bound `b` is valid (and reported) for estimator `e`.
     pub applies: Vec<Vec<bool>>,
     /// `controls[j]`: control variate `j` of the layout is one in this condition (it
     /// varies and its mean is known); the others are NaN.
     pub controls: Vec<bool>,
+}
+
+/// One model error of a condition's truth at its value (docs/model.md#model-errors), for
+/// tables and warnings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelErrorValue {
+    /// Its key of `[truth]`, e.g. `wind_speed`.
+    pub key: &'static str,
+    /// The unit of its value (empty when dimensionless).
+    pub unit: &'static str,
+    /// Its value in the condition.
+    pub value: f64,
+}
+
+impl fmt::Display for ModelErrorValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.unit {
+            "" => write!(f, "{} = {}", self.key, self.value),
+            unit => write!(f, "{} = {} {unit}", self.key, self.value),
+        }
+    }
 }
 
 /// A table a model writes besides the realisations and the summary (e.g. the vehicle's

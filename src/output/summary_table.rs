@@ -237,6 +237,8 @@ fn decode(
                 .collect(),
             truth: vec![f64::NAN; layout.parameters.len()],
             bias_model: vec![vec![f64::NAN; layout.parameters.len()]; layout.estimators.len()],
+            // Not summary columns: the axes hold the values of the axis entries.
+            model_errors: Vec::new(),
             applies: vec![vec![false; layout.bounds.len()]; layout.estimators.len()],
             // Which sums were control variates is not a summary column.
             controls: vec![false; layout.controls.len()],

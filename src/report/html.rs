@@ -104,6 +104,7 @@ pub fn page(p: &Page<'_>) -> String {
                 .to_string(),
         );
     }
+    warnings.extend(model_error_warnings(p.layout, p.infos, p.summary, &listed));
     if !warnings.is_empty() {
         out.push_str("<h2>Read with care</h2>\n");
         for w in &warnings {
@@ -346,6 +347,112 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
         ));
     }
     out
+}
+
+/// The warnings of the model errors (docs/model.md#model-errors, "In report.html"): one per
+/// condition × estimator × parameter whose truth has a model error and whose `bias_model`
+/// (what the model errors alone do to the estimate) exceeds its EmpSE, with the estimate's
+/// error X = 100·bias_model/truth [%], Y = |bias_model|/EmpSE, and the coverage (± MCSE)
+/// of every bound reported for it. `bias_model` and not `bias`: the warning is about what
+/// the model errors cause, which no bound can see; the noise's own bias has its warning in
+/// [`warnings`], and `bias_model` has no Monte Carlo error. Only the conditions of
+/// `listed` are written out one by one (a larger grid's warnings are counted first).
+pub fn model_error_warnings(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    summary: &[SummaryRow],
+    listed: &[usize],
+) -> Vec<String> {
+    let beyond: Vec<&SummaryRow> = summary
+        .iter()
+        .filter(|r| {
+            !infos[r.condition].model_errors.is_empty()
+                && r.bias_model.is_finite()
+                && r.emp_se.value.is_finite()
+                && r.bias_model.abs() > r.emp_se.value
+        })
+        .collect();
+    let shown: Vec<&SummaryRow> = beyond
+        .iter()
+        .filter(|r| listed.binary_search(&r.condition).is_ok())
+        .copied()
+        .collect();
+    let mut out = Vec::new();
+    if shown.len() < beyond.len() {
+        out.push(format!(
+            "The model errors alone bias {} estimates (condition × estimator × parameter) by \
+             more than their spread; those of the {} conditions listed in the tables follow, \
+             and summary.parquet has every one (bias_model against emp_se).",
+            beyond.len(),
+            listed.len()
+        ));
+    }
+    out.extend(
+        shown
+            .iter()
+            .map(|r| model_error_warning(layout, &infos[r.condition], r)),
+    );
+    out
+}
+
+/// The warning of [`model_error_warnings`] for row `r` of the condition `info`.
+fn model_error_warning(layout: &Layout, info: &ConditionInfo, r: &SummaryRow) -> String {
+    let parameter = &layout.parameters[r.parameter];
+    let unit = match parameter.unit {
+        "1" | "" => String::new(),
+        u => format!(" {u}"),
+    };
+    let errors: Vec<String> = info.model_errors.iter().map(ToString::to_string).collect();
+    let wrong = match 100.0 * r.bias_model / r.truth {
+        x if x.is_finite() => format!("{x:+.2} %"),
+        _ => format!("{:+.3e}{unit} (its truth is 0)", r.bias_model),
+    };
+    let spread = match r.emp_se.value {
+        0.0 => "while its estimates do not spread at all (EmpSE 0)".to_string(),
+        s => format!("{:.2} times its spread", r.bias_model.abs() / s),
+    };
+    let coverages: Vec<String> = r
+        .bounds
+        .iter()
+        .zip(&layout.bounds)
+        .filter_map(|(s, bound)| {
+            let c = s.as_ref()?.coverage;
+            c.value.is_finite().then(|| {
+                format!(
+                    "{} {:.1} ± {:.1} %{}",
+                    bound.name,
+                    100.0 * c.value,
+                    100.0 * c.mcse,
+                    if bound.valid() {
+                        ""
+                    } else {
+                        " (not a valid bound)"
+                    }
+                )
+            })
+        })
+        .collect();
+    let coverage = match coverages.is_empty() {
+        true => "no bound is reported for it".to_string(),
+        false => format!(
+            "coverage of the truth by the 95 % interval θ̂ ± 1.96·bound (± MCSE): {}",
+            coverages.join(", ")
+        ),
+    };
+    format!(
+        "Condition {c} ({errors}), {est}, {description} ({name}): no bound covers this: the \
+         estimate is wrong by {wrong}, {spread}. The model errors alone move it by \
+         {bias:+.3e}{unit} (bias_model), against an EmpSE of {emp:.3e}{unit}; EmpSE and every \
+         bound describe the spread around that wrong value, not the distance to the truth. \
+         Here the {coverage}.",
+        c = r.condition,
+        errors = errors.join(", "),
+        est = layout.estimators[r.estimator],
+        description = parameter.description,
+        name = parameter.name,
+        bias = r.bias_model,
+        emp = r.emp_se.value,
+    )
 }
 
 /// Whether the study as run (`study_toml`) shares its draws across terrain scales.

@@ -1,8 +1,9 @@
 //! The fit file of `chassis-mc fit` (docs/model.md#fit): `[log]` (the measured cycle read
-//! from its file), the known `[vehicle]` quantities, the assumed `[noise]`, `[estimation]`
-//! and `[reference]`, read as serde structs and checked into a [`FitSpec`] by the study's
-//! own checks: the same [`Checker`], the same `[noise]` keys and levels (one level each
-//! here), the same estimator and `forgetting` rules, and the same sample-spacing rule.
+//! from its file), the known `[vehicle]` quantities, the assumed `[noise]`, `[estimation]`,
+//! `[reference]` and `[systematic]`, read as serde structs and checked into a [`FitSpec`] by
+//! the study's own checks: the same [`Checker`], the same `[noise]` keys and levels (one
+//! level each here), the same estimator and `forgetting` rules, the same sample-spacing
+//! rule, and `[truth]`'s keys and checks for `[systematic]` (one number each).
 
 use std::path::{Path, PathBuf};
 
@@ -10,6 +11,7 @@ use serde::Deserialize;
 
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
+use super::truth::{truth_keys, validate_systematic};
 use super::validate::{Checker, check_realisations, serde_error, validate_estimation};
 use super::vehicle::{VELOCITY_CORRELATION, noise_keys, noise_levels};
 use super::{KeySpans, StudyError};
@@ -38,6 +40,8 @@ pub(super) struct RawFit {
     estimation: RawFitEstimation,
     #[serde(default)]
     reference: Option<RawReference>,
+    #[serde(default)]
+    systematic: Option<toml::Table>,
 }
 
 /// `[log]`: the log file and its columns.
@@ -137,11 +141,13 @@ pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
 /// [`Placement`](super::validate::Placement)).
 fn elsewhere(table: &str, key: &str, _variant: Option<(&str, &str)>) -> Option<String> {
     let noise = Channel::ALL.iter().any(|c| c.key() == key) || key == VELOCITY_CORRELATION;
+    let systematic = truth_keys().contains(&key);
     FIT_KEYS
         .iter()
         .filter(|(_, keys)| keys.contains(&key))
         .map(|(t, _)| *t)
         .chain(noise.then_some("noise"))
+        .chain(systematic.then_some("systematic"))
         .find(|t| *t != table)
         .map(|t| match t {
             "" => "it belongs at the top of the file, before any [table]".to_string(),
@@ -182,6 +188,10 @@ pub struct FitSpec {
     /// per row of `fit::FIT_PARAMETERS`: 1/M, Cd/M, Cr, M, Cd (θ's derived from the M, Cd
     /// and Cr given).
     pub reference: [Option<f64>; 5],
+    /// `[systematic]`: per model error given, its index in
+    /// [`MODEL_ERRORS`](crate::vehicle::truth::MODEL_ERRORS) and its magnitude (the value
+    /// `[truth]` would give it), in that list's order; empty without the table.
+    pub systematic: Vec<(usize, f64)>,
     /// The fit file's text.
     pub text: String,
 }
@@ -343,6 +353,8 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
         }
     };
 
+    let systematic = validate_systematic(raw.systematic.as_ref(), c)?;
+
     let (cycle, used) = read_log(l, &file, force, torque_factor, speed_unit, grade_unit, c)?;
     if used.iter().filter(|u| **u).count() < 3 {
         return Err(c.fail(
@@ -376,6 +388,7 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
         seed: raw.seed as u64,
         realisations: raw.realisations as u64,
         reference,
+        systematic,
         text: text.to_string(),
     })
 }

@@ -21,6 +21,12 @@ impl Default for TruthAxes {
 }
 
 impl TruthAxes {
+    /// One truth: each entry of [`MODEL_ERRORS`] at its value in `values` (trusted: the
+    /// caller has checked each with the entry's `check`).
+    pub fn single(values: [f64; MODEL_ERROR_COUNT]) -> TruthAxes {
+        TruthAxes(values.map(|v| vec![v]))
+    }
+
     /// The values of entry `i` of [`MODEL_ERRORS`].
     pub fn levels(&self, i: usize) -> &[f64] {
         &self.0[i]
@@ -90,6 +96,60 @@ pub(super) fn validate_truth(
         })?;
     }
     Ok(axes)
+}
+
+/// Validate a fit file's `[systematic]` (absent: empty): the keys of `[truth]`, one number
+/// each, checked as `[truth]` checks it. Returns (index into [`MODEL_ERRORS`], magnitude)
+/// of each key given, in the order of [`MODEL_ERRORS`] (docs/model.md#fit).
+pub(super) fn validate_systematic(
+    table: Option<&toml::Table>,
+    c: &Checker<'_>,
+) -> Result<Vec<(usize, f64)>, StudyError> {
+    let Some(table) = table else {
+        return Ok(Vec::new());
+    };
+    // The steady entries: a budget is what the estimate settles on under each, and an
+    // entry drawn anew in every realisation moves the spread instead.
+    let keys: Vec<&str> = MODEL_ERRORS
+        .iter()
+        .filter(|e| !e.drawn)
+        .map(|e| e.key)
+        .collect();
+    if let Some(k) = table.keys().find(|k| !keys.contains(&k.as_str())) {
+        if MODEL_ERRORS.iter().any(|e| e.drawn && e.key == k) {
+            return Err(c.fail(
+                &format!("systematic.{k}"),
+                format!(
+                    "is drawn anew in every realisation, so it moves the estimate's spread, \
+                     not where it settles; a systematic budget takes the steady model errors \
+                     {keys:?}"
+                ),
+            ));
+        }
+        return Err(unknown_key(c, "systematic", k, keys, None));
+    }
+    let mut out = Vec::new();
+    for (i, entry) in MODEL_ERRORS.iter().enumerate() {
+        let Some(value) = table.get(entry.key) else {
+            continue;
+        };
+        let key = format!("systematic.{}", entry.key);
+        let one = match value {
+            toml::Value::Float(x) => *x,
+            toml::Value::Integer(n) => *n as f64,
+            other => {
+                return Err(c.fail(
+                    &key,
+                    format!("takes one number (the magnitude of the model error), got {other}"),
+                ));
+            }
+        };
+        if let Some(reason) = (entry.check)(one) {
+            return Err(c.fail(&key, format!("{reason}, got {one}")));
+        }
+        out.push((i, one));
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

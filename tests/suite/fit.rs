@@ -5,6 +5,7 @@ use chassis_mc::fit::{FIT_FIGURE, FIT_PARAMETERS, FitSpec, fit, simulate_log};
 use chassis_mc::model::Model;
 use chassis_mc::model::vehicle::VehicleModel;
 use chassis_mc::study::Study;
+use chassis_mc::vehicle::truth::entry_index;
 
 const TRUTH: [f64; 3] = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125];
 
@@ -605,4 +606,223 @@ fn fit_writes_nothing_outside_its_out_directory() {
     }
     read_only(&ro_tmp, 0o755);
     read_only(&cwd, 0o755);
+}
+
+/// The shipped log (studies/data/fit_log.csv) fitted by `fit_file` (OLS and BCLS, an
+/// accelerometer, min_speed 0.5 m/s, R = 20) with `systematic` as its `[systematic]`, and
+/// without the accelerometer when `differentiated`.
+fn fit_with_systematic(
+    systematic: &str,
+    differentiated: bool,
+    out: &std::path::Path,
+) -> chassis_mc::fit::FitResult {
+    let log = root().join("studies/data/fit_log.csv");
+    let mut text = fit_file(&log.display().to_string(), 20);
+    if differentiated {
+        text = text.replace("acceleration_column = \"accel_m_s2\"\n", "");
+    }
+    let text = format!("{text}\n[systematic]\n{systematic}\n");
+    let spec = FitSpec::parse(&text, "systematic.toml", out.parent().unwrap()).unwrap();
+    fit(&spec, out).unwrap()
+}
+
+#[test]
+fn a_force_scale_moves_one_over_m_by_exactly_its_scaling_and_nothing_else() {
+    // [systematic] force_scale = s = 0.05: the fit's world logs (1 + s)·F. Its rows fit θ
+    // exactly, y = Xθ, so with the logged column F' = (1 + s)F, y = X'[θ₁/(1 + s), θ₂, θ₃]
+    // exactly and OLS returns that: the shift of 1/M is θ₁(1/(1 + s) − 1), of Cd/M and Cr 0,
+    // of M exactly s·M (docs/model.md#fit). Tolerance 1e-9 relative to the parameter: both
+    // estimates are the world's normal equations solved, each θ to rounding (the shift of
+    // 1/M, 4.8 % of θ₁, is measured within 8.5e-13 and 2.8e-13 of itself; model_errors.rs
+    // measures ≤ 5e-14 relative on a trace), so 1e-9 of θ₁ is ~1000× that rounding. With
+    // and without an accelerometer (then the world's speed is simulated and
+    // differentiated).
+    let tmp = tempfile::tempdir().unwrap();
+    let s = 0.05;
+    for differentiated in [false, true] {
+        let out = tmp.path().join(format!("out{differentiated}"));
+        let result = fit_with_systematic("force_scale = 0.05", differentiated, &out);
+        let estimate = |p: &str| {
+            result
+                .rows
+                .iter()
+                .find(|r| r.estimator == "ols" && r.parameter == p)
+                .unwrap()
+                .estimate
+        };
+        let shift = |p: &str| {
+            let mine: Vec<_> = result
+                .systematic
+                .iter()
+                .filter(|r| r.estimator == "ols" && r.parameter == p)
+                .collect();
+            assert_eq!(mine.len(), 1, "{mine:?}");
+            assert_eq!((mine[0].entry, mine[0].magnitude), ("force_scale", s));
+            mine[0].shift
+        };
+        let theta1 = estimate("inv_mass");
+        let expected = theta1 * (1.0 / (1.0 + s) - 1.0);
+        let found = shift("inv_mass");
+        eprintln!(
+            "differentiated {differentiated}: 1/M shift {found:e} against {expected:e}, \
+             relative {:e}",
+            (found - expected).abs() / expected.abs()
+        );
+        assert!(
+            (found - expected).abs() <= 1e-9 * theta1,
+            "{found} vs {expected}"
+        );
+        for p in ["drag_over_mass", "rolling_resistance"] {
+            assert!(shift(p).abs() <= 1e-9 * estimate(p), "{p}: {}", shift(p));
+        }
+        let mass = estimate("mass");
+        assert!(
+            (shift("mass") - s * mass).abs() <= 1e-9 * mass,
+            "{}",
+            shift("mass")
+        );
+        // systematic.parquet holds the same rows: 2 estimators × 5 parameters × 1 entry.
+        let table = read_table(&out.join(chassis_mc::fit::SYSTEMATIC_FILE));
+        assert_eq!(table.num_rows(), 2 * 5);
+        let shifts = f64_col(&table, "shift");
+        for (r, v) in result.systematic.iter().zip(&shifts) {
+            assert_eq!(r.shift.to_bits(), v.to_bits(), "{r:?}");
+        }
+        let half = f64_col(&table, "ci_half_width");
+        let row = result.rows.iter().find(|r| r.estimator == "ols").unwrap();
+        assert_eq!(half[0], 0.5 * (row.ci_high - row.ci_low));
+    }
+}
+
+#[test]
+fn a_headwind_s_shift_is_what_the_normal_equations_of_the_fitted_world_give() {
+    // [systematic] wind_speed = w = 2 m/s on the shipped log with its accelerometer. The
+    // fit's world, written out here from docs/model.md#fit: on the used rows (measured
+    // speed ≥ 0.5 m/s) the speed V is the logged one averaged over ±0.5 s (not below 0),
+    // the force F and grade γ are logged, and a = θ₁F − θ₂kV² − θ₃g cos γ − g sin γ, θ the
+    // fit's OLS estimate. A headwind makes the truth need D = Cd·k·((V + w)|V + w| − V²)
+    // more (Cd = θ₂/θ₁), which the log records: F' = F + D. OLS on [F', −kV², −g cos γ]
+    // against y = a + g sin γ, minus OLS on [F, …], is the shift (measured: 1/M +0.47 %,
+    // Cd/M +7.0 %, Cr +32 % of θ). Tolerance 1e-9 of each parameter: both sides solve the
+    // same normal equations, here with plain f64 sums (measured differences ≤ 2.8e-12 of
+    // θ, for Cr; ≤ 2.3e-13 for 1/M and Cd/M).
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let w = 2.0;
+    let result = fit_with_systematic("wind_speed = 2.0", false, &out);
+    let theta: [f64; 3] = std::array::from_fn(|p| {
+        result
+            .rows
+            .iter()
+            .find(|r| r.estimator == "ols" && r.parameter == PARAMS[p])
+            .unwrap()
+            .estimate
+    });
+    // The log's columns.
+    let csv = std::fs::read_to_string(root().join("studies/data/fit_log.csv")).unwrap();
+    let mut cols: [Vec<f64>; 4] = Default::default();
+    for line in csv.lines().skip(1) {
+        let cells: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+        for (c, v) in cols.iter_mut().zip(&cells) {
+            c.push(*v);
+        }
+    }
+    let [t, v_log, force, grade] = cols;
+    let n = t.len();
+    let smooth: Vec<f64> = (0..n)
+        .map(|i| {
+            let window: Vec<f64> = (0..n)
+                .filter(|&j| t[j] >= t[i] - 0.5 && t[j] <= t[i] + 0.5)
+                .map(|j| v_log[j])
+                .collect();
+            (window.iter().sum::<f64>() / window.len() as f64).max(0.0)
+        })
+        .collect();
+    let (k, g) = (0.5 * 1.2 * 5.5, 9.81);
+    let cd = theta[1] / theta[0];
+    let solve = |wind: f64| -> [f64; 3] {
+        let mut xtx = nalgebra::Matrix3::<f64>::zeros();
+        let mut xty = nalgebra::Vector3::<f64>::zeros();
+        for i in (0..n).filter(|&i| v_log[i] >= 0.5) {
+            let (v, f, gr) = (smooth[i], force[i], grade[i]);
+            let a = theta[0] * f - theta[1] * k * v * v - theta[2] * g * gr.cos() - g * gr.sin();
+            let air = v + wind;
+            let d = cd * k * (air * air.abs() - v * v);
+            let x = nalgebra::Vector3::new(f + d, -k * v * v, -g * gr.cos());
+            xtx += x * x.transpose();
+            xty += x * (a + g * gr.sin());
+        }
+        let s = xtx.lu().solve(&xty).unwrap();
+        [s[0], s[1], s[2]]
+    };
+    let (with, without) = (solve(w), solve(0.0));
+    for (p, name) in PARAMS.iter().enumerate() {
+        let expected = with[p] - without[p];
+        let found = result
+            .systematic
+            .iter()
+            .find(|r| r.estimator == "ols" && r.parameter == *name)
+            .unwrap()
+            .shift;
+        eprintln!(
+            "{name}: shift {found:e} against {expected:e} ({:+.3} % of θ), difference {:e} of θ",
+            100.0 * expected / theta[p],
+            (found - expected).abs() / theta[p].abs()
+        );
+        assert!(
+            (found - expected).abs() <= 1e-9 * theta[p].abs(),
+            "{name}: {found} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn a_fit_file_s_systematic_error_names_the_key_its_line_and_the_accepted_keys() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = root().join("studies/data/fit_log.csv");
+    let base = fit_file(&log.display().to_string(), 20);
+    let parse = |systematic: &str| {
+        let text = format!("{base}\n[systematic]\n{systematic}\n");
+        let line = line_of(&text, systematic.lines().next().unwrap());
+        (FitSpec::parse(&text, "bad.toml", tmp.path()), line)
+    };
+    let (e, line) = parse("wind_sped = 2.0");
+    let e = e.unwrap_err();
+    assert_eq!(e.key.as_deref(), Some("systematic.wind_sped"), "{e}");
+    assert_eq!(e.line, Some(line), "{e}");
+    assert!(
+        e.reason.contains("wind_speed") && e.reason.contains("mass_rate"),
+        "{e}"
+    );
+    let (e, line) = parse("wind_speed = [2.0, 3.0]");
+    let e = e.unwrap_err();
+    assert_eq!(e.key.as_deref(), Some("systematic.wind_speed"), "{e}");
+    assert_eq!(e.line, Some(line), "{e}");
+    let (e, _) = parse("air_density_ratio = -0.1");
+    let e = e.unwrap_err();
+    assert_eq!(
+        e.key.as_deref(),
+        Some("systematic.air_density_ratio"),
+        "{e}"
+    );
+    assert!(e.reason.contains("> 0"), "{e}");
+    let (ok, _) = parse("rotating_mass_factor = 0.03\nmass_rate = -0.01");
+    let index = |key| entry_index(key).unwrap();
+    assert_eq!(
+        ok.unwrap().systematic,
+        vec![
+            (index("rotating_mass_factor"), 0.03),
+            (index("mass_rate"), -0.01)
+        ]
+    );
+    // An entry drawn anew in every realisation moves the spread, not the estimate.
+    let (e, line) = parse("wind_gust_sd = 1.0");
+    let e = e.unwrap_err();
+    assert_eq!(e.key.as_deref(), Some("systematic.wind_gust_sd"), "{e}");
+    assert_eq!(e.line, Some(line), "{e}");
+    assert!(e.reason.contains("drawn anew"), "{e}");
+    // A model error's key in [noise] is placed.
+    let text = base.replace("velocity_sd = 0.1", "velocity_sd = 0.1\nwind_speed = 2.0");
+    let e = FitSpec::parse(&text, "bad.toml", tmp.path()).unwrap_err();
+    assert!(e.reason.contains("[systematic]"), "{e}");
 }

@@ -170,6 +170,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         metrics: vec![],
         truth: vec![TRUTH],
         bias_model: vec![vec![f64::NAN]],
+        model_errors: vec![],
         applies: vec![vec![true]],
         controls: vec![],
     }];

@@ -485,3 +485,111 @@ fn replications_for_help_names_exactly_the_measures_the_planner_accepts() {
         );
     }
 }
+
+/// The warnings of the model errors in `report.html` of `dir` (the paragraphs that say no
+/// bound covers an estimate), as text.
+fn model_error_warnings(dir: &std::path::Path) -> Vec<String> {
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    let doc = parse_report(&html);
+    doc.descendants()
+        .filter(|n| n.attribute("class") == Some("warning"))
+        .map(|n| n.text().unwrap_or("").to_string())
+        .filter(|w| w.contains("no bound covers this"))
+        .collect()
+}
+
+#[test]
+fn a_model_error_beyond_the_spread_is_warned_with_its_size_and_each_bound_s_coverage() {
+    // The thesis car at scale 1, σ_v = 0.25 m/s, OLS and BCLS, R = 50, in a steady 4 m/s
+    // headwind: the wind biases every parameter by far more than its spread (measured:
+    // OLS 1/M +1.1 %, Cd/M +15 %, Cr +68 %: 21, 731 and 126 EmpSE). Every row of
+    // summary.parquet with |bias_model| > emp_se — decided here from the file — has one
+    // warning, whose X = 100·bias_model/truth [%] and
+    // Y = |bias_model|/emp_se are those of the file to the rounding of the digits printed
+    // (X two decimals, Y two decimals: ±0.005), and whose coverage of each bound reported is
+    // the file's coverage_B ± coverage_B_mcse (one decimal of a percentage: ±0.05).
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[0.25]");
+    let load = |text: &str| {
+        chassis_mc::study::Study::from_toml(text, "vehicle")
+            .unwrap()
+            .with_overrides(Some(50), None)
+            .unwrap()
+    };
+    let windy = load(&format!("{text}\n[truth]\nwind_speed = [4.0]\n"));
+    let (dir, _) = run(&windy, None);
+    let warnings = model_error_warnings(dir.path());
+    let summary = read_table(&dir.path().join("summary.parquet"));
+    let (condition, estimator, parameter) = (
+        i32_col(&summary, "condition"),
+        str_col(&summary, "estimator"),
+        str_col(&summary, "parameter"),
+    );
+    let (truth, bias_model, emp_se) = (
+        f64_col(&summary, "truth"),
+        f64_col(&summary, "bias_model"),
+        f64_col(&summary, "emp_se"),
+    );
+    let bounds: Vec<String> = summary
+        .schema()
+        .fields()
+        .iter()
+        .filter_map(|f| f.name().strip_prefix("coverage_"))
+        .filter(|b| !b.ends_with("_mcse"))
+        .map(str::to_string)
+        .collect();
+    assert!(bounds.contains(&"eiv_sandwich".to_string()), "{bounds:?}");
+    // The number after `before` in `w`, up to the next space (a trailing comma dropped).
+    let number_after = |w: &str, before: &str| -> f64 {
+        let rest = &w[w
+            .find(before)
+            .unwrap_or_else(|| panic!("{before:?} in {w}"))
+            + before.len()..];
+        let word = rest.split(' ').next().unwrap().trim_end_matches(',');
+        word.parse()
+            .unwrap_or_else(|e| panic!("{word:?} after {before:?}: {e}"))
+    };
+    let mut expected = 0;
+    for i in 0..truth.len() {
+        if bias_model[i].abs() <= emp_se[i] {
+            continue;
+        }
+        expected += 1;
+        let start = format!(
+            "Condition {} (wind_speed = 4 m/s), {}, ",
+            condition[i], estimator[i]
+        );
+        let tag = format!("({}): ", parameter[i]);
+        let mine: Vec<&String> = warnings
+            .iter()
+            .filter(|w| w.starts_with(&start) && w.contains(&tag))
+            .collect();
+        assert_eq!(mine.len(), 1, "{start}{tag}: {warnings:#?}");
+        let w = mine[0];
+        let x = 100.0 * bias_model[i] / truth[i];
+        let y = bias_model[i].abs() / emp_se[i];
+        let shown_x = number_after(w, "wrong by ");
+        let shown_y = number_after(w, &format!("{shown_x:+.2} %, "));
+        assert!((shown_x - x).abs() <= 0.005 + 1e-9, "X {x} in {w}");
+        assert!((shown_y - y).abs() <= 0.005 + 1e-9, "Y {y} in {w}");
+        for b in &bounds {
+            let coverage = f64_col(&summary, &format!("coverage_{b}"))[i];
+            let mcse = f64_col(&summary, &format!("coverage_{b}_mcse"))[i];
+            if coverage.is_nan() {
+                assert!(!w.contains(&format!(" {b} ")), "{b} not reported: {w}");
+                continue;
+            }
+            let shown = number_after(w, &format!(" {b} "));
+            let shown_mcse = number_after(w, &format!(" {b} {shown:.1} ± "));
+            assert!((shown - 100.0 * coverage).abs() <= 0.05 + 1e-9, "{b}: {w}");
+            assert!((shown_mcse - 100.0 * mcse).abs() <= 0.05 + 1e-9, "{b}: {w}");
+        }
+    }
+    // Cd/M of both estimators at least, and nothing else.
+    assert!(expected >= 2, "{warnings:#?}");
+    assert_eq!(warnings.len(), expected, "{warnings:#?}");
+
+    // The same study without [truth]: no such warning.
+    let (calm, _) = run(&load(&text), None);
+    assert_eq!(model_error_warnings(calm.path()), Vec::<String>::new());
+}

@@ -26,7 +26,7 @@ pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
-use super::{ConditionInfo, Layout};
+use super::{ConditionInfo, Layout, ModelErrorValue};
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue};
 use crate::estimate::channels::{Channel, NoiseLevels};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
@@ -34,6 +34,7 @@ use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
 use crate::study::{self, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
+use crate::vehicle::truth::MODEL_ERRORS;
 use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
 use world::{GradeMap, World};
 
@@ -195,6 +196,7 @@ impl VehicleModel {
                             &vs.settings,
                             &truth,
                         ),
+                        model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,
                     },
@@ -307,6 +309,21 @@ impl VehicleModel {
     pub fn study(&self) -> &VehicleStudy {
         &self.study
     }
+}
+
+/// The model errors of truth `index` of `vs` at their values (those at their neutral value
+/// left out).
+fn model_errors(vs: &VehicleStudy, index: usize) -> Vec<ModelErrorValue> {
+    MODEL_ERRORS
+        .iter()
+        .zip(vs.truth.values(index))
+        .filter(|(e, v)| *v != e.neutral)
+        .map(|(e, value)| ModelErrorValue {
+            key: e.key,
+            unit: e.unit,
+            value,
+        })
+        .collect()
 }
 
 /// The rule on sample spacing ([`crate::study::uneven_differentiation`]) on the spans of

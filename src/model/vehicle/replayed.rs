@@ -1,6 +1,6 @@
 //! A vehicle model of one cycle given in memory: `fit`'s bootstrap world (the fitted
-//! vehicle replayed on a log's rows, docs/model.md#fit), built from typed values with no
-//! study file.
+//! vehicle replayed on a log's rows, docs/model.md#fit), and that world with a model error
+//! for `fit`'s systematic-error budget, built from typed values with no study file.
 
 use std::sync::Arc;
 
@@ -11,11 +11,12 @@ use crate::study::{AirSpeed, NoiseAxes, StudyError, TruthAxes, VehicleStudy};
 use crate::vehicle::{Replay, RowSelection, VehicleParams};
 
 impl VehicleModel {
-    /// The one-condition model of `vehicle` on the cycle `replay` (taken as the truth, its
-    /// `used` rows the regression's), measured with the noise `noise` (its acceleration
-    /// source too) and estimated by `estimators` with `settings`: what a study of drive
-    /// mode `replay` with one level per noise axis, no terrain and no row selection of its
-    /// own prepares. An error (the rows leave fewer than 3 samples, or a compensating
+    /// The one-condition model of `vehicle` on the cycle `replay` (taken as the equation's
+    /// motion, its `used` rows the regression's) with the model errors of `truth` (one
+    /// truth: [`TruthAxes::single`]; [`TruthAxes::default`] for none), measured with the
+    /// noise `noise` (its acceleration source too) and estimated by `estimators` with
+    /// `settings`: what a study of drive mode `replay` with one level per noise axis, no
+    /// terrain and no row selection of its own prepares. An error (the rows leave fewer than 3 samples, or a compensating
     /// estimator meets correlated speed noise on uneven samples) names `origin` and the
     /// key such a study would have.
     pub fn for_cycle(
@@ -24,8 +25,10 @@ impl VehicleModel {
         noise: NoiseLevels,
         estimators: Vec<EstimatorRef>,
         settings: EstimatorSettings,
+        truth: TruthAxes,
         origin: &str,
     ) -> Result<VehicleModel, StudyError> {
+        debug_assert_eq!(truth.combinations(), 1, "one truth");
         let vs = VehicleStudy {
             vehicle,
             drive: Arc::new(replay),
@@ -47,7 +50,7 @@ impl VehicleModel {
             grade_map_length_m: 200.0,
             air_speed: AirSpeed::Ground,
             air_speed_sd: vec![0.0],
-            truth: TruthAxes::default(),
+            truth,
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
             file: origin.to_string(),
