@@ -14,6 +14,9 @@ every quantity here except a bias that happens to lie within ~1e-3 MCSE of zero,
 on which they are ever read. ς over the cycle is recomputed by DuckDB from the grades in
 cycles.parquet (a compensated sum of 60 001 squares).
 
+Then runs gusts_check.py: the engine's Monte Carlo under random gusts against an independent
+NumPy one (means and SDs within 4 MCSEs; see that script).
+
     cargo build --release && python analysis/test_analysis.py
 """
 
@@ -131,6 +134,7 @@ def main():
         (run / ".chassis-mc-journal").write_text("chassis-mc journal 1\n")
         refuses(run, "incomplete output")
     print("analysis scripts agree with the engine's summary within 1e-12 relative")
+    subprocess.run([sys.executable, HERE / "gusts_check.py"], check=True)
 
 
 if __name__ == "__main__":
