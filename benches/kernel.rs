@@ -4,6 +4,8 @@
 //! moment kernel (draw + accumulate), a whole realisation (kernel + solves + bounds), and
 //! eight realisations computed side by side as a run computes them.
 //!
+//! Also what an entry of `[truth]` drawn per realisation costs (`drawn_cost`).
+//!
 //! Run: `cargo bench --bench kernel`. The targets are ratios measured in one run:
 //! kernel ≤ 2 × raw words, and ≤ 0.25 ms per realisation; and the kernel's cost per sample
 //! on a day-long speed trace (80 000 samples) within 20 % of the thesis cycle's; and a
@@ -274,5 +276,81 @@ fn estimator_cost(c: &mut Criterion) {
     }
 }
 
-criterion_group!(kernel, benches, per_sample, estimator_cost);
+/// The thesis study at one scale with `extra` appended (a `[truth]` table or `[noise]` keys
+/// spliced after `velocity_sd`).
+fn thesis_drawn(dir: &Path, name: &str, noise: &str, truth: &str) -> VehicleModel {
+    let text: String = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/thesis.toml"),
+    )
+    .unwrap()
+    .lines()
+    .map(|line| match line {
+        l if l.starts_with("scales") => "scales = [1.0]\n".to_string(),
+        l if l.starts_with("velocity_sd") => format!("{l}\n{noise}\n"),
+        l => format!("{l}\n"),
+    })
+    .collect();
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, format!("{text}\n[truth]\n{truth}\n")).unwrap();
+    VehicleModel::new(&Study::load(&path).unwrap()).unwrap()
+}
+
+/// What an entry drawn anew in every realisation costs (docs/model.md#model-errors): the
+/// whole realisation of the thesis cycle (σ_v = 1 m/s, OLS) with gusts (each realisation's
+/// motion integrated again by RK4 and its regression rebuilt), with a random force
+/// calibration (the log rescaled, the regression rebuilt), with the map's error (the grade
+/// rebuilt), against the steady study. Criterion times each; the ratios measured in this run
+/// are printed (median of 15 interleaved rounds of 5 realisations each).
+fn drawn_cost(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let models: Vec<(&str, VehicleModel)> = [
+        ("steady", "", ""),
+        ("gusts", "", "wind_gust_sd = [2.0]"),
+        ("force_scale_sd", "", "force_scale_sd = [0.05]"),
+        ("grade_map", "grade_map_sd = [0.05]", ""),
+    ]
+    .into_iter()
+    .map(|(name, noise, truth)| (name, thesis_drawn(dir.path(), name, noise, truth)))
+    .collect();
+    let mut g = c.benchmark_group("drawn_cost");
+    g.sample_size(20);
+    let mut r = 0u64;
+    for (name, model) in &models {
+        let mut slots = vec![0.0; model.layout().realisation_stride()];
+        g.bench_function(*name, |b| {
+            b.iter(|| {
+                r += 1;
+                model.realise(2018, 0, r, &mut slots);
+                black_box(slots[1])
+            })
+        });
+    }
+    g.finish();
+    let time = |model: &VehicleModel, r0: u64| {
+        let mut slots = vec![0.0; model.layout().realisation_stride()];
+        let start = std::time::Instant::now();
+        for r in r0..r0 + 5 {
+            model.realise(2018, 0, r, &mut slots);
+            black_box(slots[1]);
+        }
+        start.elapsed().as_secs_f64() / 5.0
+    };
+    for (name, model) in &models[1..] {
+        let mut rounds: Vec<(f64, f64)> = (0..15u64)
+            .map(|k| (time(model, 100 * k), time(&models[0].1, 100 * k)))
+            .collect();
+        rounds.sort_by(|a, b| (a.0 / a.1).total_cmp(&(b.0 / b.1)));
+        let (t, base) = rounds[7];
+        println!(
+            "realisation cost, {name}: {:.2} ms vs {:.3} ms steady = {:.1}x (median of 15; ratio range {:.1}-{:.1})",
+            1e3 * t,
+            1e3 * base,
+            t / base,
+            rounds[0].0 / rounds[0].1,
+            rounds[14].0 / rounds[14].1
+        );
+    }
+}
+
+criterion_group!(kernel, benches, per_sample, estimator_cost, drawn_cost);
 criterion_main!(kernel);
