@@ -279,17 +279,16 @@ fn estimator_cost(c: &mut Criterion) {
 /// The thesis study at one scale with `extra` appended (a `[truth]` table or `[noise]` keys
 /// spliced after `velocity_sd`).
 fn thesis_drawn(dir: &Path, name: &str, noise: &str, truth: &str) -> VehicleModel {
-    let text: String = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/thesis.toml"),
-    )
-    .unwrap()
-    .lines()
-    .map(|line| match line {
-        l if l.starts_with("scales") => "scales = [1.0]\n".to_string(),
-        l if l.starts_with("velocity_sd") => format!("{l}\n{noise}\n"),
-        l => format!("{l}\n"),
-    })
-    .collect();
+    let text: String =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/thesis.toml"))
+            .unwrap()
+            .lines()
+            .map(|line| match line {
+                l if l.starts_with("scales") => "scales = [1.0]\n".to_string(),
+                l if l.starts_with("velocity_sd") => format!("{l}\n{noise}\n"),
+                l => format!("{l}\n"),
+            })
+            .collect();
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, format!("{text}\n[truth]\n{truth}\n")).unwrap();
     VehicleModel::new(&Study::load(&path).unwrap()).unwrap()
