@@ -262,7 +262,10 @@ fn failed_note(rows: &[SummaryRow]) -> String {
         .map(|r| r.n_failed)
         .sum();
     if failed > 0 {
-        format!(" ({failed} estimates failed: singular normal equations)")
+        format!(
+            " ({failed} estimates failed: singular normal equations, or a realisation's own \
+             truth not driven)"
+        )
     } else {
         String::new()
     }

@@ -29,6 +29,18 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitErro
             )
             .into());
     }
+    // The log is the condition's noise-free cycle plus each channel's draws: a realisation
+    // with its own truth or map, or an air-speed sensor, has signals this log has no place
+    // for.
+    if let Some(key) = model.draws_a_world(0) {
+        return Err(study
+            .error_at(
+                key,
+                "simulate-log writes the condition's cycle with its sensor noise; it does not \
+                 write a realisation's own gusts, calibration or map, nor a measured air speed",
+            )
+            .into());
+    }
     let cycle = model.cycles().remove(0);
     let noise = model.noise_levels(0);
     let n = cycle.t_s.len();

@@ -342,8 +342,9 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
         .sum();
     if failed > 0 {
         out.push(format!(
-            "{failed} estimates failed (singular normal equations) and are left out of every \
-             measure."
+            "{failed} estimates failed (singular normal equations, or a realisation whose own \
+             truth could not be driven: status in realisations.parquet) and are left out of \
+             every measure."
         ));
     }
     out

@@ -3,7 +3,10 @@
 
 use super::StudyError;
 use super::validate::Checker;
-use super::vehicle::{GRADE_BIAS, SHARE_ACROSS_SCALES, VELOCITY_CORRELATION};
+use super::vehicle::{
+    AIR_SPEED_SD, GRADE_BIAS, GRADE_MAP_LENGTH, GRADE_MAP_SD, SHARE_ACROSS_SCALES,
+    VELOCITY_CORRELATION,
+};
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
 use crate::vehicle::DRIVE_MODES;
@@ -32,7 +35,10 @@ const FIXED_KEYS: [(&str, &[&str]); 3] = [
             "wheel_radius",
         ],
     ),
-    ("estimation", &["estimators", "forgetting", "acceleration"]),
+    (
+        "estimation",
+        &["estimators", "forgetting", "acceleration", "air_speed"],
+    ),
 ];
 
 /// Every place a study-file key can stand: its table (`""` for the top level) and, for a
@@ -62,7 +68,15 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
     }
     let noise = Channel::ALL.map(Channel::key);
     if noise.contains(&key)
-        || [GRADE_BIAS, VELOCITY_CORRELATION, SHARE_ACROSS_SCALES].contains(&key)
+        || [
+            GRADE_BIAS,
+            VELOCITY_CORRELATION,
+            SHARE_ACROSS_SCALES,
+            GRADE_MAP_SD,
+            GRADE_MAP_LENGTH,
+            AIR_SPEED_SD,
+        ]
+        .contains(&key)
     {
         homes.push(("noise", None));
     }

@@ -6,7 +6,7 @@ use super::StudyError;
 use super::placement::unknown_key;
 use super::validate::Checker;
 use crate::vehicle::Truth;
-use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
+use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
 
 /// The validated `[truth]` table: the values listed for each entry of [`MODEL_ERRORS`] (its
 /// neutral value alone when the key is absent; one value for an entry that is not an axis).
@@ -94,6 +94,14 @@ pub(super) fn validate_truth(
             Some(reason) => Err(c.fail(k, format!("{reason}, got {v}"))),
             None => Ok(v),
         })?;
+    }
+    // A parameter of another entry without that entry on does nothing: say so.
+    let gusts = entry_index("wind_gust_sd").expect("an entry");
+    if table.contains_key("wind_gust_time") && axes.0[gusts].iter().all(|&s| s == 0.0) {
+        return Err(c.fail(
+            "truth.wind_gust_time",
+            "is the gusts' correlation time, but truth.wind_gust_sd lists no level above 0",
+        ));
     }
     Ok(axes)
 }

@@ -342,6 +342,12 @@ pub(super) fn validate(
             }
         }
     }
+    // The default air speed is the absent key.
+    if let Some(e) = raw.estimation.as_mut()
+        && e.air_speed.as_deref() == Some("ground")
+    {
+        e.air_speed = None;
+    }
     // Likewise the durations axis.
     if let Some(durations) = raw
         .drive

@@ -497,6 +497,15 @@ fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, Study
             c.positive(&key, length)?
         }
     };
+    if n.0.contains_key(GRADE_MAP_LENGTH) && grade_map_sd.iter().all(|&s| s == 0.0) {
+        return Err(c.fail(
+            &format!("noise.{GRADE_MAP_LENGTH}"),
+            format!(
+                "is the map error's correlation length, but noise.{GRADE_MAP_SD} lists no \
+                 level above 0"
+            ),
+        ));
+    }
     let air_speed_sd = noise_levels(n, c, AIR_SPEED_SD)?.unwrap_or(vec![0.0]);
     Ok(ValidatedNoise {
         axes: NoiseAxes::new(levels),

@@ -184,7 +184,7 @@ fn a_measured_air_speed_takes_the_wind_out_of_the_drag_estimate() {
 
     let measured = short_thesis(
         "[0.0]\nair_speed_sd = [0.3]",
-        "[\"bcls\"]\nair_speed = \"measured\"",
+        "[\"bcls\", \"wbcls\"]\nair_speed = \"measured\"",
         "wind_speed = [3.0]",
     );
     let (m, _) = run(&load(&measured, r), None);
@@ -195,13 +195,15 @@ fn a_measured_air_speed_takes_the_wind_out_of_the_drag_estimate() {
         )[0],
         0.3
     );
-    for p in PARAMS {
-        let bias = summary_col(m.path(), "bcls", p, "bias")[0];
-        let mcse = summary_col(m.path(), "bcls", p, "bias_mcse")[0];
-        assert!(
-            bias.abs() <= 4.0 * mcse,
-            "BCLS on measured air speed, {p}: {bias} ± {mcse}"
-        );
+    for estimator in ["bcls", "wbcls"] {
+        for p in PARAMS {
+            let bias = summary_col(m.path(), estimator, p, "bias")[0];
+            let mcse = summary_col(m.path(), estimator, p, "bias_mcse")[0];
+            assert!(
+                bias.abs() <= 4.0 * mcse,
+                "{estimator} on measured air speed, {p}: {bias} ± {mcse}"
+            );
+        }
     }
 }
 
@@ -280,4 +282,62 @@ fn the_maps_error_moves_the_estimates_only_when_it_is_on() {
     for (c, m) in controls.iter().zip(&map) {
         assert!(*m == 0.0 || *c == 0, "{controls:?}");
     }
+}
+
+#[test]
+fn a_parameter_of_an_entry_that_is_off_is_refused_naming_it() {
+    // Without gusts, their correlation time does nothing; without a map error, its
+    // correlation length does nothing: each is an error, not a silent no-op.
+    for (text, key) in [
+        (
+            short_thesis("[0.0]", "[\"ols\"]", "wind_gust_time = 20.0"),
+            "truth.wind_gust_time",
+        ),
+        (
+            short_thesis("[0.0]\ngrade_map_length = 50.0", "[\"ols\"]", ""),
+            "noise.grade_map_length",
+        ),
+    ] {
+        let err = Study::from_toml(&text, "drawn.toml").unwrap_err();
+        assert_eq!(err.key.as_deref(), Some(key), "{err}");
+        assert!(err.reason.contains("no level above 0"), "{err}");
+    }
+}
+
+#[test]
+fn the_control_variate_columns_are_null_where_each_realisation_has_its_own_regression() {
+    // The controls are centred on the condition's regression; with a map error each
+    // realisation has another, so its cv_* values are null, not a mean-nonzero number.
+    let text = short_thesis("[0.5]\ngrade_map_sd = [0.0, 0.02]", "[\"ols\"]", "");
+    let (dir, _) = run(&load(&text, 10), None);
+    let t = read_table(&dir.path().join("realisations.parquet"));
+    let map = f64_col(&t, "grade_map_sd");
+    let cv = f64_col(&t, "cv_w_w");
+    for (m, c) in map.iter().zip(&cv) {
+        assert_eq!(*m > 0.0, c.is_nan(), "map {m}, cv {c}");
+    }
+}
+
+#[test]
+fn simulate_log_refuses_a_study_whose_realisations_have_their_own_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("gusts.toml");
+    std::fs::write(
+        &file,
+        short_thesis("[0.1]", "[\"ols\"]", "wind_gust_sd = [1.0]"),
+    )
+    .unwrap();
+    let out = Command::new(bin())
+        .args(["simulate-log"])
+        .arg(&file)
+        .arg("--out")
+        .arg(dir.path().join("log.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("truth") && stderr.contains("gusts"),
+        "{stderr}"
+    );
 }

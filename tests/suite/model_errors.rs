@@ -317,6 +317,12 @@ fn a_bad_truth_key_or_value_names_the_key_and_its_line() {
     )
     .unwrap_err();
     assert!(e.reason.contains("[truth]"), "{e}");
+    // A drifting mass that would reach zero within the log (1800 kg at −2 kg/s, 1551 s)
+    // is an error naming the key when the model is prepared.
+    let study = Study::from_toml(&format!("{text}\n[truth]\nmass_rate = -2.0\n"), origin).unwrap();
+    let e = VehicleModel::new(&study).unwrap_err();
+    assert_eq!(e.key.as_deref(), Some("truth.mass_rate"), "{e}");
+    assert!(e.reason.contains("must stay positive"), "{e}");
 }
 
 #[test]

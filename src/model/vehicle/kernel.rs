@@ -391,7 +391,12 @@ impl VehicleModel {
         }
         let centred = cond.expected.centre(moments);
         for (k, &j) in self.controls.iter().enumerate() {
-            slots[layout.control_at(k)] = centred[j];
+            // Null where the control does not apply (its expectation is not this
+            // realisation's: a condition whose realisations have their own regressions).
+            slots[layout.control_at(k)] = match cond.info.controls[k] {
+                true => centred[j],
+                false => f64::NAN,
+            };
         }
     }
 }

@@ -32,7 +32,7 @@ use crate::estimate::channels::{Channel, NoiseLevels};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
-use crate::study::{self, Study, StudyError, VehicleStudy};
+use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use crate::vehicle::truth::MODEL_ERRORS;
 use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
@@ -264,7 +264,7 @@ impl VehicleModel {
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
         if est.compensates_speed_noise() {
             let truth = self.cycles[cond.cycle_index].truth_index;
-            let bias = match self.study.truth.truth(truth).is_empty() {
+            let bias = match self.study.truth.truth(truth).steady().is_empty() {
                 true => [0.0; 3],
                 false => [0, 1, 2].map(|p| cond.info.bias_model[e][p]),
             };
@@ -309,15 +309,32 @@ impl VehicleModel {
     pub fn study(&self) -> &VehicleStudy {
         &self.study
     }
+
+    /// The key that makes condition `c`'s realisations more than its cycle and its sensor
+    /// noise — an entry drawn per realisation, the map's error, or a measured air speed —
+    /// when one does (`None`: each realisation is the condition's regression with its
+    /// channels' draws).
+    pub fn draws_a_world(&self, c: usize) -> Option<&'static str> {
+        let cond = &self.conditions[c];
+        if self.study.air_speed == AirSpeed::Measured {
+            return Some("estimation.air_speed");
+        }
+        let world = cond.world.as_ref()?;
+        Some(match world.grade_map {
+            Some(_) => "noise.grade_map_sd",
+            None => "truth",
+        })
+    }
 }
 
-/// The model errors of truth `index` of `vs` at their values (those at their neutral value
-/// left out).
+/// The steady model errors of truth `index` of `vs` at their values (those at their
+/// neutral value left out): what `bias_model` describes. Entries drawn per realisation are
+/// left out of it, and so of this list.
 fn model_errors(vs: &VehicleStudy, index: usize) -> Vec<ModelErrorValue> {
     MODEL_ERRORS
         .iter()
         .zip(vs.truth.values(index))
-        .filter(|(e, v)| *v != e.neutral)
+        .filter(|(e, v)| *v != e.neutral && !e.drawn)
         .map(|(e, value)| ModelErrorValue {
             key: e.key,
             unit: e.unit,

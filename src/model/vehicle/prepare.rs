@@ -11,6 +11,7 @@ use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::study::{AirSpeed, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
+use crate::vehicle::truth::sample_of;
 use crate::vehicle::{DriveCycle, Road, Truth};
 
 /// The drive cycle of one terrain scale and truth.
@@ -85,6 +86,23 @@ pub(super) fn scale_cycles(
                 .drive
                 .cycle(&vs.vehicle, road, &truth)
                 .map_err(|e| error_at(&key, format!("at scale {scale}{with_truth}: {e}")))?;
+            // A drifting mass must stay positive over the cycle (it is linear in time, so
+            // its ends tell).
+            if let Some(last) = cycle.t_s.len().checked_sub(1) {
+                for j in [0, last] {
+                    let inertia = truth.inertia_kg(&vs.vehicle, &sample_of(&cycle, j));
+                    if inertia.is_nan() || inertia <= 0.0 {
+                        return Err(error_at(
+                            "truth.mass_rate",
+                            format!(
+                                "at scale {scale}{with_truth} the truth's mass would be {inertia} kg \
+                                 at t = {} s of the cycle; it must stay positive",
+                                cycle.t_s[j] - cycle.t_s[0]
+                            ),
+                        ));
+                    }
+                }
+            }
             Ok(ScaleCycle {
                 scale_index: i,
                 truth_index,

@@ -124,7 +124,13 @@ impl World {
         }
         if let Some(map) = &self.grade_map {
             let mut normals = NormalSequence::for_realisation(seed, key, GRADE_MAP_STREAM, r);
-            let end = cycle.x_m.iter().copied().fold(0.0, f64::max);
+            // The map reaches as far as the rows the regression uses.
+            let end = cycle
+                .x_m
+                .iter()
+                .zip(&used)
+                .filter(|(_, u)| **u)
+                .fold(0.0, |end, (x, _)| f64::max(end, *x));
             let d = map.differences(&mut normals, end);
             for (g, &x) in cycle.grade_rad.iter_mut().zip(&cycle.x_m) {
                 *g = mapped_grade(*g, x, &d);

@@ -21,9 +21,10 @@
 //!
 //! To first order the estimate moves by Δθ ≈ −θ₁ (XᵀX)⁻¹ Xᵀ D for a force D (the
 //! regression's normal equations applied to the output error −θ₁ D), and by the entry's own
-//! form for a calibration error: its `bias_model`. Entries combine by adding their forces
-//! and composing their calibrations; products of two entries' sizes (wind at another air
-//! density) are not modelled.
+//! form for a calibration error: its `bias_model`. Entries combine by adding their inertias
+//! and forces and composing their calibrations; the aerodynamic force is made once from
+//! every entry's wind and air-density factor (so wind at another density is exact). An entry
+//! drawn anew in every realisation (`drawn.rs`) realises as a steady one per realisation.
 
 mod drawn;
 mod steady;
@@ -300,6 +301,17 @@ impl Truth {
         self.entries.iter().fold(force_n, |f, e| e.logged_force(f))
     }
 
+    /// The truth's inertia \[kg\] at `sample`: M plus every entry's added inertia (a
+    /// drifting mass, rotating parts). It must stay positive over a cycle.
+    pub fn inertia_kg(&self, vehicle: &VehicleParams, sample: &TruthSample) -> f64 {
+        vehicle.mass_kg
+            + self
+                .entries
+                .iter()
+                .map(|e| e.added_inertia_kg(vehicle, sample))
+                .sum::<f64>()
+    }
+
     /// The wind \[m/s\] at `sample`, positive a headwind: the sum of the entries' (so the
     /// air speed is V plus this).
     pub fn wind_m_s(&self, sample: &TruthSample) -> f64 {
@@ -347,7 +359,7 @@ impl Truth {
 }
 
 /// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample).
-fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
+pub fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
     let start = cycle.t_s.first().copied().unwrap_or(0.0);
     TruthSample {
         time_s: cycle.t_s[i] - start,
