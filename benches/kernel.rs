@@ -255,25 +255,35 @@ fn estimator_cost(c: &mut Criterion) {
         });
     }
     g.finish();
+    for (name, model) in &models[1..] {
+        let rounds = interleaved(model, &models[0].1, 10);
+        let ratio = |(t, base): (f64, f64)| t / base;
+        println!(
+            "realisation cost, {name} / ols alone: {:.3} (median of 15; range {:.3}–{:.3})",
+            ratio(rounds[7]),
+            ratio(rounds[0]),
+            ratio(rounds[14])
+        );
+    }
+}
+
+/// The time per realisation \[s\] of `model` and of `baseline` in 15 interleaved rounds of
+/// `per` realisations each, sorted by their ratio.
+fn interleaved(model: &VehicleModel, baseline: &VehicleModel, per: u64) -> Vec<(f64, f64)> {
     let time = |model: &VehicleModel, r0: u64| {
         let mut slots = vec![0.0; model.layout().realisation_stride()];
         let start = std::time::Instant::now();
-        for r in r0..r0 + 10 {
+        for r in r0..r0 + per {
             model.realise(2018, 0, r, &mut slots);
             black_box(slots[1]);
         }
-        start.elapsed().as_secs_f64()
+        start.elapsed().as_secs_f64() / per as f64
     };
-    for (name, model) in &models[1..] {
-        let mut ratios: Vec<f64> = (0..15u64)
-            .map(|k| time(model, 100 * k) / time(&models[0].1, 100 * k))
-            .collect();
-        ratios.sort_by(f64::total_cmp);
-        println!(
-            "realisation cost, {name} / ols alone: {:.3} (median of 15; range {:.3}–{:.3})",
-            ratios[7], ratios[0], ratios[14]
-        );
-    }
+    let mut rounds: Vec<(f64, f64)> = (0..15u64)
+        .map(|k| (time(model, 100 * k), time(baseline, 100 * k)))
+        .collect();
+    rounds.sort_by(|a, b| (a.0 / a.1).total_cmp(&(b.0 / b.1)));
+    rounds
 }
 
 /// The thesis study at one scale with `extra` appended (a `[truth]` table or `[noise]` keys
@@ -325,20 +335,8 @@ fn drawn_cost(c: &mut Criterion) {
         });
     }
     g.finish();
-    let time = |model: &VehicleModel, r0: u64| {
-        let mut slots = vec![0.0; model.layout().realisation_stride()];
-        let start = std::time::Instant::now();
-        for r in r0..r0 + 5 {
-            model.realise(2018, 0, r, &mut slots);
-            black_box(slots[1]);
-        }
-        start.elapsed().as_secs_f64() / 5.0
-    };
     for (name, model) in &models[1..] {
-        let mut rounds: Vec<(f64, f64)> = (0..15u64)
-            .map(|k| (time(model, 100 * k), time(&models[0].1, 100 * k)))
-            .collect();
-        rounds.sort_by(|a, b| (a.0 / a.1).total_cmp(&(b.0 / b.1)));
+        let rounds = interleaved(model, &models[0].1, 5);
         let (t, base) = rounds[7];
         println!(
             "realisation cost, {name}: {:.2} ms vs {:.3} ms steady = {:.1}x (median of 15; ratio range {:.1}-{:.1})",

@@ -3,10 +3,7 @@
 
 use super::StudyError;
 use super::validate::Checker;
-use super::vehicle::{
-    AIR_SPEED_SD, GRADE_BIAS, GRADE_MAP_LENGTH, GRADE_MAP_SD, SHARE_ACROSS_SCALES,
-    VELOCITY_CORRELATION,
-};
+use super::vehicle::NOISE_KEYS;
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
 use crate::vehicle::DRIVE_MODES;
@@ -67,17 +64,7 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
         }
     }
     let noise = Channel::ALL.map(Channel::key);
-    if noise.contains(&key)
-        || [
-            GRADE_BIAS,
-            VELOCITY_CORRELATION,
-            SHARE_ACROSS_SCALES,
-            GRADE_MAP_SD,
-            GRADE_MAP_LENGTH,
-            AIR_SPEED_SD,
-        ]
-        .contains(&key)
-    {
+    if noise.contains(&key) || NOISE_KEYS.contains(&key) {
         homes.push(("noise", None));
     }
     if super::truth::truth_keys().contains(&key) {

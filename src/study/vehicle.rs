@@ -443,18 +443,7 @@ struct ValidatedNoise {
 /// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
 /// `share_across_scales`, and no other key.
 fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, StudyError> {
-    noise_keys(
-        n,
-        c,
-        &[
-            GRADE_BIAS,
-            VELOCITY_CORRELATION,
-            SHARE_ACROSS_SCALES,
-            GRADE_MAP_SD,
-            GRADE_MAP_LENGTH,
-            AIR_SPEED_SD,
-        ],
-    )?;
+    noise_keys(n, c, &NOISE_KEYS)?;
     let mut levels = PerChannel::<Vec<f64>>::default();
     for channel in Channel::ALL {
         levels[channel] = match (noise_levels(n, c, channel.key())?, channel.default_levels()) {
@@ -604,6 +593,16 @@ pub(super) const SHARE_ACROSS_SCALES: &str = "share_across_scales";
 
 /// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
 pub(super) const GRADE_BIAS: &str = "grade_bias";
+
+/// The keys of a vehicle study's `[noise]` beyond the channels' levels.
+pub(super) const NOISE_KEYS: [&str; 6] = [
+    GRADE_BIAS,
+    VELOCITY_CORRELATION,
+    SHARE_ACROSS_SCALES,
+    GRADE_MAP_SD,
+    GRADE_MAP_LENGTH,
+    AIR_SPEED_SD,
+];
 
 /// The `[noise]` key of the elevation map's error \[m\] (an axis; default `[0]`).
 pub const GRADE_MAP_SD: &str = "grade_map_sd";
