@@ -65,7 +65,7 @@ impl WindSeries {
     /// a sample time.
     pub fn at(&self, t_s: f64) -> f64 {
         let (t, w) = (&self.times_s, &self.wind_m_s);
-        let j = t.partition_point(|&x| x <= t_s);
+        let j = self.first_after(t_s);
         match j {
             0 => w[0],
             j if j == t.len() => w[j - 1],
@@ -74,6 +74,33 @@ impl WindSeries {
                 w[j - 1] + u * (w[j] - w[j - 1])
             }
         }
+    }
+}
+
+impl WindSeries {
+    /// The index of the first sample time after `t_s` (`t.partition_point(|x| x <= t_s)`),
+    /// found from the guess of evenly spaced times and corrected, so that an RK4 stage
+    /// does not search the whole series.
+    fn first_after(&self, t_s: f64) -> usize {
+        let t = &self.times_s;
+        let n = t.len();
+        if n < 2 || t_s.is_nan() {
+            return t.partition_point(|&x| x <= t_s);
+        }
+        let step = (t[n - 1] - t[0]) / (n - 1) as f64;
+        let guess = ((t_s - t[0]) / step).floor();
+        let mut j = if guess.is_finite() && guess >= 0.0 {
+            (guess as usize).saturating_add(1).min(n)
+        } else {
+            0
+        };
+        while j > 0 && t[j - 1] > t_s {
+            j -= 1;
+        }
+        while j < n && t[j] <= t_s {
+            j += 1;
+        }
+        j
     }
 }
 
@@ -156,3 +183,33 @@ pub(super) const FORCE_SCALE_SD: ModelErrorEntry = ModelErrorEntry {
     },
     build: |s, _| Some(Arc::new(ForceScaleDrawn { sd: s })),
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gusts_lookup_finds_what_a_search_of_the_times_finds() {
+        // Even steps with rounding (i · 0.01), and uneven ones: every probe, at, between
+        // and beyond the sample times, lands where partition_point lands.
+        let even: Vec<f64> = (0..1001).map(|i| i as f64 * 0.01).collect();
+        let uneven: Vec<f64> = (0..300).map(|i| (i as f64).powf(1.3) * 0.1).collect();
+        for times in [even, uneven] {
+            let series = WindSeries {
+                wind_m_s: vec![0.0; times.len()],
+                times_s: times.clone(),
+            };
+            let last = *times.last().unwrap();
+            let mut probes: Vec<f64> = times.clone();
+            probes.extend(times.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+            probes.extend([-1.0, last + 1.0, f64::INFINITY, -f64::INFINITY]);
+            for p in probes {
+                assert_eq!(
+                    series.first_after(p),
+                    times.partition_point(|&x| x <= p),
+                    "at {p}"
+                );
+            }
+        }
+    }
+}
