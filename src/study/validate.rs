@@ -332,6 +332,8 @@ pub(super) fn validate(
             }
         }
     }
+    // A `[truth]` key at its neutral value alone is the key absent, and a table left
+    // empty is no table.
     if let Some(t) = raw.truth.as_mut() {
         for entry in &MODEL_ERRORS {
             if let Some(value) = t.get_mut(entry.key) {
@@ -339,8 +341,19 @@ pub(super) fn validate(
                     true => listed_floats(value),
                     false => single_float(value),
                 };
+                let neutral = toml::Value::Float(entry.neutral);
+                let alone = match value {
+                    toml::Value::Array(list) => list.as_slice() == [neutral.clone()],
+                    v => *v == neutral,
+                };
+                if alone {
+                    t.remove(entry.key);
+                }
             }
         }
+    }
+    if raw.truth.as_ref().is_some_and(|t| t.is_empty()) {
+        raw.truth = None;
     }
     // The default air speed is the absent key.
     if let Some(e) = raw.estimation.as_mut()

@@ -545,6 +545,49 @@ fn one_number_stands_for_a_list_of_one_wherever_a_list_is_meant() {
     let b = chassis_mc::study::Study::from_toml(&bare, "bare.toml").unwrap();
     assert_eq!(a.to_toml(), b.to_toml());
     assert_eq!(a.identity(), b.identity());
+    // Likewise a `[truth]` key: `1` is `[1.0]`, and a key at its neutral value alone (or
+    // the default air speed) is the key absent, so a resume finds the same study.
+    let truth = |table: &str| {
+        let text = format!(
+            "{lists}
+[truth]
+{table}
+"
+        );
+        chassis_mc::study::Study::from_toml(&text, "truth.toml").unwrap()
+    };
+    assert_eq!(
+        truth(
+            "wind_speed = 1
+mass_rate = -0.001"
+        )
+        .to_toml(),
+        truth(
+            "wind_speed = [1.0]
+mass_rate = -0.001
+force_scale = [0.0]"
+        )
+        .to_toml()
+    );
+    let plain = chassis_mc::study::Study::from_toml(&lists, "lists.toml").unwrap();
+    let neutral = truth(
+        "wind_speed = [0]
+air_density_ratio = 1",
+    );
+    assert_eq!(neutral.to_toml(), plain.to_toml());
+    assert_eq!(neutral.identity(), plain.identity());
+    let ground = chassis_mc::study::Study::from_toml(
+        &set_key(&lists, "estimators", "[\"ols\"]\nair_speed = \"ground\""),
+        "ground.toml",
+    )
+    .unwrap();
+    assert_eq!(ground.to_toml(), plain.to_toml());
+    // Two conditions at the neutral value are two conditions, kept.
+    assert!(
+        truth("wind_speed = [0.0, 0.0]")
+            .to_toml()
+            .contains("wind_speed")
+    );
     // A value of the wrong type still names the key.
     let wrong = set_key(&t, "velocity_sd", "\"fast\"");
     let err = chassis_mc::study::Study::from_toml(&wrong, "wrong.toml").unwrap_err();
