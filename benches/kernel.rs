@@ -241,20 +241,7 @@ fn estimator_cost(c: &mut Criterion) {
     .into_iter()
     .map(|(name, list)| (name, thesis_with(dir.path(), list)))
     .collect();
-    let mut g = c.benchmark_group("estimator_cost");
-    g.sample_size(30);
-    let mut r = 0u64;
-    for (name, model) in &models {
-        let mut slots = vec![0.0; model.layout().realisation_stride()];
-        g.bench_function(*name, |b| {
-            b.iter(|| {
-                r += 1;
-                model.realise(2018, 0, r, &mut slots);
-                black_box(slots[1])
-            })
-        });
-    }
-    g.finish();
+    bench_realisations(c, "estimator_cost", 30, &models);
     for (name, model) in &models[1..] {
         let rounds = interleaved(model, &models[0].1, 10);
         let ratio = |(t, base): (f64, f64)| t / base;
@@ -265,6 +252,30 @@ fn estimator_cost(c: &mut Criterion) {
             ratio(rounds[14])
         );
     }
+}
+
+/// Criterion's timing of a whole realisation (condition 0, a new realisation each
+/// iteration) of each of `models`, in the group `group`.
+fn bench_realisations(
+    c: &mut Criterion,
+    group: &str,
+    sample_size: usize,
+    models: &[(&str, VehicleModel)],
+) {
+    let mut g = c.benchmark_group(group);
+    g.sample_size(sample_size);
+    let mut r = 0u64;
+    for (name, model) in models {
+        let mut slots = vec![0.0; model.layout().realisation_stride()];
+        g.bench_function(*name, |b| {
+            b.iter(|| {
+                r += 1;
+                model.realise(2018, 0, r, &mut slots);
+                black_box(slots[1])
+            })
+        });
+    }
+    g.finish();
 }
 
 /// The time per realisation \[s\] of `model` and of `baseline` in 15 interleaved rounds of
@@ -321,20 +332,7 @@ fn drawn_cost(c: &mut Criterion) {
     .into_iter()
     .map(|(name, noise, truth)| (name, thesis_drawn(dir.path(), name, noise, truth)))
     .collect();
-    let mut g = c.benchmark_group("drawn_cost");
-    g.sample_size(20);
-    let mut r = 0u64;
-    for (name, model) in &models {
-        let mut slots = vec![0.0; model.layout().realisation_stride()];
-        g.bench_function(*name, |b| {
-            b.iter(|| {
-                r += 1;
-                model.realise(2018, 0, r, &mut slots);
-                black_box(slots[1])
-            })
-        });
-    }
-    g.finish();
+    bench_realisations(c, "drawn_cost", 20, &models);
     for (name, model) in &models[1..] {
         let rounds = interleaved(model, &models[0].1, 5);
         let (t, base) = rounds[7];

@@ -300,8 +300,9 @@ pub struct ConditionInfo {
     /// minus the truth (what the model errors alone make it estimate,
     /// docs/model.md#model-errors; NaN where unknown).
     pub bias_model: Vec<Vec<f64>>,
-    /// The model errors the condition's truth has (docs/model.md#model-errors), each at its
-    /// value; empty where the truth is the equation (and for a model without model errors).
+    /// The steady model errors the condition's truth has (docs/model.md#model-errors), each
+    /// at its value: those `bias_model` describes; empty where the steady truth is the
+    /// equation (and for a model without model errors).
     pub model_errors: Vec<ModelErrorValue>,
     /// `applies[e][b]`: bound `b` is valid (and reported) for estimator `e`.
     pub applies: Vec<Vec<bool>>,

@@ -8,22 +8,23 @@
 
 use nalgebra::Vector3;
 
-use crate::estimate::channels::NoiseLevels;
+use crate::estimate::channels::{Acceleration, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
 use crate::estimate::regression::Regression;
 
-/// Per estimator, per parameter: its estimate on `regression`'s noise-free rows (the
-/// acceleration source of `noise` kept, every level zero) minus `truth`; NaN where the
-/// normal equations are singular.
+/// Per estimator, per parameter: its estimate on `regression`'s noise-free rows (its
+/// acceleration source `acceleration`, every noise level zero) minus `truth`; NaN where the
+/// normal equations are singular. It depends on the condition only through its regression,
+/// so conditions that share one share it.
 pub(super) fn bias_model(
     regression: &Regression,
-    noise: &NoiseLevels,
+    acceleration: Acceleration,
     estimators: &[EstimatorRef],
     settings: &EstimatorSettings,
     truth: &[f64; 3],
 ) -> Vec<Vec<f64>> {
     let quiet = NoiseLevels {
-        acceleration: noise.acceleration,
+        acceleration,
         ..NoiseLevels::default()
     };
     estimates_without_draws(regression, &quiet, &quiet, estimators, settings, truth)

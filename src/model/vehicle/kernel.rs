@@ -32,15 +32,7 @@ impl VehicleModel {
     pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
         match self.regression_of(seed, c, r) {
             Ok(world) => {
-                let (reg, ar1) = world.as_ref().map_or_else(
-                    || {
-                        (
-                            &*self.conditions[c].regression,
-                            self.conditions[c].ar1.as_deref(),
-                        )
-                    },
-                    |(reg, ar1)| (reg, ar1.as_deref()),
-                );
+                let (reg, ar1) = self.rows_of(c, &world);
                 self.measure(seed, c, r, reg, ar1, None)
             }
             Err(_) => Moments {
@@ -54,13 +46,7 @@ impl VehicleModel {
     /// correlated speed noise, when the realisation has its own (a condition with a
     /// [`World`](super::world::World); `None`: the condition's); an error says why its truth
     /// cannot be simulated.
-    #[allow(clippy::type_complexity)]
-    fn regression_of(
-        &self,
-        seed: u64,
-        c: usize,
-        r: u64,
-    ) -> Result<Option<(Regression, Option<Vec<[f64; 2]>>)>, String> {
+    fn regression_of(&self, seed: u64, c: usize, r: u64) -> Result<Option<OwnRegression>, String> {
         let cond = &self.conditions[c];
         let Some(world) = &cond.world else {
             return Ok(None);
@@ -71,6 +57,20 @@ impl VehicleModel {
             .velocity_correlated()
             .then(|| reg.ar1_coefficients(cond.noise.velocity_correlation_s));
         Ok(Some((reg, ar1)))
+    }
+
+    /// The regression a realisation of condition `c` is drawn on and its AR(1) coefficients:
+    /// its own (`world`, from [`Self::regression_of`]) or the condition's.
+    fn rows_of<'a>(
+        &'a self,
+        c: usize,
+        world: &'a Option<OwnRegression>,
+    ) -> (&'a Regression, Option<&'a [[f64; 2]]>) {
+        let cond = &self.conditions[c];
+        world.as_ref().map_or_else(
+            || (&*cond.regression, cond.ar1.as_deref()),
+            |(reg, ar1)| (reg, ar1.as_deref()),
+        )
     }
 
     /// The moments of realisation `r` of condition `c` on the regression `reg` (with AR(1)
@@ -159,6 +159,9 @@ impl VehicleModel {
     }
 }
 
+/// A realisation's own regression and the AR(1) coefficients of its correlated speed noise.
+type OwnRegression = (Regression, Option<Vec<[f64; 2]>>);
+
 /// One channel's normals in a realisation: read straight from its stream in the blocks the
 /// kernel asks for, or, shared between conditions, as a [`NormalSequence`] whose values do
 /// not depend on the lengths read.
@@ -210,10 +213,7 @@ impl VehicleModel {
             Ok(world) => world,
             Err(_) => return self.unsimulated(slots),
         };
-        let (reg, ar1) = world.as_ref().map_or_else(
-            || (&*cond.regression, cond.ar1.as_deref()),
-            |(reg, ar1)| (reg, ar1.as_deref()),
-        );
+        let (reg, ar1) = self.rows_of(c, &world);
         let rows = self.needs_rows.then(|| {
             rows.reset(reg, &cond.noise);
             rows

@@ -36,7 +36,7 @@ use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use crate::vehicle::truth::MODEL_ERRORS;
 use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
-use world::{GradeMap, World};
+use world::{GradeMap, Place, World};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
 pub const PARAMETERS: [&str; 3] = ["inv_mass", "drag_over_mass", "rolling_resistance"];
@@ -116,6 +116,32 @@ impl VehicleModel {
         // Scale and duration are the outermost axes: the conditions of one draw group are
         // `inner` apart.
         let inner = points.len() / (vs.scales.len() * durations);
+        // `bias_model` of each regression, once (conditions differing only in their noise
+        // levels share one): per segment, acceleration source and grade bias.
+        let bias_models: Vec<Vec<Vec<Vec<Vec<f64>>>>> = segments
+            .par_iter()
+            .map(|segment| {
+                segment
+                    .regressions
+                    .iter()
+                    .zip(&vs.acceleration)
+                    .map(|(regressions, &acceleration)| {
+                        regressions
+                            .iter()
+                            .map(|r| {
+                                bias_model::bias_model(
+                                    r,
+                                    acceleration,
+                                    &vs.estimators,
+                                    &vs.settings,
+                                    &truth,
+                                )
+                            })
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
         let conditions: Vec<Condition> = points
             .par_iter()
             .enumerate()
@@ -163,19 +189,19 @@ impl VehicleModel {
                     sd_m: point.grade_map_sd,
                     length_m: vs.grade_map_length_m,
                 });
-                let world = (condition_truth.is_drawn() || grade_map.is_some()).then(|| {
-                    let cycle = &cycles[cycle_index];
-                    World {
-                        truth: condition_truth,
+                let cycle = &cycles[cycle_index];
+                let world = World::new(
+                    condition_truth,
+                    grade_map,
+                    Place {
                         cycle: cycle.cycle.clone(),
                         table: cycle.table.clone(),
                         scale: vs.scales[point.scale_index],
                         duration_s: vs.durations.as_ref().map(|d| d[point.duration_index]),
                         source: noise.acceleration,
                         grade_bias_rad: vs.grade_bias[point.grade_bias_index],
-                        grade_map,
-                    }
-                });
+                    },
+                );
                 // The control variates are centred on the condition's regression: with
                 // another regression in every realisation, none applies.
                 let controls = controls
@@ -189,13 +215,7 @@ impl VehicleModel {
                             .collect(),
                         metrics: segment.metrics.clone(),
                         truth: truth.to_vec(),
-                        bias_model: bias_model::bias_model(
-                            &regression,
-                            &noise,
-                            &vs.estimators,
-                            &vs.settings,
-                            &truth,
-                        ),
+                        bias_model: bias_models[k][source][point.grade_bias_index].clone(),
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,
@@ -263,8 +283,7 @@ impl VehicleModel {
         .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
         if est.compensates_speed_noise() {
-            let truth = self.cycles[cond.cycle_index].truth_index;
-            let bias = match self.study.truth.truth(truth).steady().is_empty() {
+            let bias = match cond.info.model_errors.is_empty() {
                 true => [0.0; 3],
                 false => [0, 1, 2].map(|p| cond.info.bias_model[e][p]),
             };

@@ -3,6 +3,7 @@
 //! the measured grade. Such a realisation has its own regression, made as the condition's
 //! is, from its own truth and map (docs/model.md#model-errors, docs/model.md#grade-map).
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use super::prepare::{measured_speeds, used_samples};
@@ -59,7 +60,31 @@ fn mapped_grade(grade_rad: f64, x_m: f64, d: &[f64]) -> f64 {
 #[derive(Debug)]
 pub(super) struct World {
     /// The condition's truth, its drawn entries included.
-    pub truth: Truth,
+    truth: Truth,
+    /// Its drawn entries alone, and its steady ones alone.
+    drawn: Truth,
+    steady: Truth,
+    /// The condition's noise-free cycle (the steady entries only) and its sample times
+    /// from 0 (what the drawn entries are realised at).
+    cycle: Arc<DriveCycle>,
+    times_s: Vec<f64>,
+    /// Its grade table, when the study has a terrain profile.
+    table: Option<Arc<GradeTable>>,
+    /// Its terrain scale.
+    scale: f64,
+    /// Its duration \[s\] (`None`: the whole cycle).
+    duration_s: Option<f64>,
+    /// Its acceleration source.
+    source: Acceleration,
+    /// Its grade bias \[rad\].
+    grade_bias_rad: f64,
+    /// The map's error (`None`: the map is exact).
+    pub grade_map: Option<GradeMap>,
+}
+
+/// Where a condition's realisations are made: its cycle, road and row selection.
+#[derive(Debug)]
+pub(super) struct Place {
     /// The condition's noise-free cycle (the steady entries only).
     pub cycle: Arc<DriveCycle>,
     /// Its grade table, when the study has a terrain profile.
@@ -72,11 +97,31 @@ pub(super) struct World {
     pub source: Acceleration,
     /// Its grade bias \[rad\].
     pub grade_bias_rad: f64,
-    /// The map's error (`None`: the map is exact).
-    pub grade_map: Option<GradeMap>,
 }
 
 impl World {
+    /// The world of a condition with `truth` and `grade_map` at `place`; `None` when its
+    /// realisations draw nothing beyond their sensor noise.
+    pub fn new(truth: Truth, grade_map: Option<GradeMap>, place: Place) -> Option<World> {
+        if !truth.is_drawn() && grade_map.is_none() {
+            return None;
+        }
+        let start = place.cycle.t_s.first().copied().unwrap_or(0.0);
+        Some(World {
+            drawn: truth.drawn_part(),
+            steady: truth.steady(),
+            truth,
+            times_s: place.cycle.t_s.iter().map(|t| t - start).collect(),
+            cycle: place.cycle,
+            table: place.table,
+            scale: place.scale,
+            duration_s: place.duration_s,
+            source: place.source,
+            grade_bias_rad: place.grade_bias_rad,
+            grade_map,
+        })
+    }
+
     /// The regression of realisation `r`: its truth (each drawn entry from its own stream
     /// of (`seed`, `key`)) driven or logged, its map's grade, the rows selected as the
     /// condition's are. An error says why the realisation's truth cannot be used (the
@@ -89,14 +134,12 @@ impl World {
         r: u64,
     ) -> Result<Regression, String> {
         let nominal = &*self.cycle;
-        let start = nominal.t_s.first().copied().unwrap_or(0.0);
-        let times = || -> Vec<f64> { nominal.t_s.iter().map(|t| t - start).collect() };
         let (mut cycle, truth) = if !self.truth.is_drawn() {
-            (nominal.clone(), self.truth.clone())
+            (nominal.clone(), Cow::Borrowed(&self.truth))
         } else if self.truth.moves_per_realisation() {
             // The force the truth needs changes: the drive mode makes the cycle again
             // (integrates it, or logs another force for the same motion).
-            let truth = self.truth.realise(seed, key, r, &times());
+            let truth = self.truth.realise(seed, key, r, &self.times_s);
             let road = Road {
                 table: self.table.as_deref(),
                 scale: self.scale,
@@ -105,15 +148,15 @@ impl World {
                 .drive
                 .cycle(&vs.vehicle, road, &truth)
                 .map_err(|e| e.to_string())?;
-            (cycle, truth)
+            (cycle, Cow::Owned(truth))
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
-            let drawn = self.truth.drawn_part().realise(seed, key, r, &times());
+            let drawn = self.drawn.realise(seed, key, r, &self.times_s);
             let mut cycle = nominal.clone();
             for f in &mut cycle.f_prop_n {
                 *f = drawn.logged_force(*f);
             }
-            (cycle, self.truth.steady())
+            (cycle, Cow::Borrowed(&self.steady))
         };
         let used = used_samples(&cycle, vs, self.duration_s, self.source);
         if used.iter().filter(|u| **u).count() < 3 {
