@@ -64,14 +64,7 @@ impl Expectations {
     pub fn new(reg: &Regression, noise: &NoiseLevels, ar1: Option<&[[f64; 2]]>) -> Self {
         let mut sums: [ExactSum; CONTROL_COUNT] = Default::default();
         for i in 0..reg.len() {
-            let r = TrueRow {
-                f: reg.f[i],
-                v: reg.v[i],
-                accel: reg.accel[i],
-                sin_grade: reg.sin_grade[i],
-                cos_grade: reg.cos_grade[i],
-                g: reg.g,
-            };
+            let r = TrueRow::of(reg, i);
             let mut row = ColumnMoments::noise_free(&r);
             for (c, &sd) in noise.iter() {
                 if sd > 0.0 {

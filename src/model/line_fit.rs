@@ -82,6 +82,7 @@ impl LineFitModel {
                         model_errors: Vec::new(),
                         applies: vec![vec![true, sd > 0.0]],
                         controls: Vec::new(),
+                        control_covariance: None,
                     },
                     shape,
                     sd,

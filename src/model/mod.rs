@@ -309,6 +309,12 @@ pub struct ConditionInfo {
     /// `controls[j]`: control variate `j` of the layout is one in this condition (it
     /// varies and its mean is known); the others are NaN.
     pub controls: Vec<bool>,
+    /// The exact covariances Cov(cⱼ, cₖ) of the condition's controls (those `controls`
+    /// marks, in the layout's order), packed j ≤ k row by row, which the spread's control
+    /// variates centre the products of the controls with
+    /// (docs/model.md#spread-control-variates); `None` where they are not derived (or no
+    /// control applies).
+    pub control_covariance: Option<Vec<f64>>,
 }
 
 /// One model error of a condition's truth at its value (docs/model.md#model-errors), for

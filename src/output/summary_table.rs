@@ -242,6 +242,7 @@ fn decode(
             applies: vec![vec![false; layout.bounds.len()]; layout.estimators.len()],
             // Which sums were control variates is not a summary column.
             controls: vec![false; layout.controls.len()],
+            control_covariance: None,
         });
         info.truth[p] = row.truth;
         info.bias_model[e][p] = row.bias_model;

@@ -173,6 +173,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         model_errors: vec![],
         applies: vec![vec![true]],
         controls: vec![],
+        control_covariance: None,
     }];
     // A biased estimator (mean 1.3) with SE 2, and a variable bound.
     let z = normals(7, 0, N);

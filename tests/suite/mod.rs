@@ -28,5 +28,6 @@ mod routes;
 mod sensors;
 mod shards_resume;
 mod shared_noise;
+mod spread;
 mod terrain_metric;
 mod thesis_table3;

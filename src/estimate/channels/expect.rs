@@ -17,6 +17,9 @@ pub struct TrueRow {
     pub cos_grade: f64,
     /// Gravity g \[m/s²\].
     pub g: f64,
+    /// 1/Δt of the central difference a differentiated acceleration takes \[1/s\] (0 when
+    /// the acceleration is the model's).
+    pub inv_dt: f64,
 }
 
 /// The expectations at one row of the measured columns and of the products of two

@@ -1,6 +1,9 @@
 //! Force noise: white noise σ_F on the measured propulsion force (docs/model.md#noise-channels).
 
-use super::{ChannelTerms, ColumnMoments, OmegaAt, Sample, TrueRow};
+use super::covariance::gaussian_moment;
+use super::{
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
+};
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
 
@@ -16,6 +19,7 @@ impl ChannelTerms for ForceNoise {
     const STREAM: u64 = 4;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::F];
+    const PARTS: &'static [Part] = &[Part::F];
 
     #[inline(always)]
     fn perturb(s: &mut Sample, sd: f64, e: f64) {
@@ -40,5 +44,14 @@ impl ChannelTerms for ForceNoise {
             s_11: m.s_11 - s2 * m.n,
             ..*m
         }
+    }
+
+    /// E\[(F + σz)ᵏ\].
+    fn raw_moment(noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64> {
+        Some(gaussian_moment(
+            r.f,
+            noise[Channel::Force],
+            k[Part::F as usize],
+        ))
     }
 }

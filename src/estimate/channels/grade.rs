@@ -1,7 +1,10 @@
 //! Grade noise: white noise σ_θ on the measured grade signal, entering the regressor
 //! x̃₃ = −g cos θ̃ and the output's grade term g sin θ̃ (docs/model.md#noise-channels).
 
-use super::{ChannelTerms, ColumnMoments, GradeLoading, OmegaAt, Sample, TrueRow};
+use super::{
+    Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers, Sample,
+    TrueRow,
+};
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::sums::Column;
 
@@ -17,6 +20,7 @@ impl ChannelTerms for GradeNoise {
     const STREAM: u64 = 3;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::C, Column::Y];
+    const PARTS: &'static [Part] = &[Part::C, Part::S];
 
     #[inline(always)]
     fn perturb(s: &mut Sample, sd: f64, e: f64) {
@@ -81,6 +85,60 @@ impl ChannelTerms for GradeNoise {
             ..*m
         }
     }
+
+    /// E\[(−g cos θ̃)ᶜ (g sin θ̃)ˢ\] ([`trig_moment`]).
+    fn raw_moment(noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64> {
+        let (c, s) = (k[Part::C as usize], k[Part::S as usize]);
+        let m = trig_moment(r.sin_grade, r.cos_grade, noise[Channel::Grade], c, s);
+        Some((-r.g).powi(c as i32) * r.g.powi(s as i32) * m)
+    }
+}
+
+/// E\[cosᶜ(θ + δ) sinˢ(θ + δ)\] for δ ~ N(0, σ²), c + s ≤ 8, from sin θ and cos θ: with
+/// z = e^(i(θ+δ)), cos = (z + z⁻¹)/2 and sin = (z − z⁻¹)/2i, the product is a Laurent
+/// polynomial Σ aₙ zⁿ, and E\[zⁿ\] = e^(inθ) e^(−n²σ²/2).
+fn trig_moment(sin: f64, cos: f64, sd: f64, c: u8, s: u8) -> f64 {
+    const W: usize = 17; // n = −8..=8
+    let mid = 8;
+    assert!(c + s <= 8, "trigonometric moments up to the eighth order");
+    // (re, im) coefficients of zⁿ at index n + 8.
+    let mut poly = [(0.0f64, 0.0f64); W];
+    poly[mid] = (1.0, 0.0);
+    let factors = std::iter::repeat_n([(0.5, 0.0), (0.5, 0.0)], c as usize)
+        .chain(std::iter::repeat_n([(0.0, 0.5), (0.0, -0.5)], s as usize));
+    // each factor: [coefficient of z⁻¹, coefficient of z]
+    for [down, up] in factors {
+        let mut next = [(0.0, 0.0); W];
+        for n in 0..W {
+            let (re, im) = poly[n];
+            if re == 0.0 && im == 0.0 {
+                continue;
+            }
+            let mul = |(a, b): (f64, f64), (x, y): (f64, f64)| (a * x - b * y, a * y + b * x);
+            let (dr, di) = mul((re, im), down);
+            let (ur, ui) = mul((re, im), up);
+            next[n - 1].0 += dr;
+            next[n - 1].1 += di;
+            next[n + 1].0 += ur;
+            next[n + 1].1 += ui;
+        }
+        poly = next;
+    }
+    // e^(inθ) by repeated multiplication of e^(iθ) = cos θ + i sin θ.
+    let mut total = 0.0;
+    let (mut pr, mut pi) = (1.0f64, 0.0f64);
+    for n in 0..=mid {
+        let damp = (-0.5 * (n * n) as f64 * sd * sd).exp();
+        let (a, b) = poly[mid + n];
+        total += damp * (a * pr - b * pi);
+        if n > 0 {
+            // z⁻ⁿ: e^(−inθ) = pr − i pi
+            let (a, b) = poly[mid - n];
+            total += damp * (a * pr + b * pi);
+        }
+        (pr, pi) = (pr * cos - pi * sin, pr * sin + pi * cos);
+    }
+    total
 }
 
 /// E\[cos(θ + δ)\], E\[cos²(θ + δ)\], E\[sin(θ + δ)\], E\[sin(θ + δ) cos(θ + δ)\] for

@@ -12,6 +12,8 @@
 //! - `velocity.rs`, `output.rs`, `grade.rs`, `force.rs`: the channels;
 //! - `omega.rs`: what Ω and the sandwich's off-diagonal part are evaluated at, and the
 //!   order the channels' Ω terms are added in ([`Channel::OMEGA_ORDER`]);
+//! - `covariance.rs`: the exact covariances of the sums, from each channel's moments of
+//!   the parts it moves, for the spread's control variates;
 //! - `expect.rs`: the noise-free row and the expectations the control variates centre
 //!   the sums with;
 //! - `levels.rs`: [`NoiseLevels`], a condition's levels, and what follows from them.
@@ -22,6 +24,7 @@ use super::moments::Moments;
 use super::regression::Regression;
 use super::sums::{Column, Sum};
 
+mod covariance;
 mod expect;
 mod force;
 mod grade;
@@ -30,6 +33,7 @@ mod omega;
 mod output;
 mod velocity;
 
+pub use covariance::{AcrossRows, Part, Powers, RowMoments, packed, sum_covariances};
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance};
@@ -111,12 +115,25 @@ pub trait ChannelTerms {
     ) {
     }
 
-    /// The place for its covariances, which the spread control variates will read
-    /// (docs/model.md#control-variates): Cov(aᵢ, bᵢ) of row `r`'s terms of sums `a` and
-    /// `b` under its noise alone at SD `sd`. `None`: not derived (no spread control variate
-    /// exists yet, so none is derived for any channel).
-    fn sum_covariance(_sd: f64, _r: &TrueRow, _a: Sum, _b: Sum) -> Option<f64> {
-        None
+    /// The parts of the measured columns its noise moves (docs/model.md#spread-control-variates).
+    const PARTS: &'static [Part];
+
+    /// E\[Π pᵏᵖ\] over its noise of its [`PARTS`](Self::PARTS) p at row `r`, raised to the
+    /// powers `k` (the others' powers are ignored), under `noise` with it on; `None`: not
+    /// derived at these levels (docs/model.md#spread-control-variates).
+    fn raw_moment(noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64>;
+
+    /// Its part of the covariances of `sums` from distinct rows that share its draws,
+    /// Σ_{i≠j} Cov(aᵢ, bⱼ), given every row's moments `rows`; `ar1` the AR(1) coefficients
+    /// of correlated speed noise over [`Regression::noise_times`] (`None`: white).
+    fn covariance_across_rows(
+        _reg: &Regression,
+        _noise: &NoiseLevels,
+        _ar1: Option<&[[f64; 2]]>,
+        _rows: &[RowMoments],
+        _sums: &[Sum],
+    ) -> AcrossRows {
+        AcrossRows::Nothing
     }
 }
 
@@ -259,10 +276,30 @@ macro_rules! channels {
                 }
             }
 
-            /// Cov(aᵢ, bᵢ) of row `r`'s terms of sums `a` and `b` under this channel's noise
-            /// alone at SD `sd`, for the spread control variates (`None`: not derived).
-            pub fn sum_covariance(self, sd: f64, r: &TrueRow, a: Sum, b: Sum) -> Option<f64> {
-                match self { $(Channel::$variant => <$terms>::sum_covariance(sd, r, a, b),)* }
+            /// The parts of the measured columns its noise moves.
+            pub const fn parts(self) -> &'static [Part] {
+                match self { $(Channel::$variant => <$terms>::PARTS,)* }
+            }
+
+            /// E\[Π pᵏᵖ\] over this channel's noise of its parts at row `r` (on under
+            /// `noise`); `None`: not derived (docs/model.md#spread-control-variates).
+            pub fn raw_moment(self, noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64> {
+                match self { $(Channel::$variant => <$terms>::raw_moment(noise, r, k),)* }
+            }
+
+            /// Its part of the covariances of `sums` from distinct rows sharing its draws.
+            pub fn covariance_across_rows(
+                self,
+                reg: &Regression,
+                noise: &NoiseLevels,
+                ar1: Option<&[[f64; 2]]>,
+                rows: &[RowMoments],
+                sums: &[Sum],
+            ) -> AcrossRows {
+                match self {
+                    $(Channel::$variant =>
+                        <$terms>::covariance_across_rows(reg, noise, ar1, rows, sums),)*
+                }
             }
         }
     };

@@ -1,7 +1,10 @@
 //! Output noise: additive, zero-mean noise σ_y on the regression output (the measured
 //! acceleration), independent of everything else (docs/model.md#noise-channels).
 
-use super::{ChannelTerms, ColumnMoments, OmegaAt, Sample, TrueRow};
+use super::covariance::gaussian_moment;
+use super::{
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
+};
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
 
@@ -17,6 +20,7 @@ impl ChannelTerms for OutputNoise {
     const STREAM: u64 = 2;
     const IN_REGRESSORS: bool = false;
     const COLUMNS: &'static [Column] = &[Column::Y];
+    const PARTS: &'static [Part] = &[Part::O];
     const ON_FAST_PATH: bool = true;
 
     #[inline(always)]
@@ -35,5 +39,14 @@ impl ChannelTerms for OutputNoise {
     /// None: zero-mean, independent, and linear in every sum.
     fn compensate(m: &Moments, _sd: f64, _g: f64) -> Moments {
         *m
+    }
+
+    /// E\[(σ_y η)ᵏ\].
+    fn raw_moment(noise: &NoiseLevels, _r: &TrueRow, k: &Powers) -> Option<f64> {
+        Some(gaussian_moment(
+            0.0,
+            noise[Channel::Output],
+            k[Part::O as usize],
+        ))
     }
 }

@@ -8,12 +8,16 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::covariance::{
+    AcrossRows, ColumnPowers, gaussian_moment, hermite_coefficients, packed, powers_of,
+};
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, RowCovariance, Sample, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, RowCovariance,
+    RowMoments, Sample, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::{Regression, ar1_coefficients};
-use crate::estimate::sums::Column;
+use crate::estimate::sums::{Column, Sum};
 
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
 /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
@@ -116,6 +120,7 @@ impl ChannelTerms for Speed {
     const STREAM: u64 = 1;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::W];
+    const PARTS: &'static [Part] = &[Part::W, Part::D];
     const ON_FAST_PATH: bool = true;
 
     #[inline(always)]
@@ -237,6 +242,177 @@ impl ChannelTerms for Speed {
             e.wy_neighbours = neighbour_covariance(reg.v[i], sd, ar1, d.sample[i], d.inv_dt[i]);
         }
     }
+
+    /// E\[wᵏ dʲ\] = E\[(V + σe)²ᵏ\] E\[dʲ\]: a differentiated acceleration's
+    /// d = σ(e₊ − e₋)/Δt is N(0, 2σ²/Δt²) and independent of the row's e when the noise is
+    /// white; not derived for correlated noise through a differentiated acceleration.
+    fn raw_moment(noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64> {
+        let sd = noise[Channel::Velocity];
+        let (kw, kd) = (k[Part::W as usize], k[Part::D as usize]);
+        let differentiated = noise.speed_noise_differentiated();
+        if differentiated && noise.velocity_correlated() && kd > 0 {
+            return None;
+        }
+        let d_sd = if differentiated {
+            std::f64::consts::SQRT_2 * sd * r.inv_dt
+        } else {
+            0.0
+        };
+        Some(gaussian_moment(r.v, sd, 2 * kw) * gaussian_moment(0.0, d_sd, kd))
+    }
+
+    /// Correlated noise (model acceleration): Σ_k k! ρᵢⱼᵏ of the rows' Hermite
+    /// coefficients ([`correlated_across_rows`]); white noise through a differentiated
+    /// acceleration: the neighbours that share a draw ([`differentiated_across_rows`]); both
+    /// together: not derived.
+    fn covariance_across_rows(
+        reg: &Regression,
+        noise: &NoiseLevels,
+        ar1: Option<&[[f64; 2]]>,
+        rows: &[RowMoments],
+        sums: &[Sum],
+    ) -> AcrossRows {
+        match (noise.speed_noise_differentiated(), ar1) {
+            (true, Some(_)) => AcrossRows::NotDerived,
+            (true, None) => {
+                AcrossRows::Covariance(differentiated_across_rows(reg, noise, rows, sums))
+            }
+            (false, Some(ar1)) => {
+                AcrossRows::Covariance(correlated_across_rows(reg, noise, ar1, rows, sums))
+            }
+            (false, None) => AcrossRows::Nothing,
+        }
+    }
+}
+
+/// The powers of a sum's term without w (and without ỹ when `drop_y`).
+fn without_w(sum: Sum, drop_y: bool) -> ColumnPowers {
+    let mut p = powers_of(sum);
+    p[Column::W.index()] = 0;
+    if drop_y {
+        p[Column::Y.index()] = 0;
+    }
+    p
+}
+
+/// Σ_{i≠j} Cov(aᵢ, bⱼ) under correlated speed noise with the model's acceleration. Row i's
+/// term of a sum is oᵢ(V + σeᵢ)²ᵖ, oᵢ independent of the speed noise and of other rows, so
+/// with Corr(eᵢ, eⱼ) = ρᵢⱼ (the product of the AR(1) coefficients between them) and h_k the
+/// Hermite coefficients of the speed factor (Mehler's formula),
+/// Cov(aᵢ, bⱼ) = E\[oᵢ\] E\[o′ⱼ\] Σ_{k≥1} k! hₖ(aᵢ) hₖ(bⱼ) ρᵢⱼᵏ, summed in O(N) per k by the
+/// recursion Gⱼ = ρ_{j−1,j}ᵏ (G_{j−1} + hₖ(a_{j−1})).
+fn correlated_across_rows(
+    reg: &Regression,
+    noise: &NoiseLevels,
+    ar1: &[[f64; 2]],
+    rows: &[RowMoments],
+    sums: &[Sum],
+) -> Vec<f64> {
+    let sd = noise[Channel::Velocity];
+    let q = sums.len();
+    // h[i][a][k]: row i's Hermite coefficients of sum a's term (k = 1..=4).
+    let h: Vec<Vec<[f64; 5]>> = (0..reg.len())
+        .map(|i| {
+            sums.iter()
+                .map(|&a| {
+                    let p = powers_of(a)[Column::W.index()];
+                    let mut out = [0.0; 5];
+                    if p > 0 {
+                        let other =
+                            rows[i].moment_without(without_w(a, false), Some(Channel::Velocity));
+                        let hk = hermite_coefficients(reg.v[i], sd, 2 * p);
+                        for k in 1..5 {
+                            out[k] = other * hk[k];
+                        }
+                    }
+                    out
+                })
+                .collect()
+        })
+        .collect();
+    let mut total = vec![0.0; q * (q + 1) / 2];
+    for (k, kf) in [(1usize, 1.0), (2, 2.0), (3, 6.0), (4, 24.0)] {
+        for a in 0..q {
+            for b in a..q {
+                // Σ_{i<j} ρᵢⱼᵏ [hₖ(aᵢ) hₖ(bⱼ) + hₖ(bᵢ) hₖ(aⱼ)]
+                let (mut carried_a, mut carried_b, mut sum) = (0.0, 0.0, 0.0);
+                for j in 1..reg.len() {
+                    let step = ar1[j][0].powi(k as i32);
+                    carried_a = step * (carried_a + h[j - 1][a][k]);
+                    carried_b = step * (carried_b + h[j - 1][b][k]);
+                    sum += carried_a * h[j][b][k] + carried_b * h[j][a][k];
+                }
+                total[packed(a, b, q)] += kf * sum;
+            }
+        }
+    }
+    total
+}
+
+/// Σ_{i≠j} Cov(aᵢ, bⱼ) under white speed noise through a differentiated acceleration. Row i
+/// at span sample s reads eₛ through w and σ(eₛ₊₁ − eₛ₋₁)κᵢ (κᵢ = 1/Δtᵢ) through ỹ, which a
+/// sum's term holds at most once: aᵢ = pᵢ(eₛ) + qᵢ(eₛ) σκᵢ(eₛ₊₁ − eₛ₋₁). With the other
+/// channels' noise independent across rows, and P₁ = E\[e p\], Q₀ = E\[q\], Q₁ = E\[e q\]
+/// (each the speed factor's moment times the other channels' mean), rows one sample apart
+/// (sⱼ = sᵢ + 1) covary by −σκⱼP₁(aᵢ)Q₀(bⱼ) + σκᵢQ₀(aᵢ)P₁(bⱼ) − σ²κᵢκⱼQ₁(aᵢ)Q₁(bⱼ), rows
+/// two apart by −σ²κᵢκⱼQ₀(aᵢ)Q₀(bⱼ), and rows further apart not at all.
+fn differentiated_across_rows(
+    reg: &Regression,
+    noise: &NoiseLevels,
+    rows: &[RowMoments],
+    sums: &[Sum],
+) -> Vec<f64> {
+    let d = reg
+        .differentiation
+        .as_ref()
+        .expect("a differentiated acceleration has its span");
+    let sd = noise[Channel::Velocity];
+    let q = sums.len();
+    // [P₁, Q₀, Q₁] per row and sum.
+    let terms: Vec<Vec<[f64; 3]>> = (0..reg.len())
+        .map(|i| {
+            let row = &rows[i];
+            sums.iter()
+                .map(|&a| {
+                    let p = powers_of(a);
+                    let h = hermite_coefficients(reg.v[i], sd, 2 * p[Column::W.index()]);
+                    // p without d: E over the other channels of the term with ỹ's d left out.
+                    let skip = Some(Channel::Velocity);
+                    let p1 = row.moment_without(without_w(a, false), skip) * h[1];
+                    if p[Column::Y.index()] == 0 {
+                        return [p1, 0.0, 0.0];
+                    }
+                    let other = row.moment_without(without_w(a, true), skip);
+                    [p1, other * h[0], other * h[1]]
+                })
+                .collect()
+        })
+        .collect();
+    let mut total = vec![0.0; q * (q + 1) / 2];
+    let cov = |i: usize, j: usize, a: usize, b: usize, gap: usize| -> f64 {
+        let (ki, kj) = (sd * d.inv_dt[i], sd * d.inv_dt[j]);
+        let ([pa, q0a, q1a], [pb, q0b, q1b]) = (terms[i][a], terms[j][b]);
+        match gap {
+            1 => -kj * pa * q0b + ki * q0a * pb - ki * kj * q1a * q1b,
+            2 => -ki * kj * q0a * q0b,
+            _ => 0.0,
+        }
+    };
+    for i in 0..reg.len() {
+        for j in i + 1..reg.len() {
+            debug_assert!(d.sample[j] > d.sample[i], "rows in time order");
+            let gap = d.sample[j] - d.sample[i];
+            if gap > 2 {
+                break;
+            }
+            for a in 0..q {
+                for b in a..q {
+                    total[packed(a, b, q)] += cov(i, j, a, b, gap) + cov(i, j, b, a, gap);
+                }
+            }
+        }
+    }
+    total
 }
 
 #[cfg(test)]

@@ -28,10 +28,11 @@ pub use layout::layout;
 
 use super::{ConditionInfo, Layout, ModelErrorValue};
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue};
-use crate::estimate::channels::{Channel, NoiseLevels};
+use crate::estimate::channels::{Channel, NoiseLevels, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
+use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use crate::vehicle::truth::MODEL_ERRORS;
@@ -113,6 +114,7 @@ impl VehicleModel {
         uneven_differentiation(&vs, &segments, error_at)?;
         let points = grid(&vs);
         let controls = study_controls(&vs);
+        let layout_controls = &controls;
         // Scale and duration are the outermost axes: the conditions of one draw group are
         // `inner` apart.
         let inner = points.len() / (vs.scales.len() * durations);
@@ -204,10 +206,19 @@ impl VehicleModel {
                 );
                 // The control variates are centred on the condition's regression: with
                 // another regression in every realisation, none applies.
-                let controls = controls
+                let controls: Vec<bool> = layout_controls
                     .iter()
                     .map(|&j| expected.applies()[j] && world.is_none())
                     .collect();
+                let active: Vec<Sum> = layout_controls
+                    .iter()
+                    .zip(&controls)
+                    .filter(|&(_, &on)| on)
+                    .map(|(&j, _)| Sum::ALL[j])
+                    .collect();
+                let control_covariance = (!active.is_empty())
+                    .then(|| sum_covariances(&regression, &noise, ar1.as_deref(), &active))
+                    .flatten();
                 Condition {
                     info: ConditionInfo {
                         axes: axes()
@@ -219,6 +230,7 @@ impl VehicleModel {
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,
+                        control_covariance,
                     },
                     cycle_index,
                     noise,

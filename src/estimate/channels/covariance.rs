@@ -1,0 +1,346 @@
+//! The exact covariances of a realisation's sums over the noise, which the spread's control
+//! variates centre the products of the controls with (docs/model.md#spread-control-variates).
+//!
+//! A row's measured columns are x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ = a + s̃ + o + d, with
+//! s̃ = g sin θ̃ the grade term, o the output noise and d the noise a differentiated
+//! acceleration carries: six [`Part`]s, each moved by one channel ([`ChannelTerms::PARTS`]).
+//! The channels are independent, so the expectation of a product of parts at a row is the
+//! product of each channel's joint moment of its own parts ([`Channel::raw_moment`]), and
+//! the covariance of two sums' terms at a row is E\[ab\] − E\[a\]E\[b\] of column monomials
+//! of degree ≤ 4 (ỹ expanded into its parts). Rows that share a channel's noise add that
+//! channel's terms across rows ([`Channel::covariance_across_rows`]).
+//!
+//! [`ChannelTerms::PARTS`]: super::ChannelTerms::PARTS
+
+use super::{CHANNEL_COUNT, Channel, NoiseLevels, TrueRow};
+use crate::estimate::regression::Regression;
+use crate::estimate::sums::{Column, Sum};
+use crate::numeric::sum::ExactSum;
+
+/// A random part of a row's measured columns, each moved by one channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    /// x̃₁ = F̃ \[N\].
+    F,
+    /// w = Ṽ² \[m²/s²\].
+    W,
+    /// x̃₃ = −g cos θ̃ \[m/s²\].
+    C,
+    /// s̃ = g sin θ̃, the grade term of ỹ \[m/s²\].
+    S,
+    /// o, the output noise of ỹ \[m/s²\].
+    O,
+    /// d, the speed noise in ỹ through a differentiated acceleration \[m/s²\].
+    D,
+}
+
+/// Number of parts.
+pub const PART_COUNT: usize = 6;
+
+impl Part {
+    /// Every part.
+    pub const ALL: [Part; PART_COUNT] = [Part::F, Part::W, Part::C, Part::S, Part::O, Part::D];
+
+    /// The highest power a product of two sums' terms raises it to (x̃₁, w, x̃₃ appear twice
+    /// in a sum like Σw², ỹ once in a sum).
+    pub const fn max_power(self) -> u8 {
+        match self {
+            Part::F | Part::W | Part::C => 4,
+            Part::S | Part::O | Part::D => 2,
+        }
+    }
+
+    /// Its value without noise at row `r`.
+    pub fn noise_free(self, r: &TrueRow) -> f64 {
+        match self {
+            Part::F => r.f,
+            Part::W => r.v * r.v,
+            Part::C => -r.g * r.cos_grade,
+            Part::S => r.g * r.sin_grade,
+            Part::O | Part::D => 0.0,
+        }
+    }
+}
+
+/// Powers of the parts, indexed by [`Part`] order.
+pub type Powers = [u8; PART_COUNT];
+
+/// Largest table a channel's parts need: (4 + 1) × (2 + 1).
+const TABLE: usize = 15;
+
+/// One channel's joint moments of its parts at one row, for every power up to
+/// [`Part::max_power`].
+#[derive(Debug, Clone, Copy)]
+struct ChannelTable {
+    parts: &'static [Part],
+    values: [f64; TABLE],
+}
+
+impl ChannelTable {
+    /// Index of the powers of `parts` in the table (mixed radix, first part fastest).
+    fn index(parts: &[Part], p: &Powers) -> usize {
+        let mut index = 0;
+        let mut stride = 1;
+        for &part in parts {
+            index += p[part as usize] as usize * stride;
+            stride *= part.max_power() as usize + 1;
+        }
+        index
+    }
+
+    /// The table of `channel` at row `r` under `noise`: its raw moments when it is on, the
+    /// noise-free products when off; `None` where it does not derive one.
+    fn new(channel: Channel, noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
+        let parts = channel.parts();
+        let size: usize = parts.iter().map(|p| p.max_power() as usize + 1).product();
+        assert!(size <= TABLE, "{channel:?} has parts beyond the table");
+        let mut values = [f64::NAN; TABLE];
+        for (i, value) in values.iter_mut().enumerate().take(size) {
+            let mut p = [0u8; PART_COUNT];
+            let mut rest = i;
+            for &part in parts {
+                let radix = part.max_power() as usize + 1;
+                p[part as usize] = (rest % radix) as u8;
+                rest /= radix;
+            }
+            *value = if noise.is_on(channel) {
+                channel.raw_moment(noise, r, &p)?
+            } else {
+                parts
+                    .iter()
+                    .map(|&part| part.noise_free(r).powi(p[part as usize] as i32))
+                    .product()
+            };
+        }
+        Some(ChannelTable { parts, values })
+    }
+
+    fn get(&self, p: &Powers) -> f64 {
+        self.values[Self::index(self.parts, p)]
+    }
+}
+
+/// The powers of the columns of a monomial x̃₁^f w^w x̃₃^c ỹ^y, indexed by [`Column`].
+pub type ColumnPowers = [u8; 4];
+
+/// The column powers of a sum's term.
+pub fn powers_of(sum: Sum) -> ColumnPowers {
+    let mut p = [0u8; 4];
+    for c in sum.factors() {
+        p[c.index()] += 1;
+    }
+    p
+}
+
+/// The column powers of the product of two sums' terms.
+pub fn powers_of_pair(a: Sum, b: Sum) -> ColumnPowers {
+    let (pa, pb) = (powers_of(a), powers_of(b));
+    std::array::from_fn(|i| pa[i] + pb[i])
+}
+
+/// The moments of one row's measured columns: each channel's table of its parts.
+#[derive(Debug, Clone)]
+pub struct RowMoments {
+    tables: [ChannelTable; CHANNEL_COUNT],
+    accel: f64,
+}
+
+/// n! for small n.
+fn factorial(n: u8) -> f64 {
+    (1..=n as u32).map(f64::from).product()
+}
+
+impl RowMoments {
+    /// The moments of row `r` under `noise` (`None`: a channel that is on does not derive
+    /// them).
+    pub fn new(noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
+        let mut tables = Vec::with_capacity(CHANNEL_COUNT);
+        for c in Channel::ALL {
+            tables.push(ChannelTable::new(c, noise, r)?);
+        }
+        Some(RowMoments {
+            tables: tables.try_into().expect("one table per channel"),
+            accel: r.accel,
+        })
+    }
+
+    /// E\[x̃₁^f w^w x̃₃^c ỹ^y\] over every channel but `skip` (whose factor is taken as 1:
+    /// its parts' powers must be 0, and ỹ is expanded without them).
+    pub fn moment_without(&self, p: ColumnPowers, skip: Option<Channel>) -> f64 {
+        let skipped = |part: Part| skip.is_some_and(|c| c.parts().contains(&part));
+        let y = p[Column::Y.index()];
+        let mut total = 0.0;
+        // ỹ^y = Σ y!/(ka! ks! ko! kd!) a^ka s̃^ks o^ko d^kd
+        for ks in 0..=y {
+            for ko in 0..=y - ks {
+                for kd in 0..=y - ks - ko {
+                    if (ks > 0 && skipped(Part::S))
+                        || (ko > 0 && skipped(Part::O))
+                        || (kd > 0 && skipped(Part::D))
+                    {
+                        continue;
+                    }
+                    let ka = y - ks - ko - kd;
+                    let coefficient = factorial(y)
+                        / (factorial(ka) * factorial(ks) * factorial(ko) * factorial(kd));
+                    let mut powers = [0u8; PART_COUNT];
+                    powers[Part::F as usize] = p[Column::F.index()];
+                    powers[Part::W as usize] = p[Column::W.index()];
+                    powers[Part::C as usize] = p[Column::C.index()];
+                    powers[Part::S as usize] = ks;
+                    powers[Part::O as usize] = ko;
+                    powers[Part::D as usize] = kd;
+                    let mut term = coefficient * self.accel.powi(ka as i32);
+                    for (c, table) in Channel::ALL.iter().zip(&self.tables) {
+                        if Some(*c) != skip {
+                            term *= table.get(&powers);
+                        }
+                    }
+                    total += term;
+                }
+            }
+        }
+        total
+    }
+
+    /// E\[x̃₁^f w^w x̃₃^c ỹ^y\] over every channel.
+    pub fn moment(&self, p: ColumnPowers) -> f64 {
+        self.moment_without(p, None)
+    }
+
+    /// Cov(aᵢ, bᵢ) of the two sums' terms at this row.
+    pub fn covariance(&self, a: Sum, b: Sum) -> f64 {
+        self.moment(powers_of_pair(a, b)) - self.moment(powers_of(a)) * self.moment(powers_of(b))
+    }
+}
+
+impl TrueRow {
+    /// Row `i` of `reg` without noise.
+    pub fn of(reg: &Regression, i: usize) -> Self {
+        TrueRow {
+            f: reg.f[i],
+            v: reg.v[i],
+            accel: reg.accel[i],
+            sin_grade: reg.sin_grade[i],
+            cos_grade: reg.cos_grade[i],
+            g: reg.g,
+            inv_dt: reg.differentiation.as_ref().map_or(0.0, |d| d.inv_dt[i]),
+        }
+    }
+}
+
+/// What a channel adds to the covariances of the sums through rows that share its noise.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AcrossRows {
+    /// Nothing: its draws enter one row each, independently.
+    Nothing,
+    /// Σ_{i≠j} Cov(aᵢ, bⱼ) per pair of the sums asked for (packed, a ≤ b).
+    Covariance(Vec<f64>),
+    /// Not derived for these levels.
+    NotDerived,
+}
+
+/// Index of the pair (a, b), a ≤ b, of `q` items packed row by row.
+pub fn packed(a: usize, b: usize, q: usize) -> usize {
+    let (a, b) = (a.min(b), a.max(b));
+    a * q - a * (a + 1) / 2 + b
+}
+
+/// The exact covariance matrix of `sums` (packed, a ≤ b, in the order given) over the noise
+/// `noise` of regression `reg`, with `ar1` the AR(1) coefficients of correlated speed noise
+/// over [`Regression::noise_times`] (`None`: white); `None` where a channel that is on
+/// does not derive its terms (docs/model.md#spread-control-variates lists the covered
+/// combinations).
+pub fn sum_covariances(
+    reg: &Regression,
+    noise: &NoiseLevels,
+    ar1: Option<&[[f64; 2]]>,
+    sums: &[Sum],
+) -> Option<Vec<f64>> {
+    let q = sums.len();
+    let mut rows = Vec::with_capacity(reg.len());
+    for i in 0..reg.len() {
+        rows.push(RowMoments::new(noise, &TrueRow::of(reg, i))?);
+    }
+    let mut total = vec![ExactSum::new(); q * (q + 1) / 2];
+    for row in &rows {
+        for a in 0..q {
+            for b in a..q {
+                total[packed(a, b, q)].add(row.covariance(sums[a], sums[b]));
+            }
+        }
+    }
+    for c in Channel::ALL {
+        if !noise.is_on(c) {
+            continue;
+        }
+        match c.covariance_across_rows(reg, noise, ar1, &rows, sums) {
+            AcrossRows::Nothing => {}
+            AcrossRows::Covariance(v) => {
+                for (t, x) in total.iter_mut().zip(v) {
+                    t.add(x);
+                }
+            }
+            AcrossRows::NotDerived => return None,
+        }
+    }
+    Some(total.iter().map(ExactSum::value).collect())
+}
+
+/// E\[(μ + σz)ⁿ\] for z ~ N(0, 1).
+pub fn gaussian_moment(mu: f64, sd: f64, n: u8) -> f64 {
+    hermite_coefficients(mu, sd, n)[0]
+}
+
+/// The Hermite coefficients h_k = E\[(μ + σz)ⁿ He_k(z)\] / k!, k = 0..=8, of (μ + σz)ⁿ
+/// (n ≤ 8): (μ + σz)ⁿ = Σ_k h_k He_k(z), so for z, z' standard normal with correlation ρ,
+/// Cov(f(z), g(z')) = Σ_{k≥1} k! f_k g_k ρᵏ (Mehler).
+pub fn hermite_coefficients(mu: f64, sd: f64, n: u8) -> [f64; 9] {
+    assert!(n <= 8, "powers up to 8");
+    let mut h = [0.0; 9];
+    // (μ + σz)ⁿ = Σ_m C(n, m) μ^(n−m) σ^m z^m, z^m = Σ_k m! / (k! j! 2^j) He_k, m − k = 2j.
+    for m in 0..=n {
+        let c = factorial(n) / (factorial(m) * factorial(n - m))
+            * mu.powi((n - m) as i32)
+            * sd.powi(m as i32);
+        let mut k = m as i32;
+        while k >= 0 {
+            let j = (m as i32 - k) / 2;
+            h[k as usize] +=
+                c * factorial(m) / (factorial(k as u8) * factorial(j as u8) * 2f64.powi(j));
+            k -= 2;
+        }
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hermite_coefficients_rebuild_the_polynomial() {
+        // Σ h_k He_k(z) = (μ + σz)ⁿ at a few z (He by its recursion), to 1e-12 relative.
+        for n in 0..=8u8 {
+            let h = hermite_coefficients(1.7, 0.6, n);
+            for z in [-2.0f64, -0.3, 0.0, 0.8, 2.5] {
+                let mut he = [0.0; 9];
+                he[0] = 1.0;
+                he[1] = z;
+                for k in 2..9 {
+                    he[k] = z * he[k - 1] - (k - 1) as f64 * he[k - 2];
+                }
+                let value: f64 = h.iter().zip(he).map(|(a, b)| a * b).sum();
+                let expected = (1.7 + 0.6 * z).powi(n as i32);
+                assert!(
+                    (value - expected).abs() <= 1e-12 * expected.abs().max(1.0),
+                    "n = {n}, z = {z}: {value} vs {expected}"
+                );
+            }
+        }
+        // E[(μ + σz)⁴] = μ⁴ + 6μ²σ² + 3σ⁴.
+        let (mu, sd) = (2.0f64, 0.5f64);
+        let e4 = mu.powi(4) + 6.0 * mu * mu * sd * sd + 3.0 * sd.powi(4);
+        assert!((gaussian_moment(mu, sd, 4) - e4).abs() <= 1e-13 * e4);
+    }
+}
