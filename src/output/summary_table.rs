@@ -213,6 +213,9 @@ fn decode(
             mean_cv: Estimate::undefined(),
             bias_cv: Estimate::undefined(),
             cv_variance_ratio: f64::NAN,
+            emp_se_cv: Estimate::undefined(),
+            mse_cv: Estimate::undefined(),
+            rmse_cv: Estimate::undefined(),
             n_controls: n_controls.value(i) as u64,
         };
         for (column, array) in &measures {

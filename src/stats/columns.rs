@@ -34,11 +34,17 @@ pub enum Measure {
     BiasCv,
     /// Var(θ̂) / residual variance of the control-variate regression (no MCSE).
     CvVarianceRatio,
+    /// Empirical SE by the second moment's control variates.
+    EmpSeCv,
+    /// Mean squared error by the second moment's control variates.
+    MseCv,
+    /// Root mean squared error by the second moment's control variates.
+    RmseCv,
 }
 
 impl Measure {
     /// Every measure, in column order.
-    pub const ALL: [Measure; 10] = [
+    pub const ALL: [Measure; 13] = [
         Measure::Mean,
         Measure::Bias,
         Measure::RelBias,
@@ -49,6 +55,9 @@ impl Measure {
         Measure::MeanCv,
         Measure::BiasCv,
         Measure::CvVarianceRatio,
+        Measure::EmpSeCv,
+        Measure::MseCv,
+        Measure::RmseCv,
     ];
 
     /// Column name of the value.
@@ -64,6 +73,9 @@ impl Measure {
             Measure::MeanCv => "mean_cv",
             Measure::BiasCv => "bias_cv",
             Measure::CvVarianceRatio => "cv_variance_ratio",
+            Measure::EmpSeCv => "emp_se_cv",
+            Measure::MseCv => "mse_cv",
+            Measure::RmseCv => "rmse_cv",
         }
     }
 
@@ -72,7 +84,12 @@ impl Measure {
     pub fn by_control_variates(self) -> bool {
         matches!(
             self,
-            Measure::MeanCv | Measure::BiasCv | Measure::CvVarianceRatio
+            Measure::MeanCv
+                | Measure::BiasCv
+                | Measure::CvVarianceRatio
+                | Measure::EmpSeCv
+                | Measure::MseCv
+                | Measure::RmseCv
         )
     }
 
@@ -94,6 +111,9 @@ impl Measure {
             Measure::MeanCv => row.mean_cv,
             Measure::BiasCv => row.bias_cv,
             Measure::CvVarianceRatio => Estimate::new(row.cv_variance_ratio, f64::NAN),
+            Measure::EmpSeCv => row.emp_se_cv,
+            Measure::MseCv => row.mse_cv,
+            Measure::RmseCv => row.rmse_cv,
         }
     }
 
@@ -112,6 +132,9 @@ impl Measure {
                 row.cv_variance_ratio = v;
                 return;
             }
+            Measure::EmpSeCv => &mut row.emp_se_cv,
+            Measure::MseCv => &mut row.mse_cv,
+            Measure::RmseCv => &mut row.rmse_cv,
         };
         part.set(target, v);
     }
@@ -132,17 +155,24 @@ pub enum BoundMeasure {
     BeCoverage,
     /// `B_chi2_p`: p-value of the variance-ratio test (no MCSE).
     Chi2P,
+    /// `emp_over_B_cv`: EmpSE / B_se with the control-variate EmpSE.
+    EmpOverCv,
+    /// `B_p_cv`: p-value of the variance-ratio test with the control-variate variance
+    /// (normal; no MCSE).
+    PCv,
 }
 
 impl BoundMeasure {
     /// Every bound measure, in column order.
-    pub const ALL: [BoundMeasure; 6] = [
+    pub const ALL: [BoundMeasure; 8] = [
         BoundMeasure::Se,
         BoundMeasure::EmpOver,
         BoundMeasure::RelError,
         BoundMeasure::Coverage,
         BoundMeasure::BeCoverage,
         BoundMeasure::Chi2P,
+        BoundMeasure::EmpOverCv,
+        BoundMeasure::PCv,
     ];
 
     /// Column name of the value for bound `bound`.
@@ -154,12 +184,14 @@ impl BoundMeasure {
             BoundMeasure::Coverage => format!("coverage_{bound}"),
             BoundMeasure::BeCoverage => format!("be_coverage_{bound}"),
             BoundMeasure::Chi2P => format!("{bound}_chi2_p"),
+            BoundMeasure::EmpOverCv => format!("emp_over_{bound}_cv"),
+            BoundMeasure::PCv => format!("{bound}_p_cv"),
         }
     }
 
     /// Whether it has an MCSE column.
     pub fn has_mcse(self) -> bool {
-        self != BoundMeasure::Chi2P
+        !matches!(self, BoundMeasure::Chi2P | BoundMeasure::PCv)
     }
 
     /// Its value and MCSE (NaN where it has none).
@@ -171,6 +203,8 @@ impl BoundMeasure {
             BoundMeasure::Coverage => s.coverage,
             BoundMeasure::BeCoverage => s.be_coverage,
             BoundMeasure::Chi2P => Estimate::new(s.chi2_p, f64::NAN),
+            BoundMeasure::EmpOverCv => s.emp_over_cv,
+            BoundMeasure::PCv => Estimate::new(s.p_cv, f64::NAN),
         }
     }
 
@@ -183,6 +217,11 @@ impl BoundMeasure {
             BoundMeasure::BeCoverage => &mut s.be_coverage,
             BoundMeasure::Chi2P => {
                 s.chi2_p = v;
+                return;
+            }
+            BoundMeasure::EmpOverCv => &mut s.emp_over_cv,
+            BoundMeasure::PCv => {
+                s.p_cv = v;
                 return;
             }
         };

@@ -174,3 +174,80 @@ pub fn variance_ratio_p(s: &EstimateSums, b: &BoundSums) -> f64 {
     let upper = chi2.sf(t);
     (2.0 * lower.min(upper)).min(1.0)
 }
+
+/// The spread of the estimates by the second moment's control variates
+/// (docs/model.md#spread-control-variates), from the control-variate estimates m₁ of E\[u\]
+/// and m₂ of E\[u²\] of u = d − d̄ (d̄ the plain mean of d = θ̂ − θ, a constant here) and
+/// their estimates' covariance C.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpreadCv {
+    /// Var θ̂ = m₂ − m₁² + C₁₁ (C₁₁ removes the bias E\[m₁²\] − (E m₁)²), and its variance
+    /// C₂₂ − 4m₁C₁₂ + 4m₁²C₁₁ (delta method).
+    pub variance: Estimate,
+    /// EmpSE = √Var, MCSE √Var(Var)/(2 EmpSE).
+    pub emp_se: Estimate,
+    /// MSE = E\[(u + d̄)²\] = m₂ + 2d̄m₁ + d̄², MCSE √(C₂₂ + 4d̄C₁₂ + 4d̄²C₁₁).
+    pub mse: Estimate,
+    /// RMSE = √MSE, MCSE MCSE(MSE)/(2 RMSE).
+    pub rmse: Estimate,
+}
+
+impl SpreadCv {
+    /// From m = \[m₁, m₂\], their covariance `c` and d̄ = `mean_d`; undefined where the
+    /// variance estimate is not positive.
+    pub fn new(m: [f64; 2], c: [[f64; 2]; 2], mean_d: f64) -> Self {
+        let variance = m[1] - m[0] * m[0] + c[0][0];
+        let variance_var = (c[1][1] - 4.0 * m[0] * c[0][1] + 4.0 * m[0] * m[0] * c[0][0]).max(0.0);
+        let mse = m[1] + 2.0 * mean_d * m[0] + mean_d * mean_d;
+        let mse_var = (c[1][1] + 4.0 * mean_d * c[0][1] + 4.0 * mean_d * mean_d * c[0][0]).max(0.0);
+        let root = |e: Estimate| {
+            if e.value > 0.0 {
+                let r = e.value.sqrt();
+                Estimate::new(r, e.mcse / (2.0 * r))
+            } else {
+                Estimate::undefined()
+            }
+        };
+        let variance = Estimate::new(variance, variance_var.sqrt());
+        let mse = Estimate::new(mse, mse_var.sqrt());
+        SpreadCv {
+            variance,
+            emp_se: root(variance),
+            mse,
+            rmse: root(mse),
+        }
+    }
+
+    /// Every measure undefined.
+    pub fn undefined() -> Self {
+        SpreadCv {
+            variance: Estimate::undefined(),
+            emp_se: Estimate::undefined(),
+            mse: Estimate::undefined(),
+            rmse: Estimate::undefined(),
+        }
+    }
+
+    /// EmpSE / ModSE with the control-variate EmpSE, MCSE
+    /// ratio · √((MCSE(EmpSE)/EmpSE)² + Var(b²)/(4 n ModSE⁴)) (the two independent).
+    pub fn emp_over_model(&self, b: &BoundSums) -> Estimate {
+        let e = self.emp_se;
+        let m = model_se(b);
+        let ratio = e.value / m.value;
+        let rel =
+            ((e.mcse / e.value).powi(2) + b.var_b_sq() / (4.0 * b.n * m.value.powi(4))).sqrt();
+        Estimate::new(ratio, ratio * rel)
+    }
+
+    /// Two-sided p of H₀: Var θ̂ = ModSE², from the control-variate variance and the mean
+    /// of b² (normal): z = (Var − ModSE²) / √(MCSE(Var)² + Var(b²)/n).
+    pub fn variance_ratio_p(&self, b: &BoundSums) -> f64 {
+        let m = model_se(b).value;
+        let se = (self.variance.mcse.powi(2) + b.var_b_sq() / b.n).sqrt();
+        let z = (self.variance.value - m * m) / se;
+        if !z.is_finite() {
+            return f64::NAN;
+        }
+        statrs::function::erf::erfc(z.abs() / std::f64::consts::SQRT_2).min(1.0)
+    }
+}

@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 use super::{BoundSummary, Record, SummaryError, SummaryRow};
 use crate::model::{ConditionInfo, Layout};
 use crate::numeric::sum::ExactSum;
-use crate::stats::control::{ControlAcc, ControlFit};
+use crate::stats::control::{ControlAcc, ControlFit, SpreadControls, SpreadSums};
 use crate::stats::measures::{
-    self, BoundSums, Estimate, EstimateSums, coverage, emp_over_model, model_se,
+    self, BoundSums, Estimate, EstimateSums, SpreadCv, coverage, emp_over_model, model_se,
     model_se_relative_error, relative_precision, variance_ratio_p,
 };
 
@@ -34,6 +34,8 @@ struct ParamAcc {
     sum_cross_ref: ExactSum,
     /// Σ (d − d̄)(c_j − c̄_j) per active control of the condition.
     sum_cross_controls: Vec<ExactSum>,
+    /// The sums the spread's control variates read (where they apply).
+    spread: Option<SpreadSums>,
     mean: f64,
     mse: f64,
 }
@@ -98,6 +100,8 @@ pub struct ConditionSummarizer<'a> {
     /// Pass two: centred θ̂ of each estimator of the current realisation (NaN when absent).
     current_centred: Vec<f64>,
     controls: ControlAcc,
+    /// The second moment's controls, where the covariances of the controls are known.
+    spread: Option<SpreadControls>,
 }
 
 impl<'a> ConditionSummarizer<'a> {
@@ -113,9 +117,14 @@ impl<'a> ConditionSummarizer<'a> {
         let e = layout.estimators.len();
         let p = layout.parameters.len();
         let controls = ControlAcc::new(&info.controls);
+        let spread = info
+            .control_covariance
+            .as_ref()
+            .map(|cov| SpreadControls::new(&info.controls, cov));
         let param = ParamAcc {
             bounds: vec![BoundAcc::default(); layout.bounds.len()],
             sum_cross_controls: vec![ExactSum::new(); controls.len()],
+            spread: spread.as_ref().map(|s| SpreadSums::new(s.acc.len())),
             ..ParamAcc::default()
         };
         ConditionSummarizer {
@@ -126,6 +135,7 @@ impl<'a> ConditionSummarizer<'a> {
             z,
             acc: vec![vec![param; p]; e],
             controls,
+            spread,
             rows: vec![0; e],
             failed: vec![0; e],
             seen: Seen::default(),
@@ -143,8 +153,14 @@ impl<'a> ConditionSummarizer<'a> {
     /// The exact accumulators this summarizer holds: its memory is about
     /// `size_of::<ExactSum>()` times this.
     pub fn accumulators(&self) -> usize {
-        let per_param = |acc: &ParamAcc| 5 + acc.sum_cross_controls.len() + 2 * acc.bounds.len();
-        self.acc.iter().flatten().map(per_param).sum::<usize>() + self.controls.accumulators()
+        let per_param = |acc: &ParamAcc| {
+            5 + acc.sum_cross_controls.len()
+                + 2 * acc.bounds.len()
+                + acc.spread.as_ref().map_or(0, SpreadSums::accumulators)
+        };
+        self.acc.iter().flatten().map(per_param).sum::<usize>()
+            + self.controls.accumulators()
+            + self.spread.as_ref().map_or(0, |s| s.acc.accumulators())
     }
 
     fn check_row(&self, r: &Record<'_>) -> Result<(), SummaryError> {
@@ -170,6 +186,9 @@ impl<'a> ConditionSummarizer<'a> {
             self.current = Some(r.realisation);
             self.current_estimators.fill(false);
             self.controls.first(r.controls);
+            if let Some(spread) = &mut self.spread {
+                spread.first(r.controls);
+            }
         }
         if std::mem::replace(&mut self.current_estimators[r.estimator], true) {
             return Err(SummaryError::Duplicate {
@@ -222,6 +241,9 @@ impl<'a> ConditionSummarizer<'a> {
             }
         }
         self.controls.end_first();
+        if let Some(spread) = &mut self.spread {
+            spread.acc.end_first();
+        }
         self.current = None;
         Ok(())
     }
@@ -234,6 +256,9 @@ impl<'a> ConditionSummarizer<'a> {
             self.flush_cross();
             self.current = Some(r.realisation);
             self.controls.second(r.controls);
+            if let Some(spread) = &mut self.spread {
+                spread.second(r.controls);
+            }
         }
         if !r.ok {
             return Ok(());
@@ -252,6 +277,9 @@ impl<'a> ConditionSummarizer<'a> {
                 .zip(&self.controls.centred)
             {
                 x.add(centred * c);
+            }
+            if let (Some(sums), Some(spread)) = (&mut acc.spread, &self.spread) {
+                sums.add(centred, &spread.acc.centred);
             }
             for (b, bacc) in acc.bounds.iter_mut().enumerate() {
                 let bound = r.bounds[b * np + p];
@@ -291,19 +319,27 @@ impl<'a> ConditionSummarizer<'a> {
         let mut out = Vec::with_capacity(self.acc.len() * self.layout.parameters.len());
         let reference = self.layout.reference_estimator();
         let factor = self.controls.factor();
+        let spread_factor = self.spread.as_ref().and_then(|s| s.acc.factor());
         let (c, info) = (self.condition, self.info);
         for (e, per_e) in self.acc.iter().enumerate() {
             for (p, acc) in per_e.iter().enumerate() {
                 let truth = info.truth[p];
                 let sums = estimate_sums(acc);
                 let reference = estimate_sums(&self.acc[reference][p]);
+                let spread = spread_factor
+                    .as_ref()
+                    .zip(acc.spread.as_ref())
+                    .and_then(|(f, s)| f.fit_moments(acc.n, &acc.sum_centred_sq, s))
+                    .map_or_else(SpreadCv::undefined, |fit| {
+                        SpreadCv::new(fit.mean, fit.covariance, acc.mean)
+                    });
                 let bounds = acc
                     .bounds
                     .iter()
                     .enumerate()
                     .map(|(b, bacc)| {
                         (info.applies[e][b] && bacc.n > 0)
-                            .then(|| bound_summary(&sums, bacc, acc.n))
+                            .then(|| bound_summary(&sums, &spread, bacc, acc.n))
                     })
                     .collect();
                 let cv = factor.as_ref().and_then(|f| {
@@ -348,6 +384,9 @@ impl<'a> ConditionSummarizer<'a> {
                     bias_cv,
                     cv_variance_ratio,
                     n_controls,
+                    emp_se_cv: spread.emp_se,
+                    mse_cv: spread.mse,
+                    rmse_cv: spread.rmse,
                 });
             }
         }
@@ -365,7 +404,12 @@ fn estimate_sums(acc: &ParamAcc) -> EstimateSums {
     }
 }
 
-fn bound_summary(sums: &EstimateSums, b: &BoundAcc, n_estimates: u64) -> BoundSummary {
+fn bound_summary(
+    sums: &EstimateSums,
+    spread: &SpreadCv,
+    b: &BoundAcc,
+    n_estimates: u64,
+) -> BoundSummary {
     let bs = BoundSums {
         n: b.n as f64,
         sum_b_sq: b.sum_b_sq.value(),
@@ -380,6 +424,8 @@ fn bound_summary(sums: &EstimateSums, b: &BoundAcc, n_estimates: u64) -> BoundSu
         coverage: coverage(b.covered as f64, b.n as f64),
         be_coverage: coverage(b.be_covered as f64, b.n as f64),
         chi2_p: variance_ratio_p(sums, &bs),
+        emp_over_cv: spread.emp_over_model(&bs),
+        p_cv: spread.variance_ratio_p(&bs),
     }
 }
 

@@ -102,6 +102,10 @@ pub struct BoundSummary {
     pub be_coverage: Estimate,
     /// p-value of the χ² test of EmpSE² = ModSE².
     pub chi2_p: f64,
+    /// EmpSE / ModSE with the control-variate EmpSE.
+    pub emp_over_cv: Estimate,
+    /// p-value of the normal test of Var θ̂ = ModSE² with the control-variate variance.
+    pub p_cv: f64,
 }
 
 impl BoundSummary {
@@ -115,6 +119,8 @@ impl BoundSummary {
             coverage: Estimate::undefined(),
             be_coverage: Estimate::undefined(),
             chi2_p: f64::NAN,
+            emp_over_cv: Estimate::undefined(),
+            p_cv: f64::NAN,
         }
     }
 }
@@ -162,6 +168,12 @@ pub struct SummaryRow {
     pub cv_variance_ratio: f64,
     /// Control variates in the regression (0: none applies).
     pub n_controls: u64,
+    /// Empirical SE by the second moment's control variates (NaN where none applies).
+    pub emp_se_cv: Estimate,
+    /// Mean squared error by the second moment's control variates.
+    pub mse_cv: Estimate,
+    /// Root mean squared error by the second moment's control variates.
+    pub rmse_cv: Estimate,
 }
 
 /// Two-pass accumulation of the summary of every condition at once, for rows that arrive in
