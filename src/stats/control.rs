@@ -70,6 +70,21 @@ impl ControlAcc {
         self.sums.len() + self.gram.len()
     }
 
+    /// Σ c_j (exact) of pass one.
+    pub(super) fn sums_dd(&self) -> Vec<Dd> {
+        self.sums.iter().map(ExactSum::value_dd).collect()
+    }
+
+    /// c̄_j, the centres of pass two (after pass one).
+    pub(super) fn means(&self) -> &[f64] {
+        &self.means
+    }
+
+    /// Realisations added in pass one.
+    pub(super) fn count(&self) -> u64 {
+        self.n
+    }
+
     /// Pass one: a realisation's controls (all of the layout's).
     pub(super) fn first(&mut self, controls: &[f64]) {
         self.n += 1;
@@ -133,8 +148,6 @@ pub(super) struct Factor {
     root_g: Vec<f64>,
     /// Σ c_k.
     sums: Vec<Dd>,
-    /// Σ (c_k − c̄_k) of pass two (c̄_k the rounded pass-one mean: not exactly 0).
-    centred_sums: Vec<Dd>,
 }
 
 impl ControlAcc {
@@ -149,6 +162,36 @@ impl ControlAcc {
             // packed index of (a, b), a ≤ b
             self.gram[a * q - a * (a + 1) / 2 + b].value_dd()
         };
+        let Ldl { l, d, kept, .. } = Ldl::new(q, g);
+        Some(Factor {
+            q,
+            n: self.n,
+            root_g: (0..q).map(|k| g(k, k).to_f64().sqrt()).collect(),
+            sums: self.sums.iter().map(ExactSum::value_dd).collect(),
+            l,
+            d,
+            kept,
+        })
+    }
+}
+
+/// The LDLᵀ factorisation of a symmetric positive semi-definite q × q matrix in
+/// double-double arithmetic, leaving out each row that is a combination of those before it
+/// (its unexplained part below [`DEPENDENT`] of its diagonal).
+#[derive(Debug, Clone)]
+pub(super) struct Ldl {
+    q: usize,
+    /// Unit lower triangle, row-major q × q.
+    l: Vec<Dd>,
+    /// The diagonal D.
+    d: Vec<Dd>,
+    /// Which rows are kept.
+    kept: Vec<bool>,
+}
+
+impl Ldl {
+    /// The factorisation of the matrix with entries `g(a, b)`.
+    pub(super) fn new(q: usize, g: impl Fn(usize, usize) -> Dd) -> Self {
         let mut l = vec![Dd::default(); q * q];
         let mut d = vec![Dd::default(); q];
         let mut kept = vec![false; q];
@@ -171,21 +214,33 @@ impl ControlAcc {
                 l[i * q + k] = s / dk;
             }
         }
-        Some(Factor {
-            q,
-            n: self.n,
-            root_g: (0..q).map(|k| g(k, k).to_f64().sqrt()).collect(),
-            sums: self.sums.iter().map(ExactSum::value_dd).collect(),
-            centred_sums: self
-                .sums
-                .iter()
-                .zip(&self.means)
-                .map(|(s, &m)| s.value_dd() - Dd::from(self.n as f64) * Dd::from(m))
-                .collect(),
-            l,
-            d,
-            kept,
-        })
+        Ldl { q, l, d, kept }
+    }
+
+    /// Which rows are kept.
+    pub(super) fn kept(&self) -> &[bool] {
+        &self.kept
+    }
+
+    /// x = G⁻¹ s over the kept rows (0 at the others).
+    pub(super) fn solve(&self, s: &[Dd]) -> Vec<Dd> {
+        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
+        let mut z = s.to_vec();
+        for i in 0..q {
+            for j in (0..i).filter(|&j| kept[j]) {
+                z[i] = z[i] - l[i * q + j] * z[j];
+            }
+        }
+        let mut x = vec![Dd::default(); q];
+        for k in (0..q).filter(|&k| kept[k]) {
+            x[k] = z[k] / d[k];
+        }
+        for k in (0..q).rev().filter(|&k| kept[k]) {
+            for i in (k + 1..q).filter(|&i| kept[i]) {
+                x[k] = x[k] - l[i * q + k] * x[i];
+            }
+        }
+        x
     }
 }
 
@@ -245,219 +300,6 @@ impl Factor {
             bias,
             mcse,
             variance_ratio,
-            used,
-        })
-    }
-}
-
-/// The second moment's control variates of one condition: the linear controls cⱼ and the
-/// products cⱼcₖ − Cov(cⱼ, cₖ), j ≤ k, with the exact covariances
-/// (docs/model.md#spread-control-variates), each of mean exactly 0, accumulated as one
-/// [`ControlAcc`] over the extended list.
-#[derive(Debug, Clone)]
-pub(super) struct SpreadControls {
-    /// Layout indices of the linear controls.
-    linear: Vec<usize>,
-    /// Cov(cⱼ, cₖ), packed j ≤ k.
-    covariance: Vec<f64>,
-    /// The current realisation's extended controls.
-    extended: Vec<f64>,
-    /// The accumulators of the extended controls.
-    pub(super) acc: ControlAcc,
-}
-
-impl SpreadControls {
-    /// The spread's controls for the layout's controls that `applies` marks, whose exact
-    /// covariances are `covariance` (packed over them).
-    pub(super) fn new(applies: &[bool], covariance: &[f64]) -> Self {
-        let linear: Vec<usize> = (0..applies.len()).filter(|&j| applies[j]).collect();
-        let q = linear.len();
-        assert_eq!(covariance.len(), q * (q + 1) / 2, "one covariance per pair");
-        let total = q + covariance.len();
-        SpreadControls {
-            linear,
-            covariance: covariance.to_vec(),
-            extended: vec![f64::NAN; total],
-            acc: ControlAcc::new(&vec![true; total]),
-        }
-    }
-
-    /// Fill [`Self::extended`] from a realisation's controls (all of the layout's).
-    fn extend(&mut self, controls: &[f64]) {
-        let q = self.linear.len();
-        for (e, &j) in self.extended.iter_mut().zip(&self.linear) {
-            *e = controls[j];
-        }
-        let mut k = q;
-        for a in 0..q {
-            for b in a..q {
-                self.extended[k] = self.extended[a] * self.extended[b] - self.covariance[k - q];
-                k += 1;
-            }
-        }
-    }
-
-    /// Pass one.
-    pub(super) fn first(&mut self, controls: &[f64]) {
-        self.extend(controls);
-        self.acc.first(&self.extended);
-    }
-
-    /// Pass two: the centred extended controls are then in `acc.centred`.
-    pub(super) fn second(&mut self, controls: &[f64]) {
-        self.extend(controls);
-        self.acc.second(&self.extended);
-    }
-}
-
-/// The sums of one estimate's centred errors u = d − d̄ (d̄ the pass-one mean) that the
-/// spread's fit reads: Σu, Σu², Σu³, Σu⁴ and, per extended control, Σ u c̃ and Σ u² c̃
-/// (c̃ the centred control).
-#[derive(Debug, Clone, Default)]
-pub(super) struct SpreadSums {
-    pub(super) u: ExactSum,
-    pub(super) u3: ExactSum,
-    pub(super) u4: ExactSum,
-    pub(super) cross_u: Vec<ExactSum>,
-    pub(super) cross_u2: Vec<ExactSum>,
-}
-
-impl SpreadSums {
-    /// Empty sums for `q` extended controls.
-    pub(super) fn new(q: usize) -> Self {
-        SpreadSums {
-            cross_u: vec![ExactSum::new(); q],
-            cross_u2: vec![ExactSum::new(); q],
-            ..SpreadSums::default()
-        }
-    }
-
-    /// Add one realisation's u, with the extended controls centred `centred`.
-    pub(super) fn add(&mut self, u: f64, centred: &[f64]) {
-        let u2 = u * u;
-        self.u.add(u);
-        self.u3.add(u2 * u);
-        self.u4.add(u2 * u2);
-        for ((x, x2), &c) in self.cross_u.iter_mut().zip(&mut self.cross_u2).zip(centred) {
-            x.add(u * c);
-            x2.add(u2 * c);
-        }
-    }
-
-    /// The exact accumulators held.
-    pub(super) fn accumulators(&self) -> usize {
-        3 + self.cross_u.len() + self.cross_u2.len()
-    }
-}
-
-/// The control-variate estimates of E\[u\] and E\[u²\] of one estimate, with the
-/// covariance matrix of the two estimates.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MomentsFit {
-    /// \[E u, E u²\].
-    pub mean: [f64; 2],
-    /// Their estimates' covariance matrix (MCSEs squared on the diagonal).
-    pub covariance: [[f64; 2]; 2],
-    /// Controls used.
-    pub used: usize,
-}
-
-impl Factor {
-    /// The regression estimates of E\[u\] and E\[u²\] over `n` realisations from the
-    /// sums `s` and Σu² (`sum_u2`), with the same controls for both: β_y = G⁻¹ s_y, the
-    /// mean ȳ − β_yᵀc̄, and their covariance RSS_yz / (n − q − 1) / n · (n − 2)/(n − q − 2),
-    /// RSS_yz = S_yz − s_yᵀG⁻¹s_z (docs/model.md#spread-control-variates). `None` under the
-    /// same conditions as [`Factor::fit`].
-    pub(super) fn fit_moments(
-        &self,
-        n: u64,
-        sum_u2: &ExactSum,
-        s: &SpreadSums,
-    ) -> Option<MomentsFit> {
-        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
-        let used = kept.iter().filter(|&&k| k).count();
-        if n != self.n || used == 0 || n < used as u64 + 3 {
-            return None;
-        }
-        let nf = Dd::from(n as f64);
-        let (su, su2, su3, su4) = (
-            s.u.value_dd(),
-            sum_u2.value_dd(),
-            s.u3.value_dd(),
-            s.u4.value_dd(),
-        );
-        let means = [su / nf, su2 / nf];
-        // Centred cross-products with the controls: Σ y c̃ − ȳ Σ c̃.
-        let cross = |sums: &[ExactSum], mean: Dd| -> Vec<Dd> {
-            sums.iter()
-                .zip(&self.centred_sums)
-                .map(|(x, &c)| x.value_dd() - mean * c)
-                .collect()
-        };
-        let sy = [cross(&s.cross_u, means[0]), cross(&s.cross_u2, means[1])];
-        // S_yz = Σ y z − n ȳ z̄
-        let syy = [
-            [
-                su2 - nf * means[0] * means[0],
-                su3 - nf * means[0] * means[1],
-            ],
-            [
-                su3 - nf * means[0] * means[1],
-                su4 - nf * means[1] * means[1],
-            ],
-        ];
-        // z = L⁻¹ s_y; s_yᵀG⁻¹s_z = Σ z_y z_z / D; β_y = L⁻ᵀ D⁻¹ z_y.
-        let solve = |s: &[Dd]| {
-            let mut z = s.to_vec();
-            for i in 0..q {
-                for j in (0..i).filter(|&j| kept[j]) {
-                    z[i] = z[i] - l[i * q + j] * z[j];
-                }
-            }
-            let mut beta = vec![Dd::default(); q];
-            for k in (0..q).filter(|&k| kept[k]) {
-                beta[k] = z[k] / d[k];
-            }
-            for k in (0..q).rev().filter(|&k| kept[k]) {
-                for i in (k + 1..q).filter(|&i| kept[i]) {
-                    beta[k] = beta[k] - l[i * q + k] * beta[i];
-                }
-            }
-            (z, beta)
-        };
-        let (z0, beta0) = solve(&sy[0]);
-        let (z1, beta1) = solve(&sy[1]);
-        let zs = [&z0, &z1];
-        let betas = [&beta0, &beta1];
-        let (nf64, qf) = (n as f64, used as f64);
-        let scale = 1.0 / (nf64 - qf - 1.0) / nf64 * (nf64 - 2.0) / (nf64 - qf - 2.0);
-        let mut rss = [[0.0; 2]; 2];
-        for a in 0..2 {
-            for b in 0..2 {
-                let mut explained = Dd::default();
-                for k in (0..q).filter(|&k| kept[k]) {
-                    explained = explained + zs[a][k] * zs[b][k] / d[k];
-                }
-                rss[a][b] = (syy[a][b] - explained).to_f64();
-            }
-            // The resolution of the sums, as in `fit`.
-            let spread: f64 = (0..q)
-                .filter(|&k| kept[k])
-                .map(|k| betas[a][k].to_f64().abs() * self.root_g[k])
-                .sum();
-            let floor = RESOLUTION * (syy[a][a].to_f64().max(0.0).sqrt() + spread).powi(2);
-            rss[a][a] = rss[a][a].max(floor);
-        }
-        let mean = [0, 1].map(|a| {
-            let mut adjustment = Dd::default();
-            for k in (0..q).filter(|&k| kept[k]) {
-                adjustment = adjustment + betas[a][k] * self.sums[k] / nf;
-            }
-            (means[a] - adjustment).to_f64()
-        });
-        Some(MomentsFit {
-            mean,
-            covariance: rss.map(|row| row.map(|x| x * scale)),
             used,
         })
     }

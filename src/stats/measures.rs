@@ -176,30 +176,35 @@ pub fn variance_ratio_p(s: &EstimateSums, b: &BoundSums) -> f64 {
 }
 
 /// The spread of the estimates by the second moment's control variates
-/// (docs/model.md#spread-control-variates), from the control-variate estimates m₁ of E\[u\]
-/// and m₂ of E\[u²\] of u = d − d̄ (d̄ the plain mean of d = θ̂ − θ, a constant here) and
-/// their estimates' covariance C.
+/// (docs/model.md#spread-control-variates), from the estimate V̂ of Var θ̂ and b̂ of the bias,
+/// their MCSEs squared and their covariance.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpreadCv {
-    /// Var θ̂ = m₂ − m₁² + C₁₁ (C₁₁ removes the bias E\[m₁²\] − (E m₁)²), and its variance
-    /// C₂₂ − 4m₁C₁₂ + 4m₁²C₁₁ (delta method).
+    /// Var θ̂.
     pub variance: Estimate,
-    /// EmpSE = √Var, MCSE √Var(Var)/(2 EmpSE).
+    /// EmpSE = √Var, MCSE MCSE(Var)/(2 EmpSE).
     pub emp_se: Estimate,
-    /// MSE = E\[(u + d̄)²\] = m₂ + 2d̄m₁ + d̄², MCSE √(C₂₂ + 4d̄C₁₂ + 4d̄²C₁₁).
+    /// MSE = Var + b̂² − MCSE(b̂)² (b̂² less its own noise), MCSE
+    /// √(Var(V̂) + 4b̂² Var(b̂) + 4b̂ Cov(V̂, b̂)).
     pub mse: Estimate,
     /// RMSE = √MSE, MCSE MCSE(MSE)/(2 RMSE).
     pub rmse: Estimate,
 }
 
 impl SpreadCv {
-    /// From m = \[m₁, m₂\], their covariance `c` and d̄ = `mean_d`; undefined where the
-    /// variance estimate is not positive.
-    pub fn new(m: [f64; 2], c: [[f64; 2]; 2], mean_d: f64) -> Self {
-        let variance = m[1] - m[0] * m[0] + c[0][0];
-        let variance_var = (c[1][1] - 4.0 * m[0] * c[0][1] + 4.0 * m[0] * m[0] * c[0][0]).max(0.0);
-        let mse = m[1] + 2.0 * mean_d * m[0] + mean_d * mean_d;
-        let mse_var = (c[1][1] + 4.0 * mean_d * c[0][1] + 4.0 * mean_d * mean_d * c[0][0]).max(0.0);
+    /// From V̂ = `variance` and b̂ = `bias`, their MCSEs squared (`variance_var`,
+    /// `bias_var`) and covariance; EmpSE and RMSE undefined where their square is not
+    /// positive.
+    pub fn new(
+        variance: f64,
+        variance_var: f64,
+        bias: f64,
+        bias_var: f64,
+        covariance: f64,
+    ) -> Self {
+        let mse = variance + bias * bias - bias_var;
+        let mse_var =
+            (variance_var + 4.0 * bias * bias * bias_var + 4.0 * bias * covariance).max(0.0);
         let root = |e: Estimate| {
             if e.value > 0.0 {
                 let r = e.value.sqrt();

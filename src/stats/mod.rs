@@ -5,4 +5,5 @@ pub mod columns;
 pub mod control;
 pub mod measures;
 pub mod plan;
+pub mod spread;
 pub mod summary;

@@ -75,10 +75,21 @@ const ADDED_COLUMNS: [&str; 16] = [
 /// something the older engine implied. The hashes of the old columns skip them; they have
 /// their own pinned hash ([`control_hash`]).
 fn control_column(name: &str) -> bool {
-    name.starts_with("cv_")
+    (name.starts_with("cv_")
         || name.ends_with("_cv")
         || name.ends_with("_cv_mcse")
-        || name == "n_controls"
+        || name == "n_controls")
+        && !spread_column(name)
+}
+
+/// The summary's control-variate measures of the spread (EmpSE, MSE, RMSE, EmpSE / bound
+/// and the variance-ratio test by control variates): newer still, with their own pinned
+/// hash ([`spread_hash`]).
+fn spread_column(name: &str) -> bool {
+    let base = name.strip_suffix("_mcse").unwrap_or(name);
+    matches!(base, "emp_se_cv" | "mse_cv" | "rmse_cv")
+        || (base.starts_with("emp_over_") && base.ends_with("_cv"))
+        || name.ends_with("_p_cv")
 }
 
 /// XXH64 of every value of a table, column by column in row order (doubles by their bits,
@@ -86,7 +97,7 @@ fn control_column(name: &str) -> bool {
 /// of the content that ignores the file's encoding and footer.
 fn content_hash(batch: &arrow::array::RecordBatch) -> u64 {
     hash_columns(batch, &|name| {
-        !ADDED_COLUMNS.contains(&name) && !control_column(name)
+        !ADDED_COLUMNS.contains(&name) && !control_column(name) && !spread_column(name)
     })
 }
 
@@ -95,9 +106,15 @@ fn control_hash(batch: &arrow::array::RecordBatch) -> u64 {
     hash_columns(batch, &control_column)
 }
 
-/// The content hashes of realisations, summary and cycles of `text` at R = 64, and of the
-/// control-variate columns of realisations and summary.
-fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
+/// The same fingerprint of the spread's control-variate columns alone.
+fn spread_hash(batch: &arrow::array::RecordBatch) -> u64 {
+    hash_columns(batch, &spread_column)
+}
+
+/// The content hashes of realisations, summary and cycles of `text` at R = 64, of the
+/// control-variate columns of realisations and summary, and of the summary's spread by
+/// control variates.
+fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2], u64) {
     let study = chassis_mc::study::Study::from_toml(text, "pinned")
         .unwrap()
         .with_overrides(Some(64), None)
@@ -153,8 +170,11 @@ fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2]) {
     assert_eq!(used.true_count(), used.len());
     let found = tables.each_ref().map(content_hash);
     let controls = [control_hash(&tables[0]), control_hash(&tables[1])];
-    println!("content hashes: {found:016x?}, control variates: {controls:016x?}");
-    (found, controls)
+    let spread = spread_hash(&tables[1]);
+    println!(
+        "content hashes: {found:016x?}, control variates: {controls:016x?}, spread: {spread:016x}"
+    );
+    (found, controls, spread)
 }
 
 #[test]
@@ -169,7 +189,7 @@ fn refactors_keep_the_realisations_bit_for_bit() {
     );
     // Measured on the engine of commit 2221a26 (whose files for this study are byte-identical
     // to those of this commit's parent, checked with `cmp`).
-    let (hashes, controls) = pinned_hashes(&text);
+    let (hashes, controls, spread) = pinned_hashes(&text);
     assert_eq!(
         hashes,
         [
@@ -185,6 +205,8 @@ fn refactors_keep_the_realisations_bit_for_bit() {
     );
     // The control variates, pinned on the engine that introduced them.
     assert_eq!(controls, [0x4699_57bc_7d64_813f, 0x0ef2_66e5_6de8_855e]);
+    // The spread by control variates, pinned on the engine that introduced it.
+    assert_eq!(spread, 0xc682_3af2_a514_1416);
 }
 
 #[test]
@@ -208,7 +230,7 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
     // and BCLS's measures in the summary (its bias_cv among them), moved; OLS's columns, the
     // cycles and the realisations' control variates kept their bits (compared column by
     // column against the engine before the change).
-    let (hashes, controls) = pinned_hashes(&text);
+    let (hashes, controls, spread) = pinned_hashes(&text);
     assert_eq!(
         hashes,
         [
@@ -221,6 +243,8 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
     // The control variates, pinned on the engine that introduced them (the summary's moved
     // with BCLS's bias_cv, above).
     assert_eq!(controls, [0xdb90_b5fd_9ed5_4a5a, 0xe667_45f2_83b1_8ff5]);
+    // The spread by control variates, pinned on the engine that introduced it.
+    assert_eq!(spread, 0x8afe_ec14_d589_13fd);
 }
 
 #[test]
@@ -318,10 +342,19 @@ fn refactors_keep_the_drawn_entries_bit_for_bit() {
         .with_overrides(Some(16), None)
         .unwrap();
     let (dir, _) = run(&study, None);
+    // The spread's control-variate columns came later; no control applies where each
+    // realisation has its own truth, so they are null here (checked), and left out.
+    let summary = read_table(&dir.path().join("summary.parquet"));
+    for field in summary.schema().fields() {
+        if spread_column(field.name()) {
+            let column = summary.column_by_name(field.name()).unwrap();
+            assert_eq!(column.null_count(), column.len(), "{}", field.name());
+        }
+    }
     let found = ["realisations", "summary", "cycles"].map(|name| {
         hash_columns(
             &read_table(&dir.path().join(format!("{name}.parquet"))),
-            &|_| true,
+            &|name| !spread_column(name),
         )
     });
     println!("drawn entries' hashes: {found:016x?}");

@@ -4,12 +4,14 @@ use std::collections::BTreeMap;
 
 use super::{BoundSummary, Record, SummaryError, SummaryRow};
 use crate::model::{ConditionInfo, Layout};
+use crate::numeric::dd::Dd;
 use crate::numeric::sum::ExactSum;
-use crate::stats::control::{ControlAcc, ControlFit, SpreadControls, SpreadSums};
+use crate::stats::control::{ControlAcc, ControlFit};
 use crate::stats::measures::{
     self, BoundSums, Estimate, EstimateSums, SpreadCv, coverage, emp_over_model, model_se,
     model_se_relative_error, relative_precision, variance_ratio_p,
 };
+use crate::stats::spread::{Coefficients, Residuals, SpreadGram, SpreadSolver};
 
 #[derive(Debug, Clone, Default)]
 struct BoundAcc {
@@ -34,8 +36,12 @@ struct ParamAcc {
     sum_cross_ref: ExactSum,
     /// Σ (d − d̄)(c_j − c̄_j) per active control of the condition.
     sum_cross_controls: Vec<ExactSum>,
-    /// The sums the spread's control variates read (where they apply).
-    spread: Option<SpreadSums>,
+    /// Σ d cⱼ per active control (pass one, where the spread's control variates apply).
+    spread_cross: Vec<ExactSum>,
+    /// The regression on the controls, fixed at the end of pass one.
+    coefficients: Option<Coefficients>,
+    /// Its residuals' sums (pass two).
+    residuals: Residuals,
     mean: f64,
     mse: f64,
 }
@@ -100,8 +106,12 @@ pub struct ConditionSummarizer<'a> {
     /// Pass two: centred θ̂ of each estimator of the current realisation (NaN when absent).
     current_centred: Vec<f64>,
     controls: ControlAcc,
-    /// The second moment's controls, where the covariances of the controls are known.
-    spread: Option<SpreadControls>,
+    /// The spread's Gram matrix of the controls, where their covariances are known.
+    spread: Option<SpreadGram>,
+    /// Its factorisation, at the end of pass one.
+    spread_solver: Option<SpreadSolver>,
+    /// The current realisation's HC2 weight (pass two).
+    spread_weight: f64,
 }
 
 impl<'a> ConditionSummarizer<'a> {
@@ -120,11 +130,15 @@ impl<'a> ConditionSummarizer<'a> {
         let spread = info
             .control_covariance
             .as_ref()
-            .map(|cov| SpreadControls::new(&info.controls, cov));
+            .map(|cov| SpreadGram::new(&info.controls, cov));
         let param = ParamAcc {
             bounds: vec![BoundAcc::default(); layout.bounds.len()],
             sum_cross_controls: vec![ExactSum::new(); controls.len()],
-            spread: spread.as_ref().map(|s| SpreadSums::new(s.acc.len())),
+            spread_cross: if spread.is_some() {
+                vec![ExactSum::new(); controls.len()]
+            } else {
+                Vec::new()
+            },
             ..ParamAcc::default()
         };
         ConditionSummarizer {
@@ -136,6 +150,8 @@ impl<'a> ConditionSummarizer<'a> {
             acc: vec![vec![param; p]; e],
             controls,
             spread,
+            spread_solver: None,
+            spread_weight: f64::NAN,
             rows: vec![0; e],
             failed: vec![0; e],
             seen: Seen::default(),
@@ -156,11 +172,16 @@ impl<'a> ConditionSummarizer<'a> {
         let per_param = |acc: &ParamAcc| {
             5 + acc.sum_cross_controls.len()
                 + 2 * acc.bounds.len()
-                + acc.spread.as_ref().map_or(0, SpreadSums::accumulators)
+                + acc.spread_cross.len()
+                + if acc.spread_cross.is_empty() {
+                    0
+                } else {
+                    Residuals::ACCUMULATORS
+                }
         };
         self.acc.iter().flatten().map(per_param).sum::<usize>()
             + self.controls.accumulators()
-            + self.spread.as_ref().map_or(0, |s| s.acc.accumulators())
+            + self.spread.as_ref().map_or(0, SpreadGram::accumulators)
     }
 
     fn check_row(&self, r: &Record<'_>) -> Result<(), SummaryError> {
@@ -207,6 +228,9 @@ impl<'a> ConditionSummarizer<'a> {
             acc.n += 1;
             acc.sum_d.add(d);
             acc.sum_d_sq.add(d * d);
+            for (x, &j) in acc.spread_cross.iter_mut().zip(&self.controls.active) {
+                x.add(d * r.controls[j]);
+            }
             for (b, bacc) in acc.bounds.iter_mut().enumerate() {
                 let bound = r.bounds[b * np + p];
                 if bound.is_nan() {
@@ -241,8 +265,18 @@ impl<'a> ConditionSummarizer<'a> {
             }
         }
         self.controls.end_first();
-        if let Some(spread) = &mut self.spread {
-            spread.acc.end_first();
+        self.spread_solver = self.spread.as_ref().and_then(|s| {
+            s.solver(
+                self.controls.count(),
+                &self.controls.sums_dd(),
+                self.controls.means(),
+            )
+        });
+        if let Some(solver) = &self.spread_solver {
+            for acc in self.acc.iter_mut().flatten() {
+                acc.coefficients =
+                    solver.coefficients(acc.n, &acc.sum_d, acc.mean, &acc.spread_cross);
+            }
         }
         self.current = None;
         Ok(())
@@ -256,8 +290,8 @@ impl<'a> ConditionSummarizer<'a> {
             self.flush_cross();
             self.current = Some(r.realisation);
             self.controls.second(r.controls);
-            if let Some(spread) = &mut self.spread {
-                spread.second(r.controls);
+            if let Some(solver) = &self.spread_solver {
+                self.spread_weight = solver.weight(&self.controls.centred);
             }
         }
         if !r.ok {
@@ -278,8 +312,9 @@ impl<'a> ConditionSummarizer<'a> {
             {
                 x.add(centred * c);
             }
-            if let (Some(sums), Some(spread)) = (&mut acc.spread, &self.spread) {
-                sums.add(centred, &spread.acc.centred);
+            if let Some(c) = &acc.coefficients {
+                acc.residuals
+                    .add(c, centred, &self.controls.centred, self.spread_weight);
             }
             for (b, bacc) in acc.bounds.iter_mut().enumerate() {
                 let bound = r.bounds[b * np + p];
@@ -319,19 +354,22 @@ impl<'a> ConditionSummarizer<'a> {
         let mut out = Vec::with_capacity(self.acc.len() * self.layout.parameters.len());
         let reference = self.layout.reference_estimator();
         let factor = self.controls.factor();
-        let spread_factor = self.spread.as_ref().and_then(|s| s.acc.factor());
+
         let (c, info) = (self.condition, self.info);
         for (e, per_e) in self.acc.iter().enumerate() {
             for (p, acc) in per_e.iter().enumerate() {
                 let truth = info.truth[p];
                 let sums = estimate_sums(acc);
                 let reference = estimate_sums(&self.acc[reference][p]);
-                let spread = spread_factor
+                let spread = self
+                    .spread_solver
                     .as_ref()
-                    .zip(acc.spread.as_ref())
-                    .and_then(|(f, s)| f.fit_moments(acc.n, &acc.sum_centred_sq, s))
-                    .map_or_else(SpreadCv::undefined, |fit| {
-                        SpreadCv::new(fit.mean, fit.covariance, acc.mean)
+                    .zip(acc.coefficients.as_ref())
+                    .map_or_else(SpreadCv::undefined, |(solver, c)| {
+                        let sum_u =
+                            acc.sum_d.value_dd() - Dd::from(acc.n as f64) * Dd::from(acc.mean);
+                        let f = solver.fit(c, &acc.residuals, acc.mean, sum_u);
+                        SpreadCv::new(f.variance, f.variance_var, f.bias, f.bias_var, f.covariance)
                     });
                 let bounds = acc
                     .bounds
