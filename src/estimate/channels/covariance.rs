@@ -88,14 +88,13 @@ impl ChannelTable {
         index
     }
 
-    /// The table of `channel` at row `r` under `noise`: its raw moments when it is on, the
-    /// noise-free products when off; `None` where it does not derive one.
-    fn new(channel: Channel, noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
+    /// The entries of `channel`'s table with their parts' powers: those `only` lists, or
+    /// all.
+    fn entries(channel: Channel, only: Option<&[usize]>) -> Vec<(usize, Powers)> {
         let parts = channel.parts();
         let size: usize = parts.iter().map(|p| p.max_power() as usize + 1).product();
         assert!(size <= TABLE, "{channel:?} has parts beyond the table");
-        let mut values = [f64::NAN; TABLE];
-        for (i, value) in values.iter_mut().enumerate().take(size) {
+        let decompose = |i: usize| {
             let mut p = [0u8; PART_COUNT];
             let mut rest = i;
             for &part in parts {
@@ -103,16 +102,35 @@ impl ChannelTable {
                 p[part as usize] = (rest % radix) as u8;
                 rest /= radix;
             }
-            *value = if noise.is_on(channel) {
-                channel.raw_moment(noise, r, &p)?
+            (i, p)
+        };
+        match only {
+            Some(list) => list.iter().map(|&i| decompose(i)).collect(),
+            None => (0..size).map(decompose).collect(),
+        }
+    }
+
+    /// Set the `entries` of `channel`'s table at row `r` under `noise`: its raw moments when
+    /// it is on, the noise-free products when off; `None` where it does not derive one.
+    fn fill(
+        &mut self,
+        channel: Channel,
+        noise: &NoiseLevels,
+        r: &TrueRow,
+        entries: &[(usize, Powers)],
+    ) -> Option<()> {
+        let on = noise.is_on(channel);
+        for (i, p) in entries {
+            self.values[*i] = if on {
+                channel.raw_moment(noise, r, p)?
             } else {
-                parts
+                self.parts
                     .iter()
-                    .map(|&part| part.noise_free(r).powi(p[part as usize] as i32))
+                    .map(|&part| part.noise_free(r).powi(i32::from(p[part as usize])))
                     .product()
             };
         }
-        Some(ChannelTable { parts, values })
+        Some(())
     }
 
     fn get(&self, p: &Powers) -> f64 {
@@ -138,39 +156,19 @@ pub fn powers_of_pair(a: Sum, b: Sum) -> ColumnPowers {
     std::array::from_fn(|i| pa[i] + pb[i])
 }
 
-/// The moments of one row's measured columns: each channel's table of its parts.
+/// A column monomial expanded into parts: ỹ^y = Σ y!/(ka! ks! ko! kd!) a^ka s̃^ks o^ko d^kd,
+/// each term (its coefficient, ka, the parts' powers).
 #[derive(Debug, Clone)]
-pub struct RowMoments {
-    tables: [ChannelTable; CHANNEL_COUNT],
-    accel: f64,
+struct Expansion {
+    terms: Vec<(f64, u8, Powers)>,
 }
 
-/// n! for small n.
-fn factorial(n: u8) -> f64 {
-    (1..=n as u32).map(f64::from).product()
-}
-
-impl RowMoments {
-    /// The moments of row `r` under `noise` (`None`: a channel that is on does not derive
-    /// them).
-    pub fn new(noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
-        let mut tables = Vec::with_capacity(CHANNEL_COUNT);
-        for c in Channel::ALL {
-            tables.push(ChannelTable::new(c, noise, r)?);
-        }
-        Some(RowMoments {
-            tables: tables.try_into().expect("one table per channel"),
-            accel: r.accel,
-        })
-    }
-
-    /// E\[x̃₁^f w^w x̃₃^c ỹ^y\] over every channel but `skip` (whose factor is taken as 1:
-    /// its parts' powers must be 0, and ỹ is expanded without them).
-    pub fn moment_without(&self, p: ColumnPowers, skip: Option<Channel>) -> f64 {
+impl Expansion {
+    /// The expansion of x̃₁^f w^w x̃₃^c ỹ^y, without the parts of `skip`.
+    fn new(p: ColumnPowers, skip: Option<Channel>) -> Self {
         let skipped = |part: Part| skip.is_some_and(|c| c.parts().contains(&part));
         let y = p[Column::Y.index()];
-        let mut total = 0.0;
-        // ỹ^y = Σ y!/(ka! ks! ko! kd!) a^ka s̃^ks o^ko d^kd
+        let mut terms = Vec::new();
         for ks in 0..=y {
             for ko in 0..=y - ks {
                 for kd in 0..=y - ks - ko {
@@ -190,15 +188,117 @@ impl RowMoments {
                     powers[Part::S as usize] = ks;
                     powers[Part::O as usize] = ko;
                     powers[Part::D as usize] = kd;
-                    let mut term = coefficient * self.accel.powi(ka as i32);
-                    for (c, table) in Channel::ALL.iter().zip(&self.tables) {
-                        if Some(*c) != skip {
-                            term *= table.get(&powers);
-                        }
-                    }
-                    total += term;
+                    terms.push((coefficient, ka, powers));
                 }
             }
+        }
+        Expansion { terms }
+    }
+}
+
+/// A term of an [`Expansion`] with its place in each channel's table: (coefficient, ka,
+/// index per channel).
+type Compiled = (f64, u8, [usize; CHANNEL_COUNT]);
+
+/// The terms of `e` that can be non-zero under `noise` (a part that is 0 without noise, o or
+/// d, vanishes where its channel leaves it so), each with its table indices.
+fn compile(e: &Expansion, noise: &NoiseLevels) -> Vec<Compiled> {
+    let zero = |part: Part| match part {
+        Part::O => !noise.is_on(Channel::Output),
+        Part::D => !noise.speed_noise_differentiated(),
+        _ => false,
+    };
+    e.terms
+        .iter()
+        .filter(|(_, _, p)| {
+            !Part::ALL
+                .iter()
+                .any(|&part| p[part as usize] > 0 && zero(part))
+        })
+        .map(|&(coefficient, ka, p)| {
+            let index = Channel::ALL.map(|c| ChannelTable::index(c.parts(), &p));
+            (coefficient, ka, index)
+        })
+        .collect()
+}
+
+/// The moments of one row's measured columns: each channel's table of its parts.
+#[derive(Debug, Clone)]
+pub struct RowMoments {
+    tables: [ChannelTable; CHANNEL_COUNT],
+    accel: f64,
+}
+
+/// n! for small n.
+fn factorial(n: u8) -> f64 {
+    (1..=n as u32).map(f64::from).product()
+}
+
+impl RowMoments {
+    /// The moments of row `r` under `noise` (`None`: a channel that is on does not derive
+    /// them).
+    pub fn new(noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
+        let entries = Channel::ALL.map(|c| ChannelTable::entries(c, None));
+        let mut row = RowMoments::empty();
+        row.fill(noise, r, &entries)?;
+        Some(row)
+    }
+
+    /// Moments with every entry unset (NaN).
+    fn empty() -> Self {
+        RowMoments {
+            tables: Channel::ALL.map(|c| ChannelTable {
+                parts: c.parts(),
+                values: [f64::NAN; TABLE],
+            }),
+            accel: f64::NAN,
+        }
+    }
+
+    /// Set the table entries `entries` of each channel to row `r`'s.
+    fn fill(
+        &mut self,
+        noise: &NoiseLevels,
+        r: &TrueRow,
+        entries: &[Vec<(usize, Powers)>; CHANNEL_COUNT],
+    ) -> Option<()> {
+        for ((c, table), e) in Channel::ALL.iter().zip(&mut self.tables).zip(entries) {
+            table.fill(*c, noise, r, e)?;
+        }
+        self.accel = r.accel;
+        Some(())
+    }
+
+    /// E\[x̃₁^f w^w x̃₃^c ỹ^y\] over every channel but `skip` (whose factor is taken as 1:
+    /// its parts' powers must be 0, and ỹ is expanded without them).
+    pub fn moment_without(&self, p: ColumnPowers, skip: Option<Channel>) -> f64 {
+        self.expanded(&Expansion::new(p, skip), skip)
+    }
+
+    /// The moment whose expansion into parts is `e`, over every channel but `skip`.
+    fn expanded(&self, e: &Expansion, skip: Option<Channel>) -> f64 {
+        let mut total = 0.0;
+        for (coefficient, ka, powers) in &e.terms {
+            let mut term = coefficient * self.accel.powi(i32::from(*ka));
+            for (c, table) in Channel::ALL.iter().zip(&self.tables) {
+                if Some(*c) != skip {
+                    term *= table.get(powers);
+                }
+            }
+            total += term;
+        }
+        total
+    }
+
+    /// The moment of the compiled terms `terms` ([`compile`]).
+    fn compiled(&self, terms: &[Compiled]) -> f64 {
+        let mut total = 0.0;
+        for (coefficient, ka, index) in terms {
+            let mut term = coefficient * self.accel.powi(i32::from(*ka));
+            for (table, &i) in self.tables.iter().zip(index) {
+                term *= table.values[i];
+            }
+            total += term;
         }
         total
     }
@@ -206,11 +306,6 @@ impl RowMoments {
     /// E\[x̃₁^f w^w x̃₃^c ỹ^y\] over every channel.
     pub fn moment(&self, p: ColumnPowers) -> f64 {
         self.moment_without(p, None)
-    }
-
-    /// Cov(aᵢ, bᵢ) of the two sums' terms at this row.
-    pub fn covariance(&self, a: Sum, b: Sum) -> f64 {
-        self.moment(powers_of_pair(a, b)) - self.moment(powers_of(a)) * self.moment(powers_of(b))
     }
 }
 
@@ -258,23 +353,61 @@ pub fn sum_covariances(
     sums: &[Sum],
 ) -> Option<Vec<f64>> {
     let q = sums.len();
-    let mut rows = Vec::with_capacity(reg.len());
-    for i in 0..reg.len() {
-        rows.push(RowMoments::new(noise, &TrueRow::of(reg, i))?);
+    // The distinct monomials of the sums and their pairs, each expanded once.
+    let mut monomials: Vec<ColumnPowers> = Vec::new();
+    let mut index = |p: ColumnPowers| match monomials.iter().position(|&m| m == p) {
+        Some(i) => i,
+        None => {
+            monomials.push(p);
+            monomials.len() - 1
+        }
+    };
+    let single: Vec<usize> = sums.iter().map(|&a| index(powers_of(a))).collect();
+    let mut pairs = Vec::with_capacity(q * (q + 1) / 2);
+    for a in 0..q {
+        for b in a..q {
+            pairs.push((
+                index(powers_of_pair(sums[a], sums[b])),
+                single[a],
+                single[b],
+            ));
+        }
     }
-    let mut total = vec![ExactSum::new(); q * (q + 1) / 2];
-    for row in &rows {
-        for a in 0..q {
-            for b in a..q {
-                total[packed(a, b, q)].add(row.covariance(sums[a], sums[b]));
+    let expansions: Vec<Vec<Compiled>> = monomials
+        .iter()
+        .map(|&p| compile(&Expansion::new(p, None), noise))
+        .collect();
+    // The table entries the terms read, per channel.
+    let mut used: [Vec<usize>; CHANNEL_COUNT] = Default::default();
+    for (_, _, index) in expansions.iter().flatten() {
+        for (u, &i) in used.iter_mut().zip(index) {
+            if !u.contains(&i) {
+                u.push(i);
             }
         }
     }
+    let entries = Channel::ALL.map(|c| ChannelTable::entries(c, Some(&used[c.index()])));
+    let mut total = vec![ExactSum::new(); pairs.len()];
+    let mut values = vec![0.0; expansions.len()];
+    let mut row = RowMoments::empty();
+    for i in 0..reg.len() {
+        row.fill(noise, &TrueRow::of(reg, i), &entries)?;
+        for (v, e) in values.iter_mut().zip(&expansions) {
+            *v = row.compiled(e);
+        }
+        for (t, &(ab, a, b)) in total.iter_mut().zip(&pairs) {
+            t.add(values[ab] - values[a] * values[b]);
+        }
+    }
+    // Every row's moments exist (checked above), so the channels' terms across rows may
+    // build them again as they go.
+    let row =
+        |i: usize| RowMoments::new(noise, &TrueRow::of(reg, i)).expect("every row's moments exist");
     for c in Channel::ALL {
         if !noise.is_on(c) {
             continue;
         }
-        match c.covariance_across_rows(reg, noise, ar1, &rows, sums) {
+        match c.covariance_across_rows(reg, noise, ar1, &row, sums) {
             AcrossRows::Nothing => {}
             AcrossRows::Covariance(v) => {
                 for (t, x) in total.iter_mut().zip(v) {
@@ -287,9 +420,14 @@ pub fn sum_covariances(
     Some(total.iter().map(ExactSum::value).collect())
 }
 
-/// E\[(μ + σz)ⁿ\] for z ~ N(0, 1).
+/// E\[(μ + σz)ⁿ\] for z ~ N(0, 1), by mₖ = μ mₖ₋₁ + (k − 1)σ² mₖ₋₂.
 pub fn gaussian_moment(mu: f64, sd: f64, n: u8) -> f64 {
-    hermite_coefficients(mu, sd, n)[0]
+    let s2 = sd * sd;
+    let (mut before, mut m) = (0.0, 1.0);
+    for k in 1..=n {
+        (before, m) = (m, mu * m + f64::from(k - 1) * s2 * before);
+    }
+    m
 }
 
 /// The Hermite coefficients h_k = E\[(μ + σz)ⁿ He_k(z)\] / k!, k = 0..=8, of (μ + σz)ⁿ

@@ -130,7 +130,7 @@ pub trait ChannelTerms {
         _reg: &Regression,
         _noise: &NoiseLevels,
         _ar1: Option<&[[f64; 2]]>,
-        _rows: &[RowMoments],
+        _rows: &dyn Fn(usize) -> RowMoments,
         _sums: &[Sum],
     ) -> AcrossRows {
         AcrossRows::Nothing
@@ -293,7 +293,7 @@ macro_rules! channels {
                 reg: &Regression,
                 noise: &NoiseLevels,
                 ar1: Option<&[[f64; 2]]>,
-                rows: &[RowMoments],
+                rows: &dyn Fn(usize) -> RowMoments,
                 sums: &[Sum],
             ) -> AcrossRows {
                 match self {

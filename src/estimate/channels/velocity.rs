@@ -269,7 +269,7 @@ impl ChannelTerms for Speed {
         reg: &Regression,
         noise: &NoiseLevels,
         ar1: Option<&[[f64; 2]]>,
-        rows: &[RowMoments],
+        rows: &dyn Fn(usize) -> RowMoments,
         sums: &[Sum],
     ) -> AcrossRows {
         match (noise.speed_noise_differentiated(), ar1) {
@@ -305,7 +305,7 @@ fn correlated_across_rows(
     reg: &Regression,
     noise: &NoiseLevels,
     ar1: &[[f64; 2]],
-    rows: &[RowMoments],
+    rows: &dyn Fn(usize) -> RowMoments,
     sums: &[Sum],
 ) -> Vec<f64> {
     let sd = noise[Channel::Velocity];
@@ -313,13 +313,14 @@ fn correlated_across_rows(
     // h[i][a][k]: row i's Hermite coefficients of sum a's term (k = 1..=4).
     let h: Vec<Vec<[f64; 5]>> = (0..reg.len())
         .map(|i| {
+            let row = rows(i);
             sums.iter()
                 .map(|&a| {
                     let p = powers_of(a)[Column::W.index()];
                     let mut out = [0.0; 5];
                     if p > 0 {
                         let other =
-                            rows[i].moment_without(without_w(a, false), Some(Channel::Velocity));
+                            row.moment_without(without_w(a, false), Some(Channel::Velocity));
                         let hk = hermite_coefficients(reg.v[i], sd, 2 * p);
                         for k in 1..5 {
                             out[k] = other * hk[k];
@@ -359,7 +360,7 @@ fn correlated_across_rows(
 fn differentiated_across_rows(
     reg: &Regression,
     noise: &NoiseLevels,
-    rows: &[RowMoments],
+    rows: &dyn Fn(usize) -> RowMoments,
     sums: &[Sum],
 ) -> Vec<f64> {
     let d = reg
@@ -371,7 +372,7 @@ fn differentiated_across_rows(
     // [P₁, Q₀, Q₁] per row and sum.
     let terms: Vec<Vec<[f64; 3]>> = (0..reg.len())
         .map(|i| {
-            let row = &rows[i];
+            let row = rows(i);
             sums.iter()
                 .map(|&a| {
                     let p = powers_of(a);
