@@ -294,8 +294,8 @@ fn printed_table_leads_with_a_valid_bound_and_names_it_in_the_header() {
 /// gives their range too; where none apply (the line fit) the column and the line are absent.
 #[test]
 fn tables_give_the_control_variate_ratio_beside_the_plain_one_where_it_applies() {
-    // One condition, OLS and BCLS, speed noise, R = 40: the spread's control variates (here
-    // 20 of them, defined from 23 realisations on) apply to every row.
+    // One condition, OLS and BCLS, speed noise, R = 40: the spread's control variates (the
+    // five speed controls, defined from q + 3 = 8 realisations on) apply to every row.
     let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
     let text = set_key(&text, "velocity_sd", "[1.0]");
     let study = chassis_mc::study::Study::from_toml(&text, "cv")
@@ -383,9 +383,9 @@ fn tables_give_the_control_variate_ratio_beside_the_plain_one_where_it_applies()
 #[test]
 fn replications_for_plans_the_control_variate_spread_with_far_fewer_realisations() {
     // A pilot of R₀ = 40 (bias_compensation at scale 1 and σ_v = 1, OLS and BCLS). The
-    // target 1e-11 for 1/M lies below the pilot's control-variate MCSE (~1.5e-10), so the
+    // target 1e-11 for 1/M lies below the pilot's control-variate MCSE (~2.7e-10), so the
     // plan is the formula's, not the least R at which the estimate is defined (at 1e-9 the
-    // pilot already reaches it and the plan is that least R).
+    // pilot already reaches it and the plan is that least R, q + 3 = 8).
     let tmp = tempfile::tempdir().unwrap();
     let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
     let text = set_key(&text, "velocity_sd", "[1.0]");
@@ -433,10 +433,10 @@ fn replications_for_plans_the_control_variate_spread_with_far_fewer_realisations
     assert_eq!(cv, expected, "{stdout}");
     assert!(cv > 40, "a real plan, beyond the pilot: {stdout}");
     // Both plans share R₀ and the target, so their ratio is the squared ratio of the two
-    // MCSEs of 1/M: 1.29e-7 / 1.54e-10 ≈ 840 in this pilot (7.2e-8 / 7.0e-11 ≈ 1000 at
+    // MCSEs of 1/M: 1.29e-7 / 2.66e-10 ≈ 490 in this pilot (7.2e-8 / 9.0e-11 ≈ 800 at
     // R₀ = 200; `run` of this study with `--replications-for inv_mass:emp_se=1e-9
-    // --replications-for inv_mass:emp_se_cv=1e-9` prints both), so R falls by ~7·10⁵.
-    // 100 asks only for an MCSE ratio of 10, a factor 80 below the measured one: no pilot
+    // --replications-for inv_mass:emp_se_cv=1e-9` prints both), so R falls by ~2·10⁵.
+    // 100 asks only for an MCSE ratio of 10, a factor ~50 below the measured one: no pilot
     // noise on either MCSE (~11 % relative for emp_se's at R₀ = 40) comes near that.
     assert!(plain >= 100 * cv, "emp_se R = {plain}, emp_se_cv R = {cv}");
 }
