@@ -1,7 +1,7 @@
 //! What a reader sees of a run: the table printed after it (per parameter, one line per
 //! condition × estimator with the mean ± MCSE, the control-variate bias ± MCSE, the
-//! empirical SE, the applicable bound and EmpSE/bound) and `report.html`, the page written
-//! next to its files.
+//! empirical SE, the applicable bound and EmpSE/bound, plain and, where they apply, by the
+//! second moment's control variates) and `report.html`, the page written next to its files.
 
 use std::fmt::Write as _;
 
@@ -143,6 +143,7 @@ fn table_of(
         );
     }
     let is_listed = |c: usize| listed.binary_search(&c).is_ok();
+    let mut any_ratio_cv = false;
     for (p, param) in layout.parameters.iter().enumerate() {
         let truth = rows
             .iter()
@@ -189,6 +190,20 @@ fn table_of(
             None => 11 + name_width,
         };
         let ratio_width = ratio_header.chars().count().max(16);
+        // The same ratio by the second moment's control variates, where any line has it
+        // (docs/model.md#spread-control-variates).
+        let ratio_cv = |r: &SummaryRow| {
+            lead_bound(layout, r)
+                .map(|(_, s)| s.emp_over_cv)
+                .filter(|e| e.value.is_finite())
+        };
+        let cv_header = "(CV)";
+        let cv_width = if shown.iter().any(|r| ratio_cv(r).is_some()) {
+            any_ratio_cv = true;
+            Some("0.94471 ± 4.2e-5".chars().count()) // a cell's width below 10
+        } else {
+            None
+        };
         let mut header = format!("{:>4}", "cond");
         for (a, _) in layout.axes.iter().zip(&varies).filter(|(_, v)| **v) {
             let _ = write!(header, " {:>11}", a.name);
@@ -201,6 +216,9 @@ fn table_of(
             " {:>5}  {:>27}  {:>22}  {:>10}  {:>bound_width$}  {:>ratio_width$}",
             "est", "mean ± MCSE", "bias (CV) ± MCSE", "EmpSE", bound_header, ratio_header
         );
+        if let Some(w) = cv_width {
+            let _ = write!(header, "  {cv_header:>w$}");
+        }
         let _ = writeln!(out, "{header}");
         for r in shown {
             let info = &infos[r.condition];
@@ -234,20 +252,33 @@ fn table_of(
                 ),
                 None => ("—".to_string(), "—".to_string()),
             };
-            let _ = writeln!(
+            let _ = write!(
                 line,
                 " {:>5}  {:>27}  {:>22}  {:>10.3e}  {:>bound_width$}  {:>ratio_width$}",
                 layout.estimators[r.estimator], mean, bias_cv, r.emp_se.value, bound, ratio
             );
+            if let Some(w) = cv_width {
+                let cell = ratio_cv(r).map_or("—".to_string(), |e| {
+                    format!("{:.5} ± {:.1e}", e.value, e.mcse)
+                });
+                let _ = write!(line, "  {cell:>w$}");
+            }
+            line.push('\n');
             out.push_str(&line);
         }
     }
     if let Some(r) = rows.first() {
+        let ratio_cv_note = if any_ratio_cv {
+            "; (CV) = EmpSE/bound with EmpSE by the second moment's control variates \
+             (docs/model.md#spread-control-variates; — where none apply)"
+        } else {
+            ""
+        };
         let _ = writeln!(
             out,
             "\n{} realisations per condition{}; bias (CV) = the bias by control variates \
-             (docs/model.md#control-variates); the bound is the first valid one that applies \
-             (README \"What the numbers mean\"; summary.parquet has every bound).",
+             (docs/model.md#control-variates){ratio_cv_note}; the bound is the first valid one \
+             that applies (README \"What the numbers mean\"; summary.parquet has every bound).",
             r.n + r.n_failed,
             failed_note(rows)
         );

@@ -1,5 +1,7 @@
 //! The four figures of each parameter: SE and bounds, bias, EmpSE / bound and coverage,
-//! against the terrain metric (or whichever condition axis varies).
+//! against the terrain metric (or whichever condition axis varies). The SE, bias and
+//! EmpSE / bound figures also draw the control-variate estimates where they apply
+//! (docs/model.md#control-variates, docs/model.md#spread-control-variates).
 
 use std::path::Path;
 
@@ -244,6 +246,19 @@ pub(super) fn draw_parameter(
         .rows
         .iter()
         .any(|r| r.parameter == pi && r.bias_cv.value.is_finite());
+    // The spread by the second moment's control variates
+    // (docs/model.md#spread-control-variates), where it applies.
+    let with_spread_cv = t
+        .rows
+        .iter()
+        .any(|r| r.parameter == pi && r.emp_se_cv.value.is_finite());
+    let with_ratio_cv = t.rows.iter().any(|r| {
+        r.parameter == pi
+            && r.bounds
+                .iter()
+                .flatten()
+                .any(|s| s.emp_over_cv.value.is_finite())
+    });
     // The rows of a figure with `per_group` series per group, its series keys (estimator,
     // group) in first-seen order, and the note saying which groups it leaves out.
     let select = |per_group: usize| {
@@ -281,8 +296,10 @@ pub(super) fn draw_parameter(
             .collect()
     };
 
-    // (a) EmpSE with MCSE and every bound, against x.
-    let (rows, keys_seen, note) = select(layout.estimators.len() + bounds_reported);
+    // (a) EmpSE with MCSE (and by control variates where they apply) and every bound,
+    // against x.
+    let (rows, keys_seen, note) =
+        select(layout.estimators.len() * (1 + usize::from(with_spread_cv)) + bounds_reported);
     let (emp_se, emp_se_mcse) = &measure(Measure::EmpSe);
     let mut series = Vec::new();
     for (k, (e, g)) in keys_seen.iter().enumerate() {
@@ -294,6 +311,19 @@ pub(super) fn draw_parameter(
         });
     }
     let mut c = keys_seen.len();
+    let (emp_se_cv, emp_se_cv_mcse) = &measure(Measure::EmpSeCv);
+    for (e, g) in &keys_seen {
+        let points = points(&rows, e, g, emp_se_cv, Some(emp_se_cv_mcse));
+        if !points.is_empty() {
+            series.push(Series {
+                label: join_label(&["EmpSE (control variates) ± MCSE", &est_label(e), g]),
+                color: color(c),
+                points,
+                markers: true,
+            });
+            c += 1;
+        }
+    }
     for (bi, b) in layout.bounds.iter().enumerate() {
         let se = &bound(bi, BoundMeasure::Se).0;
         // A bound's value does not depend on the estimator: draw it once per group.
@@ -389,11 +419,14 @@ pub(super) fn draw_parameter(
     )?;
     names.push(name);
 
-    // (c) EmpSE / bound and (d) coverage, per bound × estimator × group.
-    for (figure, which, log_y, reference, title, y_label) in [
+    // (c) EmpSE / bound and (d) coverage, per bound × estimator × group; (c) also by the
+    // second moment's control variates where they apply (their error bars are usually too
+    // small to see).
+    for (figure, which, cv, log_y, reference, title, y_label) in [
         (
             "ratio",
             BoundMeasure::EmpOver,
+            with_ratio_cv.then_some(BoundMeasure::EmpOverCv),
             true,
             Reference {
                 y: 1.0,
@@ -405,6 +438,7 @@ pub(super) fn draw_parameter(
         (
             "coverage",
             BoundMeasure::Coverage,
+            None,
             false,
             Reference {
                 y: NOMINAL,
@@ -414,23 +448,29 @@ pub(super) fn draw_parameter(
             "coverage [-]".to_string(),
         ),
     ] {
-        let (rows, keys_seen, note) = select(layout.estimators.len() * bounds_reported);
+        let (rows, keys_seen, note) =
+            select(layout.estimators.len() * bounds_reported * (1 + usize::from(cv.is_some())));
         let mut series = Vec::new();
         let mut c = 0;
-        for (bi, b) in layout.bounds.iter().enumerate() {
-            let (value, mcse) = &bound(bi, which);
-            for (e, g) in &keys_seen {
-                let points = points(&rows, e, g, value, Some(mcse));
-                if points.is_empty() {
-                    continue;
+        for (measure, suffix) in [(Some(which), ""), (cv, "control variates")] {
+            let Some(measure) = measure else {
+                continue;
+            };
+            for (bi, b) in layout.bounds.iter().enumerate() {
+                let (value, mcse) = &bound(bi, measure);
+                for (e, g) in &keys_seen {
+                    let points = points(&rows, e, g, value, Some(mcse));
+                    if points.is_empty() {
+                        continue;
+                    }
+                    series.push(Series {
+                        label: join_label(&[&bound_label(b), &est_label(e), g, suffix]),
+                        color: color(c),
+                        points,
+                        markers: true,
+                    });
+                    c += 1;
                 }
-                series.push(Series {
-                    label: join_label(&[&bound_label(b), &est_label(e), g]),
-                    color: color(c),
-                    points,
-                    markers: true,
-                });
-                c += 1;
             }
         }
         let name = format!("{figure}_{}.svg", p.name);

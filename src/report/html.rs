@@ -299,9 +299,22 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
             && !ratios.is_empty()
         {
             let (lo, hi) = min_max(&ratios);
+            // The same ratio by the second moment's control variates, where they apply
+            // (docs/model.md#spread-control-variates): far sharper than the plain one.
+            let by_cv: Vec<f64> = summary
+                .iter()
+                .filter_map(|r| r.bounds[b].as_ref().map(|s| s.emp_over_cv.value))
+                .filter(|v| v.is_finite())
+                .collect();
+            let sharper = if by_cv.is_empty() {
+                String::new()
+            } else {
+                let (lo, hi) = min_max(&by_cv);
+                format!(" ({lo:.4}–{hi:.4} with the spread by control variates)")
+            };
             out.push(format!(
                 "{name} is not a valid bound{why}. Here the real spread of the estimates is \
-                 {lo:.3}–{hi:.3} times {name}.",
+                 {lo:.3}–{hi:.3} times {name}{sharper}.",
                 name = bound.name
             ));
         } else if applies > 0 && applies < infos.len() {

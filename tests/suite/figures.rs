@@ -1,8 +1,8 @@
 //! Every run writes the figures unless `--no-figures`; each SVG parses
 //! as XML, carries its axis labels, and holds a data marker for every condition plotted.
 //!
-//! Markers: every estimate (EmpSE, bias, EmpSE/bound, coverage) of a condition × estimator
-//! (× bound) is one filled circle, and each marker series adds one filled circle to the
+//! Markers: every estimate (EmpSE, bias, EmpSE/bound, coverage, and the control-variate
+//! EmpSE, bias and EmpSE/bound) of a condition × estimator (× bound) is one filled circle, and each marker series adds one filled circle to the
 //! legend; error bars draw unfilled circles, which are not counted. The expected counts come
 //! from summary.parquet.
 
@@ -71,27 +71,34 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
     ] {
         let rows: Vec<usize> = (0..s.num_rows()).filter(|&i| param[i] == p).collect();
         assert_eq!(rows.len(), 3 * 2 * estimators); // conditions × estimators
-        let with = |col: &str| {
+        let sd = f64_col(&s, "velocity_sd");
+        // The ratio figure draws each bound's EmpSE / bound plainly and by control variates:
+        // 2 estimators × 3 bounds × 2 = 12 series per group, so of the 16 it holds it shows
+        // one group, the last σ_v (src/figures/parameters.rs, `shown_rows`).
+        let last_sd: Vec<usize> = rows.iter().copied().filter(|&i| sd[i] == 1.0).collect();
+        let with_in = |rows: &[usize], col: &str| {
             let v = f64_col(&s, col);
             rows.iter().filter(|&&i| v[i].is_finite()).count()
         };
-        let series_with = |col: &str| {
+        let series_in = |rows: &[usize], col: &str| {
             let v = f64_col(&s, col);
             let mut keys: Vec<(String, u64)> = Vec::new();
-            let sd = f64_col(&s, "velocity_sd");
-            for &i in &rows {
+            for &i in rows {
                 if v[i].is_finite() && !keys.contains(&(est[i].clone(), sd[i].to_bits())) {
                     keys.push((est[i].clone(), sd[i].to_bits()));
                 }
             }
             keys.len()
         };
+        let with = |col: &str| with_in(&rows, col);
+        let series_with = |col: &str| series_in(&rows, col);
         let x_label = "terrain variability ς = mean θ² over the terrain table [rad²]";
         let checks: Vec<(String, usize, String)> = {
             let mut c = vec![
                 (
+                    // EmpSE and, where they apply, EmpSE by control variates
                     format!("se_{p}.svg"),
-                    rows.len() + groups * estimators,
+                    rows.len() + groups * estimators + with("emp_se_cv") + series_with("emp_se_cv"),
                     format!("standard error of {symbol} {unit}"),
                 ),
                 (
@@ -109,7 +116,8 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
             ];
             let ratio: usize = bounds
                 .iter()
-                .map(|b| with(&format!("emp_over_{b}")) + series_with(&format!("emp_over_{b}")))
+                .flat_map(|b| [format!("emp_over_{b}"), format!("emp_over_{b}_cv")])
+                .map(|col| with_in(&last_sd, &col) + series_in(&last_sd, &col))
                 .sum();
             let coverage: usize = bounds
                 .iter()
@@ -122,6 +130,13 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
         for (file, markers, y_label) in checks {
             let (filled, texts) = svg(&out.join("figures").join(&file));
             assert_eq!(filled, markers, "{file}: filled circles");
+            if file.starts_with("ratio_") {
+                let note = texts.join(" ");
+                assert!(
+                    note.contains("Showing 1 of 2 groups: velocity_sd ∈ {1}"),
+                    "{file}: {texts:?}"
+                );
+            }
             assert!(
                 texts.iter().any(|t| t == x_label),
                 "{file}: x label missing"
@@ -173,6 +188,98 @@ fn every_run_draws_parsable_figures_with_a_marker_per_condition() {
     ]);
     assert!(!bare.join("figures").exists());
     assert!(bare.join("summary.parquet").exists());
+}
+
+/// The legend entries of an SVG figure that name the control variates.
+fn control_variate_entries(path: &Path) -> Vec<String> {
+    svg(path)
+        .1
+        .into_iter()
+        .filter(|t| t.contains("control variates"))
+        .collect()
+}
+
+/// Where the second moment's control variates apply (speed noise,
+/// docs/model.md#spread-control-variates), the SE and EmpSE / bound figures draw the
+/// control-variate EmpSE and EmpSE / bound beside the plain ones, one series per estimator
+/// (× bound); where none apply (the line fit), neither figure names them.
+#[test]
+fn control_variate_spread_is_drawn_where_it_applies_and_only_there() {
+    // One condition (scale 1, σ_v = 1 m/s), OLS and BCLS, R = 40: the spread's control
+    // variates (the five speed controls, defined from q + 3 = 8 realisations on) apply to
+    // every row.
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[1.0]");
+    let study = chassis_mc::study::Study::from_toml(&text, "cv")
+        .unwrap()
+        .with_overrides(Some(40), None)
+        .unwrap();
+    let (dir, report) = run(&study, None);
+    let bounds_reported = |p: usize| {
+        (0..report.layout.bounds.len())
+            .filter(|&b| {
+                report.summary.iter().any(|r| {
+                    r.parameter == p
+                        && r.bounds[b]
+                            .as_ref()
+                            .is_some_and(|s| s.emp_over_cv.value.is_finite())
+                })
+            })
+            .count()
+    };
+    for (pi, p) in PARAMS.iter().enumerate() {
+        assert!(
+            report
+                .summary
+                .iter()
+                .filter(|r| r.parameter == pi)
+                .all(|r| r.emp_se_cv.value.is_finite()),
+            "{p}: emp_se_cv applies"
+        );
+        let se = control_variate_entries(&dir.path().join(format!("figures/se_{p}.svg")));
+        assert_eq!(
+            se,
+            [
+                "EmpSE (control variates) ± MCSE, ols",
+                "EmpSE (control variates) ± MCSE, bcls"
+            ],
+            "se_{p}.svg"
+        );
+        let ratio = control_variate_entries(&dir.path().join(format!("figures/ratio_{p}.svg")));
+        assert_eq!(ratio.len(), 2 * bounds_reported(pi), "{ratio:?}");
+        assert!(
+            ratio
+                .iter()
+                .any(|l| l == "eiv_sandwich, ols, control variates")
+        );
+        // The coverage figure has no control-variate estimate.
+        let coverage = dir.path().join(format!("figures/coverage_{p}.svg"));
+        assert!(control_variate_entries(&coverage).is_empty());
+    }
+
+    // The line fit has no controls: its summary has no control-variate spread, and its
+    // figures none either.
+    let (dir, report) = run(&super::common::study("line_fit.toml", 20), None);
+    assert!(report.summary.iter().all(|r| {
+        r.emp_se_cv.value.is_nan()
+            && r.bounds
+                .iter()
+                .flatten()
+                .all(|s| s.emp_over_cv.value.is_nan())
+    }));
+    let mut drawn = 0;
+    for entry in std::fs::read_dir(dir.path().join("figures")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("se_") || name.starts_with("ratio_") {
+            drawn += 1;
+            assert!(control_variate_entries(&path).is_empty(), "{name}");
+        }
+    }
+    assert_eq!(
+        drawn, 4,
+        "se and ratio figures of the intercept and the slope"
+    );
 }
 
 #[test]

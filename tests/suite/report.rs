@@ -288,6 +288,159 @@ fn printed_table_leads_with_a_valid_bound_and_names_it_in_the_header() {
     assert!(text.contains("EmpSE/bound"), "{text}");
 }
 
+/// Where the second moment's control variates apply (docs/model.md#spread-control-variates),
+/// the printed table (and report.html's copy of it) gives EmpSE / bound by them beside the
+/// plain ratio, with an explanation line, and the warning about a bound that is not valid
+/// gives their range too; where none apply (the line fit) the column and the line are absent.
+#[test]
+fn tables_give_the_control_variate_ratio_beside_the_plain_one_where_it_applies() {
+    // One condition, OLS and BCLS, speed noise, R = 40: the spread's control variates (the
+    // five speed controls, defined from q + 3 = 8 realisations on) apply to every row.
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[1.0]");
+    let study = chassis_mc::study::Study::from_toml(&text, "cv")
+        .unwrap()
+        .with_overrides(Some(40), None)
+        .unwrap();
+    let (dir, report) = run(&study, None);
+    let table = chassis_mc::report::table(&report.layout, &report.infos, &report.summary);
+    let headers: Vec<&str> = table
+        .lines()
+        .filter(|l| l.trim_start().starts_with("cond"))
+        .collect();
+    assert_eq!(headers.len(), 3, "{table}");
+    for h in &headers {
+        assert!(h.ends_with("EmpSE/eiv_sandwich              (CV)"), "{h}");
+    }
+    assert!(
+        table.contains("(CV) = EmpSE/bound with EmpSE by the second moment's control variates"),
+        "{table}"
+    );
+    assert!(table.contains("docs/model.md#spread-control-variates"));
+    let b = report
+        .layout
+        .bounds
+        .iter()
+        .position(|b| b.name == "eiv_sandwich")
+        .unwrap();
+    // Each line (parameter-major, then estimator): the plain ratio, then the same by
+    // control variates, of its own row.
+    let mut lines = table
+        .lines()
+        .filter(|l| l.trim_start().starts_with("0 "))
+        .collect::<Vec<_>>()
+        .into_iter();
+    let by_parameter = (0..report.layout.parameters.len())
+        .flat_map(|p| report.summary.iter().filter(move |r| r.parameter == p));
+    for r in by_parameter {
+        let s = r.bounds[b].as_ref().unwrap();
+        assert!(s.emp_over_cv.value.is_finite(), "{r:?}");
+        let plain = format!("{:.4} ± {:.4}", s.emp_over.value, s.emp_over.mcse);
+        let cv = format!("{:.5} ± {:.1e}", s.emp_over_cv.value, s.emp_over_cv.mcse);
+        let line = lines.next().unwrap();
+        assert!(
+            line.ends_with(&format!("{plain}  {cv}")),
+            "{line} vs {plain}, {cv}"
+        );
+    }
+    assert!(lines.next().is_none());
+    // report.html carries the same table, and the thesis bound's warning the sharper range.
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    let doc = parse_report(&html);
+    let pre = texts(&doc, "pre");
+    assert!(
+        pre.iter()
+            .any(|p| p.trim_matches('\n') == table.trim_matches('\n')),
+        "report.html's table differs from the printed one"
+    );
+    let warning = doc
+        .descendants()
+        .filter(|n| n.attribute("class") == Some("warning"))
+        .filter_map(|n| n.text())
+        .find(|w| w.starts_with("thesis_bound is not a valid bound"))
+        .unwrap();
+    assert!(
+        warning.contains("with the spread by control variates"),
+        "{warning}"
+    );
+
+    // The line fit has no controls: no column, no explanation.
+    let (_dir, report) = run(&super::common::study("line_fit.toml", 40), None);
+    let table = chassis_mc::report::table(&report.layout, &report.infos, &report.summary);
+    assert!(
+        table
+            .lines()
+            .filter(|l| l.trim_start().starts_with("cond"))
+            .all(|h| h.ends_with("EmpSE/true_sigma")),
+        "{table}"
+    );
+    assert!(!table.contains("spread-control-variates"), "{table}");
+}
+
+/// `--replications-for` plans `emp_se_cv` like any measure with an MCSE: R = ⌈R₀ ·
+/// (MCSE / target)²⌉ from the pilot's largest `emp_se_cv_mcse`, and far fewer realisations
+/// than `emp_se` needs for the same target.
+#[test]
+fn replications_for_plans_the_control_variate_spread_with_far_fewer_realisations() {
+    // A pilot of R₀ = 40 (bias_compensation at scale 1 and σ_v = 1, OLS and BCLS). The
+    // target 1e-11 for 1/M lies below the pilot's control-variate MCSE (~2.7e-10), so the
+    // plan is the formula's, not the least R at which the estimate is defined (at 1e-9 the
+    // pilot already reaches it and the plan is that least R, q + 3 = 8).
+    let tmp = tempfile::tempdir().unwrap();
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[1.0]");
+    let path = tmp.path().join("pilot.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = tmp.path().join("out");
+    let args: Vec<&std::ffi::OsStr> = vec![
+        "run".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--realisations".as_ref(),
+        "40".as_ref(),
+        "--quiet".as_ref(),
+        "--no-figures".as_ref(),
+        "--replications-for".as_ref(),
+        "inv_mass:emp_se_cv=1e-11".as_ref(),
+        "--replications-for".as_ref(),
+        "inv_mass:emp_se=1e-11".as_ref(),
+    ];
+    let (code, stdout, stderr) = cli(&args, tmp.path());
+    assert_eq!(code, 0, "{stderr}");
+    let planned = |measure: &str| -> u64 {
+        let line = stdout
+            .lines()
+            .find(|l| l.contains(&format!("inv_mass:{measure} MCSE")))
+            .unwrap_or_else(|| panic!("no plan for {measure}: {stdout}"));
+        line.split("R = ")
+            .nth(1)
+            .and_then(|t| t.split_whitespace().next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no R in: {line}"))
+    };
+    let (cv, plain) = (planned("emp_se_cv"), planned("emp_se"));
+    // The plan is the formula applied to the pilot's summary (its largest MCSE of 1/M).
+    let s = read_table(&out.join("summary.parquet"));
+    let param = str_col(&s, "parameter");
+    let worst = f64_col(&s, "emp_se_cv_mcse")
+        .into_iter()
+        .zip(&param)
+        .filter(|(_, p)| *p == "inv_mass")
+        .map(|(m, _)| m)
+        .fold(0.0, f64::max);
+    let expected = (40.0 * (worst / 1e-11f64).powi(2)).ceil() as u64;
+    assert_eq!(cv, expected, "{stdout}");
+    assert!(cv > 40, "a real plan, beyond the pilot: {stdout}");
+    // Both plans share R₀ and the target, so their ratio is the squared ratio of the two
+    // MCSEs of 1/M: 1.29e-7 / 2.66e-10 ≈ 490 in this pilot (7.2e-8 / 9.0e-11 ≈ 800 at
+    // R₀ = 200; `run` of this study with `--replications-for inv_mass:emp_se=1e-9
+    // --replications-for inv_mass:emp_se_cv=1e-9` prints both), so R falls by ~2·10⁵.
+    // 100 asks only for an MCSE ratio of 10, a factor ~50 below the measured one: no pilot
+    // noise on either MCSE (~11 % relative for emp_se's at R₀ = 40) comes near that.
+    assert!(plain >= 100 * cv, "emp_se R = {plain}, emp_se_cv R = {cv}");
+}
+
 #[test]
 fn report_gives_mass_drag_coefficient_and_rolling_resistance_with_bias_and_spread() {
     // One scale, σ_v = 1 and 2 m/s, OLS and BCLS, R = 200: the report's M, Cd and Cr
