@@ -54,6 +54,23 @@ pub fn set_key(text: &str, key: &str, value: &str) -> String {
     out.join("\n") + "\n"
 }
 
+/// `studies/bias_compensation.toml` (the thesis sweep, OLS and BCLS, speed noise) at the
+/// terrain `scales` and `velocity_sd` levels given (TOML arrays), with R = `realisations`
+/// and the study's seed unless `seed` is given.
+pub fn speed_noise_study(
+    scales: &str,
+    velocity_sd: &str,
+    realisations: u64,
+    seed: Option<u64>,
+) -> Study {
+    let text = set_key(&study_text("bias_compensation.toml"), "scales", scales);
+    let text = set_key(&text, "velocity_sd", velocity_sd);
+    Study::from_toml(&text, "bias_compensation")
+        .unwrap()
+        .with_overrides(Some(realisations), seed)
+        .unwrap()
+}
+
 /// Run `study` into a fresh temporary directory.
 pub fn run(study: &Study, threads: Option<usize>) -> (tempfile::TempDir, RunReport) {
     let dir = tempfile::tempdir().unwrap();

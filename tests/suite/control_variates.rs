@@ -8,19 +8,6 @@ use chassis_mc::model;
 use chassis_mc::run::summarise_in_memory;
 use chassis_mc::study::Study;
 
-/// The thesis cycle at scales 1.0 and 2.0, σ_v = 1 and 0.25 m/s, OLS and BCLS.
-fn speed_noise_study(realisations: u64, seed: u64) -> Study {
-    let text = set_key(
-        &study_text("bias_compensation.toml"),
-        "scales",
-        "[1.0, 2.0]",
-    );
-    let text = set_key(&text, "velocity_sd", "[1.0, 0.25]");
-    let text = set_key(&text, "realisations", &realisations.to_string());
-    let text = set_key(&text, "seed", &seed.to_string());
-    Study::from_toml(&text, "control variates").unwrap()
-}
-
 /// (scale, velocity_sd, estimator, parameter) of summary row `i`.
 fn key(s: &RecordBatch, i: usize) -> (String, String, String) {
     (
@@ -34,15 +21,26 @@ fn key(s: &RecordBatch, i: usize) -> (String, String, String) {
     )
 }
 
-/// R = 400 with control variates against the plain bias of an independent R = 20 000 run
+/// The thesis cycle at scales 1.0 and 2.0, σ_v = 1 and 0.25 m/s, OLS and BCLS: R = 400
+/// with control variates against the plain bias of an independent R = 20 000 run
 /// (another seed): 24 comparisons (2 scales × 2 σ_v × 2 estimators × 3 parameters) within 4
 /// combined MCSE, each failing by chance with probability 6.3e-5 (≈ 1.5e-3 for all). And
 /// the control variates divide the MCSE of the bias by at least 20 for 1/M and Cr and 10
 /// for Cd/M (a NumPy experiment on the same cycle measured ≈ 1400, 300 and 900 at σ_v = 1).
 #[test]
 fn control_variate_bias_agrees_with_a_large_independent_run_at_a_fraction_of_its_mcse() {
-    let small = run_summary(&speed_noise_study(400, 11));
-    let large = run_summary(&speed_noise_study(20_000, 12));
+    let small = run_summary(&speed_noise_study(
+        "[1.0, 2.0]",
+        "[1.0, 0.25]",
+        400,
+        Some(11),
+    ));
+    let large = run_summary(&speed_noise_study(
+        "[1.0, 2.0]",
+        "[1.0, 0.25]",
+        20_000,
+        Some(12),
+    ));
     assert_eq!(small.num_rows(), 24);
     assert_eq!(large.num_rows(), 24);
     let (bias_cv, cv_mcse) = (f64_col(&small, "bias_cv"), f64_col(&small, "bias_cv_mcse"));

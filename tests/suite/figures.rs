@@ -208,12 +208,7 @@ fn control_variate_spread_is_drawn_where_it_applies_and_only_there() {
     // One condition (scale 1, σ_v = 1 m/s), OLS and BCLS, R = 40: the spread's control
     // variates (the five speed controls, defined from q + 3 = 8 realisations on) apply to
     // every row.
-    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
-    let text = set_key(&text, "velocity_sd", "[1.0]");
-    let study = chassis_mc::study::Study::from_toml(&text, "cv")
-        .unwrap()
-        .with_overrides(Some(40), None)
-        .unwrap();
+    let study = speed_noise_study("[1.0]", "[1.0]", 40, None);
     let (dir, report) = run(&study, None);
     let bounds_reported = |p: usize| {
         (0..report.layout.bounds.len())

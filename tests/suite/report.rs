@@ -296,12 +296,7 @@ fn printed_table_leads_with_a_valid_bound_and_names_it_in_the_header() {
 fn tables_give_the_control_variate_ratio_beside_the_plain_one_where_it_applies() {
     // One condition, OLS and BCLS, speed noise, R = 40: the spread's control variates (the
     // five speed controls, defined from q + 3 = 8 realisations on) apply to every row.
-    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
-    let text = set_key(&text, "velocity_sd", "[1.0]");
-    let study = chassis_mc::study::Study::from_toml(&text, "cv")
-        .unwrap()
-        .with_overrides(Some(40), None)
-        .unwrap();
+    let study = speed_noise_study("[1.0]", "[1.0]", 40, None);
     let (dir, report) = run(&study, None);
     let table = chassis_mc::report::table(&report.layout, &report.infos, &report.summary);
     let headers: Vec<&str> = table

@@ -198,15 +198,7 @@ fn covariances_of_every_channel_together_match_the_kernel() {
 
 /// The thesis cycle at scales 1.0 and 2.0, σ_v = 1 m/s, OLS and BCLS.
 fn thesis_speed_noise(realisations: u64, seed: u64) -> Study {
-    let text = set_key(
-        &study_text("bias_compensation.toml"),
-        "scales",
-        "[1.0, 2.0]",
-    );
-    let text = set_key(&text, "velocity_sd", "[1.0]");
-    let text = set_key(&text, "realisations", &realisations.to_string());
-    let text = set_key(&text, "seed", &seed.to_string());
-    Study::from_toml(&text, "spread control variates").unwrap()
+    speed_noise_study("[1.0, 2.0]", "[1.0]", realisations, Some(seed))
 }
 
 /// R = 200 with the spread's control variates against the plain EmpSE of an independent
@@ -267,9 +259,7 @@ fn control_variate_emp_se_mcse_matches_the_spread_over_repeated_experiments() {
 
 /// `check_mcse`: assert the MCSE's 10 % (else print it: at R = 30 it is 0.87–0.91).
 fn repeated_spread_experiments(k: u64, r: u64, check_mcse: bool) {
-    let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
-    let text = set_key(&text, "velocity_sd", "[1.0]");
-    let base = Study::from_toml(&text, "repeated").unwrap();
+    let base = speed_noise_study("[1.0]", "[1.0]", r, None);
     let model = model::prepare(&base).unwrap();
     let reference = chassis_mc::run::summarise_in_memory(
         &base
