@@ -312,9 +312,9 @@ pub struct ConditionInfo {
     /// The exact covariances Cov(cⱼ, cₖ) of the condition's controls (those `controls`
     /// marks, in the layout's order), packed j ≤ k row by row, which the spread's control
     /// variates centre the products of the controls with
-    /// (docs/model.md#spread-control-variates); `None` where they are not derived (or no
-    /// control applies).
-    pub control_covariance: Option<Vec<f64>>,
+    /// (docs/model.md#spread-control-variates), with the rounding each may carry; `None`
+    /// where they are not derived (or no control applies).
+    pub control_covariance: Option<crate::estimate::channels::SumCovariances>,
 }
 
 /// One model error of a condition's truth at its value (docs/model.md#model-errors), for

@@ -203,8 +203,9 @@ impl SpreadCv {
         covariance: f64,
     ) -> Self {
         let mse = variance + bias * bias - bias_var;
-        let mse_var =
-            (variance_var + 4.0 * bias * bias * bias_var + 4.0 * bias * covariance).max(0.0);
+        // Rounding can take the sum a hair below 0; NaN stays NaN.
+        let mse_var = variance_var + 4.0 * bias * bias * bias_var + 4.0 * bias * covariance;
+        let mse_var = if mse_var < 0.0 { 0.0 } else { mse_var };
         let root = |e: Estimate| {
             if e.value > 0.0 {
                 let r = e.value.sqrt();

@@ -10,6 +10,7 @@
 //! consistent, HC2: each squared residual over 1 − hᵢᵢ) one.
 
 use super::control::Ldl;
+use crate::estimate::channels::SumCovariances;
 use crate::numeric::dd::Dd;
 use crate::numeric::sum::ExactSum;
 
@@ -23,6 +24,8 @@ pub(super) struct SpreadGram {
     gram: Vec<ExactSum>,
     /// Cov(cⱼ, cₖ), packed j ≤ k.
     covariance: Vec<f64>,
+    /// The rounding each may carry.
+    resolution: Vec<f64>,
 }
 
 /// Index of (a, b), a ≤ b, packed row by row in a q × q symmetric matrix.
@@ -34,14 +37,19 @@ fn packed(a: usize, b: usize, q: usize) -> usize {
 impl SpreadGram {
     /// For the layout's controls that `applies` marks, with exact covariances `covariance`
     /// (packed over them).
-    pub(super) fn new(applies: &[bool], covariance: &[f64]) -> Self {
+    pub(super) fn new(applies: &[bool], covariance: &SumCovariances) -> Self {
         let active: Vec<usize> = (0..applies.len()).filter(|&j| applies[j]).collect();
         let q = active.len();
-        assert_eq!(covariance.len(), q * (q + 1) / 2, "one covariance per pair");
+        assert_eq!(
+            covariance.value.len(),
+            q * (q + 1) / 2,
+            "one covariance per pair"
+        );
         SpreadGram {
             active,
-            gram: vec![ExactSum::new(); covariance.len()],
-            covariance: covariance.to_vec(),
+            gram: vec![ExactSum::new(); covariance.value.len()],
+            covariance: covariance.value.clone(),
+            resolution: covariance.resolution.clone(),
         }
     }
 
@@ -100,6 +108,7 @@ impl SpreadGram {
             ldl,
             inverse,
             covariance: self.covariance.clone(),
+            resolution: self.resolution.clone(),
             sums: sums.to_vec(),
             means: means.to_vec(),
             trace,
@@ -119,6 +128,8 @@ pub(super) struct SpreadSolver {
     /// G⁻¹, row-major.
     inverse: Vec<f64>,
     covariance: Vec<f64>,
+    /// The rounding each covariance may carry.
+    resolution: Vec<f64>,
     /// Σc.
     sums: Vec<Dd>,
     /// c̄ (rounded), the centre of pass two.
@@ -261,10 +272,12 @@ impl SpreadSolver {
         let dof = n - q - 1.0;
         let (r, r2) = (s.r.value(), s.r2.value());
         let s2 = (r2 - r * r / n) / dof;
-        let mut quadratic = 0.0;
+        let (mut quadratic, mut rounding) = (0.0, 0.0);
         for i in 0..self.q {
             for k in 0..self.q {
-                quadratic += c.beta[i] * self.covariance[packed(i, k, self.q)] * c.beta[k];
+                let ik = packed(i, k, self.q);
+                quadratic += c.beta[i] * self.covariance[ik] * c.beta[k];
+                rounding += (c.beta[i] * c.beta[k]).abs() * self.resolution[ik];
             }
         }
         let variance = quadratic + s2 * (1.0 - self.trace);
@@ -272,10 +285,11 @@ impl SpreadSolver {
         let w2 = s.va2.value()
             + 2.0 / n * (s.var2.value() - s2 * s.va.value())
             + (vr[4] - 2.0 * s2 * vr[2] + s2 * s2 * vr[0]) / (n * n);
-        // Never below the arithmetic's resolution of β̂ᵀΣβ̂ (an estimate exactly linear in
-        // its controls has no residual).
-        let floor = (4.0 * f64::EPSILON * variance).powi(2);
-        let variance_var = w2.max(floor);
+        // Never below the arithmetic's resolution of β̂ᵀΣβ̂: the rounding of the covariances
+        // and of the products (an estimate exactly linear in its controls has no residual
+        // and would otherwise report none). NaN stays NaN.
+        let floor = (rounding + 4.0 * f64::EPSILON * variance.abs()).powi(2);
+        let variance_var = if w2.is_nan() { w2 } else { w2.max(floor) };
         let mut adjustment = Dd::default();
         for (b, sum) in c.beta.iter().zip(&self.sums) {
             adjustment = adjustment + Dd::from(*b) * *sum;

@@ -46,7 +46,8 @@ fn check_covariances(study: &Study, c: usize, what: &str) -> (Vec<f64>, Vec<f64>
     let exact = info
         .control_covariance
         .clone()
-        .unwrap_or_else(|| panic!("{what}: covariances derived"));
+        .unwrap_or_else(|| panic!("{what}: covariances derived"))
+        .value;
     let active: Vec<usize> = (0..layout.controls.len())
         .filter(|&j| info.controls[j])
         .collect();
@@ -324,5 +325,57 @@ fn repeated_spread_experiments(k: u64, r: u64, check_mcse: bool) {
 fn spread_mcse_at_other_realisation_counts() {
     for (r, check_mcse) in [(30, false), (100, true), (200, true)] {
         repeated_spread_experiments(500, r, check_mcse);
+    }
+}
+
+/// Under output noise alone OLS is exactly linear in its controls and `crlb_output` is its
+/// exact variance: `emp_over_crlb_output_cv` is 1 to the arithmetic's resolution (1e-9 is
+/// far above it: the reported MCSEs are ≤ 1e-12) and the test of Var θ̂ = B² does not reject
+/// it (p > 1e-4 in each of the 33 rows) — the MCSE carries the rounding of the covariances,
+/// not a spurious 1e-16 (docs/model.md#spread-control-variates).
+#[test]
+fn the_spread_shows_the_crlb_exact_under_output_noise_to_the_arithmetic_s_resolution() {
+    let (dir, _) = run(&study("output_noise.toml", 100), None);
+    let s = read_table(&dir.path().join("summary.parquet"));
+    assert_eq!(s.num_rows(), 33);
+    let ratio = f64_col(&s, "emp_over_crlb_output_cv");
+    let mcse = f64_col(&s, "emp_over_crlb_output_cv_mcse");
+    let p = f64_col(&s, "crlb_output_p_cv");
+    for i in 0..s.num_rows() {
+        assert!((ratio[i] - 1.0).abs() <= 1e-9, "row {i}: {}", ratio[i]);
+        assert!(
+            mcse[i] > 0.0 && mcse[i] <= 1e-12,
+            "row {i}: MCSE {}",
+            mcse[i]
+        );
+        assert!(p[i] > 1e-4, "row {i}: p {}", p[i]);
+    }
+}
+
+/// Null, never a wrong number: AR(1) speed noise through a differentiated acceleration (no
+/// covariances derived) and too few realisations for the controls (n < q + 3 = 8) leave
+/// the spread's columns null, while white noise at n = 8 has them.
+#[test]
+fn the_spread_s_columns_are_null_where_they_are_not_derived() {
+    let case = |noise: &str, acceleration: &str, r: u64| {
+        let study = short_study(noise, acceleration)
+            .with_overrides(Some(r), None)
+            .unwrap();
+        let s = run_summary(&study);
+        let columns = ["emp_se_cv", "mse_cv", "rmse_cv", "emp_over_eiv_sandwich_cv"];
+        columns.map(|c| f64_col(&s, c))
+    };
+    for values in case(
+        "[0.05]\nvelocity_correlation_time = [1.0]",
+        "differentiated",
+        20,
+    ) {
+        assert!(values.iter().all(|v| v.is_nan()), "{values:?}");
+    }
+    for values in case("[1.0]", "model", 7) {
+        assert!(values.iter().all(|v| v.is_nan()), "{values:?}");
+    }
+    for values in case("[1.0]", "model", 8) {
+        assert!(values.iter().all(|v| v.is_finite()), "{values:?}");
     }
 }

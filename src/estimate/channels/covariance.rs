@@ -341,6 +341,17 @@ pub fn packed(a: usize, b: usize, q: usize) -> usize {
     a * q - a * (a + 1) / 2 + b
 }
 
+/// The exact covariances of a condition's sums (packed, a ≤ b), with the resolution of each:
+/// 2⁻⁵² Σᵢ (|E\[aᵢbᵢ\]| + |E\[aᵢ\]E\[bᵢ\]|) bounds the rounding of the per-row
+/// subtractions, the largest error in them (docs/model.md#spread-control-variates).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SumCovariances {
+    /// Cov(a, b).
+    pub value: Vec<f64>,
+    /// The rounding error each may carry (absolute).
+    pub resolution: Vec<f64>,
+}
+
 /// The exact covariance matrix of `sums` (packed, a ≤ b, in the order given) over the noise
 /// `noise` of regression `reg`, with `ar1` the AR(1) coefficients of correlated speed noise
 /// over [`Regression::noise_times`] (`None`: white); `None` where a channel that is on
@@ -351,7 +362,7 @@ pub fn sum_covariances(
     noise: &NoiseLevels,
     ar1: Option<&[[f64; 2]]>,
     sums: &[Sum],
-) -> Option<Vec<f64>> {
+) -> Option<SumCovariances> {
     let q = sums.len();
     // The distinct monomials of the sums and their pairs, each expanded once.
     let mut monomials: Vec<ColumnPowers> = Vec::new();
@@ -388,6 +399,7 @@ pub fn sum_covariances(
     }
     let entries = Channel::ALL.map(|c| ChannelTable::entries(c, Some(&used[c.index()])));
     let mut total = vec![ExactSum::new(); pairs.len()];
+    let mut magnitude = vec![0.0; pairs.len()];
     let mut values = vec![0.0; expansions.len()];
     let mut row = RowMoments::empty();
     for i in 0..reg.len() {
@@ -395,8 +407,10 @@ pub fn sum_covariances(
         for (v, e) in values.iter_mut().zip(&expansions) {
             *v = row.compiled(e);
         }
-        for (t, &(ab, a, b)) in total.iter_mut().zip(&pairs) {
-            t.add(values[ab] - values[a] * values[b]);
+        for ((t, m), &(ab, a, b)) in total.iter_mut().zip(&mut magnitude).zip(&pairs) {
+            let product = values[a] * values[b];
+            t.add(values[ab] - product);
+            *m += values[ab].abs() + product.abs();
         }
     }
     // Every row's moments exist (checked above), so the channels' terms across rows may
@@ -417,7 +431,10 @@ pub fn sum_covariances(
             AcrossRows::NotDerived => return None,
         }
     }
-    Some(total.iter().map(ExactSum::value).collect())
+    Some(SumCovariances {
+        value: total.iter().map(ExactSum::value).collect(),
+        resolution: magnitude.iter().map(|m| 2.0 * f64::EPSILON * m).collect(),
+    })
 }
 
 /// E\[(μ + σz)ⁿ\] for z ~ N(0, 1), by mₖ = μ mₖ₋₁ + (k − 1)σ² mₖ₋₂.

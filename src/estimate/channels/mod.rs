@@ -33,7 +33,9 @@ mod omega;
 mod output;
 mod velocity;
 
-pub use covariance::{AcrossRows, Part, Powers, RowMoments, packed, sum_covariances};
+pub use covariance::{
+    AcrossRows, Part, Powers, RowMoments, SumCovariances, packed, sum_covariances,
+};
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance};
