@@ -31,6 +31,8 @@ pub(super) struct Search<'a> {
     request: &'a DesignRequest,
     /// Index of the estimator in the study's list.
     pub(super) estimator: usize,
+    /// The target parameter's index among the fitted ones (its summary rows).
+    parameter: usize,
     truth: f64,
     /// The drive's time step \[s\], when the key is a duration.
     step: Option<f64>,
@@ -67,7 +69,7 @@ impl Search<'_> {
 
     fn simulated(&self, v: &Variant) -> Result<(f64, f64), DesignError> {
         let rows = summarise_in_memory(&v.study, &v.model)?;
-        let p = self.request.target.parameter;
+        let p = self.parameter;
         let row = rows
             .iter()
             .find(|r| r.estimator == self.estimator && r.parameter == p)
@@ -108,6 +110,19 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         })?,
         None => 0,
     };
+    let parameter = vs
+        .settings
+        .parameters
+        .free()
+        .iter()
+        .position(|&i| i == request.target.parameter)
+        .ok_or_else(|| {
+            DesignError::Request(format!(
+                "--target {}: the mass is known (estimation.known_mass = true), so 1/M is not \
+                 estimated; target drag_over_mass or rolling_resistance",
+                request.target
+            ))
+        })?;
     let step = match request.key {
         DesignKey::Duration => vs.drive.duration_step(),
         _ => None,
@@ -116,6 +131,7 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         base: study,
         request,
         estimator,
+        parameter,
         truth: vs.vehicle.theta()[request.target.parameter],
         step,
     };

@@ -5,8 +5,9 @@
 use nalgebra::Matrix3;
 
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance};
+use super::parameters::Parameters;
 use super::regression::Regression;
-use crate::numeric::linalg::{SolveError, inverse_spd};
+use crate::numeric::linalg::SolveError;
 use crate::numeric::sum::ExactSum;
 
 impl Regression {
@@ -52,24 +53,29 @@ impl Regression {
     }
 
     /// `eiv_sandwich`: the first-order covariance of OLS (and BCLS) under regressor noise,
-    /// (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ with the noise-free X; returns the standard errors.
+    /// (XᵀX)⁻¹ XᵀΩX (XᵀX)⁻¹ with the noise-free X, over the fitted `parameters`; returns the
+    /// standard errors (0 for a known parameter).
     pub fn sandwich_se(
         &self,
         theta: &[f64; 3],
         noise: &NoiseLevels,
+        parameters: Parameters,
     ) -> Result<[f64; 3], SolveError> {
-        let cov = self.sandwich_covariance(theta, noise)?;
+        let cov = self.sandwich_covariance(theta, noise, parameters)?;
         Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
     }
 
     /// The covariance matrix of [`Regression::sandwich_se`]: (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ with
-    /// XᵀΣX = XᵀΩX plus each channel's [`Channel::row_covariance`].
+    /// XᵀΣX = XᵀΩX plus each channel's [`Channel::row_covariance`]; (XᵀX)⁻¹ over the fitted
+    /// `parameters` ([`Parameters::inverse`]: the equation error keeps the known θ₁'s
+    /// term, the bread only the free block).
     pub fn sandwich_covariance(
         &self,
         theta: &[f64; 3],
         noise: &NoiseLevels,
+        parameters: Parameters,
     ) -> Result<Matrix3<f64>, SolveError> {
-        let bread = inverse_spd(&self.xtx)?;
+        let bread = parameters.inverse(&self.xtx)?;
         // The channels whose noise rows share add their banded parts of XᵀΣX
         // (docs/model.md#bounds), some in place of their diagonal Ω terms.
         let shared: Vec<(Channel, RowCovariance)> = Channel::ALL
@@ -91,11 +97,13 @@ impl Regression {
 
     /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
     /// equation-error model with independent Gaussian errors of variance Ω_i (the best a
-    /// weighted, unbiased estimator could do); returns the standard errors.
+    /// weighted, unbiased estimator could do), over the fitted `parameters`; returns the
+    /// standard errors.
     pub fn linearized_crlb_se(
         &self,
         theta: &[f64; 3],
         noise: &NoiseLevels,
+        parameters: Parameters,
     ) -> Result<[f64; 3], SolveError> {
         let inv_omega: Vec<f64> = self
             .equation_error_variance(theta, noise)
@@ -103,35 +111,49 @@ impl Regression {
             .map(|o| 1.0 / o)
             .collect();
         let info = self.weighted_gram(&inv_omega);
-        let cov = inverse_spd(&info)?;
+        let cov = parameters.inverse(&info)?;
         Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
     }
 }
 
-/// sqrt(diag(σ² A⁻¹)) for a normal matrix `a`: the standard errors of a covariance σ² A⁻¹.
-pub fn scaled_inverse_sd(a: &Matrix3<f64>, sd: f64) -> Result<[f64; 3], SolveError> {
-    let inv = inverse_spd(a)?;
+/// sqrt(diag(σ² A⁻¹)) for a normal matrix `a`, A⁻¹ over the fitted `parameters`: the
+/// standard errors of a covariance σ² A⁻¹.
+pub fn scaled_inverse_sd(
+    a: &Matrix3<f64>,
+    sd: f64,
+    parameters: Parameters,
+) -> Result<[f64; 3], SolveError> {
+    let inv = parameters.inverse(a)?;
     Ok([0, 1, 2].map(|i| sd * inv[(i, i)].sqrt()))
 }
 
 /// The thesis's bound sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) from a realisation's noisy X̃ᵀX̃ (`None`
-/// without speed noise, or when X̃ᵀX̃ is singular).
-pub fn thesis_bound(noisy_xtx: &Matrix3<f64>, noise: &NoiseLevels) -> Option<[f64; 3]> {
+/// without speed noise, or when X̃ᵀX̃ is singular), over the fitted `parameters`.
+pub fn thesis_bound(
+    noisy_xtx: &Matrix3<f64>,
+    noise: &NoiseLevels,
+    parameters: Parameters,
+) -> Option<[f64; 3]> {
     if noise.is_on(Channel::Velocity) {
-        scaled_inverse_sd(noisy_xtx, noise[Channel::Velocity]).ok()
+        scaled_inverse_sd(noisy_xtx, noise[Channel::Velocity], parameters).ok()
     } else {
         None
     }
 }
 
+/// A bound's standard errors from the noise-free regression, the truth θ, the noise levels
+/// and the fitted parameters (`None` where they cannot be computed).
+pub type ConstantBound = fn(&Regression, &[f64; 3], &NoiseLevels, Parameters) -> Option<[f64; 3]>;
+
 /// How a bound's standard errors are obtained.
 #[derive(Debug, Clone, Copy)]
 pub enum BoundValue {
     /// The same in every realisation of a condition: from the noise-free regression, the
-    /// truth θ and the noise levels.
-    Constant(fn(&Regression, &[f64; 3], &NoiseLevels) -> Option<[f64; 3]>),
-    /// Per realisation, from the noisy X̃ᵀX̃ of the realisation and the noise levels.
-    PerRealisation(fn(&Matrix3<f64>, &NoiseLevels) -> Option<[f64; 3]>),
+    /// truth θ, the noise levels and the fitted parameters.
+    Constant(ConstantBound),
+    /// Per realisation, from the noisy X̃ᵀX̃ of the realisation, the noise levels and the
+    /// fitted parameters.
+    PerRealisation(fn(&Matrix3<f64>, &NoiseLevels, Parameters) -> Option<[f64; 3]>),
 }
 
 /// A bound or predicted standard error of the vehicle regression: one entry of [`BOUNDS`].
@@ -193,8 +215,8 @@ pub static BOUNDS: [Bound; 4] = [
         name: "crlb_output",
         description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
         applies: NoiseLevels::output_only,
-        value: BoundValue::Constant(|reg, _, n| {
-            scaled_inverse_sd(&reg.xtx, n[Channel::Output]).ok()
+        value: BoundValue::Constant(|reg, _, n, p| {
+            scaled_inverse_sd(&reg.xtx, n[Channel::Output], p).ok()
         }),
         not_valid: None,
     },
@@ -203,7 +225,7 @@ pub static BOUNDS: [Bound; 4] = [
         name: "eiv_sandwich",
         description: "first-order covariance (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Σ the covariance of the equation errors (diagonal Ω; banded for AR(1) speed noise and for a differentiated acceleration)",
         applies: NoiseLevels::in_regressors,
-        value: BoundValue::Constant(|reg, theta, n| reg.sandwich_se(theta, n).ok()),
+        value: BoundValue::Constant(|reg, theta, n, p| reg.sandwich_se(theta, n, p).ok()),
         not_valid: None,
     },
     Bound {
@@ -211,7 +233,7 @@ pub static BOUNDS: [Bound; 4] = [
         name: "eiv_crlb_linearized",
         description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated or differentiated speed noise)",
         applies: |n| n.in_regressors() && n.independent_rows(),
-        value: BoundValue::Constant(|reg, theta, n| reg.linearized_crlb_se(theta, n).ok()),
+        value: BoundValue::Constant(|reg, theta, n, p| reg.linearized_crlb_se(theta, n, p).ok()),
         not_valid: None,
     },
 ];

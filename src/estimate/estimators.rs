@@ -13,6 +13,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::bounds::Bound;
 use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::moments::{Moments, Rows, RowsView};
+use super::parameters::Parameters;
 use super::regression::Regression;
 use super::rls::Rls;
 use super::wbcls::Wbcls;
@@ -53,11 +54,24 @@ impl<'a> Realisation<'a> {
 pub struct EstimatorSettings {
     /// Exponential forgetting factor λ of `rls`, 0 < λ ≤ 1 (1: no forgetting).
     pub forgetting: f64,
+    /// The parameters fitted: all three, or with `estimation.known_mass` \[Cd/M, Cr\] with
+    /// the weighed 1/M known (docs/model.md#known-mass).
+    pub parameters: Parameters,
 }
 
 impl Default for EstimatorSettings {
     fn default() -> Self {
-        EstimatorSettings { forgetting: 1.0 }
+        EstimatorSettings {
+            forgetting: 1.0,
+            parameters: Parameters::All,
+        }
+    }
+}
+
+impl EstimatorSettings {
+    /// The solution of the normal equations `system` over the fitted parameters.
+    pub fn solve(&self, system: &(Matrix3<f64>, Vector3<f64>)) -> Result<Vector3<f64>, SolveError> {
+        self.parameters.solve(system)
     }
 }
 
@@ -135,7 +149,7 @@ impl Estimator for Ols {
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
-        Estimate::theta(solve(&r.moments.ols_system(r.regression.k)))
+        Estimate::theta(r.settings.solve(&r.moments.ols_system(r.regression.k)))
     }
 }
 
@@ -157,11 +171,12 @@ impl Estimator for Bcls {
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
-        Estimate::theta(solve(&r.moments.bcls_system(
-            r.regression.k,
-            r.regression.g,
-            r.noise,
-        )))
+        Estimate::theta(
+            r.settings.solve(
+                &r.moments
+                    .bcls_system(r.regression.k, r.regression.g, r.noise),
+            ),
+        )
     }
 }
 

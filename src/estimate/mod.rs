@@ -8,6 +8,7 @@
 //! - [`controls`]: the control variates, each moment minus its expectation;
 //! - [`estimators`]: the estimator trait, OLS and BCLS normal equations from the moments;
 //!   [`wbcls`] (weighted BCLS) and [`rls`] (recursive LS with forgetting) from the rows;
+//! - [`parameters`]: which components of θ are fitted (all, or all but a known 1/M);
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
 //!
@@ -22,6 +23,7 @@ pub mod conversions;
 pub mod estimators;
 mod kernels;
 pub mod moments;
+pub mod parameters;
 pub mod regression;
 pub mod rls;
 mod row_sums;

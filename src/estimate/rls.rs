@@ -11,7 +11,8 @@
 //! apart (the sums run in four lanes).
 
 use super::bounds::{Bound, BoundKind};
-use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
+use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
+use super::parameters::Parameters;
 use super::row_sums::rls_scan;
 
 /// The band around the true 1/M within which the `rls` estimate counts as settled
@@ -52,8 +53,11 @@ impl Estimator for Rls {
             SETTLE_BAND * target.abs(),
         );
         Estimate {
-            theta: solve(&system),
-            settle_time_s: settle.map(|i| t[i] - t[0]),
+            theta: r.settings.solve(&system),
+            // With the mass known there is no 1/M estimate to settle.
+            settle_time_s: settle
+                .filter(|_| r.settings.parameters == Parameters::All)
+                .map(|i| t[i] - t[0]),
         }
     }
 

@@ -12,7 +12,7 @@
 
 use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
-use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation, solve};
+use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::moments::Moments;
 use super::row_sums::segment_moments;
 
@@ -52,7 +52,7 @@ impl Estimator for Wbcls {
         let (k, g) = (r.regression.k, r.regression.g);
         let sd = r.noise[Channel::Velocity];
         let grade = r.noise.is_on(Channel::Grade);
-        let mut theta = match solve(&r.moments.bcls_system(k, g, r.noise)) {
+        let mut theta = match r.settings.solve(&r.moments.bcls_system(k, g, r.noise)) {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),
         };
@@ -79,7 +79,7 @@ impl Estimator for Wbcls {
                 }
                 total.add_scaled(m, 1.0 / variance);
             }
-            theta = match solve(&total.bcls_system(k, g, r.noise)) {
+            theta = match r.settings.solve(&total.bcls_system(k, g, r.noise)) {
                 Ok(theta) => theta,
                 failed => return Estimate::theta(failed),
             };

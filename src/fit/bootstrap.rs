@@ -154,7 +154,7 @@ pub(super) fn resample(spec: &FitSpec, model: &VehicleModel) -> Vec<Vector3<f64>
     let slots = montecarlo::in_memory(model, spec.seed, &[0], 0..spec.realisations, &Silent);
     slots
         .chunks_exact(layout.realisation_stride())
-        .map(|s| Vector3::from_fn(|p, _| s[layout.theta_at(0, p)]))
+        .map(|s| spec.settings.parameters.theta(|p| s[layout.theta_at(0, p)]))
         .filter(|t| t.iter().all(|v| v.is_finite()))
         .collect()
 }

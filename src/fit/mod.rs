@@ -26,6 +26,7 @@ use thiserror::Error;
 
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
+use crate::estimate::parameters::Parameters;
 use crate::estimate::regression::Regression;
 use crate::figures::FigureError;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
@@ -131,6 +132,14 @@ pub const FIT_PARAMETERS: [&str; 5] = [
     "mass",
     "drag_coefficient",
 ];
+
+/// The rows of [`FIT_PARAMETERS`] a fit reports: all, or without 1/M and M when the mass
+/// is known (`estimation.known_mass`).
+fn fit_rows(parameters: Parameters) -> impl Iterator<Item = usize> {
+    // 1/M (row 0) and M (row 3) are known, not fitted.
+    let known_mass = parameters != Parameters::All;
+    (0..FIT_PARAMETERS.len()).filter(move |&p| !(known_mass && (p == 0 || p == 3)))
+}
 
 /// One row of `fit.parquet`.
 #[derive(Debug, Clone, PartialEq)]
@@ -244,11 +253,17 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let mut budget = Vec::new();
     for (((est, theta), model), shifts) in thetas.iter().zip(&worlds).zip(&shifts) {
         let se = reg
-            .sandwich_covariance(&[theta[0], theta[1], theta[2]], &spec.noise)
+            .sandwich_covariance(
+                &[theta[0], theta[1], theta[2]],
+                &spec.noise,
+                spec.settings.parameters,
+            )
             .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
         let boot = bootstrap::resample(spec, model);
         let estimate = with_derived(theta);
-        for (p, name) in FIT_PARAMETERS.iter().enumerate() {
+        let first = rows.len();
+        for p in fit_rows(spec.settings.parameters) {
+            let name = &FIT_PARAMETERS[p];
             let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
             values.sort_by(f64::total_cmp);
             let boot_mean = values.iter().sum::<f64>() / values.len() as f64;
@@ -266,8 +281,8 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 reference: spec.reference[p],
             });
         }
-        let mine = &rows[rows.len() - FIT_PARAMETERS.len()..];
-        for (p, row) in mine.iter().enumerate() {
+        let mine = &rows[first..];
+        for (p, row) in fit_rows(spec.settings.parameters).zip(mine) {
             for (&(entry, magnitude), shift) in spec.systematic.iter().zip(shifts) {
                 let entry = &MODEL_ERRORS[entry];
                 budget.push(SystematicRow {

@@ -51,7 +51,9 @@ pub(super) fn shifts(
 ) -> Result<Vec<[f64; 5]>, FitError> {
     let noise_free = |model: &VehicleModel| {
         let info = model.condition_info(0);
-        Vector3::from_fn(|p, _| info.truth[p] + info.bias_model[0][p])
+        spec.settings
+            .parameters
+            .theta(|p| info.truth[p] + info.bias_model[0][p])
     };
     let without = with_derived(&noise_free(base));
     spec.systematic

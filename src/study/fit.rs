@@ -68,6 +68,9 @@ pub(super) struct RawLog {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawFitVehicle {
+    /// The weighed mass \[kg\] (with `estimation.known_mass`).
+    #[serde(default)]
+    mass: Option<f64>,
     frontal_area: f64,
     air_density: f64,
     gravity: f64,
@@ -86,6 +89,8 @@ pub(super) struct RawFitEstimation {
     estimators: Vec<String>,
     #[serde(default)]
     forgetting: Option<f64>,
+    #[serde(default)]
+    known_mass: Option<bool>,
 }
 
 /// `[reference]`: values to draw the fit against.
@@ -123,6 +128,7 @@ pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
     (
         "vehicle",
         &[
+            "mass",
             "frontal_area",
             "air_density",
             "gravity",
@@ -130,7 +136,7 @@ pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
             "wheel_radius",
         ],
     ),
-    ("estimation", &["estimators", "forgetting"]),
+    ("estimation", &["estimators", "forgetting", "known_mass"]),
     (
         "reference",
         &["mass", "drag_coefficient", "rolling_resistance"],
@@ -251,10 +257,29 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
         ));
     }
 
-    // [vehicle]: the known quantities.
+    // [vehicle]: the known quantities; the mass only when weighed (estimation.known_mass).
     let v = &raw.vehicle;
+    let known_mass = raw.estimation.known_mass.unwrap_or(false);
+    let mass_kg = match (known_mass, v.mass) {
+        (true, Some(m)) => c.positive("vehicle.mass", m)?,
+        (true, None) => {
+            return Err(c.fail(
+                "vehicle.mass",
+                "required key is missing (estimation.known_mass = true: give the weighed mass \
+                 [kg])",
+            ));
+        }
+        (false, Some(_)) => {
+            return Err(c.fail(
+                "vehicle.mass",
+                "applies only with estimation.known_mass = true (without it the fit estimates \
+                 the mass)",
+            ));
+        }
+        (false, None) => 1.0,
+    };
     let vehicle = VehicleParams {
-        mass_kg: 1.0,
+        mass_kg,
         drag_coefficient: 0.0,
         rolling_resistance: 0.0,
         frontal_area_m2: c.positive("vehicle.frontal_area", v.frontal_area)?,
@@ -325,7 +350,9 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
     noise.velocity_correlation_s = one_level(VELOCITY_CORRELATION)?;
 
     let e = &raw.estimation;
-    let (estimators, settings) = validate_estimation(&e.estimators, e.forgetting, c)?;
+    let known_inv_mass = known_mass.then(|| 1.0 / vehicle.mass_kg);
+    let (estimators, settings) =
+        validate_estimation(&e.estimators, e.forgetting, known_inv_mass, c)?;
 
     // [reference] (optional): M, Cd and Cr to draw the fit against.
     let reference = match &raw.reference {

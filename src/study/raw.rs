@@ -154,6 +154,9 @@ pub struct RawEstimation {
     /// What the drag regressor reads: "ground" or "measured".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub air_speed: Option<String>,
+    /// Whether the mass is weighed (known): the estimators fit \[Cd/M, Cr\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_mass: Option<bool>,
 }
 
 /// A list, or one value standing for the list of that value (`scales = 1.0` is

@@ -10,6 +10,7 @@ use super::{
 };
 use crate::estimate::channels::Channel;
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
+use crate::estimate::parameters::Parameters;
 use crate::settings::one_or_many;
 use crate::vehicle::truth::MODEL_ERRORS;
 
@@ -427,10 +428,13 @@ pub(super) fn validate_estimators(
 }
 
 /// `[estimation]`'s `estimators` (any of the registry, none twice) and `forgetting` (in
-/// (0, 1], 1 when absent, and only with rls listed): the estimators and their settings.
+/// (0, 1], 1 when absent, and only with rls listed): the estimators and their settings,
+/// which fit every parameter unless `known_inv_mass` gives the weighed 1/M \[1/kg\]
+/// (`estimation.known_mass`).
 pub(super) fn validate_estimation(
     names: &[String],
     forgetting: Option<f64>,
+    known_inv_mass: Option<f64>,
     c: &Checker<'_>,
 ) -> Result<(Vec<EstimatorRef>, EstimatorSettings), StudyError> {
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
@@ -459,5 +463,15 @@ pub(super) fn validate_estimation(
         Some(l) => l,
         None => 1.0,
     };
-    Ok((estimators, EstimatorSettings { forgetting }))
+    let parameters = match known_inv_mass {
+        Some(inv_mass) => Parameters::KnownMass { inv_mass },
+        None => Parameters::All,
+    };
+    Ok((
+        estimators,
+        EstimatorSettings {
+            forgetting,
+            parameters,
+        },
+    ))
 }

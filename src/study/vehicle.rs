@@ -228,7 +228,9 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_map_length_m,
         air_speed_sd,
     } = validate_noise(n, c)?;
-    let (estimators, settings) = validate_estimation(&e.estimators, e.forgetting, c)?;
+    let known_inv_mass = e.known_mass.unwrap_or(false).then(|| 1.0 / vehicle.mass_kg);
+    let (estimators, settings) =
+        validate_estimation(&e.estimators, e.forgetting, known_inv_mass, c)?;
     let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
     let air_speed = validate_air_speed(
         e.air_speed.as_deref(),

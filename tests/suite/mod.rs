@@ -11,6 +11,7 @@ mod figures;
 mod fit;
 mod grid_cost;
 mod help_examples;
+mod known_mass;
 mod layering;
 mod line_fit;
 mod mcse;

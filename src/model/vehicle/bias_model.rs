@@ -12,7 +12,7 @@ use crate::estimate::channels::{Acceleration, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
 use crate::estimate::regression::Regression;
 
-/// Per estimator, per parameter: its estimate on `regression`'s noise-free rows (its
+/// Per estimator, per fitted parameter: its estimate on `regression`'s noise-free rows (its
 /// acceleration source `acceleration`, every noise level zero) minus `truth`; NaN where the
 /// normal equations are singular. It depends on the condition only through its regression,
 /// so conditions that share one share it.
@@ -31,7 +31,8 @@ pub(super) fn bias_model(
         .into_iter()
         .map(|estimate| {
             let theta = estimate.theta.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
-            (0..3).map(|p| theta[p] - truth[p]).collect()
+            let free = settings.parameters.free();
+            free.iter().map(|&p| theta[p] - truth[p]).collect()
         })
         .collect()
 }

@@ -13,7 +13,6 @@ use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
-use crate::numeric::linalg::condition_number;
 
 impl VehicleModel {
     /// The standard normal draws of `channel` in realisation `r` of condition `c`, in the
@@ -339,15 +338,16 @@ impl VehicleModel {
         let cond = &self.conditions[c];
         let k = reg.k;
         let noisy_xtx = moments.ols_system(k).0;
-        let fisher_condition = condition_number(&noisy_xtx);
-        let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise);
+        let parameters = self.study.settings.parameters;
+        let fisher_condition = parameters.condition_number(&noisy_xtx);
+        let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise, parameters);
         // Every bound's standard errors in this realisation (the same for every estimator).
         let bounds: Vec<[f64; 3]> = BOUNDS
             .iter()
             .zip(&cond.constant_bounds)
             .map(|(bound, constant)| match bound.value {
                 BoundValue::PerRealisation(se) if (bound.applies)(&cond.noise) => {
-                    se(&noisy_xtx, &cond.noise).unwrap_or([f64::NAN; 3])
+                    se(&noisy_xtx, &cond.noise, parameters).unwrap_or([f64::NAN; 3])
                 }
                 _ => *constant,
             })
@@ -369,11 +369,12 @@ impl VehicleModel {
             };
             let theta = estimate.theta.unwrap_or_else(|_| Vector3::repeat(f64::NAN));
             slots[layout.status_at(ei)] = status as u8 as f64;
-            for p in 0..3 {
-                slots[layout.theta_at(ei, p)] = theta[p];
+            // The layout's parameters are the fitted ones, in θ's order.
+            for (p, &i) in parameters.free().iter().enumerate() {
+                slots[layout.theta_at(ei, p)] = theta[i];
                 for (b, values) in bounds.iter().enumerate() {
                     slots[layout.bound_at(ei, b, p)] = if cond.info.applies[ei][b] {
-                        values[p]
+                        values[i]
                     } else {
                         f64::NAN
                     };

@@ -43,23 +43,14 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             label: "terrain variability ς = mean θ² over the terrain table [rad²]",
             replaces: "scale",
         }),
-        parameters: vec![
-            ParameterInfo {
-                name: PARAMETERS[0],
-                unit: "1/kg",
-                description: "1/M, inverse vehicle mass",
-            },
-            ParameterInfo {
-                name: PARAMETERS[1],
-                unit: "1/kg",
-                description: "Cd/M, drag coefficient over mass",
-            },
-            ParameterInfo {
-                name: PARAMETERS[2],
-                unit: "1",
-                description: "Cr, rolling-resistance coefficient",
-            },
-        ],
+        // The fitted ones: without 1/M when the mass is known.
+        parameters: study
+            .settings
+            .parameters
+            .free()
+            .iter()
+            .map(|&i| parameter_info(i))
+            .collect(),
         estimators: estimators.iter().map(|e| e.name()).collect(),
         extras: EXTRAS.iter().map(ExtraInfo::from).collect(),
         bounds: BOUNDS
@@ -74,6 +65,20 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             .into_iter()
             .map(|j| ExtraInfo::from(&CONTROLS[j]))
             .collect(),
+    }
+}
+
+/// The layout entry of θ component `i`.
+fn parameter_info(i: usize) -> ParameterInfo {
+    let (unit, description) = [
+        ("1/kg", "1/M, inverse vehicle mass"),
+        ("1/kg", "Cd/M, drag coefficient over mass"),
+        ("1", "Cr, rolling-resistance coefficient"),
+    ][i];
+    ParameterInfo {
+        name: PARAMETERS[i],
+        unit,
+        description,
     }
 }
 

@@ -107,6 +107,7 @@ impl VehicleModel {
     /// it came from in an error.
     fn prepare(vs: VehicleStudy, error_at: &ErrorAt<'_>) -> Result<Self, StudyError> {
         let truth = vs.vehicle.theta();
+        let free = vs.settings.parameters.free();
         let cycles = scale_cycles(&vs, error_at)?;
         let segments = segments(&vs, &cycles, error_at)?;
         let durations = duration_count(&vs);
@@ -165,7 +166,7 @@ impl VehicleModel {
                     .map(|bound| {
                         match bound.value {
                             BoundValue::Constant(se) if (bound.applies)(&noise) => {
-                                se(&regression, &truth, &noise)
+                                se(&regression, &truth, &noise, vs.settings.parameters)
                             }
                             _ => None,
                         }
@@ -225,7 +226,7 @@ impl VehicleModel {
                             .map(|a| a.value(&vs, point, segment.duration_s))
                             .collect(),
                         metrics: segment.metrics.clone(),
-                        truth: truth.to_vec(),
+                        truth: free.iter().map(|&i| truth[i]).collect(),
                         bias_model: bias_models[k][source][point.grade_bias_index].clone(),
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
@@ -285,6 +286,8 @@ impl VehicleModel {
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
         let est = &self.study.estimators[e];
+        let parameters = self.study.settings.parameters;
+        let first = parameters.free()[0];
         let se = [
             BoundKind::CrlbOutput,
             BoundKind::EivSandwich,
@@ -292,13 +295,15 @@ impl VehicleModel {
         ]
         .into_iter()
         .map(BoundKind::index)
-        .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][0].is_finite())
+        .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][first].is_finite())
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
         if est.compensates_speed_noise() {
-            let bias = match cond.info.model_errors.is_empty() {
-                true => [0.0; 3],
-                false => [0, 1, 2].map(|p| cond.info.bias_model[e][p]),
-            };
+            let mut bias = [0.0; 3];
+            if !cond.info.model_errors.is_empty() {
+                for (p, &i) in parameters.free().iter().enumerate() {
+                    bias[i] = cond.info.bias_model[e][p];
+                }
+            }
             return (bias, se);
         }
         let reg = &*cond.regression;
@@ -313,7 +318,7 @@ impl VehicleModel {
             s_w: m.s_w + s2 * m.n,
             ..m
         };
-        let bias = match crate::estimate::estimators::solve(&expected.ols_system(reg.k)) {
+        let bias = match parameters.solve(&expected.ols_system(reg.k)) {
             Ok(theta) => [0, 1, 2].map(|p| theta[p] - self.truth[p]),
             Err(_) => [f64::NAN; 3],
         };
