@@ -16,6 +16,7 @@ use super::moments::{Moments, Rows, RowsView};
 use super::parameters::Parameters;
 use super::regression::Regression;
 use super::rls::Rls;
+use super::road_load::RoadLoad;
 use super::wbcls::Wbcls;
 use crate::noise::BLOCK;
 use crate::numeric::linalg::{SolveError, solve_spd};
@@ -57,6 +58,9 @@ pub struct EstimatorSettings {
     /// The parameters fitted: all three, or with `estimation.known_mass` \[Cd/M, Cr\] with
     /// the weighed 1/M known (docs/model.md#known-mass).
     pub parameters: Parameters,
+    /// The rotating-mass factor δ̂ `road_load` assumes (`estimation.effective_mass_factor`;
+    /// 0: none).
+    pub effective_mass_factor: f64,
 }
 
 impl Default for EstimatorSettings {
@@ -64,6 +68,7 @@ impl Default for EstimatorSettings {
         EstimatorSettings {
             forgetting: 1.0,
             parameters: Parameters::All,
+            effective_mass_factor: 0.0,
         }
     }
 }
@@ -83,6 +88,9 @@ pub struct Estimate {
     /// `rls` only: the time \[s\] after which the 1/M estimate stays within ±2 % of its
     /// truth, from the first row (`None`: never, or not this estimator).
     pub settle_time_s: Option<f64>,
+    /// `road_load` only: its fitted A \[N\], B \[N·s/m\], C \[N·s²/m²\] (`None`: not
+    /// this estimator, or the fit failed).
+    pub road_load: Option<[f64; 3]>,
 }
 
 impl Estimate {
@@ -91,6 +99,7 @@ impl Estimate {
         Estimate {
             theta,
             settle_time_s: None,
+            road_load: None,
         }
     }
 }
@@ -111,6 +120,27 @@ pub trait Estimator: Sync + Send + fmt::Debug {
 
     /// Its estimate from the realisation.
     fn estimate(&self, r: &Realisation<'_>) -> Estimate;
+
+    /// Whether it reads `estimation.effective_mass_factor`
+    /// ([`EstimatorSettings::effective_mass_factor`]): the key is refused when no listed
+    /// estimator does.
+    fn reads_effective_mass_factor(&self) -> bool {
+        false
+    }
+
+    /// Whether it needs the mass known (`estimation.known_mass = true`): the study is refused
+    /// otherwise.
+    fn needs_known_mass(&self) -> bool {
+        false
+    }
+
+    /// How `design` predicts its bias to first order (docs/model.md#design).
+    fn bias_prediction(&self) -> BiasPrediction {
+        match self.compensates_speed_noise() {
+            true => BiasPrediction::ModelErrors,
+            false => BiasPrediction::ExpectedSums,
+        }
+    }
 
     /// Whether it reads `estimation.forgetting` ([`EstimatorSettings::forgetting`]): the key
     /// is refused when no listed estimator does.
@@ -133,6 +163,18 @@ pub trait Estimator: Sync + Send + fmt::Debug {
         let _ = (bound, settings);
         true
     }
+}
+
+/// How an estimator's bias is predicted to first order (docs/model.md#design).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BiasPrediction {
+    /// The normal equations of the expected sums under the speed noise, solved: the ratio
+    /// of expectations (OLS and RLS, which do not compensate the noise).
+    ExpectedSums,
+    /// Its estimate on the noise-free rows (`bias_model`): what the model errors and the
+    /// deterministic measurement effects make it estimate; the noise adds nothing to first
+    /// order (the compensating estimators), or what it adds is not predicted (`road_load`).
+    ModelErrors,
 }
 
 /// Ordinary least squares on the noisy regressors (the thesis).
@@ -181,7 +223,7 @@ impl Estimator for Bcls {
 }
 
 /// Every estimator a study can name, in the order they are listed in messages.
-pub static ESTIMATORS: [&dyn Estimator; 4] = [&Ols, &Bcls, &Wbcls, &Rls];
+pub static ESTIMATORS: [&dyn Estimator; 5] = [&Ols, &Bcls, &Wbcls, &Rls, &RoadLoad];
 
 /// A registered estimator, compared by name.
 #[derive(Debug, Clone, Copy)]

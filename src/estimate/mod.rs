@@ -7,7 +7,8 @@
 //!   (the kernel), with the block sums of `kernels`;
 //! - [`controls`]: the control variates, each moment minus its expectation;
 //! - [`estimators`]: the estimator trait, OLS and BCLS normal equations from the moments;
-//!   [`wbcls`] (weighted BCLS) and [`rls`] (recursive LS with forgetting) from the rows;
+//!   [`wbcls`] (weighted BCLS), [`rls`] (recursive LS with forgetting) and [`road_load`]
+//!   (the coast-down's A + B·V + C·V² fit) from the rows;
 //! - [`parameters`]: which components of θ are fitted (all, or all but a known 1/M);
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
@@ -26,6 +27,7 @@ pub mod moments;
 pub mod parameters;
 pub mod regression;
 pub mod rls;
+pub mod road_load;
 mod row_sums;
 pub mod sums;
 pub mod wbcls;

@@ -58,6 +58,7 @@ impl Estimator for Rls {
             settle_time_s: settle
                 .filter(|_| r.settings.parameters == Parameters::All)
                 .map(|i| t[i] - t[0]),
+            road_load: None,
         }
     }
 

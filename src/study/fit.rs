@@ -12,7 +12,7 @@ use serde::Deserialize;
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::{truth_keys, validate_systematic};
-use super::validate::{Checker, check_realisations, serde_error, validate_estimation};
+use super::validate::{Checker, SettingKeys, check_realisations, serde_error, validate_estimation};
 use super::vehicle::{VELOCITY_CORRELATION, noise_keys, noise_levels};
 use super::{KeySpans, StudyError};
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
@@ -91,6 +91,8 @@ pub(super) struct RawFitEstimation {
     forgetting: Option<f64>,
     #[serde(default)]
     known_mass: Option<bool>,
+    #[serde(default)]
+    effective_mass_factor: Option<f64>,
 }
 
 /// `[reference]`: values to draw the fit against.
@@ -136,7 +138,15 @@ pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
             "wheel_radius",
         ],
     ),
-    ("estimation", &["estimators", "forgetting", "known_mass"]),
+    (
+        "estimation",
+        &[
+            "estimators",
+            "forgetting",
+            "known_mass",
+            "effective_mass_factor",
+        ],
+    ),
     (
         "reference",
         &["mass", "drag_coefficient", "rolling_resistance"],
@@ -351,8 +361,12 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
 
     let e = &raw.estimation;
     let known_inv_mass = known_mass.then(|| 1.0 / vehicle.mass_kg);
-    let (estimators, settings) =
-        validate_estimation(&e.estimators, e.forgetting, known_inv_mass, c)?;
+    let keys = SettingKeys {
+        forgetting: e.forgetting,
+        known_inv_mass,
+        effective_mass_factor: e.effective_mass_factor,
+    };
+    let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
 
     // [reference] (optional): M, Cd and Cr to draw the fit against.
     let reference = match &raw.reference {

@@ -34,7 +34,14 @@ const FIXED_KEYS: [(&str, &[&str]); 3] = [
     ),
     (
         "estimation",
-        &["estimators", "forgetting", "acceleration", "air_speed"],
+        &[
+            "estimators",
+            "forgetting",
+            "acceleration",
+            "air_speed",
+            "known_mass",
+            "effective_mass_factor",
+        ],
     ),
 ];
 

@@ -157,6 +157,9 @@ pub struct RawEstimation {
     /// Whether the mass is weighed (known): the estimators fit \[Cd/M, Cr\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub known_mass: Option<bool>,
+    /// The rotating-mass factor `road_load` assumes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effective_mass_factor: Option<f64>,
 }
 
 /// A list, or one value standing for the list of that value (`scales = 1.0` is

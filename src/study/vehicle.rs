@@ -6,7 +6,7 @@ use std::sync::Arc;
 use super::placement::{COMMON_DRIVE_KEYS, COMMON_TERRAIN_KEYS, home_of, unknown_key};
 use super::raw::{RawNoise, RawStudy};
 use super::truth::{TruthAxes, validate_truth};
-use super::validate::{Checker, validate_estimation};
+use super::validate::{Checker, SettingKeys, validate_estimation};
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
@@ -229,8 +229,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         air_speed_sd,
     } = validate_noise(n, c)?;
     let known_inv_mass = e.known_mass.unwrap_or(false).then(|| 1.0 / vehicle.mass_kg);
-    let (estimators, settings) =
-        validate_estimation(&e.estimators, e.forgetting, known_inv_mass, c)?;
+    let keys = SettingKeys {
+        forgetting: e.forgetting,
+        known_inv_mass,
+        effective_mass_factor: e.effective_mass_factor,
+    };
+    let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
     let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
     let air_speed = validate_air_speed(
         e.air_speed.as_deref(),

@@ -25,6 +25,7 @@ mod output_safety;
 mod profiles;
 mod readme;
 mod report;
+mod road_load;
 mod routes;
 mod sensors;
 mod shards_resume;

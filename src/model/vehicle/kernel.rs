@@ -385,9 +385,10 @@ impl VehicleModel {
                 fisher_condition,
                 thesis_bound: thesis_bound.as_ref(),
                 settle_time_s: estimate.settle_time_s,
+                road_load: estimate.road_load.as_ref(),
             };
-            for (x, extra) in EXTRAS.iter().enumerate() {
-                slots[layout.extra_at(ei, x)] = (extra.value)(&inputs);
+            for (x, &j) in self.extras.iter().enumerate() {
+                slots[layout.extra_at(ei, x)] = (EXTRAS[j].value)(&inputs);
             }
         }
         let centred = cond.expected.centre(moments);

@@ -9,6 +9,7 @@ use arrow::error::ArrowError;
 use super::prepare::used_samples;
 use super::{
     PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema, study_controls,
+    study_extras,
 };
 use crate::estimate::bounds::BOUNDS;
 use crate::estimate::controls::CONTROLS;
@@ -52,7 +53,10 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             .map(|&i| parameter_info(i))
             .collect(),
         estimators: estimators.iter().map(|e| e.name()).collect(),
-        extras: EXTRAS.iter().map(ExtraInfo::from).collect(),
+        extras: study_extras(study)
+            .into_iter()
+            .map(|x| ExtraInfo::from(&EXTRAS[x]))
+            .collect(),
         bounds: BOUNDS
             .iter()
             .map(|b| BoundInfo {

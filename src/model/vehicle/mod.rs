@@ -30,6 +30,8 @@ use super::{ConditionInfo, Layout, ModelErrorValue};
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue};
 use crate::estimate::channels::{Channel, NoiseLevels, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
+use crate::estimate::conversions::EXTRAS;
+use crate::estimate::estimators::BiasPrediction;
 use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
@@ -82,6 +84,8 @@ pub struct VehicleModel {
     cycles: Vec<ScaleCycle>,
     /// Whether an estimator of the study reads the measured rows.
     needs_rows: bool,
+    /// The per-row extras its tables carry (indices into [`EXTRAS`]).
+    extras: Vec<usize>,
     /// The sums whose control variates the layout carries (indices into [`CONTROLS`]).
     controls: Vec<usize>,
     /// `noise.share_across_scales`: conditions differing only in scale and duration read
@@ -257,6 +261,7 @@ impl VehicleModel {
             conditions,
             cycles,
             needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
+            extras: study_extras(&vs),
             controls,
             shared: vs.share_across_scales,
             truth,
@@ -281,7 +286,8 @@ impl VehicleModel {
     /// that does not compensate the noise (other channels' biases are not predicted); for
     /// one that compensates it (every channel's), the compensated sums' expectations are the
     /// noise-free sums, so its bias is the condition's `bias_model`, what the model errors
-    /// alone make it estimate, and zero without model errors (docs/model.md#design). The
+    /// alone make it estimate, and zero without model errors (docs/model.md#design);
+    /// `road_load`'s is its `bias_model` (what the noise adds is not predicted). The
     /// noise-free sums are those of the truth's logged rows, so the model errors are in both.
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
@@ -297,9 +303,11 @@ impl VehicleModel {
         .map(BoundKind::index)
         .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][first].is_finite())
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
-        if est.compensates_speed_noise() {
+        if est.bias_prediction() == BiasPrediction::ModelErrors {
             let mut bias = [0.0; 3];
-            if !cond.info.model_errors.is_empty() {
+            // A compensating estimator's noise-free estimate is the truth without model
+            // errors (to rounding); `road_load`'s is not (a hill's cos θ in its A).
+            if !cond.info.model_errors.is_empty() || !est.compensates_speed_noise() {
                 for (p, &i) in parameters.free().iter().enumerate() {
                     bias[i] = cond.info.bias_model[e][p];
                 }
@@ -403,6 +411,14 @@ fn uneven_differentiation(
         )),
         None => Ok(()),
     }
+}
+
+/// The per-row extras (indices into [`EXTRAS`]) the tables of `study` carry: those of every
+/// study and those of an estimator it lists.
+fn study_extras(study: &VehicleStudy) -> Vec<usize> {
+    (0..EXTRAS.len())
+        .filter(|&x| EXTRAS[x].in_study(study.estimators.iter().map(|e| e.name())))
+        .collect()
 }
 
 /// The sums (indices into [`CONTROLS`]) that are control variates in some condition of
