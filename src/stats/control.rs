@@ -138,12 +138,8 @@ pub(super) struct Factor {
     q: usize,
     /// Realisations the Gram matrix is over.
     n: u64,
-    /// Unit lower triangle, row-major q × q.
-    l: Vec<Dd>,
-    /// The diagonal D.
-    d: Vec<Dd>,
-    /// Which controls are in the regression.
-    kept: Vec<bool>,
+    /// The Gram matrix's L D Lᵀ (its kept rows: the controls in the regression).
+    ldl: Ldl,
     /// √G_kk, for the resolution floor.
     root_g: Vec<f64>,
     /// Σ c_k.
@@ -162,15 +158,12 @@ impl ControlAcc {
             // packed index of (a, b), a ≤ b
             self.gram[a * q - a * (a + 1) / 2 + b].value_dd()
         };
-        let Ldl { l, d, kept, .. } = Ldl::new(q, g);
         Some(Factor {
             q,
             n: self.n,
             root_g: (0..q).map(|k| g(k, k).to_f64().sqrt()).collect(),
             sums: self.sums.iter().map(ExactSum::value_dd).collect(),
-            l,
-            d,
-            kept,
+            ldl: Ldl::new(q, g),
         })
     }
 }
@@ -224,13 +217,24 @@ impl Ldl {
 
     /// x = G⁻¹ s over the kept rows (0 at the others).
     pub(super) fn solve(&self, s: &[Dd]) -> Vec<Dd> {
-        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
+        self.backward(&self.forward(s))
+    }
+
+    /// z = L⁻¹ s (its entries at rows not kept are not used).
+    fn forward(&self, s: &[Dd]) -> Vec<Dd> {
+        let (q, l, kept) = (self.q, &self.l, &self.kept);
         let mut z = s.to_vec();
         for i in 0..q {
             for j in (0..i).filter(|&j| kept[j]) {
                 z[i] = z[i] - l[i * q + j] * z[j];
             }
         }
+        z
+    }
+
+    /// x = L⁻ᵀ D⁻¹ z over the kept rows (0 at the others).
+    fn backward(&self, z: &[Dd]) -> Vec<Dd> {
+        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
         let mut x = vec![Dd::default(); q];
         for k in (0..q).filter(|&k| kept[k]) {
             x[k] = z[k] / d[k];
@@ -256,30 +260,21 @@ impl Factor {
         sum_centred_sq: &ExactSum,
         cross: &[ExactSum],
     ) -> Option<ControlFit> {
-        let (q, l, d, kept) = (self.q, &self.l, &self.d, &self.kept);
+        let (q, ldl) = (self.q, &self.ldl);
+        let (d, kept) = (&ldl.d, &ldl.kept);
         let used = kept.iter().filter(|&&k| k).count();
         if n != self.n || used == 0 || n < used as u64 + 3 {
             return None;
         }
         let nf = Dd::from(n as f64);
         // z = L⁻¹ s_cd; the explained sum of squares is Σ z_k² / D_k; β = L⁻ᵀ D⁻¹ z.
-        let mut z: Vec<Dd> = cross.iter().map(ExactSum::value_dd).collect();
-        for i in 0..q {
-            for j in (0..i).filter(|&j| kept[j]) {
-                z[i] = z[i] - l[i * q + j] * z[j];
-            }
-        }
+        let cross: Vec<Dd> = cross.iter().map(ExactSum::value_dd).collect();
+        let z = ldl.forward(&cross);
         let mut explained = Dd::default();
-        let mut beta = vec![Dd::default(); q];
         for k in (0..q).filter(|&k| kept[k]) {
             explained = explained + z[k] * z[k] / d[k];
-            beta[k] = z[k] / d[k];
         }
-        for k in (0..q).rev().filter(|&k| kept[k]) {
-            for i in (k + 1..q).filter(|&i| kept[i]) {
-                beta[k] = beta[k] - l[i * q + k] * beta[i];
-            }
-        }
+        let beta = ldl.backward(&z);
         let s_dd = sum_centred_sq.value_dd();
         let spread: f64 = (0..q)
             .filter(|&k| kept[k])
