@@ -19,6 +19,7 @@ use crate::model::{
     realise_one_by_one,
 };
 use crate::study::VehicleStudy;
+use crate::vehicle::Prefix;
 
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(study: &VehicleStudy) -> Layout {
@@ -100,7 +101,7 @@ impl Model for VehicleModel {
             .get(index / sources.len())
             .filter(|_| table == 0)?;
         let source = sources[index % sources.len()];
-        let used = used_samples(&scale.cycle, &self.study, None, source);
+        let used = used_samples(&scale.cycle, &self.study, Prefix::Whole, source);
         Some(cycles_batch(
             self.study.scales[scale.scale_index],
             &self.study.truth.values(scale.truth_index),
