@@ -485,8 +485,12 @@ mod tests {
 
     #[test]
     fn a_reverse_run_sees_the_grade_negated() {
-        // A 0.5 % climb everywhere: run 0 climbs it, run 1 (backwards) descends it.
-        let table = GradeTable::from_grades(vec![0.005; 20_000]);
+        // A 0.5 % climb with a 0.3 % ripple of period 628 m: run 0 climbs it, run 1
+        // (backwards) descends it, seeing −θ(x) at every sample.
+        let grades = (0..20_000)
+            .map(|i| 0.005 + 0.003 * (i as f64 / 100.0).sin())
+            .collect();
+        let table = GradeTable::from_grades(grades);
         let d = CoastDown {
             start_distance_m: 5000.0,
             ..drive(0.1, 2, Directions::Alternate)
@@ -497,8 +501,9 @@ mod tests {
         };
         let cycle = d.cycle(&car(), road, &Truth::default()).unwrap();
         for i in 0..cycle.len() {
-            let expected = if cycle.run[i] == 0 { 0.005 } else { -0.005 };
-            assert_eq!(cycle.grade_rad[i], expected);
+            let theta = table.grade_at(cycle.x_m[i]).unwrap();
+            let heading = if cycle.run[i] == 0 { 1.0 } else { -1.0 };
+            assert_eq!(cycle.grade_rad[i], heading * theta);
             assert_eq!(cycle.f_prop_n[i], 0.0);
         }
         // Downhill the run lasts longer.

@@ -29,6 +29,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             t.profile.describe(),
             t.length_m as f64 / 1000.0
         ),
+        None if study.drive.uses_terrain() => "a flat road".to_string(),
         None => "the trace's grade".to_string(),
     };
     let estimators = &study.estimators;
