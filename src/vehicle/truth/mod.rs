@@ -44,7 +44,8 @@ pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, W
 pub struct TruthSample {
     /// Time since the start of the cycle \[s\].
     pub time_s: f64,
-    /// Distance travelled \[m\].
+    /// Position along the route \[m\] (the distance travelled, for a drive that only goes
+    /// forwards).
     pub distance_m: f64,
     /// Speed V \[m/s\].
     pub speed_m_s: f64,
