@@ -64,6 +64,13 @@ impl<'a> Params<'a> {
         self.has(key).then(|| read(self, key)).transpose()
     }
 
+    /// The value at `key`, as it is.
+    pub fn value(&self, key: &str) -> Result<&'a toml::Value, KeyError> {
+        self.table
+            .get(key)
+            .ok_or_else(|| self.error(key, "required key is missing"))
+    }
+
     /// A string.
     pub fn string(&self, key: &str) -> Result<&'a str, KeyError> {
         match self.table.get(key) {

@@ -84,6 +84,9 @@ type Segments = (Vec<(usize, usize)>, Vec<Moments>);
 pub struct Regression {
     /// Sample times \[s\] (for noise correlated in time).
     pub t: Column,
+    /// The run of each row ([`DriveCycle::run`]): noise correlated in time restarts at a
+    /// run's first row.
+    pub run: Column<u32>,
     /// Column 1: F_prop \[N\].
     pub f: Column,
     /// Column 3: c = −g cos θ \[m/s²\].
@@ -146,6 +149,7 @@ impl Regression {
         Self::with_sums(
             RowColumns {
                 t: cycle.t_s.clone().into(),
+                run: cycle.run.clone().into(),
                 f: cycle.f_prop_n.clone().into(),
                 c: c.into(),
                 v: cycle.v_m_s.clone().into(),
@@ -167,6 +171,7 @@ impl Regression {
     pub fn prefix(&self, n: usize) -> Regression {
         let columns = RowColumns {
             t: self.t.prefix(n),
+            run: self.run.prefix(n),
             f: self.f.prefix(n),
             c: self.c.prefix(n),
             v: self.v.prefix(n),
@@ -179,9 +184,10 @@ impl Regression {
         let mut reg = Self::with_sums(columns, self.k, self.g);
         reg.differentiation = self.differentiation.as_ref().map(|d| {
             // The span runs to the sample after the last row.
-            let span_t = d.span_t.prefix(d.sample[n - 1] + 2);
+            let span = d.sample[n - 1] + 2;
             Differentiation {
-                span_t,
+                span_t: d.span_t.prefix(span),
+                span_run: d.span_run.prefix(span),
                 sample: d.sample.prefix(n),
                 inv_dt: d.inv_dt.prefix(n),
             }
@@ -193,6 +199,7 @@ impl Regression {
     fn with_sums(columns: RowColumns, k: f64, g: f64) -> Self {
         let RowColumns {
             t,
+            run,
             f,
             c,
             v,
@@ -238,6 +245,7 @@ impl Regression {
             differentiation: None,
             segments: OnceLock::new(),
             t,
+            run,
             speed_sums_noise_free,
             grade_sums_noise_free,
             sum_f: sum(&f),
@@ -333,9 +341,19 @@ impl Regression {
     }
 
     /// The AR(1) coefficients of speed noise with correlation time `tau_s` \[s\] at the
-    /// samples that carry it ([`noise_times`](Self::noise_times); see [`ar1_coefficients`]).
+    /// samples that carry it ([`noise_times`](Self::noise_times); see [`ar1_coefficients`]),
+    /// restarting at each run's first sample.
     pub fn ar1_coefficients(&self, tau_s: f64) -> Vec<[f64; 2]> {
-        ar1_coefficients(self.noise_times(), tau_s)
+        match &self.differentiation {
+            Some(d) => ar1_coefficients(&d.span_t, &d.span_run, tau_s),
+            None => self.row_ar1_coefficients(tau_s),
+        }
+    }
+
+    /// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] between
+    /// consecutive rows ([`ar1_coefficients`] over the rows' times and runs).
+    pub fn row_ar1_coefficients(&self, tau_s: f64) -> Vec<[f64; 2]> {
+        ar1_coefficients(&self.t, &self.run, tau_s)
     }
 }
 
@@ -347,6 +365,8 @@ impl Regression {
 pub struct Differentiation {
     /// Times of the span's samples \[s\].
     pub span_t: Column,
+    /// The run of each of the span's samples.
+    pub span_run: Column<u32>,
     /// Each row's sample in the span (its neighbours are the samples before and after).
     pub sample: Column<usize>,
     /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
@@ -354,10 +374,11 @@ pub struct Differentiation {
 }
 
 impl Regression {
-    /// The regression of the samples of `cycle` marked in `used` (none of them its first or
-    /// last sample) with the acceleration differentiated from the speed: the noise-free
-    /// output is the central difference of the true speed, and [`Differentiation`] tells
-    /// the kernel where each row's speed noise comes from.
+    /// The regression of the samples of `cycle` marked in `used` (none of them the first or
+    /// last sample of its run: a speed is differenced within a run, never across two) with
+    /// the acceleration differentiated from the speed: the noise-free output is the central
+    /// difference of the true speed, and [`Differentiation`] tells the kernel where each
+    /// row's speed noise comes from.
     pub fn differentiated(
         cycle: &DriveCycle,
         used: &[bool],
@@ -367,8 +388,8 @@ impl Regression {
         let (t, v) = (&cycle.t_s, &cycle.v_m_s);
         let rows: Vec<usize> = (0..used.len()).filter(|&i| used[i]).collect();
         assert!(
-            rows.first().is_some_and(|&i| i > 0) && rows.last().is_some_and(|&i| i + 1 < t.len()),
-            "a differentiated row needs a sample on each side"
+            !rows.is_empty() && rows.iter().all(|&i| !cycle.at_run_edge(i)),
+            "a differentiated row needs a sample of its run on each side"
         );
         let inv_dt: Vec<f64> = rows.iter().map(|&i| 1.0 / (t[i + 1] - t[i - 1])).collect();
         let mut selected = cycle.select(used);
@@ -382,10 +403,11 @@ impl Regression {
             .iter_mut()
             .for_each(|g| *g += grade_offset);
         let start = rows[0] - 1;
-        let span_t = t[start..=rows[rows.len() - 1] + 1].to_vec();
+        let end = rows[rows.len() - 1] + 1;
         let mut reg = Regression::new(&selected, vehicle);
         reg.differentiation = Some(Differentiation {
-            span_t: span_t.into(),
+            span_t: t[start..=end].to_vec().into(),
+            span_run: cycle.run[start..=end].to_vec().into(),
             sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
             inv_dt: inv_dt.into(),
         });
@@ -402,6 +424,7 @@ impl Regression {
 /// The per-row columns of a regression, before its sums.
 struct RowColumns {
     t: Column,
+    run: Column<u32>,
     f: Column,
     c: Column,
     v: Column,
@@ -412,15 +435,21 @@ struct RowColumns {
     cos_grade: Column,
 }
 
-/// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at samples `t`:
-/// φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i
-/// is stationary with unit variance for any steps (the first entry is unused: e_0 = z_0).
-pub fn ar1_coefficients(t: &[f64], tau_s: f64) -> Vec<[f64; 2]> {
-    std::iter::once([0.0, 1.0])
-        .chain(t.windows(2).map(|w| {
-            let phi = (-(w[1] - w[0]) / tau_s).exp();
-            [phi, (1.0 - phi * phi).sqrt()]
-        }))
+/// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at samples `t` of
+/// runs `run`: φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that
+/// e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i is stationary with unit variance for any steps. At the
+/// first sample and at each run's first sample the process restarts, \[0, 1\] (e_i = z_i):
+/// runs are independent (docs/model.md#coastdown).
+pub fn ar1_coefficients(t: &[f64], run: &[u32], tau_s: f64) -> Vec<[f64; 2]> {
+    assert_eq!(t.len(), run.len(), "a run per sample");
+    (0..t.len())
+        .map(|i| match i > 0 && run[i] == run[i - 1] {
+            true => {
+                let phi = (-(t[i] - t[i - 1]) / tau_s).exp();
+                [phi, (1.0 - phi * phi).sqrt()]
+            }
+            false => [0.0, 1.0],
+        })
         .collect()
 }
 
@@ -442,4 +471,75 @@ pub(crate) fn test_regression() -> Regression {
     let grades = (0..3000).map(|i| 0.08 * (i as f64 / 150.0).sin()).collect();
     let cycle = simulate(&vehicle, &drive, &GradeTable::from_grades(grades)).unwrap();
     Regression::new(&cycle, &vehicle)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two runs of five samples on one clock (t = 0, 1, …, 9 s), run 1 slower.
+    fn two_runs() -> DriveCycle {
+        let v = vec![30.0, 29.0, 28.2, 27.5, 27.0, 20.0, 19.6, 19.1, 18.8, 18.6];
+        DriveCycle {
+            t_s: (0..10).map(f64::from).collect(),
+            x_m: (0..10).map(|i| 30.0 * f64::from(i)).collect(),
+            v_m_s: v,
+            grade_rad: vec![0.0; 10],
+            f_prop_n: vec![0.0; 10],
+            accel_m_s2: vec![-0.5; 10],
+            run: vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1],
+            run_heading: vec![1.0, -1.0],
+        }
+    }
+
+    #[test]
+    fn ar1_noise_restarts_at_each_run_s_first_sample() {
+        // φ = 0 and a unit innovation where a run begins: its first sample's noise is a
+        // fresh draw, independent of every earlier run's.
+        let t = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5];
+        let ar1 = ar1_coefficients(&t, &[0, 0, 0, 1, 1, 2], 2.0);
+        for i in [0, 3, 5] {
+            assert_eq!(ar1[i], [0.0, 1.0], "{i}");
+        }
+        for i in [1, 2, 4] {
+            let phi = (-(t[i] - t[i - 1]) / 2.0f64).exp();
+            assert_eq!(ar1[i], [phi, (1.0 - phi * phi).sqrt()], "{i}");
+        }
+        // The regression's rows carry their runs: the same at the first row of run 1.
+        let reg = Regression::new(&two_runs(), &VehicleParams::thesis());
+        let ar1 = reg.ar1_coefficients(2.0);
+        assert_eq!(ar1[5], [0.0, 1.0]);
+        assert!(ar1[4][0] > 0.0 && ar1[6][0] > 0.0);
+        assert_eq!(reg.prefix(7).row_ar1_coefficients(2.0), ar1[..7]);
+    }
+
+    #[test]
+    fn a_differentiated_acceleration_differences_within_each_run() {
+        let cycle = two_runs();
+        // Every sample but each run's first and last.
+        let used: Vec<bool> = (0..cycle.len()).map(|i| !cycle.at_run_edge(i)).collect();
+        assert_eq!(used.iter().filter(|u| **u).count(), 6);
+        let reg = Regression::differentiated(&cycle, &used, 0.0, &VehicleParams::thesis());
+        let rows = [1, 2, 3, 6, 7, 8];
+        for (r, &i) in rows.iter().enumerate() {
+            assert_eq!(cycle.run[i - 1], cycle.run[i + 1]);
+            let central = (cycle.v_m_s[i + 1] - cycle.v_m_s[i - 1]) / 2.0;
+            assert_eq!(reg.accel[r], central, "row {r}");
+        }
+        // The span runs from sample 0 to 9; its noise restarts at run 1's first sample.
+        let d = reg.differentiation.as_ref().unwrap();
+        assert_eq!(&*d.span_run, &cycle.run[..]);
+        assert_eq!(reg.ar1_coefficients(2.0)[5], [0.0, 1.0]);
+    }
+
+    #[test]
+    #[should_panic(expected = "a sample of its run on each side")]
+    fn a_differentiated_row_at_a_run_edge_is_refused() {
+        // Sample 4 is run 0's last: its central difference would reach into run 1.
+        let cycle = two_runs();
+        let mut used = vec![false; cycle.len()];
+        used[3] = true;
+        used[4] = true;
+        Regression::differentiated(&cycle, &used, 0.0, &VehicleParams::thesis());
+    }
 }

@@ -111,6 +111,8 @@ pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f6
         grade_rad: c.grade_rad.clone(),
         f_prop_n,
         accel_m_s2,
+        run: c.run.clone(),
+        run_heading: c.run_heading.clone(),
     };
     Replay {
         source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),

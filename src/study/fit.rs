@@ -486,6 +486,8 @@ fn read_log(
         grade_rad,
         f_prop_n,
         accel_m_s2,
+        run: vec![0; used.len()],
+        run_heading: vec![1.0],
     };
     Ok((cycle, used))
 }

@@ -14,6 +14,7 @@ use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::profiles::PROFILES;
 use crate::terrain::{ScaleTarget, TerrainSpec};
+use crate::vehicle::truth::entry_index;
 use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 
 /// Which noise enters the measurements of the vehicle study: the standard deviations
@@ -208,6 +209,16 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     let durations = common
         .optional("durations", Params::positive_list)
         .map_err(fail)?;
+    if durations.is_some() && drive.runs().is_some() {
+        return Err(c.fail(
+            "drive.durations",
+            format!(
+                "does not apply to drive mode \"{}\": its cycle is runs, and drive.runs is \
+                 the axis (a condition with k runs uses the first k)",
+                mode.name
+            ),
+        ));
+    }
     if drive.needs_drivetrain() && vehicle.drivetrain.is_none() {
         return Err(c.fail(
             "vehicle.final_drive_ratio",
@@ -217,7 +228,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
             ),
         ));
     }
-    let (terrain, scales) = validate_terrain(raw, drive.needs_terrain(), c)?;
+    let (terrain, scales) = validate_terrain(
+        raw,
+        drive.needs_terrain(),
+        drive.needs_terrain() || drive.uses_terrain(),
+        c,
+    )?;
 
     let ValidatedNoise {
         axes: noise,
@@ -244,6 +260,11 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         c,
     )?;
 
+    let truth = validate_truth(raw.truth.as_ref(), c)?;
+    if drive.runs().is_some() {
+        runs_draw_nothing_per_realisation_that_moves(&truth, mode.name, c)?;
+    }
+
     Ok(VehicleStudy {
         vehicle,
         drive,
@@ -262,8 +283,32 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_map_length_m,
         air_speed,
         air_speed_sd,
-        truth: validate_truth(raw.truth.as_ref(), c)?,
+        truth,
     })
+}
+
+/// A drive of independent runs (a coast-down) draws each run's gusts on its own; that is
+/// not implemented, so a gust level above 0 is an error naming `truth.wind_gust_sd`. A
+/// run's length depends on its gusts, so they cannot be drawn on the condition's sample
+/// times as in the other modes (docs/model.md#coastdown).
+fn runs_draw_nothing_per_realisation_that_moves(
+    truth: &TruthAxes,
+    mode: &str,
+    c: &Checker<'_>,
+) -> Result<(), StudyError> {
+    const KEY: &str = "wind_gust_sd";
+    let gusts = entry_index(KEY).expect("an entry");
+    if truth.levels(gusts).iter().any(|&v| v > 0.0) {
+        return Err(c.fail(
+            &format!("truth.{KEY}"),
+            format!(
+                "gusts are not supported in drive mode \"{mode}\": they would be drawn \
+                     per run, and a run's length depends on its gusts (use a steady \
+                     truth.wind_speed, which a return run sees flipped)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// `estimation.air_speed` (default "ground"), checked against the noise it needs: a
@@ -315,11 +360,13 @@ fn validate_air_speed(
     }
 }
 
-/// `[terrain]`: the profile and its grid (required when the drive mode `needs` them, else
-/// `[terrain]` may only give `scales`), and the scales (default `[1.0]` without a profile).
+/// `[terrain]`: the profile and its grid (required when the drive mode `needs` them; read
+/// when given if it `uses` them; else `[terrain]` may only give `scales`), and the scales
+/// (default `[1.0]` without a profile).
 fn validate_terrain(
     raw: &RawStudy,
     needs: bool,
+    uses: bool,
     c: &Checker<'_>,
 ) -> Result<(Option<TerrainSpec>, Vec<f64>), StudyError> {
     let t = match (&raw.terrain, needs) {
@@ -327,7 +374,7 @@ fn validate_terrain(
         (None, true) => return Err(c.missing_table("terrain")),
         (None, false) => return Ok((None, vec![1.0])),
     };
-    if !needs {
+    if !uses {
         if let Some(key) = t
             .params
             .keys()

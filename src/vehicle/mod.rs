@@ -4,15 +4,18 @@
 //! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: `torque` (the thesis's
 //! sinusoidal torque, integrated by RK4; in `torque.rs`) and `speed_trace` (a recorded speed
 //! trace followed exactly, the force from inverse dynamics; in `speed_trace.rs`) and `replay`
-//! (a cycle given sample by sample; in `replay.rs`). A stall or
+//! (a cycle given sample by sample; in `replay.rs`) and `coastdown` (runs coasting in
+//! neutral, alternating direction; in `coastdown.rs`). A stall or
 //! running off the terrain is an error, never a silent NaN. How the truth may differ from
 //! this equation (model errors) is in [`truth`].
 
+mod coastdown;
 mod replay;
 mod speed_trace;
 mod torque;
 pub mod truth;
 
+pub use coastdown::{CoastDown, Directions};
 pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
 pub use torque::{TorqueDrive, simulate};
@@ -122,10 +125,23 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
     /// The drive in a few words, for tables and figures.
     fn describe(&self) -> String;
 
-    /// Whether the cycle needs a terrain profile (otherwise `[terrain]` is optional and only
-    /// its `scales` are read).
+    /// Whether the cycle needs a terrain profile (otherwise `[terrain]` is optional, and only
+    /// its `scales` are read unless [`uses_terrain`](Self::uses_terrain)).
     fn needs_terrain(&self) -> bool {
         true
+    }
+
+    /// Whether a terrain profile the study gives is the road, when the cycle does not need
+    /// one (a coast-down: a flat road without `[terrain]`).
+    fn uses_terrain(&self) -> bool {
+        false
+    }
+
+    /// The levels of the mode's `drive.runs` axis, when its cycle is made of independent
+    /// runs (a coast-down; docs/model.md#coastdown): a condition with k runs uses the first
+    /// k, and `drive.durations` does not apply. `None`: the cycle is one run.
+    fn runs(&self) -> Option<&[usize]> {
+        None
     }
 
     /// Whether the cycle needs the vehicle's drivetrain (`final_drive_ratio`,
@@ -160,7 +176,7 @@ pub struct DriveMode {
 }
 
 /// Every drive mode a study can name; the first is the default when `mode` is absent.
-pub static DRIVE_MODES: [DriveMode; 3] = [
+pub static DRIVE_MODES: [DriveMode; 4] = [
     DriveMode {
         name: "torque",
         keys: TorqueDrive::KEYS,
@@ -175,6 +191,11 @@ pub static DRIVE_MODES: [DriveMode; 3] = [
         name: "replay",
         keys: Replay::KEYS,
         parse: Replay::parse,
+    },
+    DriveMode {
+        name: "coastdown",
+        keys: CoastDown::KEYS,
+        parse: CoastDown::parse,
     },
 ];
 
@@ -216,6 +237,16 @@ pub enum SimulationError {
         /// The limit \[rad\].
         limit: f64,
     },
+    /// A coast-down run cannot be made as asked (docs/model.md#coastdown).
+    #[error("coast-down run {run} (t = {time_s:.2} s): {reason}")]
+    CoastRun {
+        /// The run, 0-based.
+        run: usize,
+        /// Where \[s\].
+        time_s: f64,
+        /// What went wrong, and which key to change.
+        reason: String,
+    },
     /// The state became NaN or infinite.
     #[error("the simulation diverged (non-finite state) at t = {time_s:.2} s")]
     NonFinite {
@@ -240,6 +271,14 @@ pub struct DriveCycle {
     pub f_prop_n: Vec<f64>,
     /// The truth's acceleration dV/dt at the sample's state \[m/s²\].
     pub accel_m_s2: Vec<f64>,
+    /// The run each sample belongs to, 0-based and non-decreasing: a coast-down's runs are
+    /// independent stretches of driving (docs/model.md#coastdown); every other drive mode
+    /// has one run, 0.
+    pub run: Vec<u32>,
+    /// The heading of each run, one entry per run: +1 when it drives the route forwards
+    /// (its position grows), −1 backwards (it sees the grade negated and a steady wind
+    /// flipped). Every drive mode but a coast-down has one run, forwards: `[1.0]`.
+    pub run_heading: Vec<f64>,
 }
 
 impl DriveCycle {
@@ -266,14 +305,12 @@ impl DriveCycle {
         }
     }
 
-    /// Which samples the regression uses: those in the first `duration_s` seconds (all when
-    /// `None`), at a true speed of at least `selection.min_speed_m_s` and, with
-    /// `selection.exclude_braking`, a tractive force ≥ 0.
-    pub fn used(&self, selection: &RowSelection, duration_s: Option<f64>) -> Vec<bool> {
-        let t0 = self.t_s.first().copied().unwrap_or(0.0);
+    /// Which samples the regression uses: those in `prefix`, at a true speed of at least
+    /// `selection.min_speed_m_s` and, with `selection.exclude_braking`, a tractive force ≥ 0.
+    pub fn used(&self, selection: &RowSelection, prefix: Prefix) -> Vec<bool> {
         (0..self.len())
             .map(|i| {
-                duration_s.is_none_or(|d| self.t_s[i] - t0 <= d)
+                prefix.holds(self, i)
                     && self.v_m_s[i] >= selection.min_speed_m_s
                     && !(selection.exclude_braking && self.f_prop_n[i] < 0.0)
             })
@@ -296,6 +333,68 @@ impl DriveCycle {
             grade_rad: pick(&self.grade_rad),
             f_prop_n: pick(&self.f_prop_n),
             accel_m_s2: pick(&self.accel_m_s2),
+            run: self
+                .run
+                .iter()
+                .zip(used)
+                .filter(|(_, u)| **u)
+                .map(|(r, _)| *r)
+                .collect(),
+            run_heading: self.run_heading.clone(),
+        }
+    }
+
+    /// The heading of sample `i`'s run (+1 forwards, −1 backwards).
+    pub fn heading(&self, i: usize) -> f64 {
+        self.run_heading[self.run[i] as usize]
+    }
+
+    /// Whether sample `i` is the first or the last of its run (a differentiated
+    /// acceleration has no neighbour there on one side).
+    pub fn at_run_edge(&self, i: usize) -> bool {
+        let n = self.run.len();
+        i == 0 || i + 1 == n || self.run[i - 1] != self.run[i] || self.run[i + 1] != self.run[i]
+    }
+
+    /// Number of runs (1 for every drive mode but a coast-down; 0 without samples).
+    pub fn runs(&self) -> usize {
+        self.run.last().map_or(0, |&r| r as usize + 1)
+    }
+}
+
+/// How much of a cycle a condition uses, from its start (docs/model.md#row-selection).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Prefix {
+    /// All of it.
+    #[default]
+    Whole,
+    /// The samples with t − t₀ ≤ this \[s\] (`drive.durations`).
+    Duration(f64),
+    /// The samples of the first this many runs (`drive.runs` of a coast-down).
+    Runs(usize),
+}
+
+impl Prefix {
+    /// Whether sample `i` of `cycle` is in the prefix.
+    pub fn holds(self, cycle: &DriveCycle, i: usize) -> bool {
+        match self {
+            Prefix::Whole => true,
+            Prefix::Duration(d) => cycle.t_s[i] - cycle.t_s[0] <= d,
+            Prefix::Runs(k) => (cycle.run[i] as usize) < k,
+        }
+    }
+
+    /// The time \[s\] from the first sample of `cycle` to the last in the prefix: the
+    /// duration a condition's axis column reports (the duration itself for
+    /// [`Prefix::Duration`]).
+    pub fn length_s(self, cycle: &DriveCycle) -> f64 {
+        match self {
+            Prefix::Whole => cycle.length_s(),
+            Prefix::Duration(d) => d,
+            Prefix::Runs(k) => match cycle.run.iter().rposition(|&r| (r as usize) < k) {
+                Some(last) => cycle.t_s[last] - cycle.t_s[0],
+                None => 0.0,
+            },
         }
     }
 }

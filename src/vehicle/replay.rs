@@ -59,6 +59,8 @@ impl Replay {
             grade_rad: cols.get("grade").to_vec(),
             f_prop_n: cols.get("f_prop").to_vec(),
             accel_m_s2: cols.get("accel").to_vec(),
+            run: vec![0; cols.len()],
+            run_heading: vec![1.0],
         };
         let used = match used_column {
             Some(name) => {

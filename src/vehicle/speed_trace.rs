@@ -200,6 +200,8 @@ impl CycleSource for SpeedTrace {
             grade_rad: grade,
             f_prop_n: force,
             accel_m_s2: accel,
+            run: vec![0; n],
+            run_heading: vec![1.0],
         };
         cycle.f_prop_n = truth.logged_forces(vehicle, &cycle);
         Ok(cycle)

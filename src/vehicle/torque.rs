@@ -152,6 +152,8 @@ fn simulate_truth(
         grade_rad: Vec::with_capacity(n),
         f_prop_n: Vec::with_capacity(n),
         accel_m_s2: Vec::with_capacity(n),
+        run: vec![0; n],
+        run_heading: vec![1.0],
     };
     let end_m = terrain.end_m();
     let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
@@ -159,6 +161,7 @@ fn simulate_truth(
         distance_m: x,
         speed_m_s: v,
         grade_rad: grade,
+        heading: 1.0,
     };
     // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
     // leaving the table.

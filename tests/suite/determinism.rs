@@ -49,11 +49,14 @@ fn extending_r_keeps_the_first_rows_of_every_condition() {
 /// implied: `duration` (the whole cycle, the only duration it knew), `grade_bias` (none),
 /// `velocity_correlation_time` (white noise), `used` (every sample), `rls_settle_time`
 /// (null: no estimator reports one), `acceleration` (the model's), the truth's axes (the
-/// truth is the equation: each at its neutral value) and `bias_model` (the noise-free
-/// estimate of the equation's own data: the truth, to rounding). They are checked
-/// separately; the hash covers every other column.
-const ADDED_COLUMNS: [&str; 16] = [
+/// truth is the equation: each at its neutral value), `bias_model` (the noise-free
+/// estimate of the equation's own data: the truth, to rounding), `runs` (1: a cycle of one
+/// run) and cycles.parquet's `run` (0). They are checked separately; the hash covers every
+/// other column.
+const ADDED_COLUMNS: [&str; 18] = [
     "duration",
+    "runs",
+    "run",
     "grade_bias",
     "velocity_correlation_time",
     "used",
@@ -136,7 +139,10 @@ fn pinned_hashes(text: &str) -> ([u64; 3], [u64; 2], u64) {
         for key in ["grade_map_sd", "air_speed_sd"] {
             assert!(f64_col(table, key).iter().all(|&v| v == 0.0), "{key}");
         }
+        // One run: the drive is not a coast-down.
+        assert!(f64_col(table, "runs").iter().all(|&k| k == 1.0));
     }
+    assert!(i32_col(&tables[2], "run").iter().all(|&r| r == 0));
     for table in &tables {
         for (key, neutral) in [
             ("wind_speed", 0.0),
@@ -351,11 +357,18 @@ fn refactors_keep_the_drawn_entries_bit_for_bit() {
             assert_eq!(column.null_count(), column.len(), "{}", field.name());
         }
     }
-    let found = ["realisations", "summary", "cycles"].map(|name| {
-        hash_columns(
-            &read_table(&dir.path().join(format!("{name}.parquet"))),
-            &|name| !spread_column(name),
-        )
+    // The coast-down's columns came later too: `runs` (1) and cycles.parquet's `run` (0),
+    // checked and left out.
+    let tables = ["realisations", "summary", "cycles"]
+        .map(|name| read_table(&dir.path().join(format!("{name}.parquet"))));
+    for table in &tables[..2] {
+        assert!(f64_col(table, "runs").iter().all(|&k| k == 1.0));
+    }
+    assert!(i32_col(&tables[2], "run").iter().all(|&r| r == 0));
+    let found = tables.each_ref().map(|table| {
+        hash_columns(table, &|name| {
+            !spread_column(name) && name != "runs" && name != "run"
+        })
     });
     println!("drawn entries' hashes: {found:016x?}");
     assert_eq!(

@@ -2,6 +2,7 @@ mod common;
 
 mod bias_bounds;
 mod cli_errors;
+mod coastdown;
 mod compensation;
 mod control_variates;
 mod design;

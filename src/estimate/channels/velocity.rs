@@ -16,7 +16,7 @@ use super::{
     RowMoments, Sample, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
-use crate::estimate::regression::{Regression, ar1_coefficients};
+use crate::estimate::regression::Regression;
 use crate::estimate::sums::{Column, Sum};
 
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
@@ -26,7 +26,7 @@ use crate::estimate::sums::{Column, Sum};
 fn correlated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
     let sd = noise[Channel::Velocity];
     let scale = (theta[1] * reg.k).powi(2);
-    let phi = ar1_coefficients(&reg.t, noise.velocity_correlation_s);
+    let phi = reg.row_ar1_coefficients(noise.velocity_correlation_s);
     let x = |i: usize| Vector3::new(reg.f[i], -reg.k * reg.v[i] * reg.v[i], reg.c[i]);
     // (weight a_i, per-step factor, coefficient): the ρ term and the ρ² term.
     let mut total = Matrix3::zeros();
@@ -70,11 +70,11 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
         g[s + 1] += d.inv_dt[i] * xi;
         g[s - 1] -= d.inv_dt[i] * xi;
     }
-    // The correlation between neighbours of a sequence at times `t` (ρ, or ρ² for the
-    // squares); none for white noise.
-    let steps = |t: &[f64], square: bool| -> Option<Vec<f64>> {
+    // The correlation between neighbours of a sequence with AR(1) coefficients `ar1` (ρ,
+    // or ρ² for the squares); none for white noise.
+    let steps = |ar1: &dyn Fn(f64) -> Vec<[f64; 2]>, square: bool| -> Option<Vec<f64>> {
         noise.velocity_correlated().then(|| {
-            ar1_coefficients(t, noise.velocity_correlation_s)
+            ar1(noise.velocity_correlation_s)
                 .iter()
                 .map(|[phi, _]| if square { phi * phi } else { *phi })
                 .collect()
@@ -96,8 +96,16 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
         }
         total
     };
-    let linear = banded(&|j| g[j], g.len(), steps(&d.span_t, false));
-    let square = banded(&x, reg.len(), steps(&reg.t, true));
+    let linear = banded(
+        &|j| g[j],
+        g.len(),
+        steps(&|tau| reg.ar1_coefficients(tau), false),
+    );
+    let square = banded(
+        &x,
+        reg.len(),
+        steps(&|tau| reg.row_ar1_coefficients(tau), true),
+    );
     sd * sd * linear + 2.0 * sd.powi(4) * kt * kt * square
 }
 
@@ -419,6 +427,7 @@ fn differentiated_across_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimate::regression::ar1_coefficients;
     use crate::noise::NormalStream;
 
     /// The covariance of a row's w with the derivative noise of its differentiated ỹ,
@@ -429,7 +438,7 @@ mod tests {
     #[test]
     fn neighbour_covariance_is_the_ar1_expectation() {
         let t = [0.0, 0.1, 1.1];
-        let ar1 = ar1_coefficients(&t, 0.5);
+        let ar1 = ar1_coefficients(&t, &[0; 3], 0.5);
         let (v, sd, inv_dt) = (12.0, 0.8, 1.0 / (t[2] - t[0]));
         let expected = neighbour_covariance(v, sd, &ar1, 1, inv_dt);
         let n = 400_000;

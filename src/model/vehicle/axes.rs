@@ -16,6 +16,9 @@ pub enum VehicleAxis {
     /// The first T seconds of the cycle (`drive.durations`; one level, the whole cycle,
     /// without it).
     Duration,
+    /// The first k runs of a coast-down (`drive.runs`; one level, 1, in every other drive
+    /// mode: its cycle is one run).
+    Runs,
     /// The standard deviation of one noise channel (`noise.<channel>_sd`).
     Noise(Channel),
     /// The correlation time of the speed noise (`noise.velocity_correlation_time`).
@@ -36,7 +39,7 @@ pub enum VehicleAxis {
 
 /// Every axis, outermost first.
 pub fn axes() -> impl Iterator<Item = VehicleAxis> {
-    [VehicleAxis::Scale, VehicleAxis::Duration]
+    [VehicleAxis::Scale, VehicleAxis::Duration, VehicleAxis::Runs]
         .into_iter()
         .chain(Channel::ALL.map(VehicleAxis::Noise))
         .chain([
@@ -60,6 +63,8 @@ pub struct Point {
     pub scale_index: usize,
     /// Index into `drive.durations` (0 without it).
     pub duration_index: usize,
+    /// Index into a coast-down's `drive.runs` (0 in other drive modes).
+    pub runs_index: usize,
     /// The noise levels.
     pub noise: NoiseLevels,
     /// Index into `noise.grade_bias`.
@@ -71,6 +76,12 @@ pub struct Point {
 }
 
 impl Point {
+    /// The index of the point's prefix of its cycle among the study's (the `duration` and
+    /// `runs` axes, in their order; at most one has more than one level).
+    pub fn prefix_index(&self, study: &VehicleStudy) -> usize {
+        self.duration_index * VehicleAxis::Runs.len(study) + self.runs_index
+    }
+
     /// The index of the point's truth among the study's ([`TruthAxes::index`]).
     ///
     /// [`TruthAxes::index`]: crate::study::TruthAxes::index
@@ -85,6 +96,7 @@ impl VehicleAxis {
         match self {
             VehicleAxis::Scale => Axis::number("scale", ""),
             VehicleAxis::Duration => Axis::number("duration", "s"),
+            VehicleAxis::Runs => Axis::number("runs", ""),
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
             VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
@@ -100,6 +112,7 @@ impl VehicleAxis {
         match self {
             VehicleAxis::Scale => study.scales.len(),
             VehicleAxis::Duration => study.durations.as_ref().map_or(1, Vec::len),
+            VehicleAxis::Runs => study.drive.runs().map_or(1, <[usize]>::len),
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
             VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
             VehicleAxis::GradeBias => study.grade_bias.len(),
@@ -115,6 +128,7 @@ impl VehicleAxis {
         match self {
             VehicleAxis::Scale => point.scale_index = i,
             VehicleAxis::Duration => point.duration_index = i,
+            VehicleAxis::Runs => point.runs_index = i,
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
             VehicleAxis::VelocityCorrelation => {
                 point.noise.velocity_correlation_s = study.velocity_correlation_s[i]
@@ -140,6 +154,7 @@ impl VehicleAxis {
         AxisValue::Number(match self {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
+            VehicleAxis::Runs => study.drive.runs().map_or(1, |r| r[point.runs_index]) as f64,
             VehicleAxis::Noise(Channel::Velocity) if study.air_speed == AirSpeed::Measured => 0.0,
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::GradeMap => point.grade_map_sd,

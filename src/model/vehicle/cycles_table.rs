@@ -3,14 +3,15 @@
 //!
 //! A block of rows per (terrain scale, truth, acceleration source): the cycle of the scale
 //! with the truth's steady model errors (the logged force, the truth's acceleration) and the
-//! samples a regression on the whole cycle uses. A condition's own samples are the block's
-//! `used` rows within its duration, joined on the condition's `scale`, truth axes
-//! (`wind_speed`, …) and `acceleration` (README, "Output files"): the table does not grow
-//! with the noise levels, durations or grade biases of a study.
+//! samples a regression on the whole cycle uses, each sample with its `run` (a coast-down's
+//! runs; 0 in other drive modes). A condition's own samples are the block's `used` rows
+//! within its duration (or with `run` < its `runs`), joined on the condition's `scale`,
+//! truth axes (`wind_speed`, …) and `acceleration` (README, "Output files"): the table does
+//! not grow with the noise levels, durations, runs or grade biases of a study.
 
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray};
+use arrow::array::{ArrayRef, BooleanArray, Float64Array, Int32Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use arrow::error::ArrowError;
 
@@ -32,6 +33,7 @@ pub fn cycles_schema() -> SchemaRef {
             .map(|e| f64_field(e.key)),
     );
     fields.extend([
+        Field::new("run", DataType::Int32, false),
         f64_field("t"),
         f64_field("x"),
         f64_field("v"),
@@ -66,7 +68,9 @@ pub fn cycles_batch(
             .filter(|(e, _)| e.axis)
             .map(|(_, &v)| -> ArrayRef { Arc::new(Float64Array::from(vec![v; n])) }),
     );
+    let run: Vec<i32> = cycle.run.iter().map(|&r| r as i32).collect();
     columns.extend([
+        Arc::new(Int32Array::from(run)) as ArrayRef,
         col(&cycle.t_s),
         col(&cycle.x_m),
         col(&cycle.v_m_s),

@@ -20,6 +20,7 @@ use crate::model::{
     realise_one_by_one,
 };
 use crate::study::VehicleStudy;
+use crate::vehicle::Prefix;
 
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(study: &VehicleStudy) -> Layout {
@@ -29,6 +30,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             t.profile.describe(),
             t.length_m as f64 / 1000.0
         ),
+        None if study.drive.uses_terrain() => "a flat road".to_string(),
         None => "the trace's grade".to_string(),
     };
     let estimators = &study.estimators;
@@ -109,7 +111,7 @@ impl Model for VehicleModel {
             .get(index / sources.len())
             .filter(|_| table == 0)?;
         let source = sources[index % sources.len()];
-        let used = used_samples(&scale.cycle, &self.study, None, source);
+        let used = used_samples(&scale.cycle, &self.study, Prefix::Whole, source);
         Some(cycles_batch(
             self.study.scales[scale.scale_index],
             &self.study.truth.values(scale.truth_index),

@@ -38,7 +38,7 @@ use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
 use crate::vehicle::truth::MODEL_ERRORS;
-use prepare::{ScaleCycle, duration_count, scale_cycles, segments};
+use prepare::{ScaleCycle, prefixes, scale_cycles, segments};
 use world::{GradeMap, Place, World};
 
 /// Parameter names of θ = [1/M, Cd/M, Cr] as used in every output column.
@@ -114,15 +114,15 @@ impl VehicleModel {
         let free = vs.settings.parameters.free();
         let cycles = scale_cycles(&vs, error_at)?;
         let segments = segments(&vs, &cycles, error_at)?;
-        let durations = duration_count(&vs);
+        let prefixes = prefixes(&vs);
         let layout = layout(&vs);
         uneven_differentiation(&vs, &segments, error_at)?;
         let points = grid(&vs);
         let controls = study_controls(&vs);
         let layout_controls = &controls;
-        // Scale and duration are the outermost axes: the conditions of one draw group are
-        // `inner` apart.
-        let inner = points.len() / (vs.scales.len() * durations);
+        // Scale, duration and runs are the outermost axes: the conditions of one draw group
+        // are `inner` apart.
+        let inner = points.len() / (vs.scales.len() * prefixes.len());
         // `bias_model` of each regression, once (conditions differing only in their noise
         // levels share one): per segment, acceleration source and grade bias.
         let bias_models: Vec<Vec<Vec<Vec<Vec<f64>>>>> = segments
@@ -157,7 +157,8 @@ impl VehicleModel {
                 let noise = point.noise;
                 let cycle_index =
                     prepare::cycle_index(&vs, point.scale_index, point.truth_index(&vs));
-                let k = cycle_index * durations + point.duration_index;
+                let prefix = point.prefix_index(&vs);
+                let k = cycle_index * prefixes.len() + prefix;
                 let segment = &segments[k];
                 let source = vs
                     .acceleration
@@ -204,7 +205,7 @@ impl VehicleModel {
                         cycle: cycle.cycle.clone(),
                         table: cycle.table.clone(),
                         scale: vs.scales[point.scale_index],
-                        duration_s: vs.durations.as_ref().map(|d| d[point.duration_index]),
+                        prefix: prefixes[prefix],
                         source: noise.acceleration,
                         grade_bias_rad: vs.grade_bias[point.grade_bias_index],
                     },
@@ -254,7 +255,7 @@ impl VehicleModel {
             conditions
                 .iter()
                 .all(|c: &Condition| conditions[c.group].noise == c.noise),
-            "a draw group mixes noise levels: the scale and duration axes must be outermost"
+            "a draw group mixes noise levels: the scale, duration and runs axes must be outermost"
         );
         Ok(VehicleModel {
             layout,

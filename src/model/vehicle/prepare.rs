@@ -1,6 +1,6 @@
 //! The drive cycles of a vehicle study, one per terrain scale and truth (the steady model
-//! errors of `[truth]`), and the regression of each (scale, truth, duration): the rows a
-//! condition's realisations are drawn on.
+//! errors of `[truth]`), and the regression of each (scale, truth, prefix: a duration or a
+//! number of coast-down runs): the rows a condition's realisations are drawn on.
 
 use std::sync::Arc;
 
@@ -12,7 +12,7 @@ use crate::estimate::regression::Regression;
 use crate::study::{AirSpeed, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
 use crate::vehicle::truth::sample_of;
-use crate::vehicle::{DriveCycle, Road, Truth};
+use crate::vehicle::{DriveCycle, Prefix, Road, Truth};
 
 /// The drive cycle of one terrain scale and truth.
 #[derive(Debug)]
@@ -29,7 +29,7 @@ pub(super) struct ScaleCycle {
     pub terrain_ms_grid: f64,
 }
 
-/// The regression rows of one (scale, duration).
+/// The regression rows of one (scale, truth, prefix).
 #[derive(Debug)]
 pub(super) struct Segment {
     /// The regression of those samples per acceleration source, and within it one per
@@ -37,7 +37,8 @@ pub(super) struct Segment {
     pub regressions: Vec<Vec<Arc<Regression>>>,
     /// The condition metrics: ς over the table and over the used samples.
     pub metrics: Vec<f64>,
-    /// The duration \[s\]: the axis value, or the whole cycle's length.
+    /// The duration \[s\]: the axis value, or the length of the prefix's samples
+    /// ([`Prefix::length_s`]).
     pub duration_s: f64,
 }
 
@@ -134,39 +135,44 @@ pub(super) fn measured_speeds(
 }
 
 /// Which samples of `cycle` a regression with acceleration `source` uses: those the row
-/// selection keeps within the first `duration_s` seconds (all of the cycle when `None`); a
-/// differentiated acceleration also leaves out the cycle's first and last sample, which
-/// have no neighbour on one side. So a duration's samples are those of the whole cycle with
-/// t − t₀ ≤ the duration: what cycles.parquet records (README, "Output files").
+/// selection keeps within `prefix`; a differentiated acceleration also leaves out the first
+/// and last sample of every run, which have no neighbour of their run on one side (a speed
+/// is differenced within a run, never across two). So a prefix's samples are those of the
+/// whole cycle with t − t₀ ≤ the duration, or with run < the number of runs: what
+/// cycles.parquet records (README, "Output files").
 pub(super) fn used_samples(
     cycle: &DriveCycle,
     vs: &VehicleStudy,
-    duration_s: Option<f64>,
+    prefix: Prefix,
     source: Acceleration,
 ) -> Vec<bool> {
-    let mut used = cycle.used(&vs.selection, duration_s);
+    let mut used = cycle.used(&vs.selection, prefix);
     // A cycle that brings its own selection (a replayed log's used rows) narrows it.
     if let Some(own) = vs.drive.used() {
         used.iter_mut().zip(own).for_each(|(u, &o)| *u &= o);
     }
     if source == Acceleration::Differentiated {
-        used[0] = false;
-        if let Some(last) = used.last_mut() {
-            *last = false;
+        for (i, u) in used.iter_mut().enumerate() {
+            *u &= !cycle.at_run_edge(i);
         }
     }
     used
 }
 
-/// The number of levels of the duration axis (1 without `durations`).
-pub(super) fn duration_count(vs: &VehicleStudy) -> usize {
-    vs.durations.as_ref().map_or(1, Vec::len)
+/// The prefixes of a study's cycles its conditions use, in the order of the `duration` and
+/// `runs` axes (at most one of them has more than one level): `drive.durations`, or a
+/// coast-down's `drive.runs`, or the whole cycle.
+pub(super) fn prefixes(vs: &VehicleStudy) -> Vec<Prefix> {
+    match (&vs.durations, vs.drive.runs()) {
+        (Some(d), _) => d.iter().map(|&d| Prefix::Duration(d)).collect(),
+        (None, Some(runs)) => runs.iter().map(|&k| Prefix::Runs(k)).collect(),
+        (None, None) => vec![Prefix::Whole],
+    }
 }
 
-/// The segment of every (cycle, duration), cycle-major: index `k · durations + d` for
-/// cycle `k` of [`scale_cycles`]. A
-/// duration longer than the cycle, or a selection that leaves fewer than 3 rows, is an
-/// error naming the key.
+/// The segment of every (cycle, prefix), cycle-major: index `k · prefixes + d` for cycle
+/// `k` of [`scale_cycles`] and prefix `d` of [`prefixes`]. A duration longer than the
+/// cycle, or a selection that leaves fewer than 3 rows, is an error naming the key.
 pub(super) fn segments(
     vs: &VehicleStudy,
     cycles: &[ScaleCycle],
@@ -182,10 +188,10 @@ pub(super) fn segments(
     Ok(per_scale.into_iter().flatten().collect())
 }
 
-/// The segments of scale `s`, one per duration in study order. The regressions of the
-/// longest duration are built once; a shorter duration's rows are their first rows
-/// (t − t₀ ≤ T, docs/model.md#row-selection), so its regressions are prefixes sharing
-/// their columns, and memory does not grow with the number of durations.
+/// The segments of scale `s`, one per prefix in study order. The regressions of the
+/// longest prefix are built once; a shorter one's rows are their first rows (t − t₀ ≤ T,
+/// or the first k runs; docs/model.md#row-selection), so its regressions are prefixes
+/// sharing their columns, and memory does not grow with the number of durations or runs.
 fn scale_segments(
     vs: &VehicleStudy,
     s: usize,
@@ -203,17 +209,18 @@ fn scale_segments(
         }),
     };
     let length = cycle.length_s();
-    let n = duration_count(vs);
-    let duration = |d: usize| vs.durations.as_ref().map(|ds| ds[d]);
-    // used[d][a]: the samples of duration d with acceleration source a, checked in study
+    let prefixes = prefixes(vs);
+    let n = prefixes.len();
+    // used[d][a]: the samples of prefix d with acceleration source a, checked in study
     // order.
     let mut used: Vec<Vec<Vec<bool>>> = Vec::with_capacity(n);
-    for d in 0..n {
-        let key = match duration(d) {
-            Some(_) => format!("drive.durations[{d}]"),
-            None => "drive.min_speed".to_string(),
+    for (d, &prefix) in prefixes.iter().enumerate() {
+        let key = match prefix {
+            Prefix::Duration(_) => format!("drive.durations[{d}]"),
+            Prefix::Runs(_) => format!("drive.runs[{d}]"),
+            Prefix::Whole => "drive.min_speed".to_string(),
         };
-        if let Some(t) = duration(d)
+        if let Prefix::Duration(t) = prefix
             && t > length
         {
             return Err(error_at(
@@ -223,17 +230,17 @@ fn scale_segments(
         }
         let mut per_source = Vec::new();
         for &source in &vs.acceleration {
-            let u = used_samples(cycle, vs, duration(d), source);
+            let u = used_samples(cycle, vs, prefix, source);
             let rows = u.iter().filter(|u| **u).count();
             if rows < 3 {
                 return Err(error_at(
                     &key,
                     format!(
                         "leaves {rows} samples of the cycle at scale {} for the regression \
-                         (min_speed, exclude_braking and durations select them{}); at least 3 are needed",
+                         (min_speed, exclude_braking and durations or runs select them{}); at least 3 are needed",
                         vs.scales[s],
                         if source == Acceleration::Differentiated {
-                            "; a differentiated acceleration also leaves out the first and last sample"
+                            "; a differentiated acceleration also leaves out the first and last sample of each run"
                         } else {
                             ""
                         }
@@ -246,10 +253,10 @@ fn scale_segments(
     }
     let longest = (0..n)
         .max_by(|&a, &b| {
-            let length_of = |d| duration(d).unwrap_or(length);
+            let length_of = |d: usize| prefixes[d].length_s(cycle);
             length_of(a).total_cmp(&length_of(b))
         })
-        .expect("at least one duration");
+        .expect("at least one prefix");
     let full: Vec<Vec<Arc<Regression>>> = vs
         .acceleration
         .iter()
@@ -278,7 +285,7 @@ fn scale_segments(
                         .collect()
                 })
                 .collect();
-            let selection = used_samples(cycle, vs, duration(d), Acceleration::Model);
+            let selection = used_samples(cycle, vs, prefixes[d], Acceleration::Model);
             let grades: Vec<f64> = cycle
                 .grade_rad
                 .iter()
@@ -289,7 +296,7 @@ fn scale_segments(
             Segment {
                 regressions,
                 metrics: vec![scale.terrain_ms_grid, mean_square(&grades)],
-                duration_s: duration(d).unwrap_or(length),
+                duration_s: prefixes[d].length_s(cycle),
             }
         })
         .collect())

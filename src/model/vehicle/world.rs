@@ -12,7 +12,7 @@ use crate::estimate::regression::Regression;
 use crate::noise::NormalSequence;
 use crate::study::VehicleStudy;
 use crate::terrain::{GRID_STEP_M, GradeTable};
-use crate::vehicle::{DriveCycle, Road, Truth};
+use crate::vehicle::{DriveCycle, Prefix, Road, Truth};
 
 /// The ChaCha stream of the elevation map's error (docs/model.md#streams). Part of every
 /// study's numbers: never change or reuse it.
@@ -46,14 +46,15 @@ impl GradeMap {
     }
 }
 
-/// The grade \[rad\] measured from the map at `x_m` where the true grade is `grade_rad`:
-/// atan(tan θ + d(x)), d the map's forward differences `d` per grid step, linear between
-/// grid points (as the terrain's grade is).
-fn mapped_grade(grade_rad: f64, x_m: f64, d: &[f64]) -> f64 {
+/// The grade \[rad\] measured from the map at `x_m` where the true grade is `grade_rad`,
+/// driving with `heading` (+1 forwards, −1 backwards, where the vehicle sees the route's
+/// grade negated, and the map's error too): atan(tan θ + heading·d(x)), d the map's forward
+/// differences `d` per grid step, linear between grid points (as the terrain's grade is).
+fn mapped_grade(grade_rad: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
     let u = (x_m / GRID_STEP_M).max(0.0);
     let j = (u.floor() as usize).min(d.len() - 2);
     let error = d[j] + (u - j as f64) * (d[j + 1] - d[j]);
-    (grade_rad.tan() + error / GRID_STEP_M).atan()
+    (grade_rad.tan() + heading * error / GRID_STEP_M).atan()
 }
 
 /// A condition whose realisations each have their own regression.
@@ -72,8 +73,8 @@ pub(super) struct World {
     table: Option<Arc<GradeTable>>,
     /// Its terrain scale.
     scale: f64,
-    /// Its duration \[s\] (`None`: the whole cycle).
-    duration_s: Option<f64>,
+    /// The part of the cycle it uses.
+    prefix: Prefix,
     /// Its acceleration source.
     source: Acceleration,
     /// Its grade bias \[rad\].
@@ -91,8 +92,8 @@ pub(super) struct Place {
     pub table: Option<Arc<GradeTable>>,
     /// Its terrain scale.
     pub scale: f64,
-    /// Its duration \[s\] (`None`: the whole cycle).
-    pub duration_s: Option<f64>,
+    /// The part of the cycle it uses (a duration, a number of runs, or all of it).
+    pub prefix: Prefix,
     /// Its acceleration source.
     pub source: Acceleration,
     /// Its grade bias \[rad\].
@@ -115,7 +116,7 @@ impl World {
             cycle: place.cycle,
             table: place.table,
             scale: place.scale,
-            duration_s: place.duration_s,
+            prefix: place.prefix,
             source: place.source,
             grade_bias_rad: place.grade_bias_rad,
             grade_map,
@@ -158,7 +159,7 @@ impl World {
             }
             (cycle, Cow::Borrowed(&self.steady))
         };
-        let used = used_samples(&cycle, vs, self.duration_s, self.source);
+        let used = used_samples(&cycle, vs, self.prefix, self.source);
         if used.iter().filter(|u| **u).count() < 3 {
             return Err("fewer than 3 samples are left for the regression".into());
         }
@@ -175,8 +176,9 @@ impl World {
                 .filter(|(_, u)| **u)
                 .fold(0.0, |end, (x, _)| f64::max(end, *x));
             let d = map.differences(&mut normals, end);
-            for (g, &x) in cycle.grade_rad.iter_mut().zip(&cycle.x_m) {
-                *g = mapped_grade(*g, x, &d);
+            for i in 0..cycle.len() {
+                let heading = cycle.heading(i);
+                cycle.grade_rad[i] = mapped_grade(cycle.grade_rad[i], cycle.x_m[i], heading, &d);
             }
         }
         Ok(match self.source {
@@ -218,6 +220,8 @@ mod tests {
         // beyond lag 1 is tiny); 5 % is over 20 SE.
         assert!((var / expected - 1.0).abs() < 0.05, "{var} vs {expected}");
         // At a grid point on a flat road the measured grade is atan(d_j).
-        assert_eq!(mapped_grade(0.0, 10.0, &d), d[10].atan());
+        assert_eq!(mapped_grade(0.0, 10.0, 1.0, &d), d[10].atan());
+        // Driven backwards, the vehicle sees the map's grade negated.
+        assert_eq!(mapped_grade(0.0, 10.0, -1.0, &d), -d[10].atan());
     }
 }

@@ -44,12 +44,17 @@ pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, W
 pub struct TruthSample {
     /// Time since the start of the cycle \[s\].
     pub time_s: f64,
-    /// Distance travelled \[m\].
+    /// Position along the route \[m\] (the distance travelled, for a drive that only goes
+    /// forwards).
     pub distance_m: f64,
     /// Speed V \[m/s\].
     pub speed_m_s: f64,
-    /// Road grade θ \[rad\].
+    /// Road grade θ \[rad\], as the vehicle sees it in its direction of travel.
     pub grade_rad: f64,
+    /// +1 when the vehicle drives the route forwards (its position grows), −1 backwards (a
+    /// coast-down's return runs, docs/model.md#coastdown): a steady wind along the route is
+    /// a headwind one way and a tailwind the other.
+    pub heading: f64,
 }
 
 /// How a model error drawn anew in every realisation draws: its own stream of normals (so
@@ -358,7 +363,8 @@ impl Truth {
     }
 }
 
-/// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample).
+/// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample; the
+/// heading of its run).
 pub fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
     let start = cycle.t_s.first().copied().unwrap_or(0.0);
     TruthSample {
@@ -366,6 +372,7 @@ pub fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
         distance_m: cycle.x_m[i],
         speed_m_s: cycle.v_m_s[i],
         grade_rad: cycle.grade_rad[i],
+        heading: cycle.heading(i),
     }
 }
 
@@ -379,6 +386,7 @@ mod tests {
             distance_m: 100.0,
             speed_m_s: v,
             grade_rad: grade,
+            heading: 1.0,
         }
     }
 

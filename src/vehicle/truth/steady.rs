@@ -6,9 +6,11 @@ use std::sync::Arc;
 use super::{ModelError, ModelErrorEntry, TruthSample};
 use crate::vehicle::VehicleParams;
 
-/// Steady wind along the direction of travel, `w` \[m/s\], positive a headwind: the truth's
-/// aerodynamic force is k·Cd·(V + w)·|V + w|, so D₀ = k·Cd·[(V + w)|V + w| − V²] (made by
-/// [`Truth`](super::Truth) from every entry's wind together).
+/// Steady wind along the route, `w` \[m/s\], positive a headwind when the vehicle drives the
+/// route forwards (a tailwind backwards: the wind along the direction of travel is
+/// heading·w): the truth's aerodynamic force is k·Cd·(V + w)·|V + w|, so
+/// D₀ = k·Cd·[(V + w)|V + w| − V²] (made by [`Truth`](super::Truth) from every entry's wind
+/// together).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wind {
     /// w \[m/s\].
@@ -16,8 +18,8 @@ pub struct Wind {
 }
 
 impl ModelError for Wind {
-    fn wind_m_s(&self, _s: &TruthSample) -> f64 {
-        self.speed_m_s
+    fn wind_m_s(&self, s: &TruthSample) -> f64 {
+        s.heading * self.speed_m_s
     }
 }
 

@@ -1,0 +1,580 @@
+//! The drive mode `coastdown` (SAE J2263): the vehicle coasts in neutral, no propulsion and
+//! no braking, from `speed_high` down to `speed_low`, several runs, alternating direction
+//! along the route (docs/model.md#coastdown).
+//!
+//! Each run is integrated by classical fixed-step RK4 at the sample step, as the `torque`
+//! mode is, with F = 0 and the truth's dynamics; the runs are laid end to end on one clock
+//! and kept apart by [`DriveCycle::run`].
+
+use std::sync::Arc;
+
+use super::truth::TruthSample;
+use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
+use crate::settings::{KeyError, Params, one_or_many};
+use crate::terrain::GradeTable;
+
+/// The longest a coast-down run may last \[s\]: a run that has not slowed down to
+/// `speed_low` after an hour of coasting is an error (a downhill grade or a tailwind
+/// carries the vehicle; a car's coast-down run lasts minutes).
+pub const MAX_RUN_S: f64 = 3600.0;
+
+/// The fewest samples a run may have: enough for one row of a differentiated acceleration,
+/// which needs a sample of its run on each side.
+pub const MIN_RUN_SAMPLES: usize = 3;
+
+/// Which way the runs drive the route (`drive.directions`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Directions {
+    /// Even runs forwards, odd runs backwards (the default; SAE J2263's opposite directions).
+    Alternate,
+    /// Every run forwards.
+    OneWay,
+}
+
+impl Directions {
+    /// Every value, as study files name them.
+    pub const ALL: [(&'static str, Directions); 2] = [
+        ("alternate", Directions::Alternate),
+        ("one_way", Directions::OneWay),
+    ];
+
+    /// The heading of run `k`: +1 forwards (position growing), −1 backwards.
+    pub fn heading(self, k: usize) -> f64 {
+        match self {
+            Directions::Alternate if k % 2 == 1 => -1.0,
+            _ => 1.0,
+        }
+    }
+}
+
+/// The coast-down drive mode (`[drive]`; docs/model.md#coastdown).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoastDown {
+    /// Speed at each run's first sample \[m/s\].
+    pub speed_high_m_s: f64,
+    /// A run's last sample is the last with V ≥ this \[m/s\].
+    pub speed_low_m_s: f64,
+    /// The levels of the `runs` axis: positive even numbers of runs, distinct, in study
+    /// order; the cycle has the largest.
+    pub runs: Vec<usize>,
+    /// Sample and integration step \[s\].
+    pub time_step_s: f64,
+    /// Where run 0 starts along the route \[m\].
+    pub start_distance_m: f64,
+    /// How far along the route each run starts from the previous one's start \[m\]
+    /// (`None`: the distance run 0 covers).
+    pub run_spacing_m: Option<f64>,
+    /// Which way the runs drive the route.
+    pub directions: Directions,
+}
+
+impl CoastDown {
+    /// The mode's keys of `[drive]`.
+    pub const KEYS: &'static [&'static str] = &[
+        "speed_high",
+        "speed_low",
+        "runs",
+        "time_step",
+        "start_distance",
+        "run_spacing",
+        "directions",
+    ];
+
+    /// Read `[drive]` of mode `coastdown`: `speed_high` > `speed_low` > 0, `runs` (positive
+    /// even integers, an axis), `time_step`, and optionally `start_distance` (default 0),
+    /// `run_spacing` (default: the distance run 0 covers) and `directions` (default
+    /// "alternate").
+    pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
+        p.only(Self::KEYS)?;
+        let speed_high_m_s = p.positive("speed_high")?;
+        let speed_low_m_s = p.positive("speed_low")?;
+        if speed_low_m_s >= speed_high_m_s {
+            return Err(p.error(
+                "speed_low",
+                format!(
+                    "must be below drive.speed_high ({speed_high_m_s} m/s), got {speed_low_m_s} m/s"
+                ),
+            ));
+        }
+        Ok(Arc::new(CoastDown {
+            speed_high_m_s,
+            speed_low_m_s,
+            runs: runs(p, "runs")?,
+            time_step_s: p.positive("time_step")?,
+            start_distance_m: p
+                .optional("start_distance", Params::non_negative)?
+                .unwrap_or(0.0),
+            run_spacing_m: p.optional("run_spacing", Params::non_negative)?,
+            directions: p
+                .optional("directions", |p, k| p.named(k, &Directions::ALL))?
+                .unwrap_or(Directions::Alternate),
+        }))
+    }
+
+    /// The number of runs the cycle has: the largest level of the axis.
+    pub fn most_runs(&self) -> usize {
+        self.runs.iter().copied().max().unwrap_or(0)
+    }
+}
+
+/// The `runs` axis at `key`: a positive even integer or a non-empty list of distinct ones.
+fn runs(p: &Params<'_>, key: &str) -> Result<Vec<usize>, KeyError> {
+    const MAX_RUNS: i64 = (MAX_SAMPLES / MIN_RUN_SAMPLES) as i64;
+    let value = p.value(key)?;
+    let items = one_or_many(value);
+    if items.is_empty() {
+        return Err(p.error(
+            key,
+            "must be an even number of runs or a non-empty list of them",
+        ));
+    }
+    let name = |i: usize| match value {
+        toml::Value::Array(_) => format!("{key}[{i}]"),
+        _ => key.to_string(),
+    };
+    let mut levels = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let n = match item {
+            toml::Value::Integer(n) => *n,
+            other => {
+                return Err(p.error(
+                    &name(i),
+                    format!("must be a whole number of runs, got {}", other.type_str()),
+                ));
+            }
+        };
+        if n <= 0 || n % 2 != 0 {
+            return Err(p.error(
+                &name(i),
+                format!(
+                    "must be a positive even number of runs (a run each way per pair), got {n}"
+                ),
+            ));
+        }
+        if n > MAX_RUNS {
+            return Err(p.error(
+                &name(i),
+                format!(
+                    "is {n}; at most {MAX_RUNS} runs are supported (each has at least \
+                     {MIN_RUN_SAMPLES} samples, a cycle at most {MAX_SAMPLES})"
+                ),
+            ));
+        }
+        let n = n as usize;
+        if levels.contains(&n) {
+            return Err(p.error(&name(i), format!("{n} is listed twice")));
+        }
+        levels.push(n);
+    }
+    Ok(levels)
+}
+
+impl CycleSource for CoastDown {
+    fn cycle(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truth: &Truth,
+    ) -> Result<DriveCycle, SimulationError> {
+        simulate_coastdown(vehicle, self, road.table, truth)
+    }
+
+    fn describe(&self) -> String {
+        let directions = match self.directions {
+            Directions::Alternate => "alternating directions",
+            Directions::OneWay => "one way",
+        };
+        format!(
+            "coast-down {} → {} m/s, {} runs, {directions}",
+            self.speed_high_m_s,
+            self.speed_low_m_s,
+            self.most_runs()
+        )
+    }
+
+    fn needs_terrain(&self) -> bool {
+        false
+    }
+
+    fn uses_terrain(&self) -> bool {
+        true
+    }
+
+    fn runs(&self) -> Option<&[usize]> {
+        Some(&self.runs)
+    }
+}
+
+/// Simulate the coast-down's runs on `table` (a flat road without one) and lay them end to
+/// end: run k's first sample is one time step after run k − 1's last, so the whole cycle is
+/// sampled at t_i = i·Δt (docs/model.md#coastdown).
+fn simulate_coastdown(
+    vehicle: &VehicleParams,
+    drive: &CoastDown,
+    table: Option<&GradeTable>,
+    truth: &Truth,
+) -> Result<DriveCycle, SimulationError> {
+    let runs = drive.most_runs();
+    let mut cycle = DriveCycle::default();
+    let mut spacing = drive.run_spacing_m;
+    for k in 0..runs {
+        let start = drive.start_distance_m + k as f64 * spacing.unwrap_or(0.0);
+        let heading = drive.directions.heading(k);
+        let first = cycle.len();
+        coast(vehicle, drive, table, truth, k, start, heading, &mut cycle)?;
+        if spacing.is_none() {
+            // The distance run 0 covers.
+            spacing = Some((cycle.x_m[cycle.len() - 1] - cycle.x_m[first]).abs());
+        }
+    }
+    Ok(cycle)
+}
+
+/// Append run `k` to `cycle`: from V = `speed_high` at position `start_m`, driving the
+/// route with `heading`, sampled every Δt until the last sample with V ≥ `speed_low`.
+#[allow(clippy::too_many_arguments)]
+fn coast(
+    vehicle: &VehicleParams,
+    drive: &CoastDown,
+    table: Option<&GradeTable>,
+    truth: &Truth,
+    k: usize,
+    start_m: f64,
+    heading: f64,
+    cycle: &mut DriveCycle,
+) -> Result<(), SimulationError> {
+    let h = drive.time_step_s;
+    let first = cycle.len();
+    let max_steps = (MAX_RUN_S / h).floor() as usize;
+    let run_error = |time_s: f64, reason: String| SimulationError::CoastRun {
+        run: k,
+        time_s,
+        reason,
+    };
+    // The grade the vehicle sees at route position x (the route's grade negated when it
+    // drives backwards), or the error of leaving the table.
+    let grade = |t: f64, x: f64| -> Result<f64, SimulationError> {
+        let Some(table) = table else {
+            return Ok(0.0);
+        };
+        if x < 0.0 {
+            return Err(run_error(
+                t,
+                format!(
+                    "the vehicle runs off the start of the terrain (x = {x:.1} m < 0) driving \
+                     backwards; make drive.start_distance larger"
+                ),
+            ));
+        }
+        let theta = table.grade_at(x).ok_or(SimulationError::RanOffTerrain {
+            time_s: t,
+            end_m: table.end_m(),
+        })?;
+        Ok(heading * theta)
+    };
+    let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
+        time_s: t,
+        distance_m: x,
+        speed_m_s: v,
+        grade_rad: grade,
+        heading,
+    };
+    // dV/dt at time t, route position x and speed v, with no propulsion force.
+    let accel = |t: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
+        Ok(truth.acceleration(vehicle, &state(t, x, v, grade(t, x)?), 0.0))
+    };
+    let (mut x, mut v) = (start_m, drive.speed_high_m_s);
+    for j in 0.. {
+        let i = first + j;
+        let t = i as f64 * h;
+        if i >= MAX_SAMPLES {
+            return Err(run_error(
+                t,
+                format!("the cycle would have more than {MAX_SAMPLES} samples"),
+            ));
+        }
+        if j > max_steps {
+            return Err(run_error(
+                t,
+                format!(
+                    "the vehicle has not slowed down to drive.speed_low ({} m/s) after {MAX_RUN_S} s \
+                     of coasting: its speed is {v:.3} m/s (a downhill grade or a tailwind carries it)",
+                    drive.speed_low_m_s
+                ),
+            ));
+        }
+        let g = grade(t, x)?;
+        cycle.t_s.push(t);
+        cycle.x_m.push(x);
+        cycle.v_m_s.push(v);
+        cycle.grade_rad.push(g);
+        cycle.f_prop_n.push(truth.logged_force(0.0));
+        let a = truth.acceleration(vehicle, &state(t, x, v, g), 0.0);
+        cycle.accel_m_s2.push(a);
+        cycle.run.push(k as u32);
+        // Classical RK4 on (X, V): dX/dt = heading·V, dV/dt = accel(t, X, V), as the torque
+        // mode integrates (the full step's time is the next sample's, (i+1)·Δt).
+        let k1x = heading * v;
+        let k1v = a;
+        let k2x = heading * (v + 0.5 * h * k1v);
+        let k2v = accel(t + 0.5 * h, x + 0.5 * h * k1x, v + 0.5 * h * k1v)?;
+        let k3x = heading * (v + 0.5 * h * k2v);
+        let k3v = accel(t + 0.5 * h, x + 0.5 * h * k2x, v + 0.5 * h * k2v)?;
+        let k4x = heading * (v + h * k3v);
+        let k4v = accel((i + 1) as f64 * h, x + h * k3x, v + h * k3v)?;
+        let x_next = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let v_next = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        if !(x_next.is_finite() && v_next.is_finite()) {
+            return Err(SimulationError::NonFinite {
+                time_s: (i + 1) as f64 * h,
+            });
+        }
+        // The run ends at its last sample with V ≥ speed_low.
+        if v_next < drive.speed_low_m_s {
+            break;
+        }
+        (x, v) = (x_next, v_next);
+    }
+    let samples = cycle.len() - first;
+    if samples < MIN_RUN_SAMPLES {
+        return Err(run_error(
+            first as f64 * h,
+            format!(
+                "it has {samples} samples from drive.speed_high to drive.speed_low; at least \
+                 {MIN_RUN_SAMPLES} are needed: make drive.time_step smaller"
+            ),
+        ));
+    }
+    cycle.run_heading.push(heading);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vehicle::Road;
+
+    /// The passenger car of `studies/coastdown.toml`.
+    fn car() -> VehicleParams {
+        VehicleParams {
+            mass_kg: 1500.0,
+            drag_coefficient: 0.30,
+            rolling_resistance: 0.010,
+            frontal_area_m2: 2.2,
+            air_density_kg_m3: 1.2,
+            gravity_m_s2: 9.81,
+            drivetrain: None,
+        }
+    }
+
+    fn drive(time_step_s: f64, runs: usize, directions: Directions) -> CoastDown {
+        CoastDown {
+            speed_high_m_s: 33.3,
+            speed_low_m_s: 8.3,
+            runs: vec![runs],
+            time_step_s,
+            start_distance_m: 0.0,
+            run_spacing_m: None,
+            directions,
+        }
+    }
+
+    fn flat(drive: &CoastDown) -> DriveCycle {
+        let road = Road {
+            table: None,
+            scale: 1.0,
+        };
+        drive.cycle(&car(), road, &Truth::default()).unwrap()
+    }
+
+    /// The largest |V − V_exact| over run 0 of the flat, calm coast-down at step `h`, and
+    /// the run's samples' count. On a flat road in calm air M dV/dt = −kCd V² − Cr M g, so
+    /// with a = Cr g, b = kCd/M: V(t) = √(a/b)·tan(atan(V₀√(b/a)) − √(ab)·t).
+    fn closed_form_error(h: f64) -> (f64, usize) {
+        let veh = car();
+        let cycle = flat(&drive(h, 2, Directions::Alternate));
+        let a = veh.rolling_resistance * veh.gravity_m_s2;
+        let b = veh.drag_factor_kg_m() * veh.drag_coefficient / veh.mass_kg;
+        let v0 = 33.3;
+        let exact =
+            |t: f64| (a / b).sqrt() * ((v0 * (b / a).sqrt()).atan() - (a * b).sqrt() * t).tan();
+        let run0: Vec<usize> = (0..cycle.len()).filter(|&i| cycle.run[i] == 0).collect();
+        let error = run0
+            .iter()
+            .map(|&i| (cycle.v_m_s[i] - exact(cycle.t_s[i])).abs())
+            .fold(0.0, f64::max);
+        (error, run0.len())
+    }
+
+    #[test]
+    fn a_flat_calm_coast_down_is_the_closed_form_to_rk4_s_h4_error() {
+        // RK4's global error is C·h⁴: halving the step from 2 s to 1 s divides it by 16
+        // (measured 14.5; the next order, h⁵, makes it differ from 16 by a few per cent of
+        // itself per halving, so [12, 20] holds it and rules out order 3 (8) or 5 (32)).
+        let (e2, _) = closed_form_error(2.0);
+        let (e1, _) = closed_form_error(1.0);
+        let ratio = e2 / e1;
+        assert!(
+            (12.0..20.0).contains(&ratio),
+            "error ratio {ratio} ({e2} / {e1})"
+        );
+        // At the example's h = 0.1 s the truncation error is (0.1/1)⁴ = 1e-4 of h = 1 s's
+        // (twice that allowed for the next order), plus rounding: ~1256 steps of a speed
+        // of ~30 m/s, each ~1e-15 m/s, so 1e-12 m/s.
+        let (e01, samples) = closed_form_error(0.1);
+        let tolerance = 2.0 * 1e-4 * e1 + 1e-12;
+        println!("RK4 against the closed form: {e2:e} m/s at 2 s, {e1:e} at 1 s, {e01:e} at 0.1 s");
+        assert!(e01 <= tolerance, "{e01} m/s vs {tolerance} m/s");
+        // The run lasts until the last sample with V ≥ 8.3 m/s: t = 125.6 s at h = 0.1 s,
+        // sample 1256 (the closed form reaches 8.3 m/s at t = 125.656 s).
+        assert_eq!(samples, 1257);
+    }
+
+    #[test]
+    fn each_run_ends_at_its_last_sample_at_or_above_speed_low() {
+        let d = drive(0.1, 4, Directions::Alternate);
+        let cycle = flat(&d);
+        assert_eq!(cycle.runs(), 4);
+        for k in 0..4u32 {
+            let rows: Vec<usize> = (0..cycle.len()).filter(|&i| cycle.run[i] == k).collect();
+            let (first, last) = (rows[0], rows[rows.len() - 1]);
+            assert_eq!(cycle.v_m_s[first], 33.3);
+            assert!(cycle.v_m_s[last] >= 8.3);
+            // One more step would fall below speed_low: the speed falls by less than
+            // 0.2 m/s per 0.1 s step at the end (a + bV² ≈ 0.12 m/s² at 8.3 m/s).
+            assert!(cycle.v_m_s[last] < 8.3 + 0.02, "{}", cycle.v_m_s[last]);
+        }
+        // One clock: t_i = i·Δt over the whole cycle, runs end to end.
+        for (i, t) in cycle.t_s.iter().enumerate() {
+            assert_eq!(*t, i as f64 * 0.1);
+        }
+    }
+
+    #[test]
+    fn run_k_starts_at_start_plus_k_spacings_and_odd_runs_drive_backwards() {
+        let mut d = drive(0.1, 4, Directions::Alternate);
+        d.start_distance_m = 5000.0;
+        d.run_spacing_m = Some(2500.0);
+        let cycle = flat(&d);
+        for k in 0..4u32 {
+            let rows: Vec<usize> = (0..cycle.len()).filter(|&i| cycle.run[i] == k).collect();
+            let (first, last) = (rows[0], rows[rows.len() - 1]);
+            assert_eq!(cycle.x_m[first], 5000.0 + 2500.0 * k as f64);
+            let heading = if k % 2 == 1 { -1.0 } else { 1.0 };
+            assert_eq!(cycle.run_heading[k as usize], heading);
+            // The distance covered is the same each way on a flat calm road, exactly (the
+            // same RK4 steps with the sign of dX/dt flipped).
+            let covered = cycle.x_m[last] - cycle.x_m[first];
+            assert!(heading * covered > 1000.0, "run {k} covers {covered} m");
+        }
+        // The default spacing is the distance run 0 covers: run 1 drives it back to the
+        // start, ending where run 0 began (the same steps negated: to rounding).
+        let d = drive(0.1, 2, Directions::Alternate);
+        let cycle = flat(&d);
+        let last0 = cycle.run.iter().rposition(|&r| r == 0).unwrap();
+        assert_eq!(cycle.x_m[last0 + 1], cycle.x_m[last0]);
+        let end = *cycle.x_m.last().unwrap();
+        assert!(end.abs() < 1e-9, "{end}");
+        // One way: every run forwards from its start, run 1 from where run 0 ended to twice
+        // as far (the same steps from another start: to rounding).
+        let one_way = flat(&drive(0.1, 2, Directions::OneWay));
+        assert_eq!(one_way.run_heading, [1.0, 1.0]);
+        let end = *one_way.x_m.last().unwrap();
+        assert!((end - 2.0 * cycle.x_m[last0]).abs() < 1e-9 * end, "{end}");
+    }
+
+    #[test]
+    fn a_reverse_run_sees_the_grade_negated() {
+        // A 0.5 % climb with a 0.3 % ripple of period 628 m: run 0 climbs it, run 1
+        // (backwards) descends it, seeing −θ(x) at every sample.
+        let grades = (0..20_000)
+            .map(|i| 0.005 + 0.003 * (i as f64 / 100.0).sin())
+            .collect();
+        let table = GradeTable::from_grades(grades);
+        let d = CoastDown {
+            start_distance_m: 5000.0,
+            ..drive(0.1, 2, Directions::Alternate)
+        };
+        let road = Road {
+            table: Some(&table),
+            scale: 1.0,
+        };
+        let cycle = d.cycle(&car(), road, &Truth::default()).unwrap();
+        for i in 0..cycle.len() {
+            let theta = table.grade_at(cycle.x_m[i]).unwrap();
+            let heading = if cycle.run[i] == 0 { 1.0 } else { -1.0 };
+            assert_eq!(cycle.grade_rad[i], heading * theta);
+            assert_eq!(cycle.f_prop_n[i], 0.0);
+        }
+        // Downhill the run lasts longer.
+        let n0 = cycle.run.iter().filter(|&&r| r == 0).count();
+        assert!(cycle.len() - n0 > n0);
+    }
+
+    #[test]
+    fn backwards_off_the_start_of_the_terrain_is_an_error_naming_the_run() {
+        // Run 1 goes back from the end of run 0 downhill, further than run 0 climbed: it
+        // passes x = 0.
+        let table = GradeTable::from_grades(vec![0.01; 20_000]);
+        let road = Road {
+            table: Some(&table),
+            scale: 1.0,
+        };
+        let err = drive(0.1, 2, Directions::Alternate)
+            .cycle(&car(), road, &Truth::default())
+            .unwrap_err();
+        assert!(
+            matches!(err, SimulationError::CoastRun { run: 1, .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("drive.start_distance"), "{err}");
+    }
+
+    #[test]
+    fn a_run_that_does_not_slow_down_is_an_error() {
+        // A 5 % descent: g sin θ ≈ 0.49 m/s² beats rolling and drag at every speed below
+        // ~40 m/s, so the vehicle never slows to 8.3 m/s.
+        let table = GradeTable::from_grades(vec![-0.05; 1_000_000]);
+        let road = Road {
+            table: Some(&table),
+            scale: 1.0,
+        };
+        let err = drive(0.1, 2, Directions::OneWay)
+            .cycle(&car(), road, &Truth::default())
+            .unwrap_err();
+        assert!(
+            matches!(err, SimulationError::CoastRun { run: 0, .. }),
+            "{err}"
+        );
+    }
+
+    fn parse(text: &str) -> Result<Arc<dyn CycleSource>, KeyError> {
+        let table: toml::Table = toml::from_str(text).unwrap();
+        CoastDown::parse(&Params::new(&table, "drive"))
+    }
+
+    #[test]
+    fn the_keys_are_checked_and_named() {
+        let base = "speed_high = 33.3\nspeed_low = 8.3\ntime_step = 0.1\n";
+        let ok = parse(&format!("{base}runs = [4, 8]")).unwrap();
+        assert_eq!(ok.runs(), Some(&[4, 8][..]));
+        assert_eq!(
+            parse(&format!("{base}runs = 6")).unwrap().runs(),
+            Some(&[6][..])
+        );
+        let err = |text: &str| parse(&format!("{base}{text}")).unwrap_err();
+        assert_eq!(err("runs = [4, 3]").key, "drive.runs[1]");
+        assert_eq!(err("runs = 5").key, "drive.runs");
+        assert_eq!(err("runs = [0]").key, "drive.runs[0]");
+        assert_eq!(err("runs = [4, 4]").key, "drive.runs[1]");
+        assert_eq!(err("runs = [4.0]").key, "drive.runs[0]");
+        assert_eq!(
+            err("runs = [4]\ndirections = \"both\"").key,
+            "drive.directions"
+        );
+        let e = parse("speed_high = 8.3\nspeed_low = 8.3\ntime_step = 0.1\nruns = 2").unwrap_err();
+        assert_eq!(e.key, "drive.speed_low");
+        assert!(e.reason.contains("below drive.speed_high"), "{}", e.reason);
+        assert_eq!(parse(base).unwrap_err().key, "drive.runs");
+    }
+}
