@@ -260,6 +260,17 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         c,
     )?;
 
+    if drive.runs().is_some() && known_inv_mass.is_none() {
+        // Without propulsion the 1/M column is zero: the mass cannot be estimated.
+        return Err(c.fail(
+            "estimation.known_mass",
+            format!(
+                "must be true with drive.mode = \"{}\": the vehicle coasts without propulsion, so \
+                 its mass cannot be estimated; the test weighs it (vehicle.mass)",
+                mode.name
+            ),
+        ));
+    }
     let truth = validate_truth(raw.truth.as_ref(), c)?;
     if drive.runs().is_some() {
         runs_draw_nothing_per_realisation_that_moves(&truth, mode.name, c)?;
