@@ -3,6 +3,7 @@ mod common;
 mod bias_bounds;
 mod cli_errors;
 mod coastdown;
+mod coastdown_bias;
 mod compensation;
 mod control_variates;
 mod design;
