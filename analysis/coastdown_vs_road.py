@@ -1,0 +1,116 @@
+#!/usr/bin/env python3
+"""Coast-down or road drive? Runs studies/coastdown_vs_road.toml (an 8-run coast-down on a
+flat road) and studies/coastdown_vs_road_drive.toml (a 20-minute drive on a hilly route),
+the same weighed passenger car, speed sensor and model errors, and prints, per test,
+estimator and condition (calm; a 3 m/s wind; an unmodelled rotating-mass factor of 0.03;
+both), how often Cd and Cr come out within 1 % of the truth, with its Monte Carlo standard
+error sqrt(p (1 − p) / R) (a binomial proportion over R independent realisations), and the
+relative bias (± its MCSE, the SD over √R) and the relative EmpSE.
+
+Cd is `cd_hat` = M θ̂₂ with M weighed, Cr is θ̂₃; both read from realisations.parquet.
+
+    cargo build --release
+    .venv/bin/python analysis/coastdown_vs_road.py results/coastdown_vs_road
+"""
+
+import pathlib
+import subprocess
+import sys
+
+import duckdb
+
+from common import check_output_set, realisation_files
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+BINARY = ROOT / "target" / "release" / "chassis-mc"
+STUDIES = {"coast-down, 8 runs": "coastdown_vs_road", "road drive, 20 min": "coastdown_vs_road_drive"}
+TRUTH = {"cd": 0.30, "cr": 0.010}
+CONDITIONS = [
+    (0.0, 0.0, "calm"),
+    (3.0, 0.0, "wind 3 m/s"),
+    (0.0, 0.03, "δ = 0.03"),
+    (3.0, 0.03, "wind + δ"),
+]
+
+
+def run(out):
+    """Run both studies into out/<name> (skipped when a complete run is there)."""
+    for name in STUDIES.values():
+        target = out / name
+        if not (target / "summary.parquet").is_file():
+            subprocess.run(
+                [str(BINARY), "run", str(ROOT / "studies" / f"{name}.toml"), "--out", str(target)],
+                check=True,
+                stdout=subprocess.DEVNULL,
+            )
+        check_output_set(target)
+
+
+def table(out):
+    rows = []
+    for test, name in STUDIES.items():
+        files = [str(f) for f in realisation_files(out / name)]
+        frame = duckdb.sql(
+            f"""
+            SELECT estimator, wind_speed, rotating_mass_factor, count(*) AS n,
+                   avg((abs(cd_hat / {TRUTH['cd']} - 1) < 0.01)::DOUBLE) AS cd_within,
+                   avg((abs(theta_rolling_resistance / {TRUTH['cr']} - 1) < 0.01)::DOUBLE)
+                       AS cr_within,
+                   avg(cd_hat / {TRUTH['cd']} - 1) AS cd_bias,
+                   stddev_samp(cd_hat / {TRUTH['cd']}) AS cd_sd,
+                   avg(theta_rolling_resistance / {TRUTH['cr']} - 1) AS cr_bias,
+                   stddev_samp(theta_rolling_resistance / {TRUTH['cr']}) AS cr_sd
+            FROM read_parquet({files})
+            WHERE status = 'ok'
+            GROUP BY estimator, wind_speed, rotating_mass_factor
+            ORDER BY list_position(['ols', 'bcls', 'road_load'], estimator), wind_speed,
+                rotating_mass_factor
+            """
+        ).df()
+        frame.insert(0, "test", test)
+        rows.append(frame)
+    return rows
+
+
+def cell(p, n):
+    se = (p * (1 - p) / n) ** 0.5
+    return f"{100 * p:.1f} ± {100 * se:.1f} %"
+
+
+def main():
+    if len(sys.argv) != 2:
+        print(__doc__, file=sys.stderr)
+        sys.exit(2)
+    out = pathlib.Path(sys.argv[1])
+    run(out)
+    frames = table(out)
+    print("How often within 1 % of the truth (± MCSE), Cd | Cr:\n")
+    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
+    print("|---|---|" + "---|" * len(CONDITIONS))
+    for frame in frames:
+        for est in frame.estimator.unique():
+            cells = []
+            for wind, delta, _ in CONDITIONS:
+                r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
+                          & (frame.rotating_mass_factor == delta)].iloc[0]
+                cells.append(f"{cell(r.cd_within, r.n)} \\| {cell(r.cr_within, r.n)}")
+            print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
+    print("\nRelative bias ± MCSE (SD / √R) and relative EmpSE [%], Cd | Cr:\n")
+    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
+    print("|---|---|" + "---|" * len(CONDITIONS))
+    for frame in frames:
+        for est in frame.estimator.unique():
+            cells = []
+            for wind, delta, _ in CONDITIONS:
+                r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
+                          & (frame.rotating_mass_factor == delta)].iloc[0]
+                root = r.n ** 0.5
+                cells.append(
+                    f"{100 * r.cd_bias:+.2f} ± {100 * r.cd_sd / root:.2f}, {100 * r.cd_sd:.2f} \\| "
+                    f"{100 * r.cr_bias:+.2f} ± {100 * r.cr_sd / root:.2f}, {100 * r.cr_sd:.2f}"
+                )
+            print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
