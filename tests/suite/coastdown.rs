@@ -142,9 +142,13 @@ fn rolling_text(runs: &str, acceleration: &str) -> String {
         "\n[terrain]\nprofile = \"cos2\"\nheight = 2.0\nperiod = 300.0\nlength = 50000\n\
          scales = [1.0]\nscale_applies_to = \"grade\"\n\n[noise]",
     );
-    text.replace(
-        "estimators = [\"ols\"]",
-        &format!("estimators = [\"ols\"]\nacceleration = {acceleration}"),
+    // One estimator, with the acceleration source(s) given.
+    let text = set_key(&text, "estimators", "[\"ols\"]");
+    assert!(text.contains("\n[estimation]\n"));
+    text.replacen(
+        "\n[estimation]\n",
+        &format!("\n[estimation]\nacceleration = {acceleration}\n"),
+        1,
     )
 }
 
