@@ -14,8 +14,9 @@ every quantity here except a bias that happens to lie within ~1e-3 MCSE of zero,
 on which they are ever read. ς over the cycle is recomputed by DuckDB from the grades in
 cycles.parquet (a compensated sum of 60 001 squares).
 
-Then runs gusts_check.py: the engine's Monte Carlo under random gusts against an independent
-NumPy one (means and SDs within 4 MCSEs; see that script).
+Then runs gusts_check.py and coastdown_check.py: the engine's Monte Carlo under random gusts,
+and its road_load analysis of a coast-down under speed noise, each against an independent
+NumPy one (means and SDs within 4 MCSEs; see those scripts).
 
     cargo build --release && python analysis/test_analysis.py
 """
@@ -135,6 +136,7 @@ def main():
         refuses(run, "incomplete output")
     print("analysis scripts agree with the engine's summary within 1e-12 relative")
     subprocess.run([sys.executable, HERE / "gusts_check.py"], check=True)
+    subprocess.run([sys.executable, HERE / "coastdown_check.py"], check=True)
 
 
 if __name__ == "__main__":
