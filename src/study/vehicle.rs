@@ -14,7 +14,6 @@ use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::profiles::PROFILES;
 use crate::terrain::{ScaleTarget, TerrainSpec};
-use crate::vehicle::truth::entry_index;
 use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 
 /// Which noise enters the measurements of the vehicle study: the standard deviations
@@ -272,9 +271,6 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         ));
     }
     let truth = validate_truth(raw.truth.as_ref(), c)?;
-    if drive.runs().is_some() {
-        runs_draw_nothing_per_realisation_that_moves(&truth, mode.name, c)?;
-    }
 
     Ok(VehicleStudy {
         vehicle,
@@ -296,30 +292,6 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         air_speed_sd,
         truth,
     })
-}
-
-/// A drive of independent runs (a coast-down) draws each run's gusts on its own; that is
-/// not implemented, so a gust level above 0 is an error naming `truth.wind_gust_sd`. A
-/// run's length depends on its gusts, so they cannot be drawn on the condition's sample
-/// times as in the other modes (docs/model.md#coastdown).
-fn runs_draw_nothing_per_realisation_that_moves(
-    truth: &TruthAxes,
-    mode: &str,
-    c: &Checker<'_>,
-) -> Result<(), StudyError> {
-    const KEY: &str = "wind_gust_sd";
-    let gusts = entry_index(KEY).expect("an entry");
-    if truth.levels(gusts).iter().any(|&v| v > 0.0) {
-        return Err(c.fail(
-            &format!("truth.{KEY}"),
-            format!(
-                "gusts are not supported in drive mode \"{mode}\": they would be drawn \
-                     per run, and a run's length depends on its gusts (use a steady \
-                     truth.wind_speed, which a return run sees flipped)"
-            ),
-        ));
-    }
-    Ok(())
 }
 
 /// `estimation.air_speed` (default "ground"), checked against the noise it needs: a

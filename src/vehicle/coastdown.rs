@@ -272,12 +272,15 @@ fn coast(
         })?;
         Ok(heading * theta)
     };
+    let run_start_s = first as f64 * h;
     let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
         time_s: t,
         distance_m: x,
         speed_m_s: v,
         grade_rad: grade,
         heading,
+        run: k,
+        run_time_s: t - run_start_s,
     };
     // dV/dt at time t, route position x and speed v, with no propulsion force.
     let accel = |t: f64, x: f64, v: f64| -> Result<f64, SimulationError> {

@@ -162,6 +162,8 @@ fn simulate_truth(
         speed_m_s: v,
         grade_rad: grade,
         heading: 1.0,
+        run: 0,
+        run_time_s: t,
     };
     // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
     // leaving the table.

@@ -201,12 +201,10 @@ fn a_steady_wind_moves_each_estimator_as_derived_for_the_pooled_runs() {
             2.0 * K * CD * w * c[1],
             K * CD * (1.0 + 2.0 * w * c[2]),
         ];
-        for p in 0..3 {
+        for (p, (got, want)) in out.abc.iter().zip(abc).enumerate() {
             assert!(
-                rel(out.abc[p], abc[p]) <= 1e-9,
-                "{directions} road_load coefficient {p}: {} vs predicted {}",
-                out.abc[p],
-                abc[p]
+                rel(*got, want) <= 1e-9,
+                "{directions} road_load coefficient {p}: {got} vs predicted {want}"
             );
         }
         if directions == "one_way" {

@@ -57,6 +57,25 @@ fn mapped_grade(grade_rad: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
     (grade_rad.tan() + heading * error / GRID_STEP_M).atan()
 }
 
+/// The times each run's drawn entries are realised at: a drive of one run, its sample times
+/// from `start` (the cycle's first); a coast-down's run, the times from its first sample
+/// on its time step, over twice its calm length (its samples, then as many again), since
+/// gusts may lengthen a run; beyond that a gust series holds its last value
+/// (docs/model.md#coastdown).
+fn run_times(cycle: &DriveCycle, start: f64) -> Vec<Vec<f64>> {
+    if cycle.runs() <= 1 {
+        return vec![cycle.t_s.iter().map(|t| t - start).collect()];
+    }
+    (0..cycle.runs())
+        .map(|k| {
+            let first = cycle.run.partition_point(|&r| (r as usize) < k);
+            let end = cycle.run.partition_point(|&r| (r as usize) <= k);
+            let step = cycle.t_s[first + 1] - cycle.t_s[first];
+            (0..2 * (end - first)).map(|j| j as f64 * step).collect()
+        })
+        .collect()
+}
+
 /// A condition whose realisations each have their own regression.
 #[derive(Debug)]
 pub(super) struct World {
@@ -65,10 +84,10 @@ pub(super) struct World {
     /// Its drawn entries alone, and its steady ones alone.
     drawn: Truth,
     steady: Truth,
-    /// The condition's noise-free cycle (the steady entries only) and its sample times
-    /// from 0 (what the drawn entries are realised at).
+    /// The condition's noise-free cycle (the steady entries only), and per run the times
+    /// the drawn entries are realised at ([`run_times`]).
     cycle: Arc<DriveCycle>,
-    times_s: Vec<f64>,
+    run_times_s: Vec<Vec<f64>>,
     /// Its grade table, when the study has a terrain profile.
     table: Option<Arc<GradeTable>>,
     /// Its terrain scale.
@@ -112,7 +131,7 @@ impl World {
             drawn: truth.drawn_part(),
             steady: truth.steady(),
             truth,
-            times_s: place.cycle.t_s.iter().map(|t| t - start).collect(),
+            run_times_s: run_times(&place.cycle, start),
             cycle: place.cycle,
             table: place.table,
             scale: place.scale,
@@ -140,7 +159,7 @@ impl World {
         } else if self.truth.moves_per_realisation() {
             // The force the truth needs changes: the drive mode makes the cycle again
             // (integrates it, or logs another force for the same motion).
-            let truth = self.truth.realise(seed, key, r, &self.times_s);
+            let truth = self.truth.realise(seed, key, r, &self.run_times_s);
             let road = Road {
                 table: self.table.as_deref(),
                 scale: self.scale,
@@ -152,7 +171,7 @@ impl World {
             (cycle, Cow::Owned(truth))
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
-            let drawn = self.drawn.realise(seed, key, r, &self.times_s);
+            let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
             let mut cycle = nominal.clone();
             for f in &mut cycle.f_prop_n {
                 *f = drawn.logged_force(*f);

@@ -1,7 +1,7 @@
 //! The model errors drawn anew in every realisation, each from its own stream: gusts (a
 //! wind that is another day's in every realisation) and a random force calibration
 //! (another sensor's in every realisation). Each realises as a steady entry of `steady.rs`
-//! or as a [`WindSeries`] (docs/model.md#model-errors).
+//! or as [`RunGusts`], a [`WindSeries`] per run (docs/model.md#model-errors).
 
 use std::sync::Arc;
 
@@ -12,7 +12,8 @@ use crate::noise::NormalSequence;
 /// A random wind component along the direction of travel: a stationary AR(1) process in time
 /// with standard deviation σ_w \[m/s\] and correlation time τ \[s\], drawn per realisation at
 /// the cycle's sample times (w₀ = σ_w z₀, wᵢ = φᵢ wᵢ₋₁ + σ_w √(1 − φᵢ²) zᵢ,
-/// φᵢ = exp(−(tᵢ − tᵢ₋₁)/τ)) and linear between them.
+/// φᵢ = exp(−(tᵢ − tᵢ₋₁)/τ)) and linear between them; in a drive of several runs (a
+/// coast-down) each run's series is drawn on its own, from the next normals of the stream.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gust {
     /// σ_w \[m/s\].
@@ -21,15 +22,9 @@ pub struct Gust {
     pub time_s: f64,
 }
 
-impl ModelError for Gust {
-    fn drawn(&self) -> Option<Drawn> {
-        Some(Drawn {
-            stream: 6,
-            moves_the_vehicle: true,
-        })
-    }
-
-    fn realise(&self, normals: &mut NormalSequence, times_s: &[f64]) -> Arc<dyn ModelError> {
+impl Gust {
+    /// A stationary AR(1) series of the gust at `times_s` from the next normals of `normals`.
+    fn series(&self, normals: &mut NormalSequence, times_s: &[f64]) -> WindSeries {
         let mut w = vec![0.0; times_s.len()];
         normals.fill(&mut w);
         let mut previous = 0.0;
@@ -43,10 +38,33 @@ impl ModelError for Gust {
             };
             previous = *z;
         }
-        Arc::new(WindSeries {
+        WindSeries {
             times_s: times_s.to_vec(),
             wind_m_s: w,
+        }
+    }
+}
+
+impl ModelError for Gust {
+    fn drawn(&self) -> Option<Drawn> {
+        Some(Drawn {
+            stream: 6,
+            moves_the_vehicle: true,
         })
+    }
+
+    fn realise(
+        &self,
+        normals: &mut NormalSequence,
+        run_times_s: &[Vec<f64>],
+    ) -> Arc<dyn ModelError> {
+        // Each run's series from the next normals of the stream: the runs' gusts are
+        // independent, each starting stationary.
+        let runs = run_times_s
+            .iter()
+            .map(|times_s| self.series(normals, times_s))
+            .collect();
+        Arc::new(RunGusts { runs })
     }
 }
 
@@ -104,9 +122,17 @@ impl WindSeries {
     }
 }
 
-impl ModelError for WindSeries {
+/// A realisation's gusts: one series per run, each read at the time since its run's first
+/// sample (a drive of one run has one, read at the time since the cycle's start).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunGusts {
+    /// Per run, its gust series.
+    pub runs: Vec<WindSeries>,
+}
+
+impl ModelError for RunGusts {
     fn wind_m_s(&self, s: &TruthSample) -> f64 {
-        self.at(s.time_s)
+        self.runs[s.run].at(s.run_time_s)
     }
 }
 
@@ -126,7 +152,11 @@ impl ModelError for ForceScaleDrawn {
         })
     }
 
-    fn realise(&self, normals: &mut NormalSequence, _times_s: &[f64]) -> Arc<dyn ModelError> {
+    fn realise(
+        &self,
+        normals: &mut NormalSequence,
+        _run_times_s: &[Vec<f64>],
+    ) -> Arc<dyn ModelError> {
         let mut z = [0.0];
         normals.fill(&mut z);
         Arc::new(ForceScale {
@@ -187,6 +217,52 @@ pub(super) const FORCE_SCALE_SD: ModelErrorEntry = ModelErrorEntry {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A drive of several runs draws each run's gusts from the next normals of the stream,
+    /// each series starting stationary (w₀ = σ z₀, not carried over from the run before),
+    /// and a sample reads its own run's series at the time since its run's start; a drive of
+    /// one run draws exactly what the series alone draws.
+    #[test]
+    fn each_run_draws_its_own_gusts() {
+        let gust = Gust {
+            sd_m_s: 1.5,
+            time_s: 1e6,
+        };
+        let times: Vec<f64> = (0..50).map(|i| i as f64 * 0.1).collect();
+        let realised = |runs: &[Vec<f64>]| {
+            let mut normals = NormalSequence::for_realisation(3, 1, 6, 9);
+            gust.realise(&mut normals, runs)
+        };
+        let two = realised(&[times.clone(), times.clone()]);
+        let mut normals = NormalSequence::for_realisation(3, 1, 6, 9);
+        let first = gust.series(&mut normals, &times);
+        let second = gust.series(&mut normals, &times);
+        let sample = |run: usize, t: f64| TruthSample {
+            time_s: 100.0 + t,
+            distance_m: 0.0,
+            speed_m_s: 20.0,
+            grade_rad: 0.0,
+            heading: 1.0,
+            run,
+            run_time_s: t,
+        };
+        for (j, &t) in times.iter().enumerate() {
+            assert_eq!(two.wind_m_s(&sample(0, t)), first.wind_m_s[j]);
+            assert_eq!(two.wind_m_s(&sample(1, t)), second.wind_m_s[j]);
+        }
+        // With τ = 10⁶ s a carried-over series would start run 1 where run 0 ended.
+        assert_ne!(second.wind_m_s[0], first.wind_m_s[49]);
+        assert_eq!(second.wind_m_s[0] / 1.5, {
+            let mut n = NormalSequence::for_realisation(3, 1, 6, 9);
+            let mut z = [0.0; 51];
+            n.fill(&mut z);
+            z[50]
+        });
+        let one = realised(std::slice::from_ref(&times));
+        for (j, &t) in times.iter().enumerate() {
+            assert_eq!(one.wind_m_s(&sample(0, t)), first.wind_m_s[j]);
+        }
+    }
 
     #[test]
     fn the_gusts_lookup_finds_what_a_search_of_the_times_finds() {

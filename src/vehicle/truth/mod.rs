@@ -34,7 +34,7 @@ use std::sync::Arc;
 
 use super::{DriveCycle, VehicleParams};
 use crate::noise::NormalSequence;
-pub use drawn::{ForceScaleDrawn, Gust, WindSeries};
+pub use drawn::{ForceScaleDrawn, Gust, RunGusts, WindSeries};
 pub use steady::{AirDensity, ForceScale, MassRate, RollingSpeed, RotatingMass, Wind};
 
 /// The state of the truth at one sample, as a model error sees it (its acceleration is not
@@ -55,6 +55,11 @@ pub struct TruthSample {
     /// coast-down's return runs, docs/model.md#coastdown): a steady wind along the route is
     /// a headwind one way and a tailwind the other.
     pub heading: f64,
+    /// The run it belongs to (0 in a drive of one run; a coast-down's run k): an entry drawn
+    /// per run reads that run's draw.
+    pub run: usize,
+    /// Time since its run's first sample \[s\] (`time_s` in a drive of one run).
+    pub run_time_s: f64,
 }
 
 /// How a model error drawn anew in every realisation draws: its own stream of normals (so
@@ -112,9 +117,15 @@ pub trait ModelError: Send + Sync + fmt::Debug {
     }
 
     /// Its value in one realisation: a steady model error made from the realisation's
-    /// `normals` (its own stream) for a cycle sampled at `times_s` (from 0). Only an entry
-    /// that is [`drawn`](ModelError::drawn) is asked.
-    fn realise(&self, _normals: &mut NormalSequence, _times_s: &[f64]) -> Arc<dyn ModelError> {
+    /// `normals` (its own stream) for a cycle whose runs are sampled at `run_times_s` (one
+    /// entry per run, each from its run's first sample; a drive of one run has one), each run
+    /// drawn independently of the others. Only an entry that is [`drawn`](ModelError::drawn)
+    /// is asked.
+    fn realise(
+        &self,
+        _normals: &mut NormalSequence,
+        _run_times_s: &[Vec<f64>],
+    ) -> Arc<dyn ModelError> {
         unreachable!("only a drawn model error is realised")
     }
 }
@@ -236,7 +247,7 @@ impl Truth {
     /// The truth of realisation `r`: each drawn entry realised from its own stream of
     /// (`seed`, `key`, its stream, `r`) for a cycle sampled at `times_s` (from 0); the
     /// steady entries as they are.
-    pub fn realise(&self, seed: u64, key: u64, r: u64, times_s: &[f64]) -> Truth {
+    pub fn realise(&self, seed: u64, key: u64, r: u64, run_times_s: &[Vec<f64>]) -> Truth {
         Truth {
             entries: self
                 .entries
@@ -244,7 +255,7 @@ impl Truth {
                 .map(|e| match e.drawn() {
                     Some(d) => {
                         let mut normals = NormalSequence::for_realisation(seed, key, d.stream, r);
-                        e.realise(&mut normals, times_s)
+                        e.realise(&mut normals, run_times_s)
                     }
                     None => e.clone(),
                 })
@@ -363,16 +374,20 @@ impl Truth {
     }
 }
 
-/// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample; the
-/// heading of its run).
+/// Sample `i` of `cycle` as the truth sees it (time from the cycle's first sample and from
+/// its run's; its run and the run's heading).
 pub fn sample_of(cycle: &DriveCycle, i: usize) -> TruthSample {
     let start = cycle.t_s.first().copied().unwrap_or(0.0);
+    let run = cycle.run[i];
+    let run_start = cycle.run.partition_point(|&r| r < run);
     TruthSample {
         time_s: cycle.t_s[i] - start,
         distance_m: cycle.x_m[i],
         speed_m_s: cycle.v_m_s[i],
         grade_rad: cycle.grade_rad[i],
         heading: cycle.heading(i),
+        run: run as usize,
+        run_time_s: cycle.t_s[i] - cycle.t_s[run_start],
     }
 }
 
@@ -387,6 +402,8 @@ mod tests {
             speed_m_s: v,
             grade_rad: grade,
             heading: 1.0,
+            run: 0,
+            run_time_s: 10.0,
         }
     }
 
