@@ -77,6 +77,26 @@ def cell(p, n):
     return f"{100 * p:.1f} ± {100 * se:.1f} %"
 
 
+def bias(value, sd, n):
+    return f"{100 * value:+.2f} ± {100 * sd / n ** 0.5:.2f}, {100 * sd:.2f}"
+
+
+def print_table(frames, title, show):
+    """A markdown table: a row per test and estimator, a column per condition, each cell
+    `show` of that condition's row."""
+    print(title + "\n")
+    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
+    print("|---|---|" + "---|" * len(CONDITIONS))
+    for frame in frames:
+        for est in frame.estimator.unique():
+            cells = []
+            for wind, delta, _ in CONDITIONS:
+                r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
+                          & (frame.rotating_mass_factor == delta)].iloc[0]
+                cells.append(show(r))
+            print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
+
+
 def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -84,33 +104,11 @@ def main():
     out = pathlib.Path(sys.argv[1])
     run(out)
     frames = table(out)
-    print("How often within 1 % of the truth (± MCSE), Cd | Cr:\n")
-    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
-    print("|---|---|" + "---|" * len(CONDITIONS))
-    for frame in frames:
-        for est in frame.estimator.unique():
-            cells = []
-            for wind, delta, _ in CONDITIONS:
-                r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
-                          & (frame.rotating_mass_factor == delta)].iloc[0]
-                cells.append(f"{cell(r.cd_within, r.n)} \\| {cell(r.cr_within, r.n)}")
-            print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
-    print("\nRelative bias ± MCSE (SD / √R) and relative EmpSE [%], Cd | Cr:\n")
-    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
-    print("|---|---|" + "---|" * len(CONDITIONS))
-    for frame in frames:
-        for est in frame.estimator.unique():
-            cells = []
-            for wind, delta, _ in CONDITIONS:
-                r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
-                          & (frame.rotating_mass_factor == delta)].iloc[0]
-                root = r.n ** 0.5
-                cells.append(
-                    f"{100 * r.cd_bias:+.2f} ± {100 * r.cd_sd / root:.2f}, {100 * r.cd_sd:.2f} \\| "
-                    f"{100 * r.cr_bias:+.2f} ± {100 * r.cr_sd / root:.2f}, {100 * r.cr_sd:.2f}"
-                )
-            print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
-
+    print_table(frames, "How often within 1 % of the truth (± MCSE), Cd | Cr:",
+                lambda r: f"{cell(r.cd_within, r.n)} \\| {cell(r.cr_within, r.n)}")
+    print()
+    print_table(frames, "Relative bias ± MCSE (SD / √R) and relative EmpSE [%], Cd | Cr:",
+                lambda r: f"{bias(r.cd_bias, r.cd_sd, r.n)} \\| {bias(r.cr_bias, r.cr_sd, r.n)}")
 
 if __name__ == "__main__":
     main()

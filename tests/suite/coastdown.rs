@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use arrow::array::{Array, BooleanArray, RecordBatch};
+use arrow::array::RecordBatch;
 use chassis_mc::model::vehicle::VehicleModel;
 use chassis_mc::study::Study;
 
@@ -30,16 +30,6 @@ fn load(text: &str, realisations: u64) -> Study {
 fn tables(dir: &Path) -> [RecordBatch; 3] {
     ["realisations", "summary", "cycles"]
         .map(|name| read_table(&dir.join(format!("{name}.parquet"))))
-}
-
-fn bool_col(batch: &RecordBatch, name: &str) -> Vec<bool> {
-    let a = batch
-        .column_by_name(name)
-        .unwrap()
-        .as_any()
-        .downcast_ref::<BooleanArray>()
-        .unwrap();
-    (0..a.len()).map(|i| a.value(i)).collect()
 }
 
 /// The rows of cycles.parquet's column `name` in run `k`.

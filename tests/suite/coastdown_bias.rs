@@ -70,31 +70,20 @@ fn outcome(study: &Study) -> Outcome {
         .unwrap();
     let abc = ["a", "b", "c"].map(|x| f64_col(&rows, &format!("road_load_{x}"))[i]);
     let cycles = read_table(&dir.path().join("cycles.parquet"));
-    let used = cycles
-        .column_by_name("used")
-        .unwrap()
-        .as_any()
-        .downcast_ref::<arrow::array::BooleanArray>()
-        .unwrap()
-        .clone();
-    let keep = |x: Vec<f64>| -> Vec<f64> {
+    let used = bool_col(&cycles, "used");
+    fn keep<T>(x: Vec<T>, used: &[bool]) -> Vec<T> {
         x.into_iter()
-            .enumerate()
-            .filter(|&(j, _)| used.value(j))
-            .map(|(_, v)| v)
+            .zip(used)
+            .filter(|(_, u)| **u)
+            .map(|(v, _)| v)
             .collect()
-    };
-    let run: Vec<i32> = i32_col(&cycles, "run")
-        .into_iter()
-        .enumerate()
-        .filter(|&(j, _)| used.value(j))
-        .map(|(_, r)| r)
-        .collect();
+    }
+    let run = keep(i32_col(&cycles, "run"), &used);
     Outcome {
         theta,
         abc,
-        v: keep(f64_col(&cycles, "v")),
-        grade: keep(f64_col(&cycles, "grade")),
+        v: keep(f64_col(&cycles, "v"), &used),
+        grade: keep(f64_col(&cycles, "grade"), &used),
         run,
     }
 }

@@ -149,6 +149,18 @@ pub fn str_col(batch: &RecordBatch, name: &str) -> Vec<String> {
     (0..a.len()).map(|i| a.value(i).to_string()).collect()
 }
 
+/// A Boolean column of a batch, as values.
+pub fn bool_col(batch: &RecordBatch, name: &str) -> Vec<bool> {
+    use arrow::array::Array;
+    let a = batch
+        .column_by_name(name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+        .as_any()
+        .downcast_ref::<arrow::array::BooleanArray>()
+        .unwrap_or_else(|| panic!("{name} is not Boolean"));
+    (0..a.len()).map(|i| a.value(i)).collect()
+}
+
 /// Path of the `chassis-mc` binary built for these tests.
 pub fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_chassis-mc"))
