@@ -218,7 +218,9 @@ fn design_about() -> String {
         "Find the smallest value of KEY in [FROM, TO] (the largest, for noise.velocity_sd and \
          the truth.* keys) at which a target on one parameter holds for one estimator.\n\n\
          KEY is drive.duration [s] (torque drive mode; the answer is a whole number of time \
-         steps), terrain.scale, noise.velocity_sd [m/s], or a steady model error of [truth] \
+         steps), drive.runs (coastdown drive mode: FROM, TO and the answer are even numbers \
+         of runs, bisected to two runs), terrain.scale, noise.velocity_sd [m/s], or a steady \
+         model error of [truth] \
          (docs/model.md#model-errors): {}; the study must have one condition once KEY is set. \
          For a truth.* key FROM may be its value without the error (in parentheses) and the \
          answer is the end of the run of values that hold from FROM upward (a bias may change \
@@ -227,8 +229,9 @@ fn design_about() -> String {
          (fractions of the true value). First-order predictions (the bound's SE and the \
          first-order bias: the speed noise's, and the model errors' through the noise-free \
          rows) on a grid of 25 values bracket the answer; Monte Carlo runs of the study (its \
-         realisations and seed) confirm and bisect it to 1 % of the range. A value holds when \
-         the Monte Carlo estimate of the measure is at most the target. Prints the answer \
+         realisations and seed) confirm and bisect it to 1 % of the range (to two runs, for \
+         drive.runs). A value holds when the Monte Carlo estimate of the measure is at most \
+         the target. Prints the answer \
          with the measure's MCSE there and writes, into --out DIR, design.parquet (every \
          value evaluated: predicted and simulated measure with its MCSE, is_answer; the \
          answer also in the footer key chassis_mc.design.answer), figures/design.svg and \

@@ -9,7 +9,8 @@ use arrow::datatypes::{DataType, Field, Schema};
 
 use super::search::Search;
 use super::{
-    ANSWER_KEY, DESIGN_FILE, DesignError, DesignPoint, DesignRequest, DesignResult, largest,
+    ANSWER_KEY, DESIGN_FILE, DesignError, DesignKey, DesignPoint, DesignRequest, DesignResult,
+    largest,
 };
 use crate::figures;
 use crate::model::vehicle::PARAMETERS;
@@ -217,6 +218,15 @@ fn write_report(
     Ok(PendingFile::new(tmp, out.join("report.html")))
 }
 
+/// A value of `key`: a count (the number of runs) as the whole number it is, any other
+/// value with five significant digits.
+fn value_text(key: DesignKey, v: f64) -> String {
+    match key.count_step() {
+        Some(_) => format!("{v}"),
+        None => short(v),
+    }
+}
+
 /// A key value with five significant digits.
 fn short(v: f64) -> String {
     let digits = 4 - v.abs().log10().floor().clamp(-10.0, 4.0) as i32;
@@ -239,7 +249,7 @@ pub fn answer_sentence(
         Some(a) => {
             let (m, s) = a.simulated.unwrap_or((f64::NAN, f64::NAN));
             let bracket = neighbour.map_or("the end of the range".to_string(), |n| {
-                format!("{} fails", short(n))
+                format!("{} fails", value_text(request.key, n))
             });
             let sd = answer_sd.map_or(String::new(), |d| {
                 format!(", ± {} from the Monte Carlo error", short(d))
@@ -250,7 +260,7 @@ pub fn answer_sentence(
                  Carlo estimate is at most the target.",
                 request.key.name(),
                 request.target,
-                short(a.value),
+                value_text(request.key, a.value),
                 request.key.unit(),
                 request.target.measure.name(),
                 a.predicted

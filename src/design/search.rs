@@ -15,7 +15,7 @@ use crate::study::Study;
 const GRID: usize = 25;
 
 /// The search stops when the bracket is narrower than this fraction of [from, to] (or one
-/// time step, for a duration).
+/// time step, for a duration); for a count (`drive.runs`) when it is one step wide.
 const RESOLUTION: f64 = 0.01;
 
 /// The study with `key` set to `value`, and its prepared model.
@@ -34,12 +34,14 @@ pub(super) struct Search<'a> {
     /// The target parameter's index among the fitted ones (its summary rows).
     parameter: usize,
     truth: f64,
-    /// The drive's time step \[s\], when the key is a duration.
+    /// The drive's time step \[s\], when the key is a duration; the count's step (two
+    /// runs), when it is a count.
     step: Option<f64>,
 }
 
 impl Search<'_> {
-    /// `value` made valid for the key: a duration a whole number of time steps.
+    /// `value` made valid for the key: a duration a whole number of time steps, a number
+    /// of runs a positive even number.
     fn snap(&self, value: f64) -> f64 {
         match self.step {
             Some(dt) => (value / dt).round().max(1.0) * dt,
@@ -98,6 +100,19 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
             request.key.name()
         )));
     }
+    if let Some(step) = request.key.count_step() {
+        // A count (the number of runs): the range's ends are values it takes, so the grid,
+        // the bisection and the answer stay on whole multiples of its step.
+        let step = step as f64;
+        let valid = |v: f64| v >= step && (v / step).fract() == 0.0;
+        if !(valid(from) && valid(to)) {
+            return Err(DesignError::Request(format!(
+                "--from {from} --to {to}: {} takes whole multiples of {step} (a run each way \
+                 per pair); give {step} <= from < to, both multiples of {step}",
+                request.key.name()
+            )));
+        }
+    }
     let vs = study
         .vehicle()
         .ok_or_else(|| DesignError::Request("design needs a vehicle study".into()))?;
@@ -125,7 +140,7 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         })?;
     let step = match request.key {
         DesignKey::Duration => vs.drive.duration_step(),
-        _ => None,
+        key => key.count_step().map(|n| n as f64),
     };
     let search = Search {
         base: study,
@@ -242,8 +257,12 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
             }
         }
     }
-    // Bisect between the last value that fails and the first that holds.
-    let resolution = (RESOLUTION * (to - from)).max(step.unwrap_or(0.0));
+    // Bisect between the last value that fails and the first that holds: to 1 % of the
+    // range (or one time step), or, for a count, to one step (two runs).
+    let resolution = match request.key.count_step() {
+        Some(n) => n as f64,
+        None => (RESOLUTION * (to - from)).max(step.unwrap_or(0.0)),
+    };
     while let Some(b) = bad {
         if (good - b).abs() <= resolution {
             break;

@@ -8,12 +8,16 @@ use super::validate::validate;
 use super::{Study, StudyError};
 use crate::estimate::channels::Channel;
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
+use crate::vehicle::{DRIVE_MODES, RUN_PAIR};
 
 /// A setting of a vehicle study that can be given one value by [`Study::varied`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum VariedKey {
     /// `drive.duration` \[s\] (a drive mode with a duration, e.g. `torque`).
     Duration,
+    /// `drive.runs`: the one level of a coast-down's number of runs, an even positive
+    /// integer (a drive mode made of runs, docs/model.md#coastdown).
+    Runs,
     /// `terrain.scale`: the one entry of `terrain.scales`.
     Scale,
     /// `noise.velocity_sd` \[m/s\]: the one level of the speed noise.
@@ -50,26 +54,33 @@ impl VariedKey {
     /// Every key, as named on the command line: the fixed ones, then each model error that
     /// is an axis.
     pub fn all() -> Vec<VariedKey> {
-        [VariedKey::Duration, VariedKey::Scale, VariedKey::VelocitySd]
-            .into_iter()
-            .chain(TruthKey::all().map(VariedKey::Truth))
-            .collect()
+        [
+            VariedKey::Duration,
+            VariedKey::Runs,
+            VariedKey::Scale,
+            VariedKey::VelocitySd,
+        ]
+        .into_iter()
+        .chain(TruthKey::all().map(VariedKey::Truth))
+        .collect()
     }
 
     /// The name on the command line and in `design.parquet`.
     pub fn name(self) -> &'static str {
         match self {
             VariedKey::Duration => "drive.duration",
+            VariedKey::Runs => "drive.runs",
             VariedKey::Scale => "terrain.scale",
             VariedKey::VelocitySd => "noise.velocity_sd",
             VariedKey::Truth(t) => &TRUTH_NAMES[t.0],
         }
     }
 
-    /// The key's unit (`-` when dimensionless).
+    /// The key's unit (`-` when dimensionless; `runs` for the number of runs).
     pub fn unit(self) -> &'static str {
         match self {
             VariedKey::Duration => "s",
+            VariedKey::Runs => "runs",
             VariedKey::Scale => "-",
             VariedKey::VelocitySd => Channel::Velocity.unit(),
             VariedKey::Truth(t) => match t.entry().unit {
@@ -79,10 +90,21 @@ impl VariedKey {
         }
     }
 
-    /// Whether the key's values must be positive: a duration, a scale or a noise level. A
-    /// model error takes the values its entry accepts, which the varied study checks.
+    /// Whether the key's values must be positive: a duration, a number of runs, a scale or
+    /// a noise level. A model error takes the values its entry accepts, which the varied
+    /// study checks.
     pub fn positive(self) -> bool {
         !matches!(self, VariedKey::Truth(_))
+    }
+
+    /// The step the key's values are whole multiples of when it is a count: [`RUN_PAIR`]
+    /// for `drive.runs` (an even number of runs, a run each way per pair). `None`: the key
+    /// is a real number (a duration's time step is the study's, not the key's).
+    pub fn count_step(self) -> Option<usize> {
+        match self {
+            VariedKey::Runs => Some(RUN_PAIR),
+            _ => None,
+        }
     }
 
     /// Parse a command-line name; an unknown one is refused with every accepted name (and,
@@ -143,6 +165,43 @@ impl Study {
                             "the study's drive mode has no duration (a speed trace lasts as \
                              long as its log; vary it with drive.durations in a run)"
                                 .into(),
+                        ));
+                    }
+                }
+            }
+            VariedKey::Runs => {
+                let has_runs = self.vehicle().is_some_and(|v| v.drive.runs().is_some());
+                match raw.drive.as_mut() {
+                    Some(drive) if has_runs => {
+                        // A whole number is written as a TOML integer, as a study file
+                        // gives it; any other value is written as it is, and refused by the
+                        // validation below as a file's would be.
+                        let level = if value.fract() == 0.0 && value.abs() < i64::MAX as f64 {
+                            toml::Value::Integer(value as i64)
+                        } else {
+                            toml::Value::Float(value)
+                        };
+                        drive
+                            .params
+                            .insert("runs".into(), toml::Value::Array(vec![level]));
+                    }
+                    _ => {
+                        let mode = raw
+                            .drive
+                            .as_ref()
+                            .and_then(|d| d.mode.clone())
+                            .unwrap_or_else(|| DRIVE_MODES[0].name.to_string());
+                        let with_runs: Vec<&str> = DRIVE_MODES
+                            .iter()
+                            .filter(|m| m.keys.contains(&"runs"))
+                            .map(|m| m.name)
+                            .collect();
+                        return Err(fail(
+                            "drive.runs",
+                            format!(
+                                "the study's drive mode \"{mode}\" has no runs (its cycle is \
+                                 one run); drive.runs is a key of drive.mode {with_runs:?}"
+                            ),
                         ));
                     }
                 }

@@ -22,6 +22,10 @@ pub const MAX_RUN_S: f64 = 3600.0;
 /// which needs a sample of its run on each side.
 pub const MIN_RUN_SAMPLES: usize = 3;
 
+/// Runs come in pairs, a run each way (SAE J2263): `drive.runs` is a positive whole multiple
+/// of this.
+pub const RUN_PAIR: usize = 2;
+
 /// Which way the runs drive the route (`drive.directions`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Directions {
@@ -143,7 +147,7 @@ fn runs(p: &Params<'_>, key: &str) -> Result<Vec<usize>, KeyError> {
                 ));
             }
         };
-        if n <= 0 || n % 2 != 0 {
+        if n <= 0 || n % RUN_PAIR as i64 != 0 {
             return Err(p.error(
                 &name(i),
                 format!(

@@ -15,7 +15,7 @@ mod speed_trace;
 mod torque;
 pub mod truth;
 
-pub use coastdown::{CoastDown, Directions};
+pub use coastdown::{CoastDown, Directions, RUN_PAIR};
 pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
 pub use torque::{TorqueDrive, simulate};
