@@ -3,8 +3,9 @@
 flat road) and studies/coastdown_vs_road_drive.toml (a 20-minute drive on a hilly route),
 the same weighed passenger car, speed sensor and model errors, and prints, per test,
 estimator and condition (calm; a 3 m/s wind; an unmodelled rotating-mass factor of 0.03;
-both), how often Cd and Cr come out within 1 % of the truth, with its Monte Carlo standard
-error sqrt(p (1 − p) / R) (a binomial proportion over R independent realisations), and the
+the logged force 1 % off; all three), how often Cd and Cr come out within 1 % of the truth, with its Monte Carlo standard
+error sqrt(p (1 − p) / R) (a binomial proportion over R independent realisations; none of R
+is shown as the rule of three's 95 % bound, < 3/R), and the
 relative bias (± its MCSE, the SD over √R) and the relative EmpSE.
 
 Cd is `cd_hat` = M θ̂₂ with M weighed, Cr is θ̂₃; both read from realisations.parquet.
@@ -26,10 +27,11 @@ BINARY = ROOT / "target" / "release" / "chassis-mc"
 STUDIES = {"coast-down, 8 runs": "coastdown_vs_road", "road drive, 20 min": "coastdown_vs_road_drive"}
 TRUTH = {"cd": 0.30, "cr": 0.010}
 CONDITIONS = [
-    (0.0, 0.0, "calm"),
-    (3.0, 0.0, "wind 3 m/s"),
-    (0.0, 0.03, "δ = 0.03"),
-    (3.0, 0.03, "wind + δ"),
+    (0.0, 0.0, 0.0, "calm"),
+    (3.0, 0.0, 0.0, "wind 3 m/s"),
+    (0.0, 0.03, 0.0, "δ = 0.03"),
+    (0.0, 0.0, 0.01, "force 1 % off"),
+    (3.0, 0.03, 0.01, "all three"),
 ]
 
 
@@ -52,7 +54,7 @@ def table(out):
         files = [str(f) for f in realisation_files(out / name)]
         frame = duckdb.sql(
             f"""
-            SELECT estimator, wind_speed, rotating_mass_factor, count(*) AS n,
+            SELECT estimator, wind_speed, rotating_mass_factor, force_scale, count(*) AS n,
                    avg((abs(cd_hat / {TRUTH['cd']} - 1) < 0.01)::DOUBLE) AS cd_within,
                    avg((abs(theta_rolling_resistance / {TRUTH['cr']} - 1) < 0.01)::DOUBLE)
                        AS cr_within,
@@ -62,9 +64,9 @@ def table(out):
                    stddev_samp(theta_rolling_resistance / {TRUTH['cr']}) AS cr_sd
             FROM read_parquet({files})
             WHERE status = 'ok'
-            GROUP BY estimator, wind_speed, rotating_mass_factor
+            GROUP BY estimator, wind_speed, rotating_mass_factor, force_scale
             ORDER BY list_position(['ols', 'bcls', 'road_load'], estimator), wind_speed,
-                rotating_mass_factor
+                rotating_mass_factor, force_scale
             """
         ).df()
         frame.insert(0, "test", test)
@@ -73,6 +75,9 @@ def table(out):
 
 
 def cell(p, n):
+    if p == 0:
+        # None of n: the rule of three's 95 % upper bound.
+        return f"< {300 / n:.1f} %"
     se = (p * (1 - p) / n) ** 0.5
     return f"{100 * p:.1f} ± {100 * se:.1f} %"
 
@@ -85,14 +90,15 @@ def print_table(frames, title, show):
     """A markdown table: a row per test and estimator, a column per condition, each cell
     `show` of that condition's row."""
     print(title + "\n")
-    print("| test | estimator | " + " | ".join(c[2] for c in CONDITIONS) + " |")
+    print("| test | estimator | " + " | ".join(c[3] for c in CONDITIONS) + " |")
     print("|---|---|" + "---|" * len(CONDITIONS))
     for frame in frames:
         for est in frame.estimator.unique():
             cells = []
-            for wind, delta, _ in CONDITIONS:
+            for wind, delta, scale, _ in CONDITIONS:
                 r = frame[(frame.estimator == est) & (frame.wind_speed == wind)
-                          & (frame.rotating_mass_factor == delta)].iloc[0]
+                          & (frame.rotating_mass_factor == delta)
+                          & (frame.force_scale == scale)].iloc[0]
                 cells.append(show(r))
             print(f"| {frame.test.iloc[0]} | {est} | " + " | ".join(cells) + " |")
 

@@ -19,7 +19,7 @@ use super::rls::Rls;
 use super::road_load::RoadLoad;
 use super::wbcls::Wbcls;
 use crate::noise::BLOCK;
-use crate::numeric::linalg::{SolveError, solve_spd};
+use crate::numeric::linalg::SolveError;
 
 /// Everything an estimator may use from one realisation: what a real log would give (the
 /// measured sums and rows, the sample times, the known noise levels), never the noise-free
@@ -347,11 +347,6 @@ impl Moments {
         let b = Vector3::new(self.s_1y, -k * s_wy, self.s_3y);
         (a, b)
     }
-}
-
-/// Solve a normal-equation system (OLS or BCLS).
-pub fn solve(system: &(Matrix3<f64>, Vector3<f64>)) -> Result<Vector3<f64>, SolveError> {
-    solve_spd(&system.0, &system.1)
 }
 
 #[cfg(test)]

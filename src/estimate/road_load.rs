@@ -90,9 +90,10 @@ impl Estimator for RoadLoad {
     }
 
     fn reports(&self, bound: &Bound, _settings: &EstimatorSettings) -> bool {
-        // The sandwich is OLS's spread on [x₂, x₃], not this fit's on [1, V, V²]; the
-        // Cramér–Rao bounds of the two-parameter model bound it (it is unbiased there and
-        // fits one coefficient more).
+        // The sandwich is OLS's spread on [x₂, x₃], not this fit's on [1, V, V²]. The
+        // Cramér–Rao spreads of the two-parameter model are a reference: a bound where it is
+        // unbiased (a flat road, output noise), not under speed noise, where it is biased
+        // (docs/model.md#road-load).
         bound.kind != BoundKind::EivSandwich
     }
 }

@@ -250,8 +250,9 @@ fn coast(
     let h = drive.time_step_s;
     let first = cycle.len();
     let max_steps = (MAX_RUN_S / h).floor() as usize;
-    let run_error = |time_s: f64, reason: String| SimulationError::CoastRun {
+    let run_error = |key: &'static str, time_s: f64, reason: String| SimulationError::CoastRun {
         run: k,
+        key,
         time_s,
         reason,
     };
@@ -263,6 +264,7 @@ fn coast(
         };
         if x < 0.0 {
             return Err(run_error(
+                "drive.start_distance",
                 t,
                 format!(
                     "the vehicle runs off the start of the terrain (x = {x:.1} m < 0) driving \
@@ -270,9 +272,16 @@ fn coast(
                 ),
             ));
         }
-        let theta = table.grade_at(x).ok_or(SimulationError::RanOffTerrain {
-            time_s: t,
-            end_m: table.end_m(),
+        let theta = table.grade_at(x).ok_or_else(|| {
+            run_error(
+                "terrain.length",
+                t,
+                format!(
+                    "the vehicle runs off the end of the terrain (x > {} m); make terrain.length \
+                     longer, or drive.start_distance or drive.run_spacing smaller",
+                    table.end_m()
+                ),
+            )
         })?;
         Ok(heading * theta)
     };
@@ -296,12 +305,14 @@ fn coast(
         let t = i as f64 * h;
         if i >= MAX_SAMPLES {
             return Err(run_error(
+                "drive.time_step",
                 t,
                 format!("the cycle would have more than {MAX_SAMPLES} samples"),
             ));
         }
         if j > max_steps {
             return Err(run_error(
+                "drive.speed_low",
                 t,
                 format!(
                     "the vehicle has not slowed down to drive.speed_low ({} m/s) after {MAX_RUN_S} s \
@@ -345,6 +356,7 @@ fn coast(
     let samples = cycle.len() - first;
     if samples < MIN_RUN_SAMPLES {
         return Err(run_error(
+            "drive.time_step",
             first as f64 * h,
             format!(
                 "it has {samples} samples from drive.speed_high to drive.speed_low; at least \

@@ -242,6 +242,8 @@ pub enum SimulationError {
     CoastRun {
         /// The run, 0-based.
         run: usize,
+        /// The study key to change (e.g. `drive.time_step`).
+        key: &'static str,
         /// Where \[s\].
         time_s: f64,
         /// What went wrong, and which key to change.

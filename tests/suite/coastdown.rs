@@ -293,6 +293,13 @@ fn bad_coast_down_keys_exit_2_naming_file_key_and_line() {
             "must be below drive.speed_high",
         ),
         (
+            // Fewer than 3 samples per run: the simulation names the key to change.
+            set_key(&base, "time_step", "300.0"),
+            "drive.time_step",
+            line_of(&base, "time_step ="),
+            "make drive.time_step smaller",
+        ),
+        (
             durations.clone(),
             "drive.durations",
             line_of(&durations, "durations ="),

@@ -78,3 +78,39 @@ fn road_load_needs_the_mass_known_and_its_key_needs_road_load() {
     );
     assert!(err.line.is_some(), "{err}");
 }
+
+/// `estimation.effective_mass_factor` δ̂: on a flat calm coast-down the analysis's road-load
+/// force is −M(1 + δ̂)a while the truth's is −M(1 + δ)a, so A, B, C (and Cd, Cr) scale by
+/// exactly (1 + δ̂)/(1 + δ): δ̂ = δ = 0.03 recovers them (to 1e-9, rounding), δ̂ = 0.03 with
+/// δ = 0 overstates both by 3 %, and δ = 0.03 unknown to the analysis understates them by
+/// 1 − 1/1.03. Noise-free, `bias_model`.
+#[test]
+fn the_effective_mass_factor_scales_the_road_load_as_derived() {
+    for (truth_delta, assumed, factor) in [
+        (0.03, 0.03, 1.0),
+        (0.0, 0.03, 1.03),
+        (0.03, 0.0, 1.0 / 1.03),
+    ] {
+        let text = set_key(&study_text("coastdown.toml"), "velocity_sd", "[0.0]");
+        let text = set_key(&text, "estimators", "[\"road_load\"]");
+        let text = text.replacen(
+            "\n[estimation]\n",
+            &format!("\n[estimation]\neffective_mass_factor = {assumed}\n"),
+            1,
+        );
+        let text = format!("{text}\n[truth]\nrotating_mass_factor = [{truth_delta}]\n");
+        let study = Study::from_toml(&text, "delta")
+            .unwrap()
+            .with_overrides(Some(2), None)
+            .unwrap();
+        let summary = run_summary(&study);
+        let (truth, bias) = (f64_col(&summary, "truth"), f64_col(&summary, "bias_model"));
+        for p in 0..2 {
+            let got = (truth[p] + bias[p]) / truth[p];
+            assert!(
+                (got - factor).abs() <= 1e-9,
+                "δ = {truth_delta}, δ̂ = {assumed}, parameter {p}: {got} vs {factor}"
+            );
+        }
+    }
+}

@@ -12,7 +12,7 @@ use crate::estimate::regression::Regression;
 use crate::study::{AirSpeed, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
 use crate::vehicle::truth::sample_of;
-use crate::vehicle::{DriveCycle, Prefix, Road, Truth};
+use crate::vehicle::{DriveCycle, Prefix, Road, SimulationError, Truth};
 
 /// The drive cycle of one terrain scale and truth.
 #[derive(Debug)]
@@ -86,7 +86,14 @@ pub(super) fn scale_cycles(
             let cycle = vs
                 .drive
                 .cycle(&vs.vehicle, road, &truth)
-                .map_err(|e| error_at(&key, format!("at scale {scale}{with_truth}: {e}")))?;
+                .map_err(|e| {
+                    // A coast-down run names the key to change; the rest blame the scale.
+                    let key = match &e {
+                        SimulationError::CoastRun { key, .. } => key.to_string(),
+                        _ => key.clone(),
+                    };
+                    error_at(&key, format!("at scale {scale}{with_truth}: {e}"))
+                })?;
             // A drifting mass must stay positive over the cycle (it is linear in time, so
             // its ends tell).
             if let Some(last) = cycle.t_s.len().checked_sub(1) {
