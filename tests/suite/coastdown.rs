@@ -372,3 +372,15 @@ fn gusts_are_drawn_independently_per_run() {
         assert!((0.3..=0.75).contains(&ratio), "{p}: {ratio}");
     }
 }
+
+/// A coast-down with every per-realisation draw it has (speed noise, gusts re-integrating
+/// every run, a runs axis) gives the same tables with one thread and with two.
+#[test]
+fn a_gusty_coast_down_is_the_same_on_one_thread_and_two() {
+    let text = set_key(&study_text("coastdown.toml"), "runs", "[4, 8]");
+    let text = format!("{text}\n[truth]\nwind_gust_sd = [0.5]\nwind_speed = [2.0]\n");
+    let study = load(&text, 24);
+    let (one, _) = run(&study, Some(1));
+    let (two, _) = run(&study, Some(2));
+    assert_same_tables(one.path(), two.path());
+}
