@@ -180,7 +180,17 @@ impl CycleSource for CoastDown {
         road: Road<'_>,
         truth: &Truth,
     ) -> Result<DriveCycle, SimulationError> {
-        simulate_coastdown(vehicle, self, road.table, truth)
+        simulate_coastdown(vehicle, self, road.table, truth, self.most_runs())
+    }
+
+    fn cycle_of_runs(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truth: &Truth,
+        runs: usize,
+    ) -> Result<DriveCycle, SimulationError> {
+        simulate_coastdown(vehicle, self, road.table, truth, runs.min(self.most_runs()))
     }
 
     fn describe(&self) -> String {
@@ -209,16 +219,17 @@ impl CycleSource for CoastDown {
     }
 }
 
-/// Simulate the coast-down's runs on `table` (a flat road without one) and lay them end to
-/// end: run k's first sample is one time step after run k − 1's last, so the whole cycle is
-/// sampled at t_i = i·Δt (docs/model.md#coastdown).
+/// Simulate the coast-down's first `runs` runs on `table` (a flat road without one) and lay
+/// them end to end: run k's first sample is one time step after run k − 1's last, so the
+/// whole cycle is sampled at t_i = i·Δt (docs/model.md#coastdown). A run does not depend on
+/// the runs after it, so the first k runs are the same whatever `runs` ≥ k.
 fn simulate_coastdown(
     vehicle: &VehicleParams,
     drive: &CoastDown,
     table: Option<&GradeTable>,
     truth: &Truth,
+    runs: usize,
 ) -> Result<DriveCycle, SimulationError> {
-    let runs = drive.most_runs();
     let mut cycle = DriveCycle::default();
     let mut spacing = drive.run_spacing_m;
     for k in 0..runs {

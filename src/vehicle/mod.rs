@@ -122,6 +122,19 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
         truth: &Truth,
     ) -> Result<DriveCycle, SimulationError>;
 
+    /// The cycle of [`cycle`](CycleSource::cycle) cut to its first `runs` runs, made without
+    /// the rest (a coast-down integrates only those; a drive of one run ignores `runs`).
+    fn cycle_of_runs(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truth: &Truth,
+        runs: usize,
+    ) -> Result<DriveCycle, SimulationError> {
+        let _ = runs;
+        self.cycle(vehicle, road, truth)
+    }
+
     /// The drive in a few words, for tables and figures.
     fn describe(&self) -> String;
 

@@ -164,10 +164,12 @@ impl World {
                 table: self.table.as_deref(),
                 scale: self.scale,
             };
-            let cycle = vs
-                .drive
-                .cycle(&vs.vehicle, road, &truth)
-                .map_err(|e| e.to_string())?;
+            // Only the runs the condition uses (a coast-down's first k).
+            let cycle = match self.prefix {
+                Prefix::Runs(k) => vs.drive.cycle_of_runs(&vs.vehicle, road, &truth, k),
+                _ => vs.drive.cycle(&vs.vehicle, road, &truth),
+            }
+            .map_err(|e| e.to_string())?;
             (cycle, Cow::Owned(truth))
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
