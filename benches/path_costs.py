@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""The cost of each sensor path per realisation and per sample, on one thread, measured in
+one run (docs/model.md#performance; README "Performance").
+
+For each path a one-condition study is run with `--threads 1` at R = 20 and R = `--large`
+(default 1020; best of `--repeat` wall times each); the marginal cost per realisation is
+(T(large) − T(20)) / (large − 20), which leaves out the study's preparation (simulating the cycle,
+the bounds, the covariances of the control variates), and per sample that over the rows
+regressed. The last column is the per-sample cost over the thesis path's, measured in the
+same run: ratios are what a shared, noisy machine can compare.
+
+Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then OLS with
+BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
+grade noise σ_θ = 0.001 rad; and the heavy-duty truck (studies/heavy_duty.toml, its first
+hour) with OLS, with grade noise, and with a differentiated acceleration, grade noise and
+OLS + BCLS + WBCLS.
+
+    cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
+"""
+
+import argparse
+import pathlib
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BINARY = ROOT / "target" / "release" / "chassis-mc"
+SMALL = 20
+
+
+def thesis(estimators='["ols"]', extra_noise="", estimation_extra=""):
+    text = (ROOT / "studies" / "bias_compensation.toml").read_text()
+    text = re.sub(r"^scales = .*$", "scales = [1.0]", text, count=1, flags=re.M)
+    text = re.sub(r"^velocity_sd = .*$", "velocity_sd = [1.0]" + extra_noise, text, count=1,
+                  flags=re.M)
+    text = re.sub(r"^estimators = .*$", f"estimators = {estimators}" + estimation_extra, text,
+                  count=1, flags=re.M)
+    return text
+
+
+def truck(estimators='["ols"]', extra_noise="", estimation_extra=""):
+    text = (ROOT / "studies" / "heavy_duty.toml").read_text()
+    text = re.sub(r"^durations = .*$", "durations = [3600.0]", text, count=1, flags=re.M)
+    text = re.sub(r"^velocity_sd = .*$", "velocity_sd = [0.1]" + extra_noise, text, count=1,
+                  flags=re.M)
+    text = re.sub(r"^estimators = .*$", f"estimators = {estimators}" + estimation_extra, text,
+                  count=1, flags=re.M)
+    return text
+
+
+PATHS = [
+    ("thesis cycle, OLS", thesis()),
+    ("+ BCLS", thesis('["ols", "bcls"]')),
+    ("+ WBCLS", thesis('["ols", "bcls", "wbcls"]')),
+    ("+ RLS", thesis('["ols", "bcls", "wbcls", "rls"]')),
+    ("AR(1) speed noise (τ = 1 s)", thesis(extra_noise="\nvelocity_correlation_time = [1.0]")),
+    ("differentiated acceleration", thesis(estimation_extra='\nacceleration = "differentiated"')),
+    ("AR(1) + differentiated", thesis(extra_noise="\nvelocity_correlation_time = [1.0]",
+                                      estimation_extra='\nacceleration = "differentiated"')),
+    ("grade noise σ_θ = 0.001", thesis(extra_noise="\ngrade_sd = [0.001]")),
+    ("truck, 1 h, OLS", truck()),
+    ("… with grade noise", truck(extra_noise="\ngrade_sd = [0.001]")),
+    ("… differentiated + grade noise, OLS + BCLS + WBCLS",
+     truck('["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
+           estimation_extra='\nacceleration = "differentiated"')),
+]
+
+
+def wall(study, realisations, out, repeat):
+    """The best wall time of `repeat` fresh runs (a run into a filled directory would resume)."""
+    best = float("inf")
+    for _ in range(repeat):
+        shutil.rmtree(out, ignore_errors=True)
+        start = time.perf_counter()
+        subprocess.run([str(BINARY), "run", str(study), "--out", str(out), "--threads", "1",
+                        "--realisations", str(realisations), "--quiet"], check=True,
+                       stdout=subprocess.DEVNULL)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def rows_regressed(out):
+    import pyarrow.parquet as pq
+    used = pq.read_table(out / "cycles.parquet", columns=["used"]).column("used")
+    return sum(1 for u in used.to_pylist() if u)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=3, help="runs per timing (best kept)")
+    ap.add_argument("--large", type=int, default=1020,
+                    help="the larger R (the difference must outweigh the timing noise)")
+    args = ap.parse_args()
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = pathlib.Path(tmp)
+        for i, (name, text) in enumerate(PATHS):
+            study = tmp / f"path{i}.toml"
+            # heavy_duty.toml names no files; both studies are read from the temp dir.
+            study.write_text(text)
+            out = tmp / f"out{i}"
+            small = wall(study, SMALL, out, args.repeat)
+            large = wall(study, args.large, out, args.repeat)
+            n = rows_regressed(out)
+            per_realisation = (large - small) / (args.large - SMALL)
+            results.append((name, per_realisation, per_realisation / n, n))
+    base = results[0][2]
+    print(f"| path | rows | ms / realisation | ns / sample | × thesis per sample |")
+    print("|---|---|---|---|---|")
+    for name, per_r, per_s, n in results:
+        print(f"| {name} | {n} | {1e3 * per_r:.3f} | {1e9 * per_s:.1f} | {per_s / base:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
