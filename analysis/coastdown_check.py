@@ -60,6 +60,8 @@ import tomllib
 import numpy as np
 import pyarrow.parquet as pq
 
+from common import mc_summary
+
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
 # Where cargo put the binary: $CARGO_TARGET_DIR when set (relative to the repository, as
@@ -202,13 +204,6 @@ class CoastDown:
             abc[start:start + block] = np.linalg.solve(r[:, :3, :3], r[:, :3, 3:]).squeeze(-1)
         return np.column_stack([abc, abc[:, 2] / (self.k * self.m),
                                 abc[:, 0] / (self.m * self.g)])
-
-
-def mc_summary(estimates):
-    """Mean and SD of R estimates with their MCSEs (s/√R, s/√(2(R−1)))."""
-    r = len(estimates)
-    s = estimates.std(ddof=1)
-    return estimates.mean(), s / math.sqrt(r), s, s / math.sqrt(2 * (r - 1))
 
 
 def main():

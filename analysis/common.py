@@ -3,6 +3,7 @@ from one run, the study in a run's footer, the true parameters, the terrain metr
 drive cycle (from cycles.parquet), and the loop that runs a script's SQL once per
 parameter over the realisations (of an unsharded run, or of every shard of a sharded one)."""
 
+import math
 import pathlib
 import re
 import sys
@@ -145,3 +146,10 @@ def per_parameter(run_dir, columns, sql, after):
             df.insert(df.columns.get_loc(after) + 1, "parameter", p)
             frames.append(df)
     return pd.concat(frames, ignore_index=True)
+
+
+def mc_summary(estimates):
+    """Mean and SD of R estimates with their MCSEs (s/√R, s/√(2(R−1)))."""
+    r = len(estimates)
+    s = estimates.std(ddof=1)
+    return estimates.mean(), s / math.sqrt(r), s, s / math.sqrt(2 * (r - 1))

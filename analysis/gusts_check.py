@@ -42,6 +42,8 @@ import tomllib
 import numpy as np
 import pyarrow.parquet as pq
 
+from common import mc_summary
+
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
 # Where cargo put the binary: $CARGO_TARGET_DIR when set (relative to the repository, as
@@ -185,13 +187,6 @@ def simulate(th, sigma, tau, rng, block=1000):
     theta_hat = np.linalg.solve(r_factor[:, :3, :3], r_factor[:, :3, 3:]).squeeze(-1)
     trajectory["t"] = t
     return theta_hat, stalled, trajectory
-
-
-def mc_summary(estimates):
-    """Mean and SD of R estimates with their MCSEs (s/√R, s/√(2(R−1)))."""
-    r = len(estimates)
-    s = estimates.std(ddof=1)
-    return estimates.mean(), s / math.sqrt(r), s, s / math.sqrt(2 * (r - 1))
 
 
 def main():

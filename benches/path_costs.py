@@ -31,31 +31,35 @@ BINARY = ROOT / "target" / "release" / "chassis-mc"
 SMALL = 20
 
 
-def thesis(estimators='["ols"]', extra_noise="", estimation_extra=""):
-    text = (ROOT / "studies" / "bias_compensation.toml").read_text()
-    text = re.sub(r"^scales = .*$", "scales = [1.0]", text, count=1, flags=re.M)
-    text = re.sub(r"^velocity_sd = .*$", "velocity_sd = [1.0]" + extra_noise, text, count=1,
-                  flags=re.M)
-    text = re.sub(r"^estimators = .*$", f"estimators = {estimators}" + estimation_extra, text,
-                  count=1, flags=re.M)
+def variant(base, edits, estimators='["ols"]', extra_noise="", estimation_extra=""):
+    """studies/`base` with each `key = value` line of `edits` set, the estimators given, and
+    extra lines after `velocity_sd` (more noise) and after `estimators` (estimation keys)."""
+    text = (ROOT / "studies" / base).read_text()
+    edits = {**edits, "estimators": estimators}
+    tails = {"velocity_sd": extra_noise, "estimators": estimation_extra}
+    for key, value in edits.items():
+        text = re.sub(rf"^{key} = .*$", f"{key} = {value}" + tails.get(key, ""), text,
+                      count=1, flags=re.M)
     return text
 
 
-def truck(estimators='["ols"]', extra_noise="", estimation_extra=""):
-    text = (ROOT / "studies" / "heavy_duty.toml").read_text()
-    text = re.sub(r"^durations = .*$", "durations = [3600.0]", text, count=1, flags=re.M)
-    text = re.sub(r"^velocity_sd = .*$", "velocity_sd = [0.1]" + extra_noise, text, count=1,
-                  flags=re.M)
-    text = re.sub(r"^estimators = .*$", f"estimators = {estimators}" + estimation_extra, text,
-                  count=1, flags=re.M)
-    return text
+def thesis(**options):
+    """The thesis cycle at scale 1 with σ_v = 1 m/s."""
+    return variant("bias_compensation.toml", {"scales": "[1.0]", "velocity_sd": "[1.0]"},
+                   **options)
+
+
+def truck(**options):
+    """studies/heavy_duty.toml's first hour with σ_v = 0.1 m/s."""
+    return variant("heavy_duty.toml", {"durations": "[3600.0]", "velocity_sd": "[0.1]"},
+                   **options)
 
 
 PATHS = [
     ("thesis cycle, OLS", thesis()),
-    ("+ BCLS", thesis('["ols", "bcls"]')),
-    ("+ WBCLS", thesis('["ols", "bcls", "wbcls"]')),
-    ("+ RLS", thesis('["ols", "bcls", "wbcls", "rls"]')),
+    ("+ BCLS", thesis(estimators='["ols", "bcls"]')),
+    ("+ WBCLS", thesis(estimators='["ols", "bcls", "wbcls"]')),
+    ("+ RLS", thesis(estimators='["ols", "bcls", "wbcls", "rls"]')),
     ("AR(1) speed noise (τ = 1 s)", thesis(extra_noise="\nvelocity_correlation_time = [1.0]")),
     ("differentiated acceleration", thesis(estimation_extra='\nacceleration = "differentiated"')),
     ("AR(1) + differentiated", thesis(extra_noise="\nvelocity_correlation_time = [1.0]",
@@ -64,7 +68,7 @@ PATHS = [
     ("truck, 1 h, OLS", truck()),
     ("… with grade noise", truck(extra_noise="\ngrade_sd = [0.001]")),
     ("… differentiated + grade noise, OLS + BCLS + WBCLS",
-     truck('["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
+     truck(estimators='["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
            estimation_extra='\nacceleration = "differentiated"')),
 ]
 
