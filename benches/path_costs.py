@@ -16,6 +16,7 @@ hour) with OLS, with grade noise, and with a differentiated acceleration, grade 
 OLS + BCLS + WBCLS.
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
+        [--before OTHER/target/release/chassis-mc]
 """
 
 import argparse
@@ -73,13 +74,13 @@ PATHS = [
 ]
 
 
-def wall(study, realisations, out, repeat):
+def wall(binary, study, realisations, out, repeat):
     """The best wall time of `repeat` fresh runs (a run into a filled directory would resume)."""
     best = float("inf")
     for _ in range(repeat):
         shutil.rmtree(out, ignore_errors=True)
         start = time.perf_counter()
-        subprocess.run([str(BINARY), "run", str(study), "--out", str(out), "--threads", "1",
+        subprocess.run([str(binary), "run", str(study), "--out", str(out), "--threads", "1",
                         "--realisations", str(realisations), "--quiet"], check=True,
                        stdout=subprocess.DEVNULL)
         best = min(best, time.perf_counter() - start)
@@ -97,8 +98,14 @@ def main():
     ap.add_argument("--repeat", type=int, default=3, help="runs per timing (best kept)")
     ap.add_argument("--large", type=int, default=1020,
                     help="the larger R (the difference must outweigh the timing noise)")
+    ap.add_argument("--binary", type=pathlib.Path, default=BINARY,
+                    help="the chassis-mc measured (default: this checkout's release build)")
+    ap.add_argument("--before", type=pathlib.Path,
+                    help="another chassis-mc (an earlier commit's build) measured in the same "
+                         "run, alternating with --binary: its columns come first")
     args = ap.parse_args()
-    results = []
+    binaries = [args.before, args.binary] if args.before else [args.binary]
+    results = [[] for _ in binaries]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
         for i, (name, text) in enumerate(PATHS):
@@ -106,16 +113,23 @@ def main():
             # heavy_duty.toml names no files; both studies are read from the temp dir.
             study.write_text(text)
             out = tmp / f"out{i}"
-            small = wall(study, SMALL, out, args.repeat)
-            large = wall(study, args.large, out, args.repeat)
-            n = rows_regressed(out)
-            per_realisation = (large - small) / (args.large - SMALL)
-            results.append((name, per_realisation, per_realisation / n, n))
-    base = results[0][2]
-    print(f"| path | rows | ms / realisation | ns / sample | × thesis per sample |")
-    print("|---|---|---|---|---|")
-    for name, per_r, per_s, n in results:
-        print(f"| {name} | {n} | {1e3 * per_r:.3f} | {1e9 * per_s:.1f} | {per_s / base:.2f} |")
+            for binary, rows in zip(binaries, results):
+                small = wall(binary, study, SMALL, out, args.repeat)
+                large = wall(binary, study, args.large, out, args.repeat)
+                n = rows_regressed(out)
+                per_realisation = (large - small) / (args.large - SMALL)
+                rows.append((name, per_realisation, per_realisation / n, n))
+    heads = ["before: ", "after: "] if args.before else [""]
+    print("| path | rows | " + " | ".join(
+        f"{h}ms / realisation | {h}ns / sample | {h}× thesis per sample" for h in heads) + " |")
+    print("|---|---|" + "---|---|---|" * len(heads))
+    bases = [rows[0][2] for rows in results]
+    for i, (name, _, _, n) in enumerate(results[0]):
+        cells = []
+        for rows, base in zip(results, bases):
+            _, per_r, per_s, _ = rows[i]
+            cells += [f"{1e3 * per_r:.3f}", f"{1e9 * per_s:.1f}", f"{per_s / base:.2f}"]
+        print(f"| {name} | {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -15,8 +15,9 @@ use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::moments::{Moments, Rows, RowsView};
 use super::parameters::Parameters;
 use super::regression::Regression;
-use super::rls::Rls;
+use super::rls::{Rls, rls_target};
 use super::road_load::RoadLoad;
+use super::row_sums::{RlsResult, RowRead, RowReads, RowScans};
 use super::wbcls::Wbcls;
 use crate::noise::BLOCK;
 use crate::numeric::linalg::SolveError;
@@ -28,8 +29,10 @@ use crate::numeric::linalg::SolveError;
 pub struct Realisation<'a> {
     /// The sums of the measured rows.
     pub moments: &'a Moments,
-    /// The measured rows (`Some` when an estimator of the study [needs them](Estimator::needs_rows)).
+    /// The measured rows (`Some` when an estimator of the study [reads them](Estimator::reads)).
     pub rows: Option<&'a Rows>,
+    /// The sums over the rows that the study's estimators [read](Estimator::reads).
+    pub scans: Option<&'a RowScans>,
     /// The condition's regression: only its sample times `t`, k = ½ρA and g are read.
     pub regression: &'a Regression,
     /// The condition's noise levels (known to the estimator, as in the thesis).
@@ -41,12 +44,26 @@ pub struct Realisation<'a> {
 }
 
 impl<'a> Realisation<'a> {
-    /// The measured rows; an estimator that reads them says so in
-    /// [`Estimator::needs_rows`], so the model always provides them.
+    /// The measured rows; an estimator that reads them says so in [`Estimator::reads`],
+    /// so the model always provides them.
     pub fn rows(&self) -> RowsView<'a> {
         self.rows
-            .expect("the model provides the rows to an estimator that needs them")
+            .expect("the model provides the rows to an estimator that reads them")
             .view(self.regression)
+    }
+
+    /// The moments of each weight segment of `wbcls` ([`RowRead::Segments`]).
+    pub fn segment_moments(&self) -> &'a [Moments] {
+        self.scans
+            .and_then(RowScans::segments)
+            .expect("the model provides the segments to an estimator that reads them")
+    }
+
+    /// The running normal equations of `rls` and its settle row ([`RowRead::Rls`]).
+    pub fn rls(&self) -> RlsResult {
+        self.scans
+            .and_then(RowScans::rls)
+            .expect("the model provides the scan to an estimator that reads it")
     }
 }
 
@@ -112,10 +129,11 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// One line on what it is.
     fn description(&self) -> &'static str;
 
-    /// Whether it reads the measured rows, not only their sums (the model then keeps the
-    /// rows of each realisation in memory).
-    fn needs_rows(&self) -> bool {
-        false
+    /// What it reads from the measured rows beyond their sums: the kernel takes the sums
+    /// it reads over the rows as it measures them (or keeps the rows, for
+    /// [`RowRead::Rows`]).
+    fn reads(&self) -> RowRead {
+        RowRead::Nothing
     }
 
     /// Its estimate from the realisation.
@@ -268,7 +286,8 @@ pub fn estimates_without_draws(
     truth: &[f64; 3],
 ) -> Vec<Estimate> {
     let moments = reg.noise_free_moments();
-    let rows = estimators.iter().any(|e| e.needs_rows()).then(|| {
+    let reads = RowReads::of(estimators.iter().map(|e| e.reads()));
+    let rows = reads.any().then(|| {
         let mut rows = Rows::new(reg, rows_noise);
         let n = reg.len();
         for start in (0..n).step_by(BLOCK) {
@@ -277,12 +296,20 @@ pub fn estimates_without_draws(
         }
         rows
     });
+    let scans = rows.as_ref().map(|rows| {
+        let mut scans = RowScans::default();
+        let grade = noise.is_on(Channel::Grade);
+        scans.reset(reads, reg, grade, rls_target(settings, truth));
+        scans.advance(rows.view(reg), reg, reg.len());
+        scans
+    });
     estimators
         .iter()
         .map(|e| {
             e.estimate(&Realisation {
                 moments: &moments,
                 rows: rows.as_ref(),
+                scans: scans.as_ref(),
                 regression: reg,
                 noise,
                 settings,

@@ -28,6 +28,6 @@ pub mod parameters;
 pub mod regression;
 pub mod rls;
 pub mod road_load;
-mod row_sums;
+pub mod row_sums;
 pub mod sums;
 pub mod wbcls;

@@ -13,11 +13,21 @@
 use super::bounds::{Bound, BoundKind};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::parameters::Parameters;
-use super::row_sums::rls_scan;
+use super::row_sums::{RlsTarget, RowRead};
 
 /// The band around the true 1/M within which the `rls` estimate counts as settled
 /// (relative).
 pub const SETTLE_BAND: f64 = 0.02;
+
+/// What the kernel's scan of the rows needs for `rls` (docs/model.md#rls): the forgetting
+/// λ, and the band of ±[`SETTLE_BAND`] around the true 1/M the settle time is scored in.
+pub fn rls_target(settings: &EstimatorSettings, truth: &[f64; 3]) -> RlsTarget {
+    RlsTarget {
+        lambda: settings.forgetting,
+        target: truth[0],
+        band: SETTLE_BAND * truth[0].abs(),
+    }
+}
 
 /// Recursive least squares with forgetting λ (`estimation.forgetting`).
 #[derive(Debug, Clone, Copy)]
@@ -32,8 +42,8 @@ impl Estimator for Rls {
         "recursive least squares with forgetting λ run along the cycle: the estimate after the last row, and the time its 1/M settles within ±2 % of the truth"
     }
 
-    fn needs_rows(&self) -> bool {
-        true
+    fn reads(&self) -> RowRead {
+        RowRead::Rls
     }
 
     fn reads_forgetting(&self) -> bool {
@@ -41,17 +51,8 @@ impl Estimator for Rls {
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
-        let rows = r.rows();
         let t = &r.regression.t;
-        let target = r.truth[0];
-        let (system, settle) = rls_scan(
-            rows,
-            t,
-            r.regression.k,
-            r.settings.forgetting,
-            target,
-            SETTLE_BAND * target.abs(),
-        );
+        let (system, settle) = r.rls();
         Estimate {
             theta: r.settings.solve(&system),
             // With the mass known there is no 1/M estimate to settle.

@@ -19,6 +19,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::bounds::{Bound, BoundKind};
 use super::estimators::{BiasPrediction, Estimate, Estimator, EstimatorSettings, Realisation};
 use super::parameters::Parameters;
+use super::row_sums::RowRead;
 use crate::numeric::linalg::solve_spd;
 
 /// The coast-down's road-load fit A + B·V + C·V².
@@ -34,8 +35,8 @@ impl Estimator for RoadLoad {
         "the coast-down analysis (SAE J2263): the road-load force F − M(1 + δ̂)a − M g sin θ fitted as A + B·V + C·V² over all rows (known mass), reported as Cd/M = C/(kM) and Cr = A/(Mg)"
     }
 
-    fn needs_rows(&self) -> bool {
-        true
+    fn reads(&self) -> RowRead {
+        RowRead::Rows
     }
 
     fn needs_known_mass(&self) -> bool {

@@ -6,6 +6,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::moments::{GradeSums, Moments, RowsView};
+use super::regression::Regression;
+use super::wbcls::SEGMENT_S;
 
 const LANES: usize = 4;
 
@@ -41,7 +43,7 @@ pub fn segment_moments(
             return unsafe { segment_moments_avx2(rows, start, end, constant, grade) };
         }
     }
-    segment_moments_body(rows, start, end, constant, grade)
+    segment_moments_body::<false>(rows, start, end, constant, grade)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -53,36 +55,176 @@ fn segment_moments_avx2(
     constant: Option<&Moments>,
     grade: bool,
 ) -> Moments {
-    segment_moments_body(rows, start, end, constant, grade)
+    segment_moments_body::<true>(rows, start, end, constant, grade)
+}
+
+/// A product of columns summed in lanes: columns `.0` and `.1` of the four given, or column
+/// `.0` alone when `.1` is [`ALONE`].
+type Term = (usize, usize);
+
+/// The second factor of a [`Term`] that is one column alone.
+const ALONE: usize = usize::MAX;
+
+/// Each term summed over rows `0..whole` (a multiple of four) of `cols`, row i into lane
+/// i mod 4: the portable code, and on x86-64 with `AVX2` the same operations per lane in
+/// 256-bit registers (no FMA, no reassociation), so the two agree bit for bit.
+#[inline(always)]
+fn lane_sums<const AVX2: bool, const K: usize>(
+    cols: [&[f64]; 4],
+    terms: [Term; K],
+    whole: usize,
+) -> [[f64; LANES]; K] {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are called
+        // only where the CPU has it.
+        return unsafe { simd::lane_sums(cols, terms, whole) };
+    }
+    let mut acc = [[0.0; LANES]; K];
+    for i in (0..whole).step_by(LANES) {
+        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+            for l in 0..LANES {
+                a[l] += if z == ALONE {
+                    cols[x][i + l]
+                } else {
+                    cols[x][i + l] * cols[z][i + l]
+                };
+            }
+        }
+    }
+    acc
+}
+
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    //! AVX2 builds of the lane sums, lane for lane the portable code.
+
+    use std::arch::x86_64::*;
+
+    use super::{ALONE, LANES, Term};
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn lanes(v: __m256d) -> [f64; LANES] {
+        let mut out = [0.0; LANES];
+        // SAFETY: writes four f64 into an array of four.
+        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+        out
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn load(x: &[f64], i: usize) -> __m256d {
+        assert!(i + LANES <= x.len());
+        // SAFETY: bounds checked just above.
+        unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn lane_sums<const K: usize>(
+        cols: [&[f64]; 4],
+        terms: [Term; K],
+        whole: usize,
+    ) -> [[f64; LANES]; K] {
+        let used = |c: usize| terms.iter().any(|&(x, z)| x == c || z == c);
+        for (c, col) in cols.iter().enumerate() {
+            assert!(!used(c) || col.len() >= whole);
+        }
+        let mut acc = [_mm256_setzero_pd(); K];
+        let mut i = 0;
+        while i < whole {
+            for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+                let t = if z == ALONE {
+                    load(cols[x], i)
+                } else {
+                    _mm256_mul_pd(load(cols[x], i), load(cols[z], i))
+                };
+                *a = _mm256_add_pd(*a, t);
+            }
+            i += LANES;
+        }
+        acc.map(|a| lanes(a))
+    }
+
+    /// (l₀ + l₁) + (l₂ + l₃) of a register's lanes, the portable `reduce`'s additions.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn reduce(v: __m256d) -> f64 {
+        let pairs = _mm_hadd_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
+        _mm_cvtsd_f64(_mm_hadd_pd(pairs, pairs))
+    }
+
+    /// [`RlsScan::groups`](super::RlsScan) in 256-bit registers, lane for lane, the
+    /// lanes kept in registers between checks.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn rls_groups<const FORGET: bool>(
+        scan: &mut super::RlsScan,
+        cols: [&[f64]; 4],
+        t: &[f64],
+        start: usize,
+        to: usize,
+        whole: usize,
+    ) {
+        let [f, w, c, y] = cols;
+        let minus_k = _mm256_set1_pd(-scan.k);
+        let age = _mm256_set1_pd(scan.age);
+        let entry = load(&scan.entry, 0);
+        let mut acc = scan.lanes.map(|l| load(&l, 0));
+        let mut start = start;
+        while start < to {
+            let x1 = load(f, start);
+            let x2 = _mm256_mul_pd(minus_k, load(w, start));
+            let x3 = load(c, start);
+            let y = load(y, start);
+            let terms = [
+                _mm256_mul_pd(x1, x1),
+                _mm256_mul_pd(x1, x2),
+                _mm256_mul_pd(x1, x3),
+                _mm256_mul_pd(x2, x2),
+                _mm256_mul_pd(x2, x3),
+                _mm256_mul_pd(x3, x3),
+                _mm256_mul_pd(x1, y),
+                _mm256_mul_pd(x2, y),
+                _mm256_mul_pd(x3, y),
+            ];
+            for (a, t) in acc.iter_mut().zip(terms) {
+                *a = if FORGET {
+                    _mm256_add_pd(_mm256_mul_pd(age, *a), _mm256_mul_pd(entry, t))
+                } else {
+                    _mm256_add_pd(*a, t)
+                };
+            }
+            let last = start + LANES - 1;
+            if t[last] - scan.last_check >= super::RLS_CHECK_S || last + 1 == whole {
+                scan.last_check = t[last];
+                scan.state = acc.map(|a| reduce(a));
+                scan.check(last);
+            }
+            start += LANES;
+        }
+        scan.lanes = acc.map(|a| lanes(a));
+    }
 }
 
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
 #[inline(always)]
-fn noisy_sums(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
+fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
     let n = f.len();
     let whole = n - n % LANES;
-    let mut acc = [[0.0; LANES]; 8];
-    for i in (0..whole).step_by(LANES) {
-        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
-        let w: [f64; LANES] = w[i..i + LANES].try_into().unwrap();
-        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
-        let y: [f64; LANES] = y[i..i + LANES].try_into().unwrap();
-        let terms = [
-            mul(x1, y),
-            mul(x3, y),
-            mul(x1, w),
-            mul(x3, w),
-            mul(w, w),
-            mul(w, y),
-            w,
-            y,
-        ];
-        for (a, t) in acc.iter_mut().zip(terms) {
-            for l in 0..LANES {
-                a[l] += t[l];
-            }
-        }
-    }
+    // Columns 0..4: x̃₁, w, x̃₃, ỹ.
+    let terms = [
+        (0, 3),
+        (2, 3),
+        (0, 1),
+        (2, 1),
+        (1, 1),
+        (1, 3),
+        (1, ALONE),
+        (3, ALONE),
+    ];
+    let mut acc = lane_sums::<AVX2, 8>([f, w, c, y], terms, whole);
     for i in whole..n {
         let (x1, w, x3, y) = (f[i], w[i], c[i], y[i]);
         let terms = [x1 * y, x3 * y, x1 * w, x3 * w, w * w, w * y, w, y];
@@ -95,20 +237,11 @@ fn noisy_sums(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
 
 /// The sums of x̃₁ and x̃₃ alone: [Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃].
 #[inline(always)]
-fn regressor_sums(f: &[f64], c: &[f64]) -> [f64; 5] {
+fn regressor_sums<const AVX2: bool>(f: &[f64], c: &[f64]) -> [f64; 5] {
     let n = f.len();
     let whole = n - n % LANES;
-    let mut acc = [[0.0; LANES]; 5];
-    for i in (0..whole).step_by(LANES) {
-        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
-        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
-        let terms = [mul(x1, x1), mul(x1, x3), mul(x3, x3), x1, x3];
-        for (a, t) in acc.iter_mut().zip(terms) {
-            for l in 0..LANES {
-                a[l] += t[l];
-            }
-        }
-    }
+    let terms = [(0, 0), (0, 2), (2, 2), (0, ALONE), (2, ALONE)];
+    let mut acc = lane_sums::<AVX2, 5>([f, &[], c, &[]], terms, whole);
     for i in whole..n {
         let (x1, x3) = (f[i], c[i]);
         for (a, t) in acc.iter_mut().zip([x1 * x1, x1 * x3, x3 * x3, x1, x3]) {
@@ -120,22 +253,12 @@ fn regressor_sums(f: &[f64], c: &[f64]) -> [f64; 5] {
 
 /// The sums of the grade term s̃: [Σs̃, Σx̃₁s̃, Σx̃₃s̃, Σws̃].
 #[inline(always)]
-fn grade_sums(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
+fn grade_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
     let n = f.len();
     let whole = n - n % LANES;
-    let mut acc = [[0.0; LANES]; 4];
-    for i in (0..whole).step_by(LANES) {
-        let x1: [f64; LANES] = f[i..i + LANES].try_into().unwrap();
-        let w: [f64; LANES] = w[i..i + LANES].try_into().unwrap();
-        let x3: [f64; LANES] = c[i..i + LANES].try_into().unwrap();
-        let s: [f64; LANES] = s[i..i + LANES].try_into().unwrap();
-        let terms = [s, mul(x1, s), mul(x3, s), mul(w, s)];
-        for (a, t) in acc.iter_mut().zip(terms) {
-            for l in 0..LANES {
-                a[l] += t[l];
-            }
-        }
-    }
+    // Columns 0..4: x̃₁, w, x̃₃, s̃.
+    let terms = [(3, ALONE), (0, 3), (2, 3), (1, 3)];
+    let mut acc = lane_sums::<AVX2, 4>([f, w, c, s], terms, whole);
     for i in whole..n {
         let (x1, w, x3, s) = (f[i], w[i], c[i], s[i]);
         for (a, t) in acc.iter_mut().zip([s, x1 * s, x3 * s, w * s]) {
@@ -152,7 +275,7 @@ fn grade_sums(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
 }
 
 #[inline(always)]
-fn segment_moments_body(
+fn segment_moments_body<const AVX2: bool>(
     rows: RowsView<'_>,
     start: usize,
     end: usize,
@@ -165,11 +288,11 @@ fn segment_moments_body(
         &rows.c[start..end],
         &rows.y[start..end],
     );
-    let grade = grade.then(|| grade_sums(f, w, c, &rows.s[start..end]));
-    let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = noisy_sums(f, w, c, y);
+    let grade = grade.then(|| grade_sums::<AVX2>(f, w, c, &rows.s[start..end]));
+    let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = noisy_sums::<AVX2>(f, w, c, y);
     let [s_11, s_13, s_33, s_1, s_3] = match constant {
         Some(m) => [m.s_11, m.s_13, m.s_33, m.s_1, m.s_3],
-        None => regressor_sums(f, c),
+        None => regressor_sums::<AVX2>(f, c),
     };
     Moments {
         s_11,
@@ -190,12 +313,155 @@ fn segment_moments_body(
     }
 }
 
+/// What an estimator reads from the measured rows beyond their sums
+/// ([`Estimator::reads`](super::estimators::Estimator::reads)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowRead {
+    /// Nothing: the moments suffice.
+    Nothing,
+    /// The moments of each weight segment of `wbcls` ([`SegmentScan`]).
+    Segments,
+    /// The running normal equations of `rls` ([`RlsScan`]).
+    Rls,
+    /// The rows themselves.
+    Rows,
+}
+
+/// The result of the `rls` scan: the exponentially weighted normal equations (A, b) of
+/// all rows, and the settle row (see [`rls_scan`]).
+pub type RlsResult = ((Matrix3<f64>, Vector3<f64>), Option<usize>);
+
+/// The union of what a study's estimators read from the rows.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RowReads {
+    /// Some estimator reads the segments' moments.
+    pub segments: bool,
+    /// Some estimator reads the running normal equations.
+    pub rls: bool,
+    /// Some estimator reads the rows themselves.
+    pub rows: bool,
+}
+
+impl RowReads {
+    /// What `reads` ask for together.
+    pub fn of(reads: impl IntoIterator<Item = RowRead>) -> Self {
+        let mut all = RowReads::default();
+        for read in reads {
+            match read {
+                RowRead::Nothing => {}
+                RowRead::Segments => all.segments = true,
+                RowRead::Rls => all.rls = true,
+                RowRead::Rows => all.rows = true,
+            }
+        }
+        all
+    }
+
+    /// Whether the measured rows are kept at all (every scan reads them).
+    pub fn any(&self) -> bool {
+        self.segments || self.rls || self.rows
+    }
+}
+
+/// The sums over the rows that the estimators read, taken by the kernel as it measures the
+/// rows (block by block, while they are in cache): the same values, bit for bit, as one
+/// pass over all rows after the last.
+#[derive(Debug, Clone, Default)]
+pub struct RowScans {
+    segments: Option<SegmentScan>,
+    rls: Option<RlsScan>,
+}
+
+/// The arguments of the `rls` scan of one realisation (see [`rls_scan`]).
+#[derive(Debug, Clone, Copy)]
+pub struct RlsTarget {
+    /// Forgetting factor λ.
+    pub lambda: f64,
+    /// The true 1/M the settle time is scored against, and the band around it.
+    pub target: f64,
+    /// Half-width of the band.
+    pub band: f64,
+}
+
+impl RowScans {
+    /// Empty scans of `reg`'s rows for what `reads` asks (`grade`: the segments sum the
+    /// grade term too), keeping the memory of earlier realisations.
+    pub fn reset(&mut self, reads: RowReads, reg: &Regression, grade: bool, rls: RlsTarget) {
+        self.segments = match (reads.segments, self.segments.take()) {
+            (true, Some(mut scan)) => {
+                scan.reset(grade);
+                Some(scan)
+            }
+            (true, None) => Some(SegmentScan::new(grade)),
+            (false, _) => None,
+        };
+        self.rls = reads
+            .rls
+            .then(|| RlsScan::new(reg.k, rls.lambda, rls.target, rls.band, reg.len()));
+    }
+
+    /// Take the measured rows up to `end` (exclusive; a multiple of four or the row count).
+    pub fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
+        if let Some(scan) = &mut self.segments {
+            scan.advance(rows, reg, end);
+        }
+        if let Some(scan) = &mut self.rls {
+            scan.advance(rows, &reg.t, end);
+        }
+    }
+
+    /// The moments of each weight segment of [`SEGMENT_S`] (`None`: not asked for).
+    pub fn segments(&self) -> Option<&[Moments]> {
+        self.segments.as_ref().map(|s| s.done.as_slice())
+    }
+
+    /// The running normal equations' result (`None`: not asked for).
+    pub fn rls(&self) -> Option<RlsResult> {
+        self.rls.as_ref().map(RlsScan::finish)
+    }
+}
+
+/// The moments of each weight segment of `wbcls` ([`SEGMENT_S`] long,
+/// [`Regression::segments`]), each taken by [`segment_moments`] once the rows have reached
+/// its end.
+#[derive(Debug, Clone, Default)]
+struct SegmentScan {
+    grade: bool,
+    done: Vec<Moments>,
+}
+
+impl SegmentScan {
+    fn new(grade: bool) -> Self {
+        SegmentScan {
+            grade,
+            done: Vec::new(),
+        }
+    }
+
+    fn reset(&mut self, grade: bool) {
+        self.grade = grade;
+        self.done.clear();
+    }
+
+    fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
+        let (segments, constant) = reg.segments(SEGMENT_S);
+        while let Some(&(a, b)) = segments.get(self.done.len()) {
+            if b > end {
+                break;
+            }
+            let constant = rows.noise_free_f_c.then_some(&constant[self.done.len()]);
+            self.done
+                .push(segment_moments(rows, a, b, constant, self.grade));
+        }
+    }
+}
+
 /// The exponentially weighted normal equations A = Σ λ^(N−1−i) x̃_i x̃_iᵀ, b likewise, of
 /// all rows (k = ½ρA for column 2, `t` the row times), and the first checked row from which
 /// on θ̂₁ of the rows so far stays within `target ± band` at every check (`None`: outside
 /// or undefined at the last). Checks fall on the last row of a group of four at least
 /// [`RLS_CHECK_S`] after the previous check, the last row of the last group, and every
-/// row after it.
+/// row after it. [`RlsScan`] in one step.
 pub fn rls_scan(
     rows: RowsView<'_>,
     t: &[f64],
@@ -203,35 +469,196 @@ pub fn rls_scan(
     lambda: f64,
     target: f64,
     band: f64,
-) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { rls_scan_avx2(rows, t, k, lambda, target, band) };
-        }
-    }
-    if lambda == 1.0 {
-        rls_scan_body::<false>(rows, t, k, lambda, target, band)
-    } else {
-        rls_scan_body::<true>(rows, t, k, lambda, target, band)
-    }
+) -> RlsResult {
+    let mut scan = RlsScan::new(k, lambda, target, band, rows.len());
+    scan.advance(rows, t, rows.len());
+    scan.finish()
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn rls_scan_avx2(
-    rows: RowsView<'_>,
-    t: &[f64],
+/// [`rls_scan`] run along the rows as they are measured: [`RlsScan::advance`] takes the
+/// rows up to a point (the kernel calls it after each block), [`RlsScan::finish`] gives the
+/// result. The same operations in the same order as one pass, so the same bits however the
+/// rows are split (at multiples of four).
+#[derive(Debug, Clone)]
+pub struct RlsScan {
     k: f64,
     lambda: f64,
     target: f64,
     band: f64,
-) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
-    if lambda == 1.0 {
-        rls_scan_body::<false>(rows, t, k, lambda, target, band)
-    } else {
-        rls_scan_body::<true>(rows, t, k, lambda, target, band)
+    /// Lane j holds the rows ≡ j (mod 4), each weighted so that the sum of the lanes after
+    /// a group of four rows is the state after its last row: a new row of lane j enters
+    /// with λ^(3−j) (`entry`), and every group ages all lanes by λ⁴ (`age`).
+    entry: [f64; LANES],
+    age: f64,
+    lanes: [[f64; LANES]; 9],
+    state: [f64; 9],
+    /// The first checked row of the current run of checks inside the band.
+    settle: Option<usize>,
+    last_check: f64,
+    /// The next row to take, and the row count.
+    next: usize,
+    n: usize,
+}
+
+impl RlsScan {
+    /// A scan of `n` rows (see [`rls_scan`] for the arguments).
+    pub fn new(k: f64, lambda: f64, target: f64, band: f64, n: usize) -> Self {
+        RlsScan {
+            k,
+            lambda,
+            target,
+            band,
+            // The products `powi` makes at run time (λ³ = λ·λ², λ⁴ = λ²·λ²), written out so
+            // that a λ known at compile time folds to the same bits.
+            entry: [lambda * (lambda * lambda), lambda * lambda, lambda, 1.0],
+            age: (lambda * lambda) * (lambda * lambda),
+            lanes: [[0.0; LANES]; 9],
+            state: [0.0; 9],
+            settle: None,
+            last_check: f64::NEG_INFINITY,
+            next: 0,
+            n,
+        }
+    }
+
+    /// Take rows up to `end` (exclusive; a multiple of four, or the row count).
+    pub fn advance(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
+        debug_assert!(
+            end.is_multiple_of(LANES) || end == self.n,
+            "rows split at {end}"
+        );
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { self.advance_avx2(rows, t, end) };
+            }
+        }
+        self.advance_portable(rows, t, end);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn advance_avx2(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
+        if self.lambda == 1.0 {
+            self.advance_body::<true, false>(rows, t, end);
+        } else {
+            self.advance_body::<true, true>(rows, t, end);
+        }
+    }
+
+    #[inline(always)]
+    fn advance_portable(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
+        if self.lambda == 1.0 {
+            self.advance_body::<false, false>(rows, t, end);
+        } else {
+            self.advance_body::<false, true>(rows, t, end);
+        }
+    }
+
+    #[inline(always)]
+    fn check(&mut self, row: usize) {
+        if !settled(&self.state, self.target, self.band) {
+            self.settle = None;
+        } else if self.settle.is_none() {
+            self.settle = Some(row);
+        }
+    }
+
+    #[inline(always)]
+    fn advance_body<const AVX2: bool, const FORGET: bool>(
+        &mut self,
+        rows: RowsView<'_>,
+        t: &[f64],
+        end: usize,
+    ) {
+        let n = self.n;
+        let whole = n - n % LANES;
+        let k = self.k;
+        let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
+        self.groups::<AVX2, FORGET>([f, w, c, y], t, self.next, end.min(whole), whole);
+        self.next = self.next.max(end.min(whole));
+        if end == n {
+            for i in whole.max(self.next)..n {
+                let x = products(f[i], -k * w[i], c[i], y[i]);
+                for (s, x) in self.state.iter_mut().zip(x) {
+                    *s = self.lambda * *s + x;
+                }
+                self.check(i);
+            }
+            self.next = n;
+        }
+    }
+
+    /// Add the groups of four rows `start .. to` into the lanes, checking the estimate at
+    /// the end of each group due a check ([`RLS_CHECK_S`] after the last, or the last
+    /// group, ending at `whole`).
+    #[inline(always)]
+    fn groups<const AVX2: bool, const FORGET: bool>(
+        &mut self,
+        cols: [&[f64]; 4],
+        t: &[f64],
+        start: usize,
+        to: usize,
+        whole: usize,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are
+            // called only where the CPU has it.
+            return unsafe { simd::rls_groups::<FORGET>(self, cols, t, start, to, whole) };
+        }
+        let [f, w, c, y] = cols;
+        let (k, age, entry) = (self.k, self.age, self.entry);
+        let mut lanes = self.lanes;
+        for start in (start..to).step_by(LANES) {
+            let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
+            let w: [f64; LANES] = w[start..start + LANES].try_into().unwrap();
+            let x2 = w.map(|w| -k * w);
+            let x3: [f64; LANES] = c[start..start + LANES].try_into().unwrap();
+            let y: [f64; LANES] = y[start..start + LANES].try_into().unwrap();
+            let terms = [
+                mul(x1, x1),
+                mul(x1, x2),
+                mul(x1, x3),
+                mul(x2, x2),
+                mul(x2, x3),
+                mul(x3, x3),
+                mul(x1, y),
+                mul(x2, y),
+                mul(x3, y),
+            ];
+            for (lane, t) in lanes.iter_mut().zip(terms) {
+                for l in 0..LANES {
+                    // λ = 1: the factors are exactly 1, so this is the same sum.
+                    lane[l] = if FORGET {
+                        age * lane[l] + entry[l] * t[l]
+                    } else {
+                        lane[l] + t[l]
+                    };
+                }
+            }
+            let last = start + LANES - 1;
+            if t[last] - self.last_check >= RLS_CHECK_S || last + 1 == whole {
+                self.last_check = t[last];
+                self.state = lanes.map(reduce);
+                self.check(last);
+            }
+        }
+        self.lanes = lanes;
+    }
+
+    /// The normal equations of all rows and the settle row (all rows taken).
+    pub fn finish(&self) -> RlsResult {
+        debug_assert_eq!(self.next, self.n, "rows left untaken");
+        let [p, q, e, s, u, v, b1, b2, b3] = self.state;
+        (
+            (
+                Matrix3::new(p, q, e, q, s, u, e, u, v),
+                Vector3::new(b1, b2, b3),
+            ),
+            self.settle,
+        )
     }
 }
 
@@ -251,7 +678,6 @@ fn products(x1: f64, x2: f64, x3: f64, y: f64) -> [f64; 9] {
         x3 * y,
     ]
 }
-
 /// Whether θ̂₁ = (A⁻¹b)₁ lies within `target ± band`, by the first column's cofactors
 /// (|num − target·det| ≤ band·|det|, no division); false when A is singular.
 #[inline(always)]
@@ -261,86 +687,6 @@ fn settled(a: &[f64; 9], target: f64, band: f64) -> bool {
     let det = p * c11 - q * (q * v - u * e) + e * (q * u - s * e);
     let num = b1 * c11 - q * (b2 * v - u * b3) + e * (b2 * u - s * b3);
     det != 0.0 && (num - target * det).abs() <= band * det.abs()
-}
-
-#[inline(always)]
-fn rls_scan_body<const FORGET: bool>(
-    rows: RowsView<'_>,
-    t: &[f64],
-    k: f64,
-    lambda: f64,
-    target: f64,
-    band: f64,
-) -> ((Matrix3<f64>, Vector3<f64>), Option<usize>) {
-    let n = rows.len();
-    let whole = n - n % LANES;
-    // Lane j holds the rows ≡ j (mod 4), each weighted so that the sum of the lanes after
-    // a group of four rows is the state after its last row: a new row of lane j enters
-    // with λ^(3−j), and every group ages all lanes by λ⁴.
-    let entry = [lambda.powi(3), lambda.powi(2), lambda, 1.0];
-    let age = lambda.powi(4);
-    let mut lanes = [[0.0; LANES]; 9];
-    let mut state = [0.0; 9];
-    // The first checked row of the current run of checks inside the band.
-    let mut settle = None;
-    let mut check = |state: &[f64; 9], row: usize| {
-        if !settled(state, target, band) {
-            settle = None;
-        } else if settle.is_none() {
-            settle = Some(row);
-        }
-    };
-    let mut last_check = f64::NEG_INFINITY;
-    let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
-    for start in (0..whole).step_by(LANES) {
-        let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
-        let w: [f64; LANES] = w[start..start + LANES].try_into().unwrap();
-        let x2 = w.map(|w| -k * w);
-        let x3: [f64; LANES] = c[start..start + LANES].try_into().unwrap();
-        let y: [f64; LANES] = y[start..start + LANES].try_into().unwrap();
-        let terms = [
-            mul(x1, x1),
-            mul(x1, x2),
-            mul(x1, x3),
-            mul(x2, x2),
-            mul(x2, x3),
-            mul(x3, x3),
-            mul(x1, y),
-            mul(x2, y),
-            mul(x3, y),
-        ];
-        for (lane, t) in lanes.iter_mut().zip(terms) {
-            for l in 0..LANES {
-                // λ = 1: the factors are exactly 1, so this is the same sum.
-                lane[l] = if FORGET {
-                    age * lane[l] + entry[l] * t[l]
-                } else {
-                    lane[l] + t[l]
-                };
-            }
-        }
-        let last = start + LANES - 1;
-        if t[last] - last_check >= RLS_CHECK_S || last + 1 == whole {
-            last_check = t[last];
-            state = lanes.map(reduce);
-            check(&state, last);
-        }
-    }
-    for i in whole..n {
-        let x = products(f[i], -k * w[i], c[i], y[i]);
-        for (s, x) in state.iter_mut().zip(x) {
-            *s = lambda * *s + x;
-        }
-        check(&state, i);
-    }
-    let [p, q, e, s, u, v, b1, b2, b3] = state;
-    (
-        (
-            Matrix3::new(p, q, e, q, s, u, e, u, v),
-            Vector3::new(b1, b2, b3),
-        ),
-        settle,
-    )
 }
 
 #[cfg(test)]
@@ -463,26 +809,55 @@ mod tests {
         }
     }
 
+    /// The scan of all rows in one portable pass, with the sum `FORGET` says.
+    fn portable<const FORGET: bool>(cols: &[Vec<f64>; 4], t: &[f64], lambda: f64) -> RlsResult {
+        let n = t.len();
+        let mut scan = RlsScan::new(3.3, lambda, 5e-4, 1e-5, n);
+        scan.advance_body::<false, FORGET>(view(cols), t, n);
+        scan.finish()
+    }
+
     #[test]
     fn the_dispatched_and_portable_builds_agree_bit_for_bit() {
         let (t, cols) = rows(1203);
         for lambda in [1.0, 0.995] {
             assert_eq!(
                 rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5),
-                rls_scan_body::<true>(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5)
+                portable::<true>(&cols, &t, lambda)
             );
         }
         // λ = 1: the specialised sum is the general one with factors of exactly 1.
         assert_eq!(
-            rls_scan_body::<false>(view(&cols), &t, 3.3, 1.0, 5e-4, 1e-5),
-            rls_scan_body::<true>(view(&cols), &t, 3.3, 1.0, 5e-4, 1e-5)
+            portable::<false>(&cols, &t, 1.0),
+            portable::<true>(&cols, &t, 1.0)
         );
         for (a, b) in [(0, 1203), (5, 18), (100, 103)] {
             for grade in [false, true] {
                 assert_eq!(
                     segment_moments(view(&cols), a, b, None, grade),
-                    segment_moments_body(view(&cols), a, b, None, grade)
+                    segment_moments_body::<false>(view(&cols), a, b, None, grade)
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_scan_taken_in_pieces_is_the_scan_in_one_pass_bit_for_bit() {
+        // The kernel advances the scan block by block (multiples of four rows) while it
+        // measures them; the settle row needs a band that is met part of the way.
+        for n in [3usize, 401, 1203, 1204] {
+            let (t, cols) = rows(n);
+            for lambda in [1.0, 0.995] {
+                let whole = rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 5e-5);
+                for piece in [4, 256, 1000] {
+                    let mut scan = RlsScan::new(3.3, lambda, 5e-4, 5e-5, n);
+                    let mut end = 0;
+                    while end < n {
+                        end = (end + piece).min(n);
+                        scan.advance(view(&cols), &t, end);
+                    }
+                    assert_eq!(scan.finish(), whole, "n {n} λ {lambda} pieces of {piece}");
+                }
             }
         }
     }

@@ -33,14 +33,16 @@ impl Column {
 
 /// The table of sums: `Variant field [factor (* factor)] control-column unit "Σ …"`, in the
 /// order of [`Sum::ALL`] and of the control-variate columns. Adding a line here adds the
-/// field of [`Moments`], its sum in the general kernel, its control variate (whose
-/// expectation and whether it varies follow from its factors, `controls.rs`) and its
-/// column. Written by hand, each checked: its BCLS correction (`Moments::compensate`, which
+/// field of [`Moments`], its sum row by row (`Moments::add_row`, the definition the
+/// kernel's sums are tested against), its control variate (whose expectation and whether
+/// it varies follow from its factors, `controls.rs`) and its column. Written by hand, each
+/// checked: its BCLS correction (`Moments::compensate`, which
 /// `every_compensated_sum_has_its_noise_free_expectation` checks), the hand-vectorised
-/// sums of the fast path (`MomentAccumulator::finish` over `kernels.rs`) and of the
-/// segments (`row_sums.rs`), and the regression's noise-free sums
+/// sums of the fast path (`MomentAccumulator::finish` over `kernels.rs`) and of the general
+/// path and the segments (`row_sums.rs`), and the regression's noise-free sums
 /// (`Regression::noise_free_moments`): each builds [`Moments`] with every field named (a new
-/// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments` and
+/// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments`,
+/// `the_vectorised_general_path_keeps_the_row_by_row_sums_within_rounding` and
 /// `every_hand_written_list_sums_each_sum_by_its_factors` check the values against
 /// [`Sum::factors`]. The noise-free segment sums (`Regression::segments`) are derived from
 /// [`Sum::regressors_only`].
@@ -137,8 +139,9 @@ macro_rules! sums {
             }
 
             /// Add the products of one measured row `[x̃₁, w, x̃₃, ỹ]` (indexed by
-            /// [`Column`]) to the sums, not to N: the general kernel's inner loop.
-            #[inline(always)]
+            /// [`Column`]) to the sums, not to N: the definition, row by row, that the
+            /// kernel's sums in lanes are checked against.
+            #[cfg(test)]
             pub(crate) fn add_row(&mut self, row: &[f64; 4]) {
                 $( self.$field += row[Column::$first.index()]
                     $(* row[Column::$second.index()])?; )*
@@ -207,8 +210,9 @@ pub struct GradeSums {
 }
 
 impl GradeSums {
-    /// Add the grade term's products of one measured row `[x̃₁, w, x̃₃, ỹ]` with s̃ = `s`.
-    #[inline(always)]
+    /// Add the grade term's products of one measured row `[x̃₁, w, x̃₃, ỹ]` with s̃ = `s`
+    /// (the definition the kernel's sums are checked against).
+    #[cfg(test)]
     pub(crate) fn add_row(&mut self, row: &[f64; 4], s: f64) {
         self.s_s += s;
         self.s_1s += row[Column::F.index()] * s;
@@ -281,9 +285,8 @@ mod tests {
     /// regression's noise-free moments, its noise-free segment sums (the sums of x₁ and x₃
     /// alone, the rest zero) and the segment sums of `row_sums.rs` (summed, and with those
     /// of x₁ and x₃ taken from the segment sums) equal Σ of the product of the sum's
-    /// factors over the rows (the noise-free rows: the kernel's general path, from which
-    /// the fast path is checked in `fast_and_general_paths_build_the_same_moments`, sums
-    /// with the macro's own `add_row`). The lists sum in other orders (lanes, blocks,
+    /// factors over the rows (the noise-free rows; the kernel's paths are checked against
+    /// the macro's own `add_row` in `moments.rs`). The lists sum in other orders (lanes, blocks,
     /// exact sums) than this plain loop; each order's rounding error is below
     /// (N − 1)u Σ|term| + u Σ|term| for the products (Higham, Accuracy and Stability of
     /// Numerical Algorithms, 2nd ed., §4.2; u = ε/2), so the two agree within

@@ -14,7 +14,7 @@ use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::moments::Moments;
-use super::row_sums::segment_moments;
+use super::row_sums::RowRead;
 
 /// Length of the segments that share one weight \[s\] (a segment holds at least one row).
 pub const SEGMENT_S: f64 = 0.5;
@@ -39,8 +39,8 @@ impl Estimator for Wbcls {
         "weighted BCLS: BCLS, then weights 1/Ω̂ from that estimate and the locally averaged measured speed, then BCLS with the weights (twice)"
     }
 
-    fn needs_rows(&self) -> bool {
-        true
+    fn reads(&self) -> RowRead {
+        RowRead::Segments
     }
 
     fn compensates_speed_noise(&self) -> bool {
@@ -48,23 +48,15 @@ impl Estimator for Wbcls {
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
-        let rows = r.rows();
         let (k, g) = (r.regression.k, r.regression.g);
         let sd = r.noise[Channel::Velocity];
-        let grade = r.noise.is_on(Channel::Grade);
         let mut theta = match r.settings.solve(&r.moments.bcls_system(k, g, r.noise)) {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),
         };
-        let (segments, constant) = r.regression.segments(SEGMENT_S);
-        let moments: Vec<Moments> = segments
-            .iter()
-            .zip(constant)
-            .map(|(&(a, b), constant)| {
-                segment_moments(rows, a, b, rows.noise_free_f_c.then_some(constant), grade)
-            })
-            .collect();
-        let local = neighbour_means(&moments, sd * sd, segments_left_out(r.noise));
+        let (segments, _) = r.regression.segments(SEGMENT_S);
+        let moments = r.segment_moments();
+        let local = neighbour_means(moments, sd * sd, segments_left_out(r.noise));
         let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
             let th = [theta[0], theta[1], theta[2]];

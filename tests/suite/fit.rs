@@ -524,7 +524,9 @@ fn refactors_keep_the_fit_of_the_shipped_example_bit_for_bit() {
         rows_hash(&rows)
     });
     println!("fit hashes: {hashes:016x?}");
-    assert_eq!(hashes, [0x07316bc6fb2687a7, 0x0c8d7b040adaf49a]);
+    // The second re-pinned when the general kernel was vectorised (README "Determinism":
+    // grade and force noise on, the sums' last bits moved); the first kept its bits.
+    assert_eq!(hashes, [0x07316bc6fb2687a7, 0x9c425ab6b679ee78]);
 }
 
 /// Every path under `dir` (relative, sorted) with its length, skipping `skip`.

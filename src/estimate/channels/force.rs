@@ -2,7 +2,8 @@
 
 use super::covariance::gaussian_moment;
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity, Samples,
+    TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
@@ -22,8 +23,11 @@ impl ChannelTerms for ForceNoise {
     const PARTS: &'static [Part] = &[Part::F];
 
     #[inline(always)]
-    fn perturb(s: &mut Sample, sd: f64, e: f64) {
-        s.f += sd * e;
+    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
+        let (f, out) = s.moving(Quantity::Force);
+        for ((out, f), e) in out.iter_mut().zip(f).zip(e) {
+            *out = f + sd * e;
+        }
     }
 
     /// (F̃ − F)θ₁.

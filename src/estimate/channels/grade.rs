@@ -2,11 +2,12 @@
 //! x̃₃ = −g cos θ̃ and the output's grade term g sin θ̃ (docs/model.md#noise-channels).
 
 use super::{
-    Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers, Sample,
-    TrueRow,
+    Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers,
+    Samples, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::sums::Column;
+use crate::numeric::trig::sin_cos_slice;
 
 /// The grade-noise channel.
 #[derive(Debug, Clone, Copy)]
@@ -23,14 +24,20 @@ impl ChannelTerms for GradeNoise {
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
     #[inline(always)]
-    fn perturb(s: &mut Sample, sd: f64, e: f64) {
+    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
         if sd > 0.0 {
-            // sin/cos of θ + δ from those of θ and δ (angle addition)
-            let (sd, cd) = (sd * e).sin_cos();
-            (s.sin_grade, s.cos_grade) = (
-                s.sin_grade * cd + s.cos_grade * sd,
-                s.cos_grade * cd - s.sin_grade * sd,
-            );
+            // sin/cos of θ + δ from those of θ and δ (angle addition), the small angle's
+            // by the vectorised sin/cos (docs/model.md#sensors)
+            let n = s.len();
+            let ([sin0, cos0], [sin, cos], [delta, sin_d, cos_d]) = s.moving_grade();
+            for (d, e) in delta[..n].iter_mut().zip(e) {
+                *d = sd * e;
+            }
+            sin_cos_slice(&delta[..n], &mut sin_d[..n], &mut cos_d[..n]);
+            for j in 0..n {
+                sin[j] = sin0[j] * cos_d[j] + cos0[j] * sin_d[j];
+                cos[j] = cos0[j] * cos_d[j] - sin0[j] * sin_d[j];
+            }
         }
     }
 

@@ -23,6 +23,7 @@ use std::ops::{Index, IndexMut};
 use super::moments::Moments;
 use super::regression::Regression;
 use super::sums::{Column, Sum};
+use crate::noise::BLOCK;
 
 mod covariance;
 mod expect;
@@ -62,8 +63,10 @@ pub trait ChannelTerms {
     /// True when the vectorised kernel handles the channel.
     const ON_FAST_PATH: bool = false;
 
-    /// Apply the draw `e` ~ N(0, 1) at standard deviation `sd` to a measured sample.
-    fn perturb(s: &mut Sample, sd: f64, e: f64);
+    /// Apply the draws `e` ~ N(0, 1) at standard deviation `sd` to a block of measured
+    /// samples (`e[j]` to sample j; as many draws as samples), column by column so that
+    /// the loop vectorises.
+    fn perturb(s: &mut Samples, sd: f64, e: &[f64]);
 
     /// Its term of the first-order equation-error variance Ω of u = ỹ − x̃ᵀθ at SD `sd`
     /// (docs/model.md#bounds).
@@ -200,10 +203,11 @@ macro_rules! channels {
                 match self { $(Channel::$variant => <$terms>::ON_FAST_PATH,)* }
             }
 
-            /// Apply this channel's draw `e` ~ N(0, 1) at standard deviation `sd` to a
-            /// measured sample (the general kernel; see docs/model.md#noise-channels).
+            /// Apply this channel's draws `e` ~ N(0, 1) at standard deviation `sd` to a
+            /// block of measured samples (the general kernel; see
+            /// docs/model.md#noise-channels).
             #[inline(always)]
-            pub fn perturb(self, s: &mut Sample, sd: f64, e: f64) {
+            pub fn perturb(self, s: &mut Samples, sd: f64, e: &[f64]) {
                 match self { $(Channel::$variant => <$terms>::perturb(s, sd, e),)* }
             }
 
@@ -328,21 +332,150 @@ impl Channel {
     }
 }
 
-/// One measured sample of the cycle as the general kernel builds it: the noise-free values,
-/// then each channel's [`Channel::perturb`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
-    /// Measured propulsion force \[N\].
-    pub f: f64,
-    /// Measured speed \[m/s\].
-    pub v: f64,
-    /// sin of the measured grade.
-    pub sin_grade: f64,
-    /// cos of the measured grade.
-    pub cos_grade: f64,
-    /// Noise added to the output \[m/s²\].
-    pub output_noise: f64,
+/// A measured quantity of a sample that a channel's noise moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// The propulsion force \[N\].
+    Force,
+    /// The speed \[m/s\].
+    Speed,
+    /// sin of the grade.
+    SinGrade,
+    /// cos of the grade.
+    CosGrade,
+    /// The noise added to the output \[m/s²\] (none: 0).
+    OutputNoise,
 }
+
+/// Number of [`Quantity`] variants.
+const QUANTITIES: usize = 5;
+
+/// The columns of a block of samples that the channels' noise moved, with room for each
+/// (memory a kernel keeps from block to block).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleColumns {
+    moved: [bool; QUANTITIES],
+    data: [[f64; BLOCK]; QUANTITIES],
+    /// Scratch for a channel's work on a block.
+    pub scratch: [[f64; BLOCK]; 3],
+}
+
+impl SampleColumns {
+    /// The first `len` measured values of `q` when a channel moved it in the last block.
+    pub fn moved(&self, q: Quantity, len: usize) -> Option<&[f64]> {
+        self.moved[q as usize].then(|| &self.data[q as usize][..len])
+    }
+}
+
+impl Default for SampleColumns {
+    fn default() -> Self {
+        SampleColumns {
+            moved: [false; QUANTITIES],
+            data: [[0.0; BLOCK]; QUANTITIES],
+            scratch: [[0.0; BLOCK]; 3],
+        }
+    }
+}
+
+/// A block of measured samples of the cycle as the general kernel builds them, quantity by
+/// quantity: samples `start .. start + len` of a regression, each quantity the
+/// regression's noise-free one until a channel's [`Channel::perturb`] moves it (each
+/// quantity is moved by one channel: [`ChannelTerms::COLUMNS`] are disjoint).
+#[derive(Debug)]
+pub struct Samples<'a> {
+    reg: &'a Regression,
+    start: usize,
+    len: usize,
+    columns: &'a mut SampleColumns,
+}
+
+impl<'a> Samples<'a> {
+    /// Samples `start .. start + len` of `reg` (`len` ≤ [`BLOCK`]), none moved yet.
+    pub fn new(
+        reg: &'a Regression,
+        start: usize,
+        len: usize,
+        columns: &'a mut SampleColumns,
+    ) -> Self {
+        columns.moved = [false; QUANTITIES];
+        Samples {
+            reg,
+            start,
+            len,
+            columns,
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The noise-free values of `q` (the regression's; no noise: zeros).
+    fn noise_free(&self, q: Quantity) -> &'a [f64] {
+        let range = self.start..self.start + self.len;
+        let reg: &'a Regression = self.reg;
+        match q {
+            Quantity::Force => &reg.f[range],
+            Quantity::Speed => &reg.v[range],
+            Quantity::SinGrade => &reg.sin_grade[range],
+            Quantity::CosGrade => &reg.cos_grade[range],
+            Quantity::OutputNoise => &ZEROS[..self.len],
+        }
+    }
+
+    /// The measured values of `q`: moved by a channel, or the noise-free ones.
+    pub fn get(&self, q: Quantity) -> &[f64] {
+        match self.columns.moved[q as usize] {
+            true => &self.columns.data[q as usize][..self.len],
+            false => self.noise_free(q),
+        }
+    }
+
+    /// Whether a channel moved `q`.
+    pub fn moved(&self, q: Quantity) -> bool {
+        self.columns.moved[q as usize]
+    }
+
+    /// Move `q`: its noise-free values, and the column its measured values are written to.
+    pub fn moving(&mut self, q: Quantity) -> (&'a [f64], &mut [f64]) {
+        debug_assert!(!self.moved(q), "{q:?} moved by two channels");
+        self.columns.moved[q as usize] = true;
+        (
+            self.noise_free(q),
+            &mut self.columns.data[q as usize][..self.len],
+        )
+    }
+
+    /// Move the grade's sin and cos together: their noise-free values, their columns, and
+    /// the scratch columns.
+    #[allow(clippy::type_complexity)]
+    pub fn moving_grade(&mut self) -> ([&'a [f64]; 2], [&mut [f64]; 2], &mut [[f64; BLOCK]; 3]) {
+        let base = [
+            self.noise_free(Quantity::SinGrade),
+            self.noise_free(Quantity::CosGrade),
+        ];
+        for q in [Quantity::SinGrade, Quantity::CosGrade] {
+            debug_assert!(!self.moved(q), "{q:?} moved by two channels");
+            self.columns.moved[q as usize] = true;
+        }
+        let n = self.len;
+        let [_, _, sin, cos, _] = &mut self.columns.data;
+        (
+            base,
+            [&mut sin[..n], &mut cos[..n]],
+            &mut self.columns.scratch,
+        )
+    }
+}
+
+/// Zeros: the output noise of a block without it.
+static ZEROS: [f64; BLOCK] = [0.0; BLOCK];
 
 /// A value per channel, indexed by [`Channel`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -392,18 +525,22 @@ mod tests {
     }
 
     #[test]
-    fn a_zero_draw_leaves_the_sample_unchanged() {
-        let s0 = Sample {
-            f: 1200.0,
-            v: 20.0,
-            sin_grade: 0.05f64.sin(),
-            cos_grade: 0.05f64.cos(),
-            output_noise: 0.0,
-        };
+    fn a_zero_draw_leaves_the_samples_unchanged() {
+        let reg = crate::estimate::regression::test_regression();
+        let quantities = [
+            Quantity::Force,
+            Quantity::Speed,
+            Quantity::SinGrade,
+            Quantity::CosGrade,
+            Quantity::OutputNoise,
+        ];
+        let mut columns = SampleColumns::default();
         for c in Channel::ALL {
-            let mut s = s0;
-            c.perturb(&mut s, 0.0, 0.0);
-            assert_eq!(s, s0, "{c:?}");
+            let mut s = Samples::new(&reg, 100, 37, &mut columns);
+            let before: Vec<Vec<f64>> = quantities.iter().map(|&q| s.get(q).to_vec()).collect();
+            c.perturb(&mut s, 0.0, &[0.0; 37]);
+            let after: Vec<Vec<f64>> = quantities.iter().map(|&q| s.get(q).to_vec()).collect();
+            assert_eq!(after, before, "{c:?}");
         }
     }
 }

@@ -3,7 +3,8 @@
 
 use super::covariance::gaussian_moment;
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity, Samples,
+    TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
@@ -24,8 +25,11 @@ impl ChannelTerms for OutputNoise {
     const ON_FAST_PATH: bool = true;
 
     #[inline(always)]
-    fn perturb(s: &mut Sample, sd: f64, e: f64) {
-        s.output_noise = sd * e;
+    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
+        let (_, out) = s.moving(Quantity::OutputNoise);
+        for (out, e) in out.iter_mut().zip(e) {
+            *out = sd * e;
+        }
     }
 
     /// σ_y².

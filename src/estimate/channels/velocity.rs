@@ -12,8 +12,8 @@ use super::covariance::{
     AcrossRows, ColumnPowers, gaussian_moment, hermite_coefficients, packed, powers_of,
 };
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, RowCovariance,
-    RowMoments, Sample, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity,
+    RowCovariance, RowMoments, Samples, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::Regression;
@@ -132,8 +132,11 @@ impl ChannelTerms for Speed {
     const ON_FAST_PATH: bool = true;
 
     #[inline(always)]
-    fn perturb(s: &mut Sample, sd: f64, e: f64) {
-        s.v += sd * e;
+    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
+        let (v, out) = s.moving(Quantity::Speed);
+        for ((out, v), e) in out.iter_mut().zip(v).zip(e) {
+            *out = v + sd * e;
+        }
     }
 
     /// Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.

@@ -11,6 +11,8 @@ use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
+use crate::estimate::rls::rls_target;
+use crate::estimate::row_sums::RowScans;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
 
@@ -83,7 +85,7 @@ impl VehicleModel {
         r: u64,
         reg: &Regression,
         ar1: Option<&[[f64; 2]]>,
-        mut rows: Option<&mut Rows>,
+        mut rows: Option<(&mut Rows, &mut RowScans)>,
     ) -> Moments {
         let cond = &self.conditions[c];
         let noise = cond.noise;
@@ -96,11 +98,14 @@ impl VehicleModel {
         let mut acc = MomentAccumulator::new(reg, noise);
         let n = reg.len();
         // A differentiated acceleration: the speed noise of every logged sample of the span
-        // (AR(1)-filtered where correlated), drawn before the rows that read it.
+        // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
+        // thread's buffer (kept from one realisation to the next).
+        let mut span_buffer = SPAN_NOISE.take();
         let span_noise = match (&reg.differentiation, &mut streams[Channel::Velocity]) {
             (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
-                let mut e = vec![0.0; d.span_t.len()];
-                stream.fill(&mut e);
+                let e = &mut span_buffer;
+                e.resize(d.span_t.len(), 0.0);
+                stream.fill(e);
                 if let Some(ar1) = ar1 {
                     let mut previous = 0.0;
                     for (z, [phi, scale]) in e.iter_mut().zip(ar1) {
@@ -108,7 +113,7 @@ impl VehicleModel {
                         previous = *z;
                     }
                 }
-                Some((d, e))
+                Some((d, &span_buffer[..]))
             }
             _ => None,
         };
@@ -121,10 +126,21 @@ impl VehicleModel {
                 // Each row's own sample's noise, and σ_v (e_{s+1} − e_{s−1}) / Δt in ỹ.
                 let sd = noise[Channel::Velocity];
                 let buffer = &mut buffers[Channel::Velocity][..len];
-                for (j, i) in (start..start + len).enumerate() {
-                    let s = d.sample[i];
-                    buffer[j] = e[s];
-                    derivative[j] = sd * (e[s + 1] - e[s - 1]) * d.inv_dt[i];
+                let (first, last) = (d.sample[start], d.sample[start + len - 1]);
+                let inv_dt = &d.inv_dt[start..start + len];
+                if last - first == len - 1 {
+                    // Consecutive samples (the rows are increasing): slices, which vectorise.
+                    buffer.copy_from_slice(&e[first..=last]);
+                    let (before, after) = (&e[first - 1..last], &e[first + 1..last + 2]);
+                    for j in 0..len {
+                        derivative[j] = sd * (after[j] - before[j]) * inv_dt[j];
+                    }
+                } else {
+                    for (j, i) in (start..start + len).enumerate() {
+                        let s = d.sample[i];
+                        buffer[j] = e[s];
+                        derivative[j] = sd * (e[s + 1] - e[s - 1]) * inv_dt[j];
+                    }
                 }
             } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[Channel::Velocity]) {
                 let buffer = &mut buffers[Channel::Velocity][..len];
@@ -149,13 +165,25 @@ impl VehicleModel {
                 });
             }
             let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
-            if let Some(rows) = rows.as_deref_mut() {
-                rows.push_block(reg, &noise, start, len, draws, derivative);
-            }
             acc.add_block(start, len, draws, derivative);
+            if let Some((rows, scans)) = &mut rows {
+                match acc.measured() {
+                    Some(block) => rows.push_measured(reg, block),
+                    None => rows.push_block(reg, &noise, start, len, draws, derivative),
+                }
+                // The sums the estimators read over the rows, while the block is in cache.
+                scans.advance(rows.view(reg), reg, start + len);
+            }
         }
+        SPAN_NOISE.set(span_buffer);
         acc.finish()
     }
+}
+
+thread_local! {
+    /// The speed noise of a differentiated acceleration's span (memory reused by the
+    /// thread's next realisation).
+    static SPAN_NOISE: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// A realisation's own regression and the AR(1) coefficients of its correlated speed noise.
@@ -205,6 +233,7 @@ impl VehicleModel {
         c: usize,
         r: u64,
         rows: &mut Rows,
+        scans: &mut RowScans,
         slots: &mut [f64],
     ) {
         let cond = &self.conditions[c];
@@ -213,19 +242,16 @@ impl VehicleModel {
             Err(_) => return self.unsimulated(slots),
         };
         let (reg, ar1) = self.rows_of(c, &world);
-        let rows = self.needs_rows.then(|| {
+        if self.reads.any() {
             rows.reset(reg, &cond.noise);
-            rows
-        });
-        match rows {
-            Some(rows) => {
-                let moments = self.measure(seed, c, r, reg, ar1, Some(&mut *rows));
-                self.conclude(c, reg, &moments, Some(rows), slots);
-            }
-            None => {
-                let moments = self.measure(seed, c, r, reg, ar1, None);
-                self.conclude(c, reg, &moments, None, slots)
-            }
+            let grade = cond.noise.is_on(Channel::Grade);
+            let rls = rls_target(&self.study.settings, &self.truth);
+            scans.reset(self.reads, reg, grade, rls);
+            let moments = self.measure(seed, c, r, reg, ar1, Some((&mut *rows, &mut *scans)));
+            self.conclude(c, reg, &moments, Some((rows, scans)), slots);
+        } else {
+            let moments = self.measure(seed, c, r, reg, ar1, None);
+            self.conclude(c, reg, &moments, None, slots)
         }
     }
 
@@ -244,7 +270,7 @@ impl VehicleModel {
     /// each realisation of each condition is computed on its own (from the same draws).
     pub(super) fn one_draw_serves(&self, conditions: &[usize]) -> bool {
         (self.shared || conditions.len() == 1)
-            && !self.needs_rows
+            && !self.reads.any()
             && conditions.iter().all(|&c| {
                 let cond = &self.conditions[c];
                 cond.ar1.is_none()
@@ -332,7 +358,7 @@ impl VehicleModel {
         c: usize,
         reg: &Regression,
         moments: &Moments,
-        rows: Option<&Rows>,
+        rows: Option<(&Rows, &RowScans)>,
         slots: &mut [f64],
     ) {
         let cond = &self.conditions[c];
@@ -356,7 +382,8 @@ impl VehicleModel {
         for (ei, est) in self.study.estimators.iter().enumerate() {
             let estimate = est.estimate(&Realisation {
                 moments,
-                rows,
+                rows: rows.map(|(rows, _)| rows),
+                scans: rows.map(|(_, scans)| scans),
                 regression: reg,
                 noise: &cond.noise,
                 settings: &self.study.settings,

@@ -15,6 +15,7 @@ use crate::estimate::bounds::BOUNDS;
 use crate::estimate::controls::CONTROLS;
 use crate::estimate::conversions::EXTRAS;
 use crate::estimate::moments::Rows;
+use crate::estimate::row_sums::RowScans;
 use crate::model::{
     BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo,
     realise_one_by_one,
@@ -131,10 +132,11 @@ impl Model for VehicleModel {
 
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
         thread_local! {
-            /// The measured rows of this thread's current realisation (memory reused).
-            static ROWS: RefCell<Rows> = RefCell::default();
+            /// The measured rows of this thread's current realisation and the sums taken
+            /// over them (memory reused).
+            static ROWS: RefCell<(Rows, RowScans)> = RefCell::default();
         }
-        ROWS.with_borrow_mut(|rows| self.realise_with(seed, c, r, rows, slots));
+        ROWS.with_borrow_mut(|(rows, scans)| self.realise_with(seed, c, r, rows, scans, slots));
     }
 
     fn draw_group(&self, c: usize) -> usize {

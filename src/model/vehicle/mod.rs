@@ -34,6 +34,7 @@ use crate::estimate::conversions::EXTRAS;
 use crate::estimate::estimators::BiasPrediction;
 use crate::estimate::moments::Moments;
 use crate::estimate::regression::Regression;
+use crate::estimate::row_sums::RowReads;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
@@ -82,8 +83,8 @@ pub struct VehicleModel {
     conditions: Vec<Condition>,
     /// One cycle per terrain scale and truth (kept for cycles.parquet and figures).
     cycles: Vec<ScaleCycle>,
-    /// Whether an estimator of the study reads the measured rows.
-    needs_rows: bool,
+    /// What the study's estimators read from the measured rows beyond their sums.
+    reads: RowReads,
     /// The per-row extras its tables carry (indices into [`EXTRAS`]).
     extras: Vec<usize>,
     /// The sums whose control variates the layout carries (indices into [`CONTROLS`]).
@@ -261,7 +262,7 @@ impl VehicleModel {
             layout,
             conditions,
             cycles,
-            needs_rows: vs.estimators.iter().any(|e| e.needs_rows()),
+            reads: RowReads::of(vs.estimators.iter().map(|e| e.reads())),
             extras: study_extras(&vs),
             controls,
             shared: vs.share_across_scales,
