@@ -77,7 +77,8 @@ impl<T: fmt::Debug> fmt::Debug for Column<T> {
 }
 
 /// Row ranges and the noise-free sums of x₁ and x₃ over each (see [`Regression::segments`]).
-type Segments = (Vec<(usize, usize)>, Vec<Moments>);
+/// Row ranges a..b and a value of each.
+type Segments<T = Moments> = (Vec<(usize, usize)>, Vec<T>);
 
 /// The noise-free regression of one drive cycle and its constant sums.
 #[derive(Debug, Clone)]
@@ -190,6 +191,7 @@ impl Regression {
                 span_run: d.span_run.prefix(span),
                 sample: d.sample.prefix(n),
                 inv_dt: d.inv_dt.prefix(n),
+                spans: OnceLock::new(),
             }
         });
         reg
@@ -361,7 +363,7 @@ impl Regression {
 /// before the first row to the one after the last (the *span*; rows left out of the
 /// regression in between are logged too), and each row's place in it. Row i's output is
 /// (Ṽ_{s+1} − Ṽ_{s−1}) / (t_{s+1} − t_{s−1}) + g sin θ̃ with s = `sample[i]`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Differentiation {
     /// Times of the span's samples \[s\].
     pub span_t: Column,
@@ -371,6 +373,42 @@ pub struct Differentiation {
     pub sample: Column<usize>,
     /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
     pub inv_dt: Column,
+    /// [`Differentiation::mean_spans`] of the segments first asked for.
+    spans: OnceLock<Segments<f64>>,
+}
+
+impl PartialEq for Differentiation {
+    /// The same samples (the kept spans are derived from them).
+    fn eq(&self, other: &Self) -> bool {
+        self.span_t == other.span_t
+            && self.span_run == other.span_run
+            && self.sample == other.sample
+            && self.inv_dt == other.inv_dt
+    }
+}
+
+impl Differentiation {
+    /// The mean central-difference span t_{s+1} − t_{s−1} of the rows of each of
+    /// `segments` \[s\] (rows a..b), summed in row order; kept for the segments first asked
+    /// for (`wbcls` asks for the same ones in every realisation).
+    pub fn mean_spans(&self, segments: &[(usize, usize)]) -> std::borrow::Cow<'_, [f64]> {
+        let compute = || -> Vec<f64> {
+            segments
+                .iter()
+                .map(|&(a, b)| {
+                    let span: f64 = (a..b)
+                        .map(|i| self.span_t[self.sample[i] + 1] - self.span_t[self.sample[i] - 1])
+                        .sum();
+                    span / (b - a) as f64
+                })
+                .collect()
+        };
+        let (kept, spans) = self.spans.get_or_init(|| (segments.to_vec(), compute()));
+        match kept.as_slice() == segments {
+            true => std::borrow::Cow::Borrowed(spans),
+            false => std::borrow::Cow::Owned(compute()),
+        }
+    }
 }
 
 impl Regression {
@@ -410,6 +448,7 @@ impl Regression {
             span_run: cycle.run[start..=end].to_vec().into(),
             sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
             inv_dt: inv_dt.into(),
+            spans: OnceLock::new(),
         });
         reg
     }

@@ -307,9 +307,8 @@ fn summary_rows_read_back_equal_the_rows_written() {
 #[test]
 fn realisations_computed_side_by_side_are_each_computed_alone_bit_for_bit() {
     // The executor computes a condition's realisations in small batches (its data read once
-    // per batch); each must be what `realise` gives it alone: white speed and output noise
-    // (the batched path). With AR(1) speed noise both sides realise one by one: that case
-    // guards the dispatch only.
+    // per batch); each must be what `realise` gives it alone: white speed and output noise,
+    // and AR(1) speed noise (filtered for the batch's realisations side by side).
     use chassis_mc::model::Model;
     use chassis_mc::model::vehicle::VehicleModel;
     for extra in [

@@ -208,13 +208,9 @@ impl ChannelTerms for Speed {
         let s2 = noise[Channel::Velocity].powi(2);
         let tau = noise.velocity_correlation_s;
         Some(
-            segments
+            d.mean_spans(segments)
                 .iter()
-                .map(|&(a, b)| {
-                    let span: f64 = (a..b)
-                        .map(|i| d.span_t[d.sample[i] + 1] - d.span_t[d.sample[i] - 1])
-                        .sum();
-                    let dt = span / (b - a) as f64;
+                .map(|&dt| {
                     let rho = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
                     2.0 * s2 * (1.0 - rho) / (dt * dt)
                 })

@@ -265,7 +265,8 @@ impl VehicleModel {
     }
 
     /// Whether [`VehicleModel::measure_group`] computes `conditions` (one draw group, or one
-    /// condition's consecutive realisations): white noise, an acceleration not
+    /// condition's consecutive realisations): white noise (or, for one condition, AR(1)
+    /// speed noise, filtered for the realisations side by side), an acceleration not
     /// differentiated from the noisy speed, and no estimator that reads the rows. Otherwise
     /// each realisation of each condition is computed on its own (from the same draws).
     pub(super) fn one_draw_serves(&self, conditions: &[usize]) -> bool {
@@ -273,7 +274,7 @@ impl VehicleModel {
             && !self.reads.any()
             && conditions.iter().all(|&c| {
                 let cond = &self.conditions[c];
-                cond.ar1.is_none()
+                (cond.ar1.is_none() || conditions.len() == 1)
                     && cond.world.is_none()
                     && !(cond.regression.differentiation.is_some()
                         && cond.noise.speed_noise_differentiated())
@@ -319,6 +320,12 @@ impl VehicleModel {
             })
             .collect();
         let longest = lengths.iter().copied().max().unwrap_or(0);
+        // AR(1) speed noise (one condition): each realisation's previous sample's noise.
+        let ar1 = match conditions {
+            [c] => self.conditions[*c].ar1.as_deref(),
+            _ => None,
+        };
+        let mut previous = vec![0.0; count];
         for start in (0..longest).step_by(BLOCK) {
             // Shared: whole blocks, the sequence each condition reads a prefix of. Alone (one
             // condition, its own streams): the blocks `measure` requests.
@@ -330,6 +337,18 @@ impl VehicleModel {
                 for (stream, buffer) in streams.0.iter_mut().zip(&mut buffers.0) {
                     if let Some(s) = stream {
                         s.fill_block(&mut buffer[..drawn]);
+                    }
+                }
+            }
+            if let Some(ar1) = ar1 {
+                // The filter `measure` applies, for the realisations side by side: their
+                // recursions are independent, so the processor overlaps them.
+                let rows = &ar1[start..(start + drawn).min(ar1.len())];
+                for (j, [phi, scale]) in rows.iter().enumerate() {
+                    for (buffers, previous) in buffers.iter_mut().zip(&mut previous) {
+                        let z = &mut buffers[Channel::Velocity][j];
+                        *z = phi * *previous + scale * *z;
+                        *previous = *z;
                     }
                 }
             }
