@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The cost of each sensor path per realisation and per sample, on one thread, measured in
-one run (docs/model.md#performance; README "Performance").
+one run (README "Performance").
 
 For each path a one-condition study is run with `--threads 1` at R = 20 and R = `--large`
 (default 1020; best of `--repeat` wall times each); the marginal cost per realisation is
