@@ -67,7 +67,10 @@ const ALONE: usize = usize::MAX;
 
 /// Each term summed over rows `0..whole` (a multiple of four) of `cols`, row i into lane
 /// i mod 4: the portable code, and on x86-64 with `AVX2` the same operations per lane in
-/// 256-bit registers (no FMA, no reassociation), so the two agree bit for bit.
+/// 256-bit registers (no FMA, no reassociation), so the two agree bit for bit. `AVX2` is
+/// true only where this is inlined into a function compiled for AVX2 (the `*_avx2`
+/// functions of this module, called only after the CPU is checked), as for every
+/// `<const AVX2: bool>` function here.
 #[inline(always)]
 fn lane_sums<const AVX2: bool, const K: usize>(
     cols: [&[f64]; 4],
@@ -523,7 +526,7 @@ impl RlsScan {
 
     /// Take rows up to `end` (exclusive; a multiple of four, or the row count).
     pub fn advance(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
-        debug_assert!(
+        assert!(
             end.is_multiple_of(LANES) || end == self.n,
             "rows split at {end}"
         );

@@ -261,6 +261,35 @@ fn refactors_keep_the_general_kernel_bit_for_bit() {
 }
 
 #[test]
+fn refactors_keep_the_differentiated_kernel_bit_for_bit() {
+    // A differentiated acceleration (its noise summed on the fast path like output noise)
+    // with WBCLS and RLS reading the rows: pinned on the engine that moved it there
+    // (README "Determinism").
+    let text = set_key(
+        &study_text("bias_compensation.toml"),
+        "scales",
+        "[1.0, 2.0]",
+    );
+    let text = set_key(&text, "velocity_sd", "[0.5]");
+    let text = set_key(
+        &text,
+        "estimators",
+        "[\"ols\", \"bcls\", \"wbcls\", \"rls\"]\nacceleration = \"differentiated\"",
+    );
+    let study = chassis_mc::study::Study::from_toml(&text, "pinned")
+        .unwrap()
+        .with_overrides(Some(64), None)
+        .unwrap();
+    let (dir, _) = run(&study, None);
+    let found = ["realisations", "summary"].map(|name| {
+        let table = read_table(&dir.path().join(format!("{name}.parquet")));
+        hash_columns(&table, &|_| true)
+    });
+    println!("differentiated kernel's hashes: {found:016x?}");
+    assert_eq!(found, [0xfd2d_a145_5db5_e16e, 0x7f43_c43c_491b_848a]);
+}
+
+#[test]
 fn summary_rows_read_back_equal_the_rows_written() {
     use chassis_mc::stats::columns::SummaryColumn;
     // The typed decoder is the writer's inverse: every measure of every row, to the bit

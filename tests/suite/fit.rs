@@ -525,7 +525,8 @@ fn refactors_keep_the_fit_of_the_shipped_example_bit_for_bit() {
     });
     println!("fit hashes: {hashes:016x?}");
     // The second re-pinned when the general kernel was vectorised (README "Determinism":
-    // grade and force noise on, the sums' last bits moved); the first kept its bits.
+    // that log's acceleration is differentiated and every channel is on, so its sums' last
+    // bits moved); the first kept its bits.
     assert_eq!(hashes, [0x07316bc6fb2687a7, 0x9c425ab6b679ee78]);
 }
 
