@@ -575,6 +575,18 @@ mod tests {
         assert_eq!(a.n, b.n);
     }
 
+    /// `n` standard normals of every channel, from realisation `r` of seed `seed`.
+    fn channel_draws(n: usize, seed: u64, r: u64) -> Vec<Vec<f64>> {
+        Channel::ALL
+            .iter()
+            .map(|c| {
+                let mut z = vec![0.0; n];
+                NormalStream::for_realisation(seed, 0, c.stream(), r).fill(&mut z);
+                z
+            })
+            .collect()
+    }
+
     /// The sums as the kernel computed them before its general path was vectorised, row by
     /// row: each channel's perturbation of one sample (the grade's sin and cos of σ_θ δ by
     /// `f64::sin_cos`), then every product added in turn, blocks of [`BLOCK`] summed apart.
@@ -625,14 +637,7 @@ mod tests {
         // 6001 rows); the largest relative difference is printed.
         let reg = regression();
         let n = reg.len();
-        let draws: Vec<Vec<f64>> = Channel::ALL
-            .iter()
-            .map(|c| {
-                let mut z = vec![0.0; n];
-                NormalStream::for_realisation(3, 0, c.stream(), 7).fill(&mut z);
-                z
-            })
-            .collect();
+        let draws = channel_draws(n, 3, 7);
         let derivative: Vec<f64> = draws[Channel::Velocity.index()]
             .windows(3)
             .map(|e| 0.4 * (e[2] - e[0]) * 50.0)
@@ -690,14 +695,7 @@ mod tests {
         noise[Channel::Output] = 0.2;
         noise[Channel::Grade] = 0.01;
         noise[Channel::Force] = 30.0;
-        let draws: Vec<Vec<f64>> = Channel::ALL
-            .iter()
-            .map(|c| {
-                let mut z = vec![0.0; BLOCK];
-                NormalStream::for_realisation(4, 0, c.stream(), 2).fill(&mut z);
-                z
-            })
-            .collect();
+        let draws = channel_draws(BLOCK, 4, 2);
         let d: Vec<f64> = (0..BLOCK).map(|j| 0.01 * j as f64 - 1.0).collect();
         for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
             let block = BlockNoise::from_fn(|c| Some(&draws[c.index()][..len]));
