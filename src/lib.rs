@@ -41,6 +41,7 @@
 //! | output | [`output`] | Parquet tables, the output set (manifest, journal, lock), parts and resume |
 //! | output | [`figures`] | SVG figures from the summary and cycles |
 //! | top | [`report`], [`run`], [`check`], [`design`], [`fit`] | the printed table and report.html; run, shard and summarize; a study checked without running; the smallest duration (or scale, or largest noise) meeting a target; estimates from a measured log |
+//! | command line | [`cli`] | the `chassis-mc` command: flags, exit statuses, progress; `src/main.rs` and the Python wheel's `chassis-mc` call [`cli::main`] |
 //!
 //! # Where to add
 //!
@@ -96,6 +97,7 @@
 #![deny(missing_docs)]
 
 pub mod check;
+pub mod cli;
 pub mod design;
 pub mod estimate;
 pub mod figures;

@@ -3,10 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
-use chassis_mc::design::{DesignKey, DesignTarget};
-use chassis_mc::run::{RunError, Shard};
-use chassis_mc::stats::plan::{Target, measure_names};
-use chassis_mc::study::Study;
+use crate::design::{DesignKey, DesignTarget};
+use crate::run::{RunError, Shard};
+use crate::stats::plan::{Target, measure_names};
+use crate::study::Study;
 use clap::{Parser, Subcommand};
 
 use super::failure::Failure;

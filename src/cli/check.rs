@@ -1,22 +1,22 @@
 //! `check`: a study's conditions, the estimated run time and output size, without running.
 
-use chassis_mc::check::StudyCheck;
-use chassis_mc::study::Study;
+use crate::check::StudyCheck;
+use crate::study::Study;
 
 use super::args::CheckArgs;
 use super::failure::Failure;
-use crate::progress::human_duration;
+use super::progress::human_duration;
 
 /// `check`: validate the study, time a few realisations and print what a run would do.
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
     let study = args.overrides.load(&args.study)?;
-    let found = chassis_mc::check::check(&study, args.overrides.threads())?;
+    let found = crate::check::check(&study, args.overrides.threads())?;
     print!("{}", check_report(&study, &found));
     Ok(())
 }
 
 /// What `check` prints.
-fn check_report(study: &Study, c: &StudyCheck) -> String {
+pub fn check_report(study: &Study, c: &StudyCheck) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
     let _ = writeln!(
@@ -63,19 +63,15 @@ fn check_report(study: &Study, c: &StudyCheck) -> String {
         human_bytes(c.total_bytes())
     );
     // The figures on one line, every other file on its own.
-    let (figures, files): (Vec<_>, Vec<_>) = c.files.iter().partition(|f| {
-        f.name
-            .starts_with(&format!("{}/", chassis_mc::figures::FIGURES))
-    });
+    let (figures, files): (Vec<_>, Vec<_>) = c
+        .files
+        .iter()
+        .partition(|f| f.name.starts_with(&format!("{}/", crate::figures::FIGURES)));
     for f in files {
         let _ = writeln!(out, "  {:<28} {:>10}", f.name, human_bytes(f.bytes));
     }
     if !figures.is_empty() {
-        let name = format!(
-            "{}/ ({} SVG files)",
-            chassis_mc::figures::FIGURES,
-            figures.len()
-        );
+        let name = format!("{}/ ({} SVG files)", crate::figures::FIGURES, figures.len());
         let bytes = figures.iter().map(|f| f.bytes).sum();
         let _ = writeln!(out, "  {name:<28} {:>10}", human_bytes(bytes));
     }

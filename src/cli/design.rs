@@ -1,6 +1,6 @@
 //! `design`: the smallest (or largest) value of a key at which a target precision holds.
 
-use chassis_mc::design::{DesignRequest, answer_sentence};
+use crate::design::{DesignRequest, answer_sentence};
 
 use super::args::{DesignArgs, output_directory};
 use super::failure::Failure;
@@ -31,7 +31,7 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         .num_threads(overrides.threads().unwrap_or(0))
         .build()
         .map_err(|e| Failure::bad_argument(format!("--threads: {e}")))?;
-    let result = pool.install(|| chassis_mc::design::design(&study, &request))?;
+    let result = pool.install(|| crate::design::design(&study, &request))?;
     println!(
         "{}",
         answer_sentence(&request, result.answer, result.answer_sd, result.neighbour)

@@ -3,11 +3,11 @@
 //! while running. Each of the library's errors says which it is (`is_bad_input`); this
 //! module only turns that into the code.
 
+use crate::design::DesignError;
+use crate::figures::FigureError;
+use crate::fit::FitError;
+use crate::run::RunError;
 use anyhow::anyhow;
-use chassis_mc::design::DesignError;
-use chassis_mc::figures::FigureError;
-use chassis_mc::fit::FitError;
-use chassis_mc::run::RunError;
 
 /// Exit status for a bad study file or bad arguments.
 pub const EXIT_BAD_INPUT: u8 = 2;

@@ -1,7 +1,7 @@
 //! The commands on measured logs: `fit` estimates from a log, `simulate-log` writes a
 //! synthetic one.
 
-use chassis_mc::fit::{FitError, FitSpec};
+use crate::fit::{FitError, FitSpec};
 
 use super::args::{FitArgs, SimulateLogArgs, output_directory};
 use super::failure::Failure;
@@ -11,9 +11,9 @@ pub fn fit(args: FitArgs) -> Result<(), Failure> {
     let FitArgs { fit, out } = args;
     output_directory("--out", &out)?;
     let spec = FitSpec::load(&fit).map_err(FitError::from)?;
-    let result = chassis_mc::fit::fit(&spec, &out)?;
-    print!("{}", chassis_mc::fit::table(&result.rows));
-    print!("{}", chassis_mc::fit::budget_table(&result.systematic));
+    let result = crate::fit::fit(&spec, &out)?;
+    print!("{}", crate::fit::table(&result.rows));
+    print!("{}", crate::fit::budget_table(&result.systematic));
     println!("wrote:");
     for f in &result.files {
         println!("  {}", f.display());
@@ -30,7 +30,7 @@ pub fn simulate_log(args: SimulateLogArgs) -> Result<(), Failure> {
         overrides,
     } = args;
     let study = overrides.load(&study)?;
-    let n = chassis_mc::fit::simulate_log(&study, realisation, &out)?;
+    let n = crate::fit::simulate_log(&study, realisation, &out)?;
     println!("wrote {} ({n} samples)", out.display());
     Ok(())
 }

@@ -3,13 +3,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use chassis_mc::figures;
-use chassis_mc::run::{RunOptions, run_study};
+use crate::figures;
+use crate::run::{RunOptions, run_study};
 
 use super::args::{FiguresArgs, RunArgs, SummarizeArgs, output_directory};
 use super::failure::Failure;
+use super::progress::Progress;
 use super::replications::{check_targets, plan_replications};
-use crate::progress::Progress;
 
 /// `run`: the study's realisations, summary, cycles and figures into `--out`.
 pub fn run(args: RunArgs) -> Result<(), Failure> {
@@ -24,7 +24,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     } = args;
     output_directory("--out", &out)?;
     let study = overrides.load(&study)?;
-    check_targets(&chassis_mc::model::layout_of(&study), &replications_for)?;
+    check_targets(&crate::model::layout_of(&study), &replications_for)?;
     if let Some(shard) = shard
         && shard.range(study.realisations()).is_empty()
     {
@@ -54,7 +54,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     } else if !quiet {
         print!(
             "{}",
-            chassis_mc::report::table(&report.layout, &report.infos, &report.summary)
+            crate::report::table(&report.layout, &report.infos, &report.summary)
         );
         println!(
             "{} conditions × {} realisations in {:.1} s; wrote:",
@@ -92,11 +92,11 @@ pub fn summarize(args: SummarizeArgs) -> Result<(), Failure> {
     } else {
         out
     };
-    let report = chassis_mc::run::summarize(&inputs, &out, !no_figures)?;
+    let report = crate::run::summarize(&inputs, &out, !no_figures)?;
     if !quiet {
         print!(
             "{}",
-            chassis_mc::report::table(&report.layout, &report.infos, &report.summary)
+            crate::report::table(&report.layout, &report.infos, &report.summary)
         );
         for f in &report.files {
             println!("  {}", f.display());

@@ -2,15 +2,15 @@
 //! after it the realisations per condition the target needs, planned from the run as a
 //! pilot (see `stats::plan`).
 
-use chassis_mc::model::Layout;
-use chassis_mc::run::RunReport;
-use chassis_mc::stats::columns::Measure;
-use chassis_mc::stats::plan::{Plan, Target, replications_for};
-use chassis_mc::stats::summary::SummaryRow;
-use chassis_mc::study::MAX_REALISATIONS;
+use crate::model::Layout;
+use crate::run::RunReport;
+use crate::stats::columns::Measure;
+use crate::stats::plan::{Plan, Target, replications_for};
+use crate::stats::summary::SummaryRow;
+use crate::study::MAX_REALISATIONS;
 
 use super::failure::Failure;
-use crate::progress::human_duration;
+use super::progress::human_duration;
 
 /// Check that every target names a parameter of `layout` (before the run).
 pub fn check_targets(layout: &Layout, targets: &[Target]) -> Result<(), Failure> {

@@ -63,6 +63,13 @@ pub trait Observer: Sync {
     /// Something the user should know that is not an error (e.g. a corrupted part that is
     /// being recomputed). A command-line observer prints it on stderr.
     fn notice(&self, _message: &str) {}
+
+    /// Whether the caller asks the run to stop (e.g. Ctrl-C in Python). A run asks after
+    /// each chunk it has written and stops with `RunError::Interrupted`; its
+    /// completed parts stay, so running it again resumes. The executor itself never asks.
+    fn stop_requested(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that does nothing.

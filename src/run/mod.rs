@@ -51,6 +51,18 @@ pub enum RunError {
     /// Drawing the figures failed.
     #[error(transparent)]
     Figures(#[from] FigureError),
+    /// The caller asked the run to stop ([`Observer::stop_requested`]); the parts completed
+    /// so far stay in `parts`, and running the study again into the same directory resumes
+    /// from them.
+    #[error(
+        "interrupted: the completed parts are kept in {}; run the study again into the same \
+         directory to resume",
+        parts.display()
+    )]
+    Interrupted {
+        /// The staging directory holding the completed parts.
+        parts: PathBuf,
+    },
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads {
@@ -70,7 +82,9 @@ impl RunError {
             RunError::Study(_) => true,
             RunError::Output(e) => e.is_bad_input(),
             RunError::Figures(e) => e.is_bad_input(),
-            RunError::Summary { .. } | RunError::Threads { .. } => false,
+            RunError::Summary { .. } | RunError::Threads { .. } | RunError::Interrupted { .. } => {
+                false
+            }
         }
     }
 }

@@ -162,7 +162,12 @@ pub(super) fn realise(
                 });
                 output::failpoint("part-committed");
             }
-            Ok::<(), OutputError>(())
+            if observer.stop_requested() {
+                return Err(RunError::Interrupted {
+                    parts: staging.clone(),
+                });
+            }
+            Ok::<(), RunError>(())
         },
     )?;
     if let Some(assembler) = assembler {

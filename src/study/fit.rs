@@ -48,6 +48,7 @@ pub(super) struct RawFit {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawLog {
+    #[serde(default)]
     file: String,
     time_column: String,
     speed_column: String,
@@ -231,11 +232,23 @@ impl FitSpec {
 
     /// Check the fit file `text` read from `origin` in `dir`.
     pub fn parse(text: &str, origin: &str, dir: &Path) -> Result<FitSpec, StudyError> {
+        Self::parse_with_log(text, origin, dir, None)
+    }
+
+    /// Check the fit file `text` read from `origin` in `dir`, its log read from `log` when
+    /// given instead of from `log.file` (which may then be left out): a log handed over as
+    /// a table (e.g. by the Python package) and written to a file.
+    pub fn parse_with_log(
+        text: &str,
+        origin: &str,
+        dir: &Path,
+        log: Option<&Path>,
+    ) -> Result<FitSpec, StudyError> {
         let spans = KeySpans::new(text);
         let raw: RawFit =
             toml::from_str(text).map_err(|e| serde_error(&e, &spans, text, origin, elsewhere))?;
         let c = Checker::new(&spans, origin, dir, elsewhere);
-        validate(raw, &c, text)
+        validate(raw, &c, text, log)
     }
 
     /// The regression of the log's used samples, taken as they are (measured).
@@ -249,7 +262,12 @@ impl FitSpec {
     }
 }
 
-fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyError> {
+fn validate(
+    raw: RawFit,
+    c: &Checker<'_>,
+    text: &str,
+    log: Option<&Path>,
+) -> Result<FitSpec, StudyError> {
     if raw.name.as_ref().is_some_and(|n| n.trim().is_empty()) {
         return Err(c.fail("name", "must not be empty"));
     }
@@ -300,10 +318,11 @@ fn validate(raw: RawFit, c: &Checker<'_>, text: &str) -> Result<FitSpec, StudyEr
 
     // [log]: its keys; the file is read once everything else has passed.
     let l = &raw.log;
-    if l.file.is_empty() {
-        return Err(c.fail("log.file", "must name a file"));
-    }
-    let file = c.dir().join(&l.file);
+    let file = match log {
+        Some(log) => log.to_path_buf(),
+        None if l.file.is_empty() => return Err(c.fail("log.file", "must name a file")),
+        None => c.dir().join(&l.file),
+    };
     let speed_unit = c.named("log.speed_unit", &l.speed_unit, &SpeedUnit::ALL)?;
     let grade_unit = c.named("log.grade_unit", &l.grade_unit, &GradeUnit::ALL)?;
     let min_speed = match l.min_speed {

@@ -1,0 +1,580 @@
+//! `chassis_mc._core`: the Rust side of the Python package. Each function is a thin call of
+//! the library the command line calls, so a study run from Python writes the bytes the
+//! `chassis-mc` command writes for the same study and seed; `python/chassis_mc/__init__.py`
+//! turns the files into pyarrow tables and the arguments into these calls.
+//!
+//! Long calls run on a worker thread while the calling thread waits with the GIL released,
+//! taking it back every [`POLL`] to report progress and notices to Python callbacks and to
+//! check for Ctrl-C: a KeyboardInterrupt asks a run to stop after the chunk it is writing
+//! (its completed parts stay in the output directory, so running it again resumes).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use chassis_mc::check::StudyCheck;
+use chassis_mc::design::{DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence};
+use chassis_mc::fit::{FitError, FitSpec};
+use chassis_mc::montecarlo::Observer;
+use chassis_mc::run::{RunError, RunOptions, run_study};
+use chassis_mc::study::{Study, StudyError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+
+/// How often the waiting thread takes the GIL back (progress, notices, Ctrl-C).
+const POLL: Duration = Duration::from_millis(100);
+
+/// The origin a study or fit file given as a dict is reported under.
+const DICT_ORIGIN: &str = "<dict>";
+
+/// A validated study (`chassis_mc.load` returns one; every call takes one).
+#[pyclass(module = "chassis_mc._core", name = "Study", frozen)]
+struct PyStudy(Study);
+
+#[pymethods]
+impl PyStudy {
+    /// The study's name.
+    #[getter]
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+
+    /// The master seed.
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.0.seed()
+    }
+
+    /// Realisations per condition.
+    #[getter]
+    fn realisations(&self) -> u64 {
+        self.0.realisations()
+    }
+
+    /// Where it was read from: a path, `<string>` or `<dict>`.
+    #[getter]
+    fn origin(&self) -> &str {
+        self.0.origin()
+    }
+
+    /// The study as run, as canonical TOML (overrides applied).
+    fn to_toml(&self) -> String {
+        self.0.to_toml()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Study(name={:?}, seed={}, realisations={}, origin={:?})",
+            self.0.name(),
+            self.0.seed(),
+            self.0.realisations(),
+            self.0.origin()
+        )
+    }
+}
+
+/// `chassis_mc.StudyError(message, file, key, line, reason)`, from the library's error. A
+/// dict has no lines, so its errors carry none.
+fn study_error(py: Python<'_>, e: &StudyError) -> PyErr {
+    let line = if e.file == DICT_ORIGIN { None } else { e.line };
+    let e = StudyError { line, ..e.clone() };
+    raise(
+        py,
+        "StudyError",
+        (
+            e.to_string(),
+            e.file.clone(),
+            e.key.clone(),
+            line,
+            e.reason.clone(),
+        ),
+    )
+}
+
+/// `chassis_mc.RunError(message, bad_input)`.
+fn run_error(py: Python<'_>, message: String, bad_input: bool) -> PyErr {
+    raise(py, "RunError", (message, bad_input))
+}
+
+/// An instance of `chassis_mc._errors.<class>` built from `args`, as a Python exception.
+fn raise<'py, A>(py: Python<'py>, class: &str, args: A) -> PyErr
+where
+    A: pyo3::call::PyCallArgs<'py>,
+{
+    let made = py
+        .import("chassis_mc._errors")
+        .and_then(|m| m.getattr(class))
+        .and_then(|c| c.call1(args));
+    match made {
+        Ok(instance) => PyErr::from_value(instance),
+        Err(e) => e,
+    }
+}
+
+fn from_run_error(py: Python<'_>, e: RunError) -> PyErr {
+    match e {
+        RunError::Study(s) => study_error(py, &s),
+        RunError::Interrupted { .. } => PyKeyboardInterrupt::new_err(e.to_string()),
+        e => {
+            let bad = e.is_bad_input();
+            run_error(py, e.to_string(), bad)
+        }
+    }
+}
+
+fn from_fit_error(py: Python<'_>, e: FitError) -> PyErr {
+    match e {
+        FitError::Study(s) => study_error(py, &s),
+        e => {
+            let bad = e.is_bad_input();
+            run_error(py, e.to_string(), bad)
+        }
+    }
+}
+
+fn from_design_error(py: Python<'_>, e: DesignError) -> PyErr {
+    match e {
+        DesignError::Study(s) | DesignError::Run(RunError::Study(s)) => study_error(py, &s),
+        DesignError::Request(reason) => PyValueError::new_err(reason),
+        e => {
+            let bad = e.is_bad_input();
+            run_error(py, e.to_string(), bad)
+        }
+    }
+}
+
+/// A Python value as TOML, `key` naming where it is for an error.
+fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String> {
+    // bool before int: Python's bool is an int
+    if let Ok(b) = value.cast::<PyBool>() {
+        return Ok(toml::Value::Boolean(b.is_true()));
+    }
+    if value.is_instance_of::<PyInt>() {
+        return value
+            .extract::<i64>()
+            .map(toml::Value::Integer)
+            .map_err(|_| format!("{key}: integer out of the range of a 64-bit TOML integer"));
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(value.extract::<f64>().expect("a float")));
+    }
+    if let Ok(s) = value.cast::<PyString>() {
+        return Ok(toml::Value::String(s.to_string()));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        return toml_table(d, key).map(toml::Value::Table);
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let mut items = Vec::new();
+        for (i, item) in value.try_iter().map_err(|e| e.to_string())?.enumerate() {
+            let item = item.map_err(|e| e.to_string())?;
+            items.push(toml_value(&item, &format!("{key}[{i}]"))?);
+        }
+        return Ok(toml::Value::Array(items));
+    }
+    // numpy scalars and the like: integers by __index__, reals by __float__
+    if value.hasattr("__index__").unwrap_or(false)
+        && let Ok(i) = value.extract::<i64>()
+    {
+        return Ok(toml::Value::Integer(i));
+    }
+    if value.hasattr("__float__").unwrap_or(false)
+        && let Ok(x) = value.extract::<f64>()
+    {
+        return Ok(toml::Value::Float(x));
+    }
+    let type_name = value
+        .get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "?".into());
+    Err(format!(
+        "{key}: a {type_name} is not a study value (give a bool, int, float, str, list or dict)"
+    ))
+}
+
+fn toml_table(dict: &Bound<'_, PyDict>, prefix: &str) -> Result<toml::Table, String> {
+    let mut table = toml::Table::new();
+    for (k, v) in dict.iter() {
+        let Ok(k) = k.extract::<String>() else {
+            return Err(format!("{prefix}: every key must be a str"));
+        };
+        let key = match prefix {
+            "" => k.clone(),
+            p => format!("{p}.{k}"),
+        };
+        if v.is_none() {
+            // TOML has no null: a key given as None is left out (its default applies)
+            continue;
+        }
+        table.insert(k, toml_value(&v, &key)?);
+    }
+    Ok(table)
+}
+
+/// TOML text from a dict; an error names the key whose value TOML cannot hold.
+fn dict_text(py: Python<'_>, dict: &Bound<'_, PyDict>) -> PyResult<String> {
+    let table = toml_table(dict, "").map_err(|reason| {
+        let (key, reason) = match reason.split_once(": ") {
+            Some((k, r)) if !k.is_empty() => (Some(k.to_string()), r.to_string()),
+            _ => (None, reason),
+        };
+        study_error(
+            py,
+            &StudyError {
+                file: DICT_ORIGIN.into(),
+                key,
+                line: None,
+                reason,
+            },
+        )
+    })?;
+    Ok(toml::to_string(&table).expect("a TOML table serialises"))
+}
+
+/// A source as (text, origin, directory): `kind` is `path`, `text` or `dict`.
+fn source_text(
+    py: Python<'_>,
+    kind: &str,
+    value: &Bound<'_, PyAny>,
+    what: &str,
+) -> PyResult<(String, String, PathBuf)> {
+    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
+    match kind {
+        "path" => {
+            let path: PathBuf = value.extract()?;
+            let origin = path.display().to_string();
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                study_error(
+                    py,
+                    &StudyError {
+                        file: origin.clone(),
+                        key: None,
+                        line: None,
+                        reason: format!("cannot read: {e}"),
+                    },
+                )
+            })?;
+            let dir = match path.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+                _ => PathBuf::from("."),
+            };
+            Ok((text, origin, dir))
+        }
+        "text" => Ok((value.extract()?, "<string>".into(), cwd)),
+        "dict" => Ok((dict_text(py, value.cast()?)?, DICT_ORIGIN.into(), cwd)),
+        other => Err(PyValueError::new_err(format!(
+            "{what}: unknown source kind {other:?}"
+        ))),
+    }
+}
+
+/// Load and validate a study: `kind` is `path`, `text` or `dict`; `realisations` and `seed`
+/// override the study's, as `--realisations` and `--seed` do.
+#[pyfunction]
+#[pyo3(signature = (kind, value, realisations=None, seed=None))]
+fn load_study(
+    py: Python<'_>,
+    kind: &str,
+    value: &Bound<'_, PyAny>,
+    realisations: Option<u64>,
+    seed: Option<u64>,
+) -> PyResult<PyStudy> {
+    let study = match kind {
+        // the library's own reading of a file, with its errors
+        "path" => Study::load(&value.extract::<PathBuf>()?),
+        _ => {
+            let (text, origin, dir) = source_text(py, kind, value, "study")?;
+            Study::from_toml_in(&text, &origin, &dir)
+        }
+    };
+    let study = study
+        .and_then(|s| s.with_overrides(realisations, seed))
+        .map_err(|e| study_error(py, &e))?;
+    Ok(PyStudy(study))
+}
+
+/// What a call in progress tells the waiting thread.
+#[derive(Default)]
+struct Watch {
+    total: AtomicU64,
+    done: AtomicU64,
+    notices: Mutex<Vec<String>>,
+    stop: AtomicBool,
+}
+
+impl Observer for Watch {
+    fn planned(&self, total: u64, done: u64) {
+        self.total.store(total, Ordering::Relaxed);
+        self.done.store(done, Ordering::Relaxed);
+        if done > 0 {
+            self.notice(&format!(
+                "resuming: {done} of {total} realisations kept from an earlier run; computing {}",
+                total - done
+            ));
+        }
+    }
+
+    fn realisations_done(&self, count: u64) {
+        self.done.fetch_add(count, Ordering::Relaxed);
+    }
+
+    fn notice(&self, message: &str) {
+        self.notices
+            .lock()
+            .expect("notices lock")
+            .push(message.to_string());
+    }
+
+    fn stop_requested(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+}
+
+/// Run `work` on a worker thread while this one waits with the GIL released, calling
+/// `progress(done, total)` when the count moves and `notice(message)` for each notice. On
+/// Ctrl-C the run is asked to stop and, once the worker has returned, the KeyboardInterrupt
+/// is raised.
+fn supervise<T: Send>(
+    py: Python<'_>,
+    watch: &Watch,
+    progress: Option<&Bound<'_, PyAny>>,
+    notice: Option<&Bound<'_, PyAny>>,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    std::thread::scope(|scope| {
+        let (sender, receiver) = mpsc::channel::<()>();
+        let worker = scope.spawn(move || {
+            let value = work();
+            let _ = sender.send(());
+            value
+        });
+        let mut receiver = Some(receiver);
+        let mut interrupt: Option<PyErr> = None;
+        let mut shown = (u64::MAX, u64::MAX);
+        let mut failure: Option<PyErr> = None;
+        loop {
+            let waiting = receiver.take().expect("the receiver is back");
+            let (finished, waiting) = py.detach(move || {
+                let got = waiting.recv_timeout(POLL);
+                (
+                    !matches!(got, Err(mpsc::RecvTimeoutError::Timeout)),
+                    waiting,
+                )
+            });
+            receiver = Some(waiting);
+            let notices: Vec<String> = std::mem::take(&mut *watch.notices.lock().expect("lock"));
+            for message in notices {
+                if let Some(notice) = notice
+                    && let Err(e) = notice.call1((message,))
+                {
+                    failure.get_or_insert(e);
+                }
+            }
+            let now = (
+                watch.done.load(Ordering::Relaxed),
+                watch.total.load(Ordering::Relaxed),
+            );
+            if now != shown && now.1 > 0 {
+                shown = now;
+                if let Some(progress) = progress
+                    && let Err(e) = progress.call1(now)
+                {
+                    failure.get_or_insert(e);
+                }
+            }
+            if interrupt.is_none()
+                && let Err(e) = py.check_signals()
+            {
+                watch.stop.store(true, Ordering::Relaxed);
+                interrupt = Some(e);
+            }
+            // A callback that raised stops the run too, and its error is raised.
+            if failure.is_some() {
+                watch.stop.store(true, Ordering::Relaxed);
+            }
+            if finished {
+                break;
+            }
+        }
+        let value = match worker.join() {
+            Ok(value) => value,
+            Err(panic) => std::panic::resume_unwind(panic),
+        };
+        match interrupt.or(failure) {
+            Some(e) => Err(e),
+            None => Ok(value),
+        }
+    })
+}
+
+/// Run `study` into `out` (the CLI's `run`): returns (files written, realisations kept from
+/// an earlier run, realisations computed).
+#[pyfunction]
+#[pyo3(signature = (study, out, threads=None, figures=true, progress=None, notice=None))]
+fn run(
+    py: Python<'_>,
+    study: &PyStudy,
+    out: PathBuf,
+    threads: Option<usize>,
+    figures: bool,
+    progress: Option<&Bound<'_, PyAny>>,
+    notice: Option<&Bound<'_, PyAny>>,
+) -> PyResult<(Vec<PathBuf>, u64, u64)> {
+    let mut options = RunOptions::new(out);
+    options.threads = threads;
+    options.figures = figures;
+    let watch = Watch::default();
+    let report = supervise(py, &watch, progress, notice, || {
+        run_study(&study.0, &options, &watch)
+    })?
+    .map_err(|e| from_run_error(py, e))?;
+    Ok((report.files, report.reused, report.computed))
+}
+
+/// `check`: (the report the CLI prints, ms per realisation per condition, estimated run
+/// time in s, estimated output in bytes).
+#[pyfunction]
+#[pyo3(signature = (study, threads=None))]
+fn check(
+    py: Python<'_>,
+    study: &PyStudy,
+    threads: Option<usize>,
+) -> PyResult<(String, Vec<f64>, f64, f64)> {
+    let watch = Watch::default();
+    let found: StudyCheck = supervise(py, &watch, None, None, || {
+        chassis_mc::check::check(&study.0, threads)
+    })?
+    .map_err(|e| from_run_error(py, e))?;
+    let text = chassis_mc::cli::check::check_report(&study.0, &found);
+    let per: Vec<f64> = found
+        .per_realisation
+        .iter()
+        .map(|d| d.as_secs_f64() * 1e3)
+        .collect();
+    Ok((
+        text,
+        per,
+        found.estimated_run_time().as_secs_f64(),
+        found.total_bytes(),
+    ))
+}
+
+/// `design`: (the answer sentence, the answer's value or None, its standard deviation or
+/// None, the estimator, the realisations per evaluation, the files written).
+#[pyfunction]
+#[pyo3(signature = (study, vary, from_, to, target, out, estimator=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+#[allow(clippy::type_complexity)]
+fn design(
+    py: Python<'_>,
+    study: &PyStudy,
+    vary: &str,
+    from_: f64,
+    to: f64,
+    target: &str,
+    out: PathBuf,
+    estimator: Option<String>,
+    threads: Option<usize>,
+) -> PyResult<(String, Option<f64>, Option<f64>, String, u64, Vec<PathBuf>)> {
+    let key = DesignKey::parse(vary).map_err(|e| PyValueError::new_err(format!("vary: {e}")))?;
+    let target =
+        DesignTarget::parse(target).map_err(|e| PyValueError::new_err(format!("target: {e}")))?;
+    let request = DesignRequest {
+        key,
+        from: from_,
+        to,
+        target,
+        estimator,
+        out,
+    };
+    let pool = rayon_pool(py, threads)?;
+    let watch = Watch::default();
+    let result = supervise(py, &watch, None, None, || {
+        pool.install(|| chassis_mc::design::design(&study.0, &request))
+    })?
+    .map_err(|e| from_design_error(py, e))?;
+    let sentence = answer_sentence(&request, result.answer, result.answer_sd, result.neighbour);
+    Ok((
+        sentence,
+        result.answer.map(|a| a.value),
+        result.answer_sd,
+        result.estimator,
+        result.realisations,
+        result.files,
+    ))
+}
+
+fn rayon_pool(py: Python<'_>, threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| run_error(py, format!("threads: {e}"), true))
+}
+
+/// `fit`: a fit file (`kind` `path`, `text` or `dict`), its log read from `log` when given;
+/// returns (the tables the CLI prints, the files written).
+#[pyfunction]
+#[pyo3(signature = (kind, value, out, log=None))]
+fn fit(
+    py: Python<'_>,
+    kind: &str,
+    value: &Bound<'_, PyAny>,
+    out: PathBuf,
+    log: Option<PathBuf>,
+) -> PyResult<(String, Vec<PathBuf>)> {
+    let (text, origin, dir) = source_text(py, kind, value, "fit")?;
+    let spec = FitSpec::parse_with_log(&text, &origin, &dir, log.as_deref())
+        .map_err(|e| study_error(py, &e))?;
+    let watch = Watch::default();
+    let result = supervise(py, &watch, None, None, || chassis_mc::fit::fit(&spec, &out))?
+        .map_err(|e| from_fit_error(py, e))?;
+    let printed = format!(
+        "{}{}",
+        chassis_mc::fit::table(&result.rows),
+        chassis_mc::fit::budget_table(&result.systematic)
+    );
+    Ok((printed, result.files))
+}
+
+/// `simulate-log`: realisation `realisation` of a one-condition study as a CSV log at
+/// `path`; returns its number of samples.
+#[pyfunction]
+#[pyo3(signature = (study, path, realisation=0))]
+fn simulate_log(
+    py: Python<'_>,
+    study: &PyStudy,
+    path: PathBuf,
+    realisation: u64,
+) -> PyResult<usize> {
+    let watch = Watch::default();
+    supervise(py, &watch, None, None, || {
+        chassis_mc::fit::simulate_log(&study.0, realisation, Path::new(&path))
+    })?
+    .map_err(|e| from_fit_error(py, e))
+}
+
+/// The `chassis-mc` command line with `argv` (the first is the program's name); returns its
+/// exit status. The wheel's `chassis-mc` command calls this.
+#[pyfunction]
+fn main(py: Python<'_>, argv: Vec<String>) -> u8 {
+    py.detach(|| chassis_mc::cli::main(argv))
+}
+
+/// The Rust side of `chassis_mc`.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyStudy>()?;
+    m.add_function(wrap_pyfunction!(load_study, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(check, m)?)?;
+    m.add_function(wrap_pyfunction!(design, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate_log, m)?)?;
+    m.add_function(wrap_pyfunction!(main, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

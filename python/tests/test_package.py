@@ -1,0 +1,296 @@
+"""The Python package against the command line: the same study and seed give the same
+numbers, a bad dict names its key, Ctrl-C leaves a resumable run, a DataFrame log fits as
+its CSV does, and the installed command works.
+
+Run from the repository root after `pip install .` (see .ci/run):
+    python -m pytest python/tests
+The command line compared against is target/release/chassis-mc when it is built (an
+independent build of the same library), else the wheel's `chassis-mc` command.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+import chassis_mc
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+THESIS = ROOT / "studies" / "thesis.toml"
+
+
+def cli() -> list:
+    """The command line to compare against."""
+    built = ROOT / "target" / "release" / "chassis-mc"
+    if built.exists():
+        return [str(built)]
+    installed = shutil.which("chassis-mc")
+    assert installed, "neither target/release/chassis-mc nor an installed chassis-mc"
+    return [installed]
+
+
+def bits(column: pa.ChunkedArray) -> list:
+    """A column's values for an exact comparison: floats by their bit patterns (so NaN
+    equals NaN and -0.0 differs from 0.0), everything else as Python values."""
+    column = column.combine_chunks()
+    if pa.types.is_floating(column.type):
+        width = {16: pa.uint16(), 32: pa.uint32(), 64: pa.uint64()}[column.type.bit_width]
+        nulls = column.is_null().to_pylist()
+        values = column.fill_null(0).view(width).to_pylist()
+        return [None if n else v for n, v in zip(nulls, values)]
+    return column.to_pylist()
+
+
+def assert_same_table(a: pa.Table, b: pa.Table) -> None:
+    assert a.schema.names == b.schema.names
+    assert [f.type for f in a.schema] == [f.type for f in b.schema]
+    assert a.num_rows == b.num_rows
+    for name in a.schema.names:
+        assert bits(a.column(name)) == bits(b.column(name)), f"column {name} differs"
+
+
+def test_the_thesis_summary_is_the_command_lines_bit_for_bit(tmp_path):
+    out = tmp_path / "cli"
+    subprocess.run(
+        cli() + ["run", str(THESIS), "--out", str(out), "--realisations", "200",
+                 "--no-figures", "--quiet"],
+        check=True,
+    )
+    result = chassis_mc.run(str(THESIS), realisations=200, progress=False)
+    assert result.out is None and result.report_path is None
+    assert result.summary.num_rows > 0
+    assert_same_table(result.summary, pq.read_table(out / "summary.parquet"))
+    assert_same_table(result.realisations, pq.read_table(out / "realisations.parquet"))
+    # and the same study as TOML text, and as a Study with another thread count
+    text = THESIS.read_text()
+    again = chassis_mc.run(text, realisations=200, threads=1, progress=False)
+    assert_same_table(again.summary, result.summary)
+
+
+def test_a_run_into_out_writes_the_files_and_the_report(tmp_path):
+    result = chassis_mc.run(THESIS, out=tmp_path / "out", realisations=20, progress=False)
+    assert result.out == tmp_path / "out"
+    assert result.report_path == tmp_path / "out" / "report.html"
+    assert (tmp_path / "out" / "summary.parquet").exists()
+    assert result.cycles is not None and result.cycles.num_rows > 0
+    assert result.computed == 11 * 20 and result.reused == 0
+    # the summary goes to pandas without per-row objects
+    frame = result.summary.to_pandas()
+    assert list(frame.columns) == result.summary.schema.names
+
+
+def thesis_dict() -> dict:
+    tomllib = pytest.importorskip("tomllib")
+    return tomllib.loads(THESIS.read_text())
+
+
+def test_a_dict_study_runs_as_its_file_does():
+    study = thesis_dict()
+    study["realisations"] = 20
+    from_dict = chassis_mc.run(study, progress=False)
+    from_file = chassis_mc.run(THESIS, realisations=20, progress=False)
+    assert_same_table(from_dict.summary, from_file.summary)
+
+
+def test_a_dict_with_a_bad_key_names_the_key_path():
+    study = thesis_dict()
+    study["vehicle"]["mass"] = -1500.0
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load(study)
+    assert bad.value.key == "vehicle.mass"
+    assert bad.value.file == "<dict>"
+    assert bad.value.line is None
+    assert bad.value.reason and "vehicle.mass" in str(bad.value)
+
+    study = thesis_dict()
+    study["terrain"]["scalez"] = [1.0]
+    with pytest.raises(chassis_mc.StudyError) as unknown:
+        chassis_mc.load(study)
+    assert unknown.value.key is not None and "scalez" in unknown.value.key
+
+    study = thesis_dict()
+    study["vehicle"]["mass"] = object()
+    with pytest.raises(chassis_mc.StudyError) as untyped:
+        chassis_mc.load(study)
+    assert untyped.value.key == "vehicle.mass"
+
+
+def test_a_file_error_carries_its_line(tmp_path):
+    text = THESIS.read_text().replace("seed = ", "seed = -", 1)
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load(path)
+    assert bad.value.key == "seed"
+    assert bad.value.file == str(path)
+    line = next(i for i, l in enumerate(text.splitlines(), 1) if l.startswith("seed = -"))
+    assert bad.value.line == line
+
+
+def test_a_failure_while_running_is_a_run_error(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    with pytest.raises(chassis_mc.RunError):
+        chassis_mc.run(THESIS, out=blocker / "out", realisations=20, progress=False)
+
+
+INTERRUPTED = textwrap.dedent(
+    """
+    import sys, chassis_mc
+    def progress(done, total):
+        print(f"progress {done} {total}", file=sys.stderr, flush=True)
+    try:
+        chassis_mc.run(sys.argv[1], out=sys.argv[2], realisations=int(sys.argv[3]),
+                       threads=1, progress=progress)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr, flush=True)
+        sys.exit(3)
+    sys.exit(0)
+    """
+)
+
+
+def test_ctrl_c_stops_a_run_and_running_it_again_gives_the_uninterrupted_bytes(tmp_path):
+    realisations = 3000
+    out = tmp_path / "interrupted"
+    child = subprocess.Popen(
+        [sys.executable, "-c", INTERRUPTED, str(THESIS), str(out), str(realisations)],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    seen = []
+    # SIGINT once the first progress shows a condition's part done (a run commits a part
+    # per condition; R realisations are one condition's): the rerun then resumes from it.
+    for line in child.stderr:
+        seen.append(line)
+        if line.startswith("progress "):
+            done = int(line.split()[1])
+            if done >= 2 * realisations:
+                child.send_signal(signal.SIGINT)
+                break
+    rest = child.stderr.read()
+    code = child.wait(timeout=600)
+    assert code == 3, "".join(seen) + rest
+    assert "interrupted" in rest
+    assert not (out / "summary.parquet").exists()
+
+    resumed = chassis_mc.run(THESIS, out=out, realisations=realisations, progress=False)
+    whole = chassis_mc.run(
+        THESIS, out=tmp_path / "whole", realisations=realisations, progress=False
+    )
+    assert resumed.reused > 0, "the rerun kept the interrupted run's parts"
+    assert resumed.computed + resumed.reused == whole.computed
+    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"]:
+        assert (out / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+
+
+FIT = ROOT / "studies" / "fit_example.toml"
+
+
+def test_a_dataframe_log_fits_as_its_csv_does(tmp_path):
+    pandas = pytest.importorskip("pandas")
+    frame = pandas.read_csv(ROOT / "studies" / "data" / "fit_log.csv")
+    csv = tmp_path / "log.csv"
+    frame.to_csv(csv, index=False)
+    fit_text = FIT.read_text().replace('file = "data/fit_log.csv"', f'file = "{csv}"')
+    assert fit_text != FIT.read_text()
+    fit_file = tmp_path / "fit.toml"
+    fit_file.write_text(fit_text)
+    subprocess.run(
+        cli() + ["fit", str(fit_file), "--out", str(tmp_path / "cli")],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+    from_frame = chassis_mc.fit(FIT, log=frame)
+    assert_same_table(from_frame.table, pq.read_table(tmp_path / "cli" / "fit.parquet"))
+    # a pyarrow table, and the fit file as a dict without log.file
+    tomllib = pytest.importorskip("tomllib")
+    spec = tomllib.loads(FIT.read_text())
+    del spec["log"]["file"]
+    from_arrow = chassis_mc.fit(spec, log=pa.Table.from_pandas(frame))
+    assert_same_table(from_arrow.table, from_frame.table)
+    # a Parquet log as pandas writes it (Snappy-compressed), given as a path
+    frame.to_parquet(tmp_path / "log.parquet", index=False)
+    from_parquet = chassis_mc.fit(FIT, log=tmp_path / "log.parquet")
+    assert_same_table(from_parquet.table, from_frame.table)
+
+
+def test_simulate_log_returns_the_commands_csv(tmp_path):
+    study = ROOT / "studies" / "fit_log.toml"
+    table = chassis_mc.simulate_log(study, out=tmp_path / "py.csv")
+    subprocess.run(
+        cli() + ["simulate-log", str(study), "--out", str(tmp_path / "cli.csv")],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+    assert (tmp_path / "py.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    assert table.num_rows > 0
+
+
+def test_check_reports_what_the_command_prints():
+    found = chassis_mc.check(THESIS, realisations=200, threads=1)
+    assert len(found.ms_per_realisation) == 11
+    assert found.estimated_seconds > 0 and found.output_bytes > 0
+    assert "11 conditions × 200 realisations" in found.text
+
+
+def test_the_installed_command_runs():
+    # the command pip installed beside this interpreter (the venv need not be activated)
+    beside = pathlib.Path(sys.executable).parent / "chassis-mc"
+    installed = str(beside) if beside.exists() else shutil.which("chassis-mc")
+    assert installed, "the wheel installs a chassis-mc command"
+    shown = subprocess.run([installed, "--help"], capture_output=True, text=True)
+    assert shown.returncode == 0
+    assert "Usage: chassis-mc" in shown.stdout
+    bad = subprocess.run([installed, "run", "--nonsense"], capture_output=True, text=True)
+    assert bad.returncode == 2
+
+
+def files_under(root: pathlib.Path) -> set:
+    return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
+@pytest.mark.skipif(
+    "CHASSIS_MC_WHEEL" not in os.environ,
+    reason="set CHASSIS_MC_WHEEL to the built wheel (as .ci/run does)",
+)
+def test_the_wheel_installs_its_command_and_uninstalls_without_a_trace(tmp_path):
+    wheel = os.environ["CHASSIS_MC_WHEEL"]
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    python = venv / "bin" / "python"
+    # the dependency first, so that what the wheel adds is all that is compared
+    pip = [str(python), "-m", "pip", "--quiet", "--disable-pip-version-check"]
+    subprocess.run(pip + ["install", "pyarrow"], check=True)
+    before = files_under(venv)
+    subprocess.run(pip + ["install", "--no-deps", wheel], check=True)
+    # byte-compiled files too: the command and the module run as a user's would
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    shown = subprocess.run(
+        [str(venv / "bin" / "chassis-mc"), "--help"], capture_output=True, text=True, env=env
+    )
+    assert shown.returncode == 0 and "Usage: chassis-mc" in shown.stdout, shown.stderr
+    subprocess.run(
+        [str(python), "-c", "import chassis_mc, chassis_mc._cli; print(chassis_mc.__version__)"],
+        check=True,
+        env=env,
+        stdout=subprocess.DEVNULL,
+    )
+    assert (venv / "bin" / "chassis-mc").exists()
+    subprocess.run(pip + ["uninstall", "--yes", "chassis-mc"], check=True)
+    after = files_under(venv)
+    # Importing may byte-compile pyarrow's own modules; nothing else may stay.
+    left = sorted(
+        p for p in after - before if "__pycache__" not in p or "chassis" in p.lower()
+    )
+    assert left == [], left
+    assert not any("chassis" in p.lower() for p in after)
