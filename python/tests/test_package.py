@@ -294,3 +294,27 @@ def test_the_wheel_installs_its_command_and_uninstalls_without_a_trace(tmp_path)
     )
     assert left == [], left
     assert not any("chassis" in p.lower() for p in after)
+
+
+def test_design_answers_as_the_command_does(tmp_path):
+    study = ROOT / "studies" / "design_thesis.toml"
+    args = ["--vary", "drive.duration", "--from", "60", "--to", "600",
+            "--target", "drag_over_mass:rel_rmse<=0.001", "--estimator", "bcls",
+            "--realisations", "200"]
+    shown = subprocess.run(
+        cli() + ["design", str(study), *args, "--out", str(tmp_path / "cli")],
+        capture_output=True,
+        text=True,
+    )
+    found = chassis_mc.design(
+        study, vary="drive.duration", from_=60, to=600,
+        target="drag_over_mass:rel_rmse<=0.001", estimator="bcls", realisations=200,
+    )
+    # the command prints the sentence first and exits 1 when no value meets the target
+    assert shown.stdout.splitlines()[0] == found.sentence
+    assert shown.returncode == (0 if found.answer is not None else 1), shown.stderr
+    assert found.points is not None
+    assert_same_table(found.points, pq.read_table(tmp_path / "cli" / "design.parquet"))
+    with pytest.raises(ValueError):
+        chassis_mc.design(study, vary="drive.nonsense", from_=60, to=600,
+                          target="drag_over_mass:rel_rmse<=0.001")
