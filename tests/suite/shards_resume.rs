@@ -96,6 +96,55 @@ fn growing_r_computes_only_the_new_realisations() {
     }
 }
 
+/// Asks the run to stop once `after` realisations are done (as the Python package does on
+/// Ctrl-C).
+struct StopAfter {
+    after: u64,
+    done: std::sync::atomic::AtomicU64,
+}
+
+impl chassis_mc::montecarlo::Observer for StopAfter {
+    fn realisations_done(&self, count: u64) {
+        self.done
+            .fetch_add(count, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    fn stop_requested(&self) -> bool {
+        self.done.load(std::sync::atomic::Ordering::Relaxed) >= self.after
+    }
+}
+
+#[test]
+fn a_run_asked_to_stop_keeps_its_parts_and_resumes_to_identical_output() {
+    // 11 conditions × 2500 realisations, one part per condition (three chunks of 1024). The
+    // stop is seen by the sink writing a chunk while the next one is computed, so asked
+    // once two conditions are computed, the run has committed at least the first's part.
+    let study = study("thesis.toml", 2500);
+    let dir = tempfile::tempdir().unwrap();
+    let mut options = RunOptions::new(dir.path());
+    options.threads = Some(1);
+    let stop = StopAfter {
+        after: 2 * 2500,
+        done: Default::default(),
+    };
+    let stopped = run_study(&study, &options, &stop);
+    assert!(
+        matches!(stopped, Err(chassis_mc::run::RunError::Interrupted { .. })),
+        "{stopped:?}"
+    );
+    assert!(!dir.path().join("summary.parquet").exists());
+    let resumed = run_study(&study, &options, &Silent).unwrap();
+    assert!(resumed.reused >= 2500, "kept {}", resumed.reused);
+    assert!(resumed.reused < 11 * 2500);
+    let (direct, _) = run(&study, None);
+    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"] {
+        assert!(
+            bytes(&dir.path().join(name)) == bytes(&direct.path().join(name)),
+            "{name} differs"
+        );
+    }
+}
+
 #[test]
 fn a_run_killed_midway_resumes_to_identical_output() {
     let r = "3000";
