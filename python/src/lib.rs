@@ -235,7 +235,8 @@ fn dict_text(py: Python<'_>, dict: &Bound<'_, PyDict>) -> PyResult<String> {
     Ok(toml::to_string(&table).expect("a TOML table serialises"))
 }
 
-/// A source as (text, origin, directory): `kind` is `path`, `text` or `dict`.
+/// TOML text given as `text` or as a `dict`, as (text, origin, directory): relative paths
+/// in it resolve against the working directory. (A path is read by the library itself.)
 fn source_text(
     py: Python<'_>,
     kind: &str,
@@ -244,26 +245,6 @@ fn source_text(
 ) -> PyResult<(String, String, PathBuf)> {
     let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
     match kind {
-        "path" => {
-            let path: PathBuf = value.extract()?;
-            let origin = path.display().to_string();
-            let text = std::fs::read_to_string(&path).map_err(|e| {
-                study_error(
-                    py,
-                    &StudyError {
-                        file: origin.clone(),
-                        key: None,
-                        line: None,
-                        reason: format!("cannot read: {e}"),
-                    },
-                )
-            })?;
-            let dir = match path.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-                _ => PathBuf::from("."),
-            };
-            Ok((text, origin, dir))
-        }
         "text" => Ok((value.extract()?, "<string>".into(), cwd)),
         "dict" => Ok((dict_text(py, value.cast()?)?, DICT_ORIGIN.into(), cwd)),
         other => Err(PyValueError::new_err(format!(
@@ -526,9 +507,14 @@ fn fit(
     out: PathBuf,
     log: Option<PathBuf>,
 ) -> PyResult<(String, Vec<PathBuf>)> {
-    let (text, origin, dir) = source_text(py, kind, value, "fit")?;
-    let spec = FitSpec::parse_with_log(&text, &origin, &dir, log.as_deref())
-        .map_err(|e| study_error(py, &e))?;
+    let spec = match kind {
+        "path" => FitSpec::load_with_log(&value.extract::<PathBuf>()?, log.as_deref()),
+        _ => {
+            let (text, origin, dir) = source_text(py, kind, value, "fit")?;
+            FitSpec::parse_with_log(&text, &origin, &dir, log.as_deref())
+        }
+    }
+    .map_err(|e| study_error(py, &e))?;
     let watch = Watch::default();
     let result = supervise(py, &watch, None, None, || chassis_mc::fit::fit(&spec, &out))?
         .map_err(|e| from_fit_error(py, e))?;

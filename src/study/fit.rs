@@ -216,6 +216,12 @@ pub struct FitSpec {
 impl FitSpec {
     /// Read and check `path`.
     pub fn load(path: &Path) -> Result<FitSpec, StudyError> {
+        Self::load_with_log(path, None)
+    }
+
+    /// Read and check `path`, its log read from `log` when given (see
+    /// [`FitSpec::parse_with_log`]).
+    pub fn load_with_log(path: &Path, log: Option<&Path>) -> Result<FitSpec, StudyError> {
         let origin = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| StudyError {
             file: origin.clone(),
@@ -227,7 +233,7 @@ impl FitSpec {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        Self::parse(&text, &origin, &dir)
+        Self::parse_with_log(&text, &origin, &dir, log)
     }
 
     /// Check the fit file `text` read from `origin` in `dir`.
