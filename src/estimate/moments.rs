@@ -6,12 +6,16 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
-use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns, Samples};
+#[cfg(test)]
+use super::channels::Samples;
+use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
 use super::regression::Regression;
 use super::row_sums::segment_moments;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
+
+mod one_pass;
 
 /// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
 /// s̃ = g sin θ̃ — built from the block's draws by each channel's
@@ -46,8 +50,10 @@ impl MeasuredBlock {
 
     /// Measure samples `start .. start + len` of `reg` with the block's standard-normal
     /// draws (a channel that is off has none) and the noise of a differentiated
-    /// acceleration \[m/s²\] where there is one. Compiled for AVX2 where the CPU has it:
-    /// the same operations (no FMA, no reassociation), so the same bits.
+    /// acceleration \[m/s²\] where there is one, in one pass over the samples. Compiled for
+    /// AVX2 where the CPU has it: the same operations (no FMA, no reassociation), so the
+    /// same bits, which are those of the channels' [`perturb`](Channel::perturb) column by
+    /// column.
     pub fn measure(
         &mut self,
         reg: &Regression,
@@ -64,7 +70,7 @@ impl MeasuredBlock {
                 return unsafe { self.measure_avx2(reg, levels, start, len, draws, derivative) };
             }
         }
-        self.measure_body(reg, levels, start, len, draws, derivative);
+        self.measure_one_pass::<false>(reg, levels, start, len, draws, derivative);
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -78,11 +84,14 @@ impl MeasuredBlock {
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
     ) {
-        self.measure_body(reg, levels, start, len, draws, derivative);
+        self.measure_one_pass::<true>(reg, levels, start, len, draws, derivative);
     }
 
-    #[inline(always)]
-    fn measure_body(
+    /// The block measured channel by channel, each channel's
+    /// [`perturb`](Channel::perturb) on the whole block and then the columns pass by pass:
+    /// the definition [`measure`](Self::measure) keeps bit for bit.
+    #[cfg(test)]
+    fn measure_by_channels(
         &mut self,
         reg: &Regression,
         levels: &NoiseLevels,
@@ -687,25 +696,55 @@ mod tests {
 
     #[test]
     fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
-        // Every channel on, a derivative's noise, whole and partial blocks: the AVX2 build of
-        // the block's measurement runs the portable code's operations.
+        // The block measured channel by channel (each channel's `perturb`, then the columns
+        // pass by pass), in one portable pass, and in one pass as dispatched (AVX2 where the
+        // CPU has it): the same operations, so the same bits. Every channel on, the grade
+        // noise with speed noise alone (the grade-noise study), the other channels without
+        // it, grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in every block),
+        // with and without a derivative's noise, whole and partial blocks.
         let reg = regression();
-        let mut noise = NoiseLevels::default();
-        noise[Channel::Velocity] = 0.4;
-        noise[Channel::Output] = 0.2;
-        noise[Channel::Grade] = 0.01;
-        noise[Channel::Force] = 30.0;
+        let levels = |v: f64, y: f64, theta: f64, f: f64| {
+            let mut noise = NoiseLevels::default();
+            noise[Channel::Velocity] = v;
+            noise[Channel::Output] = y;
+            noise[Channel::Grade] = theta;
+            noise[Channel::Force] = f;
+            noise
+        };
         let draws = channel_draws(BLOCK, 4, 2);
         let d: Vec<f64> = (0..BLOCK).map(|j| 0.01 * j as f64 - 1.0).collect();
-        for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
-            let block = BlockNoise::from_fn(|c| Some(&draws[c.index()][..len]));
-            let (mut portable, mut dispatched) = (MeasuredBlock::new(), MeasuredBlock::new());
-            portable.measure_body(&reg, &noise, start, len, block, Some(&d[..len]));
-            dispatched.measure(&reg, &noise, start, len, block, Some(&d[..len]));
-            let (a, b) = (portable.view(&reg), dispatched.view(&reg));
-            for (x, y) in [(a.f, b.f), (a.w, b.w), (a.c, b.c), (a.y, b.y), (a.s, b.s)] {
-                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(x), bits(y), "block {start}+{len}");
+        for noise in [
+            levels(0.4, 0.2, 0.01, 30.0),
+            levels(1.0, 0.0, 0.001, 0.0),
+            levels(0.0, 0.0, 0.001, 0.0),
+            levels(0.4, 0.2, 0.0, 30.0),
+            levels(0.4, 0.0, 0.5, 0.0),
+        ] {
+            for derivative in [None, Some(&d[..])] {
+                for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
+                    let block =
+                        BlockNoise::from_fn(|c| noise.is_on(c).then(|| &draws[c.index()][..len]));
+                    let d = derivative.map(|d| &d[..len]);
+                    let mut blocks = [(); 3].map(|_| MeasuredBlock::new());
+                    blocks[0].measure_by_channels(&reg, &noise, start, len, block, d);
+                    blocks[1].measure_one_pass::<false>(&reg, &noise, start, len, block, d);
+                    blocks[2].measure(&reg, &noise, start, len, block, d);
+                    let want = blocks[0].view(&reg);
+                    for got in &blocks[1..] {
+                        let got = got.view(&reg);
+                        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                        for (x, y) in [
+                            (want.f, got.f),
+                            (want.w, got.w),
+                            (want.c, got.c),
+                            (want.y, got.y),
+                            (want.s, got.s),
+                        ] {
+                            assert_eq!(bits(x), bits(y), "{noise:?} block {start}+{len}");
+                        }
+                        assert_eq!(want.noise_free_f_c, got.noise_free_f_c);
+                    }
+                }
             }
         }
     }
