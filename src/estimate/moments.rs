@@ -11,7 +11,6 @@ use super::channels::Samples;
 use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
 use super::regression::Regression;
-use super::row_sums::segment_moments;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
 
@@ -465,9 +464,11 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
-    /// The general path: the block measured column by column, then its sums in four lanes
-    /// ([`segment_moments`]); the sums of x̃₁ and x̃₃ alone are left to [`finish`](Self::finish)
-    /// where those columns are noise-free.
+    /// The general path: the block measured and summed in four lanes in one pass
+    /// ([`MeasuredBlock::measure_and_sum`], the sums those of
+    /// [`segment_moments`](super::row_sums::segment_moments)); the sums
+    /// of x̃₁ and x̃₃ alone are left to [`finish`](Self::finish) where those columns are
+    /// noise-free.
     fn add_general(
         &mut self,
         start: usize,
@@ -476,16 +477,10 @@ impl<'r> MomentAccumulator<'r> {
         derivative: Option<&[f64]>,
     ) {
         let block = self.block.get_or_insert_with(MeasuredBlock::new);
-        block.measure(self.reg, &self.noise, start, len, draws, derivative);
-        let none = Moments::default();
-        let constant = self.noise_free_f_c.then_some(&none);
-        self.general.add(&segment_moments(
-            block.view(self.reg),
-            0,
-            len,
-            constant,
-            self.sum_grade,
-        ));
+        let (regressors, grade) = (!self.noise_free_f_c, self.sum_grade);
+        let (reg, noise) = (self.reg, &self.noise);
+        let m = block.measure_and_sum(reg, noise, start, len, draws, derivative, regressors, grade);
+        self.general.add(&m);
     }
 
     /// The rows of the block last added on the general path (`None` on the fast path), for
@@ -535,6 +530,7 @@ impl<'r> MomentAccumulator<'r> {
 mod tests {
     use super::*;
     use crate::estimate::regression::test_regression as regression;
+    use crate::estimate::row_sums::segment_moments;
     use crate::estimate::sums::Sum;
     use crate::noise::{BLOCK, NormalStream};
 
@@ -698,7 +694,8 @@ mod tests {
     fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
         // The block measured channel by channel (each channel's `perturb`, then the columns
         // pass by pass), in one portable pass, and in one pass as dispatched (AVX2 where the
-        // CPU has it): the same operations, so the same bits. Every channel on, the grade
+        // CPU has it), and its moments summed in that pass: the same operations, so the same
+        // bits. Every channel on, the grade
         // noise with speed noise alone (the grade-noise study), the other channels without
         // it, grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in every block),
         // with and without a derivative's noise, whole and partial blocks.
@@ -722,13 +719,13 @@ mod tests {
         ] {
             for derivative in [None, Some(&d[..])] {
                 for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
-                    let block =
+                    let block_noise =
                         BlockNoise::from_fn(|c| noise.is_on(c).then(|| &draws[c.index()][..len]));
                     let d = derivative.map(|d| &d[..len]);
                     let mut blocks = [(); 3].map(|_| MeasuredBlock::new());
-                    blocks[0].measure_by_channels(&reg, &noise, start, len, block, d);
-                    blocks[1].measure_one_pass::<false>(&reg, &noise, start, len, block, d);
-                    blocks[2].measure(&reg, &noise, start, len, block, d);
+                    blocks[0].measure_by_channels(&reg, &noise, start, len, block_noise, d);
+                    blocks[1].measure_one_pass::<false>(&reg, &noise, start, len, block_noise, d);
+                    blocks[2].measure(&reg, &noise, start, len, block_noise, d);
                     let want = blocks[0].view(&reg);
                     for got in &blocks[1..] {
                         let got = got.view(&reg);
@@ -743,6 +740,48 @@ mod tests {
                             assert_eq!(bits(x), bits(y), "{noise:?} block {start}+{len}");
                         }
                         assert_eq!(want.noise_free_f_c, got.noise_free_f_c);
+                    }
+                    // The block's moments as well: measured and summed in one pass (as
+                    // dispatched) and in two portable steps, against `segment_moments` of
+                    // the rows measured channel by channel.
+                    for (regressors, grade) in [(true, true), (false, true), (true, false)] {
+                        let none = Moments::default();
+                        let constant = (!regressors).then_some(&none);
+                        let want = segment_moments(blocks[0].view(&reg), 0, len, constant, grade);
+                        let mut block = MeasuredBlock::new();
+                        let got = [
+                            block.measure_and_sum(
+                                &reg,
+                                &noise,
+                                start,
+                                len,
+                                block_noise,
+                                d,
+                                regressors,
+                                grade,
+                            ),
+                            block.measure_and_sum_portable(
+                                &reg,
+                                &noise,
+                                start,
+                                len,
+                                block_noise,
+                                d,
+                                regressors,
+                                grade,
+                            ),
+                        ];
+                        let bits = |m: &Moments| {
+                            let g = m.grade.map(|g| [g.s_s, g.s_1s, g.s_3s, g.s_ws]);
+                            (
+                                m.sums().map(f64::to_bits),
+                                m.n,
+                                g.map(|g| g.map(f64::to_bits)),
+                            )
+                        };
+                        for m in &got {
+                            assert_eq!(bits(m), bits(&want), "{noise:?} block {start}+{len}");
+                        }
                     }
                 }
             }

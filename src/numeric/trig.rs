@@ -128,40 +128,46 @@ pub(crate) mod simd {
     use super::fdlibm::*;
 
     /// sin x and cos x of each lane (see [`kernel`](super::kernel)), and the mask of the
-    /// lanes outside |x| ≤ π/4.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(crate) fn kernel4(x: __m256d) -> (__m256d, __m256d, i32) {
-        let c = _mm256_set1_pd;
-        let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
-        let z = mul(x, x);
-        let w = mul(z, z);
+    /// lanes outside |x| ≤ π/4. Always inlined, so that the caller's registers hold the
+    /// values (a function compiled for AVX2 cannot be forced inline).
+    ///
+    /// # Safety
+    /// The CPU supports AVX2: call it only from a function compiled for AVX2.
+    #[inline(always)]
+    pub(crate) unsafe fn kernel4(x: __m256d) -> (__m256d, __m256d, i32) {
+        // SAFETY: the caller runs on a CPU with AVX2.
+        unsafe {
+            let c = _mm256_set1_pd;
+            let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
+            let z = mul(x, x);
+            let w = mul(z, z);
 
-        // S2 + z (S3 + z S4) + z w (S5 + z S6)
-        let r = add(
-            add(c(S2), mul(z, add(c(S3), mul(z, c(S4))))),
-            mul(mul(z, w), add(c(S5), mul(z, c(S6)))),
-        );
-        let v = mul(z, x);
-        let t = add(x, mul(v, add(c(S1), mul(z, r))));
-        // copysign: the magnitude of t, the sign of x
-        let sign = c(-0.0);
-        let sin = _mm256_or_pd(_mm256_andnot_pd(sign, t), _mm256_and_pd(sign, x));
+            // S2 + z (S3 + z S4) + z w (S5 + z S6)
+            let r = add(
+                add(c(S2), mul(z, add(c(S3), mul(z, c(S4))))),
+                mul(mul(z, w), add(c(S5), mul(z, c(S6)))),
+            );
+            let v = mul(z, x);
+            let t = add(x, mul(v, add(c(S1), mul(z, r))));
+            // copysign: the magnitude of t, the sign of x
+            let sign = c(-0.0);
+            let sin = _mm256_or_pd(_mm256_andnot_pd(sign, t), _mm256_and_pd(sign, x));
 
-        // z (C1 + z (C2 + z C3)) + w w (C4 + z (C5 + z C6))
-        let r = add(
-            mul(z, add(c(C1), mul(z, add(c(C2), mul(z, c(C3)))))),
-            mul(mul(w, w), add(c(C4), mul(z, add(c(C5), mul(z, c(C6)))))),
-        );
-        let hz = mul(c(0.5), z);
-        let one = c(1.0);
-        let w = sub(one, hz);
-        let cos = add(w, add(sub(sub(one, w), hz), mul(z, r)));
+            // z (C1 + z (C2 + z C3)) + w w (C4 + z (C5 + z C6))
+            let r = add(
+                mul(z, add(c(C1), mul(z, add(c(C2), mul(z, c(C3)))))),
+                mul(mul(w, w), add(c(C4), mul(z, add(c(C5), mul(z, c(C6)))))),
+            );
+            let hz = mul(c(0.5), z);
+            let one = c(1.0);
+            let w = sub(one, hz);
+            let cos = add(w, add(sub(sub(one, w), hz), mul(z, r)));
 
-        // not (|x| <= π/4): NaN included, as the portable `!in_kernel_range`
-        let abs = _mm256_andnot_pd(sign, x);
-        let outside = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(abs, c(FRAC_PI_4)));
-        (sin, cos, outside)
+            // not (|x| <= π/4): NaN included, as the portable `!in_kernel_range`
+            let abs = _mm256_andnot_pd(sign, x);
+            let outside = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(abs, c(FRAC_PI_4)));
+            (sin, cos, outside)
+        }
     }
 }
 
