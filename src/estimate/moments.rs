@@ -388,6 +388,16 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
+    /// Sum the grade term ([`GradeSums`]) only where `needed` as well as under grade noise:
+    /// the compensation of grade noise (BCLS and its kin) is their one reader, and without
+    /// it the kernel need not take them (the other sums keep their bits).
+    pub fn grade_sums(self, needed: bool) -> Self {
+        MomentAccumulator {
+            sum_grade: self.sum_grade && needed,
+            ..self
+        }
+    }
+
     /// Like [`new`](Self::new) but always on the general path, summing the grade term
     /// whatever the noise (for cross-checks).
     #[cfg(test)]
@@ -786,6 +796,37 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn leaving_out_the_grade_sums_keeps_the_other_sums_bit_for_bit() {
+        // Grade noise with speed and force noise, whole blocks and a partial last one.
+        let reg = regression();
+        let n = reg.len();
+        let mut noise = NoiseLevels::default();
+        noise[Channel::Velocity] = 0.4;
+        noise[Channel::Grade] = 0.01;
+        noise[Channel::Force] = 30.0;
+        let draws = channel_draws(n, 5, 1);
+        let [with, without] = [true, false].map(|needed| {
+            let mut acc = MomentAccumulator::new(&reg, noise).grade_sums(needed);
+            for start in (0..n).step_by(BLOCK) {
+                let len = BLOCK.min(n - start);
+                let block = BlockNoise::from_fn(|c| {
+                    noise
+                        .is_on(c)
+                        .then(|| &draws[c.index()][start..start + len])
+                });
+                acc.add_block(start, len, block, None);
+            }
+            acc.finish()
+        });
+        assert!(with.grade.is_some() && without.grade.is_none());
+        assert_eq!(
+            with.sums().map(f64::to_bits),
+            without.sums().map(f64::to_bits)
+        );
+        assert_eq!(with.n, without.n);
     }
 
     #[test]

@@ -1,9 +1,11 @@
 //! The general path's block measured in one pass: every channel's perturbation of a sample,
 //! the grade's small-angle sine and cosine and the angle addition, and the columns w, x̃₃,
-//! s̃, ỹ (and x̃₁ under force noise), four samples at a time in registers. The same IEEE
-//! operations in the same order as the channels' [`perturb`](crate::estimate::channels::Channel::perturb)
-//! column by column followed by the column passes of `MeasuredBlock::measure_by_channels`,
-//! so the same bits (docs/model.md#sufficient-statistics); only the memory traffic between
+//! s̃, ỹ (and x̃₁ under force noise), four samples at a time in registers; with AVX2 the
+//! block's sums are added in the same pass, in the lanes `segment_moments` (`row_sums.rs`)
+//! uses. The same IEEE operations in the same order as the channels'
+//! [`perturb`](crate::estimate::channels::Channel::perturb) column by column, the column
+//! passes of `MeasuredBlock::measure_by_channels` and `segment_moments` over the rows, so
+//! the same bits (docs/model.md#sufficient-statistics); only the memory traffic between
 //! the passes is gone.
 
 use super::{GradeSums, MeasuredBlock, Moments};
