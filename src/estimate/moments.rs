@@ -6,12 +6,15 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
-use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns, Samples};
+#[cfg(test)]
+use super::channels::Samples;
+use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
 use super::regression::Regression;
-use super::row_sums::segment_moments;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
+
+mod one_pass;
 
 /// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
 /// s̃ = g sin θ̃ — built from the block's draws by each channel's
@@ -46,8 +49,10 @@ impl MeasuredBlock {
 
     /// Measure samples `start .. start + len` of `reg` with the block's standard-normal
     /// draws (a channel that is off has none) and the noise of a differentiated
-    /// acceleration \[m/s²\] where there is one. Compiled for AVX2 where the CPU has it:
-    /// the same operations (no FMA, no reassociation), so the same bits.
+    /// acceleration \[m/s²\] where there is one, in one pass over the samples. Compiled for
+    /// AVX2 where the CPU has it: the same operations (no FMA, no reassociation), so the
+    /// same bits, which are those of the channels' [`perturb`](Channel::perturb) column by
+    /// column.
     pub fn measure(
         &mut self,
         reg: &Regression,
@@ -64,7 +69,7 @@ impl MeasuredBlock {
                 return unsafe { self.measure_avx2(reg, levels, start, len, draws, derivative) };
             }
         }
-        self.measure_body(reg, levels, start, len, draws, derivative);
+        self.measure_one_pass::<false>(reg, levels, start, len, draws, derivative);
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -78,11 +83,14 @@ impl MeasuredBlock {
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
     ) {
-        self.measure_body(reg, levels, start, len, draws, derivative);
+        self.measure_one_pass::<true>(reg, levels, start, len, draws, derivative);
     }
 
-    #[inline(always)]
-    fn measure_body(
+    /// The block measured channel by channel, each channel's
+    /// [`perturb`](Channel::perturb) on the whole block and then the columns pass by pass:
+    /// the definition [`measure`](Self::measure) keeps bit for bit.
+    #[cfg(test)]
+    fn measure_by_channels(
         &mut self,
         reg: &Regression,
         levels: &NoiseLevels,
@@ -380,6 +388,16 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
+    /// Sum the grade term ([`GradeSums`]) only where `needed` as well as under grade noise:
+    /// the compensation of grade noise (BCLS and its kin) is their one reader, and without
+    /// it the kernel need not take them (the other sums keep their bits).
+    pub fn grade_sums(self, needed: bool) -> Self {
+        MomentAccumulator {
+            sum_grade: self.sum_grade && needed,
+            ..self
+        }
+    }
+
     /// Like [`new`](Self::new) but always on the general path, summing the grade term
     /// whatever the noise (for cross-checks).
     #[cfg(test)]
@@ -456,9 +474,11 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
-    /// The general path: the block measured column by column, then its sums in four lanes
-    /// ([`segment_moments`]); the sums of x̃₁ and x̃₃ alone are left to [`finish`](Self::finish)
-    /// where those columns are noise-free.
+    /// The general path: the block measured and summed in four lanes in one pass
+    /// ([`MeasuredBlock::measure_and_sum`], the sums those of
+    /// [`segment_moments`](super::row_sums::segment_moments)); the sums
+    /// of x̃₁ and x̃₃ alone are left to [`finish`](Self::finish) where those columns are
+    /// noise-free.
     fn add_general(
         &mut self,
         start: usize,
@@ -467,16 +487,10 @@ impl<'r> MomentAccumulator<'r> {
         derivative: Option<&[f64]>,
     ) {
         let block = self.block.get_or_insert_with(MeasuredBlock::new);
-        block.measure(self.reg, &self.noise, start, len, draws, derivative);
-        let none = Moments::default();
-        let constant = self.noise_free_f_c.then_some(&none);
-        self.general.add(&segment_moments(
-            block.view(self.reg),
-            0,
-            len,
-            constant,
-            self.sum_grade,
-        ));
+        let (regressors, grade) = (!self.noise_free_f_c, self.sum_grade);
+        let (reg, noise) = (self.reg, &self.noise);
+        let m = block.measure_and_sum(reg, noise, start, len, draws, derivative, regressors, grade);
+        self.general.add(&m);
     }
 
     /// The rows of the block last added on the general path (`None` on the fast path), for
@@ -526,6 +540,7 @@ impl<'r> MomentAccumulator<'r> {
 mod tests {
     use super::*;
     use crate::estimate::regression::test_regression as regression;
+    use crate::estimate::row_sums::segment_moments;
     use crate::estimate::sums::Sum;
     use crate::noise::{BLOCK, NormalStream};
 
@@ -687,27 +702,131 @@ mod tests {
 
     #[test]
     fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
-        // Every channel on, a derivative's noise, whole and partial blocks: the AVX2 build of
-        // the block's measurement runs the portable code's operations.
+        // The block measured channel by channel (each channel's `perturb`, then the columns
+        // pass by pass), in one portable pass, and in one pass as dispatched (AVX2 where the
+        // CPU has it), and its moments summed in that pass: the same operations, so the same
+        // bits. Every channel on, the grade
+        // noise with speed noise alone (the grade-noise study), the other channels without
+        // it, grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in every block),
+        // with and without a derivative's noise, whole and partial blocks.
         let reg = regression();
-        let mut noise = NoiseLevels::default();
-        noise[Channel::Velocity] = 0.4;
-        noise[Channel::Output] = 0.2;
-        noise[Channel::Grade] = 0.01;
-        noise[Channel::Force] = 30.0;
+        let levels = |v: f64, y: f64, theta: f64, f: f64| {
+            let mut noise = NoiseLevels::default();
+            noise[Channel::Velocity] = v;
+            noise[Channel::Output] = y;
+            noise[Channel::Grade] = theta;
+            noise[Channel::Force] = f;
+            noise
+        };
         let draws = channel_draws(BLOCK, 4, 2);
         let d: Vec<f64> = (0..BLOCK).map(|j| 0.01 * j as f64 - 1.0).collect();
-        for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
-            let block = BlockNoise::from_fn(|c| Some(&draws[c.index()][..len]));
-            let (mut portable, mut dispatched) = (MeasuredBlock::new(), MeasuredBlock::new());
-            portable.measure_body(&reg, &noise, start, len, block, Some(&d[..len]));
-            dispatched.measure(&reg, &noise, start, len, block, Some(&d[..len]));
-            let (a, b) = (portable.view(&reg), dispatched.view(&reg));
-            for (x, y) in [(a.f, b.f), (a.w, b.w), (a.c, b.c), (a.y, b.y), (a.s, b.s)] {
-                let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(x), bits(y), "block {start}+{len}");
+        for noise in [
+            levels(0.4, 0.2, 0.01, 30.0),
+            levels(1.0, 0.0, 0.001, 0.0),
+            levels(0.0, 0.0, 0.001, 0.0),
+            levels(0.4, 0.2, 0.0, 30.0),
+            levels(0.4, 0.0, 0.5, 0.0),
+        ] {
+            for derivative in [None, Some(&d[..])] {
+                for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
+                    let block_noise =
+                        BlockNoise::from_fn(|c| noise.is_on(c).then(|| &draws[c.index()][..len]));
+                    let d = derivative.map(|d| &d[..len]);
+                    let mut blocks = [(); 3].map(|_| MeasuredBlock::new());
+                    blocks[0].measure_by_channels(&reg, &noise, start, len, block_noise, d);
+                    blocks[1].measure_one_pass::<false>(&reg, &noise, start, len, block_noise, d);
+                    blocks[2].measure(&reg, &noise, start, len, block_noise, d);
+                    let want = blocks[0].view(&reg);
+                    for got in &blocks[1..] {
+                        let got = got.view(&reg);
+                        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                        for (x, y) in [
+                            (want.f, got.f),
+                            (want.w, got.w),
+                            (want.c, got.c),
+                            (want.y, got.y),
+                            (want.s, got.s),
+                        ] {
+                            assert_eq!(bits(x), bits(y), "{noise:?} block {start}+{len}");
+                        }
+                        assert_eq!(want.noise_free_f_c, got.noise_free_f_c);
+                    }
+                    // The block's moments as well: measured and summed in one pass (as
+                    // dispatched) and in two portable steps, against `segment_moments` of
+                    // the rows measured channel by channel.
+                    for (regressors, grade) in [(true, true), (false, true), (true, false)] {
+                        let none = Moments::default();
+                        let constant = (!regressors).then_some(&none);
+                        let want = segment_moments(blocks[0].view(&reg), 0, len, constant, grade);
+                        let mut block = MeasuredBlock::new();
+                        let got = [
+                            block.measure_and_sum(
+                                &reg,
+                                &noise,
+                                start,
+                                len,
+                                block_noise,
+                                d,
+                                regressors,
+                                grade,
+                            ),
+                            block.measure_and_sum_portable(
+                                &reg,
+                                &noise,
+                                start,
+                                len,
+                                block_noise,
+                                d,
+                                regressors,
+                                grade,
+                            ),
+                        ];
+                        let bits = |m: &Moments| {
+                            let g = m.grade.map(|g| [g.s_s, g.s_1s, g.s_3s, g.s_ws]);
+                            (
+                                m.sums().map(f64::to_bits),
+                                m.n,
+                                g.map(|g| g.map(f64::to_bits)),
+                            )
+                        };
+                        for m in &got {
+                            assert_eq!(bits(m), bits(&want), "{noise:?} block {start}+{len}");
+                        }
+                    }
+                }
             }
         }
+    }
+
+    #[test]
+    fn leaving_out_the_grade_sums_keeps_the_other_sums_bit_for_bit() {
+        // Grade noise with speed and force noise, whole blocks and a partial last one.
+        let reg = regression();
+        let n = reg.len();
+        let mut noise = NoiseLevels::default();
+        noise[Channel::Velocity] = 0.4;
+        noise[Channel::Grade] = 0.01;
+        noise[Channel::Force] = 30.0;
+        let draws = channel_draws(n, 5, 1);
+        let [with, without] = [true, false].map(|needed| {
+            let mut acc = MomentAccumulator::new(&reg, noise).grade_sums(needed);
+            for start in (0..n).step_by(BLOCK) {
+                let len = BLOCK.min(n - start);
+                let block = BlockNoise::from_fn(|c| {
+                    noise
+                        .is_on(c)
+                        .then(|| &draws[c.index()][start..start + len])
+                });
+                acc.add_block(start, len, block, None);
+            }
+            acc.finish()
+        });
+        assert!(with.grade.is_some() && without.grade.is_none());
+        assert_eq!(
+            with.sums().map(f64::to_bits),
+            without.sums().map(f64::to_bits)
+        );
+        assert_eq!(with.n, without.n);
     }
 
     #[test]

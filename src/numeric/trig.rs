@@ -115,6 +115,62 @@ fn sin_cos_slice_avx2(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     sin_cos_slice_body(x, sin, cos);
 }
 
+/// The kernels of four arguments at once in 256-bit registers: lane for lane the IEEE
+/// operations of [`kernel`] in its order (no FMA), so the same bits; and which lanes lie
+/// outside the kernel's range (bit l of the mask for lane l: |x| > π/4 or NaN), whose
+/// results the caller replaces by `f64::sin_cos`, as [`sin_cos_slice`] does. For a pass
+/// that keeps the small angles in registers (the general kernel's grade noise).
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod simd {
+    use std::arch::x86_64::*;
+
+    use super::FRAC_PI_4;
+    use super::fdlibm::*;
+
+    /// sin x and cos x of each lane (see [`kernel`](super::kernel)), and the mask of the
+    /// lanes outside |x| ≤ π/4. Always inlined, so that the caller's registers hold the
+    /// values (a function compiled for AVX2 cannot be forced inline).
+    ///
+    /// # Safety
+    /// The CPU supports AVX2: call it only from a function compiled for AVX2.
+    #[inline(always)]
+    pub(crate) unsafe fn kernel4(x: __m256d) -> (__m256d, __m256d, i32) {
+        // SAFETY: the caller runs on a CPU with AVX2.
+        unsafe {
+            let c = _mm256_set1_pd;
+            let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
+            let z = mul(x, x);
+            let w = mul(z, z);
+
+            // S2 + z (S3 + z S4) + z w (S5 + z S6)
+            let r = add(
+                add(c(S2), mul(z, add(c(S3), mul(z, c(S4))))),
+                mul(mul(z, w), add(c(S5), mul(z, c(S6)))),
+            );
+            let v = mul(z, x);
+            let t = add(x, mul(v, add(c(S1), mul(z, r))));
+            // copysign: the magnitude of t, the sign of x
+            let sign = c(-0.0);
+            let sin = _mm256_or_pd(_mm256_andnot_pd(sign, t), _mm256_and_pd(sign, x));
+
+            // z (C1 + z (C2 + z C3)) + w w (C4 + z (C5 + z C6))
+            let r = add(
+                mul(z, add(c(C1), mul(z, add(c(C2), mul(z, c(C3)))))),
+                mul(mul(w, w), add(c(C4), mul(z, add(c(C5), mul(z, c(C6)))))),
+            );
+            let hz = mul(c(0.5), z);
+            let one = c(1.0);
+            let w = sub(one, hz);
+            let cos = add(w, add(sub(sub(one, w), hz), mul(z, r)));
+
+            // not (|x| <= π/4): NaN included, as the portable `!in_kernel_range`
+            let abs = _mm256_andnot_pd(sign, x);
+            let outside = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(abs, c(FRAC_PI_4)));
+            (sin, cos, outside)
+        }
+    }
+}
+
 /// The polynomials for every element (a loop the compiler vectorises, noting on the way
 /// whether any element lies outside their range), then, only if one does, a scalar pass
 /// that overwrites those elements with `f64::sin_cos`.
@@ -320,6 +376,34 @@ mod tests {
                 unsafe { sin_cos_slice_avx2(&x, &mut s1, &mut c1) };
                 assert_eq!(bits(&s1), bits(&s0), "avx2 sin, n = {n}");
                 assert_eq!(bits(&c1), bits(&c0), "avx2 cos, n = {n}");
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_four_lane_kernel_is_the_kernel_bit_for_bit() {
+        use std::arch::x86_64::*;
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let x = mixed(4 * 1000, 17);
+        for group in x.chunks_exact(4) {
+            let mut got = ([0.0; 4], [0.0; 4]);
+            // SAFETY: the CPU supports AVX2, checked above; four values are read and written.
+            let outside = unsafe {
+                let (s, c, outside) = simd::kernel4(_mm256_loadu_pd(group.as_ptr()));
+                _mm256_storeu_pd(got.0.as_mut_ptr(), s);
+                _mm256_storeu_pd(got.1.as_mut_ptr(), c);
+                outside
+            };
+            for (l, &x) in group.iter().enumerate() {
+                assert_eq!(outside >> l & 1 == 1, !in_kernel_range(x), "{x:e}");
+                if in_kernel_range(x) {
+                    let (s, c) = kernel(x);
+                    assert_eq!(got.0[l].to_bits(), s.to_bits(), "sin {x:e}");
+                    assert_eq!(got.1[l].to_bits(), c.to_bits(), "cos {x:e}");
+                }
             }
         }
     }

@@ -365,6 +365,19 @@ impl SampleColumns {
     pub fn moved(&self, q: Quantity, len: usize) -> Option<&[f64]> {
         self.moved[q as usize].then(|| &self.data[q as usize][..len])
     }
+
+    /// Start a block measured without [`Samples`] (the general kernel's one pass): nothing
+    /// moved yet.
+    pub fn clear(&mut self) {
+        self.moved = [false; QUANTITIES];
+    }
+
+    /// The column to write the measured values of `q` to, recording whether a channel
+    /// moved it (`false`: the column is scratch, and the noise-free values stand).
+    pub fn write(&mut self, q: Quantity, moved: bool) -> &mut [f64; BLOCK] {
+        self.moved[q as usize] = moved;
+        &mut self.data[q as usize]
+    }
 }
 
 impl Default for SampleColumns {

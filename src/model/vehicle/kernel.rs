@@ -95,7 +95,7 @@ impl VehicleModel {
                 .then(|| Draws::new(self.shared, seed, self.stream_key(c), channel, r))
         });
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
-        let mut acc = MomentAccumulator::new(reg, noise);
+        let mut acc = MomentAccumulator::new(reg, noise).grade_sums(self.grade_sums);
         let n = reg.len();
         // A differentiated acceleration: the speed noise of every logged sample of the span
         // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
@@ -315,7 +315,10 @@ impl VehicleModel {
             .map(|_| {
                 conditions
                     .iter()
-                    .map(|&c| MomentAccumulator::new(&self.conditions[c].regression, noise))
+                    .map(|&c| {
+                        MomentAccumulator::new(&self.conditions[c].regression, noise)
+                            .grade_sums(self.grade_sums)
+                    })
                     .collect()
             })
             .collect();

@@ -85,6 +85,9 @@ pub struct VehicleModel {
     cycles: Vec<ScaleCycle>,
     /// What the study's estimators read from the measured rows beyond their sums.
     reads: RowReads,
+    /// Whether an estimator compensates the noise (BCLS and its kin): only the compensation
+    /// of grade noise reads the kernel's sums of the grade term.
+    grade_sums: bool,
     /// The per-row extras its tables carry (indices into [`EXTRAS`]).
     extras: Vec<usize>,
     /// The sums whose control variates the layout carries (indices into [`CONTROLS`]).
@@ -263,6 +266,7 @@ impl VehicleModel {
             conditions,
             cycles,
             reads: RowReads::of(vs.estimators.iter().map(|e| e.reads())),
+            grade_sums: vs.estimators.iter().any(|e| e.compensates_speed_noise()),
             extras: study_extras(&vs),
             controls,
             shared: vs.share_across_scales,
