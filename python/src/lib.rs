@@ -291,12 +291,6 @@ impl Observer for Watch {
     fn planned(&self, total: u64, done: u64) {
         self.total.store(total, Ordering::Relaxed);
         self.done.store(done, Ordering::Relaxed);
-        if done > 0 {
-            self.notice(&format!(
-                "resuming: {done} of {total} realisations kept from an earlier run; computing {}",
-                total - done
-            ));
-        }
     }
 
     fn realisations_done(&self, count: u64) {
@@ -472,7 +466,7 @@ fn design(
         estimator,
         out,
     };
-    let pool = rayon_pool(py, threads)?;
+    let pool = chassis_mc::run::thread_pool(threads).map_err(|e| from_run_error(py, e))?;
     let watch = Watch::default();
     let result = supervise(py, &watch, None, None, || {
         pool.install(|| chassis_mc::design::design(&study.0, &request))
@@ -487,13 +481,6 @@ fn design(
         result.realisations,
         result.files,
     ))
-}
-
-fn rayon_pool(py: Python<'_>, threads: Option<usize>) -> PyResult<rayon::ThreadPool> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.unwrap_or(0))
-        .build()
-        .map_err(|e| run_error(py, format!("threads: {e}"), true))
 }
 
 /// `fit`: a fit file (`kind` `path`, `text` or `dict`), its log read from `log` when given;

@@ -178,12 +178,6 @@ impl Observer for Progress {
             }
             Progress::Quiet => {}
         }
-        if done > 0 {
-            self.notice(&format!(
-                "resuming: {done} of {total} realisations kept from an earlier run; computing {}",
-                total - done
-            ));
-        }
     }
 
     fn realisations_done(&self, count: u64) {

@@ -168,7 +168,8 @@ pub fn run_study(
     })
 }
 
-fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
+/// A rayon pool of `threads` workers (`None`: one per core), as a run uses.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, RunError> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
         builder = builder.num_threads(t);

@@ -64,6 +64,12 @@ pub(super) fn realise(
         .map(length)
         .sum();
     observer.planned(total, total - computed);
+    if computed < total {
+        observer.notice(&format!(
+            "resuming: {} of {total} realisations kept from an earlier run; computing {computed}",
+            total - computed
+        ));
+    }
 
     // 2. Compute what is missing into staged parts, each renamed into place when complete
     //    (so a killed run resumes). The missing ranges of the conditions of one draw group
