@@ -16,7 +16,7 @@ hour) with OLS, with grade noise, and with a differentiated acceleration, grade 
 OLS + BCLS + WBCLS.
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
-        [--before OTHER/target/release/chassis-mc]
+        [--before OTHER/target/release/chassis-mc] [--only REGEX]
 """
 
 import argparse
@@ -103,12 +103,17 @@ def main():
     ap.add_argument("--before", type=pathlib.Path,
                     help="another chassis-mc (an earlier commit's build) measured in the same "
                          "run, alternating with --binary: its columns come first")
+    ap.add_argument("--only", metavar="REGEX",
+                    help="measure only the paths whose names match (the thesis path always, "
+                         "as the base of the ratios)")
     args = ap.parse_args()
+    paths = [p for i, p in enumerate(PATHS)
+             if i == 0 or args.only is None or re.search(args.only, p[0])]
     binaries = [args.before, args.binary] if args.before else [args.binary]
     results = [[] for _ in binaries]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        for i, (name, text) in enumerate(PATHS):
+        for i, (name, text) in enumerate(paths):
             study = tmp / f"path{i}.toml"
             # heavy_duty.toml names no files; both studies are read from the temp dir.
             study.write_text(text)

@@ -15,6 +15,7 @@ pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
 
 mod one_pass;
+pub use one_pass::Wanted;
 
 /// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
 /// s̃ = g sin θ̃ — built from the block's draws by each channel's
@@ -360,6 +361,8 @@ pub struct MomentAccumulator<'r> {
     /// Whether the general path sums the grade term ([`GradeSums`]): only the compensation
     /// of grade noise reads it.
     sum_grade: bool,
+    /// Whether the general path keeps each block's measured rows ([`Self::measured`]).
+    keep_rows: bool,
     /// No force or grade noise: x̃₁ and x̃₃ are noise-free, and the sums of them alone are
     /// the regression's.
     noise_free_f_c: bool,
@@ -381,6 +384,7 @@ impl<'r> MomentAccumulator<'r> {
             noise,
             use_fast_path: noise.fast_path(),
             sum_grade: noise.is_on(Channel::Grade),
+            keep_rows: true,
             noise_free_f_c: !noise.is_on(Channel::Force) && !noise.is_on(Channel::Grade),
             fast,
             general: Moments::default(),
@@ -394,6 +398,16 @@ impl<'r> MomentAccumulator<'r> {
     pub fn grade_sums(self, needed: bool) -> Self {
         MomentAccumulator {
             sum_grade: self.sum_grade && needed,
+            ..self
+        }
+    }
+
+    /// Keep each block's measured rows for [`measured`](Self::measured) only where
+    /// `needed` (an estimator reads the rows); without, the general path's vectorised pass
+    /// writes no columns (the sums keep their bits).
+    pub fn keep_rows(self, needed: bool) -> Self {
+        MomentAccumulator {
+            keep_rows: needed,
             ..self
         }
     }
@@ -487,16 +501,23 @@ impl<'r> MomentAccumulator<'r> {
         derivative: Option<&[f64]>,
     ) {
         let block = self.block.get_or_insert_with(MeasuredBlock::new);
-        let (regressors, grade) = (!self.noise_free_f_c, self.sum_grade);
+        let wanted = Wanted {
+            regressors: !self.noise_free_f_c,
+            grade: self.sum_grade,
+            rows: self.keep_rows,
+        };
         let (reg, noise) = (self.reg, &self.noise);
-        let m = block.measure_and_sum(reg, noise, start, len, draws, derivative, regressors, grade);
+        let m = block.measure_and_sum(reg, noise, start, len, draws, derivative, wanted);
         self.general.add(&m);
     }
 
-    /// The rows of the block last added on the general path (`None` on the fast path), for
-    /// the estimators that read rows: the same values the sums were taken of.
+    /// The rows of the block last added on the general path (`None` on the fast path, and
+    /// where the rows are not kept), for the estimators that read rows: the same values the
+    /// sums were taken of.
     pub fn measured(&self) -> Option<&MeasuredBlock> {
-        self.block.as_deref().filter(|_| !self.use_fast_path)
+        self.block
+            .as_deref()
+            .filter(|_| !self.use_fast_path && self.keep_rows)
     }
 
     /// The realisation's moments.
@@ -705,9 +726,9 @@ mod tests {
         // The block measured channel by channel (each channel's `perturb`, then the columns
         // pass by pass), in one portable pass, and in one pass as dispatched (AVX2 where the
         // CPU has it), and its moments summed in that pass: the same operations, so the same
-        // bits. Every channel on, the grade
-        // noise with speed noise alone (the grade-noise study), the other channels without
-        // it, grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in every block),
+        // bits. Each channel on or off, the grade noise with speed noise alone (the
+        // grade-noise study), grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in
+        // every block),
         // with and without a derivative's noise, whole and partial blocks.
         let reg = regression();
         let levels = |v: f64, y: f64, theta: f64, f: f64| {
@@ -720,13 +741,14 @@ mod tests {
         };
         let draws = channel_draws(BLOCK, 4, 2);
         let d: Vec<f64> = (0..BLOCK).map(|j| 0.01 * j as f64 - 1.0).collect();
-        for noise in [
-            levels(0.4, 0.2, 0.01, 30.0),
-            levels(1.0, 0.0, 0.001, 0.0),
-            levels(0.0, 0.0, 0.001, 0.0),
-            levels(0.4, 0.2, 0.0, 30.0),
-            levels(0.4, 0.0, 0.5, 0.0),
-        ] {
+        // Every combination of the four channels on or off (the pass is compiled for each),
+        // and the grade-noise study's levels.
+        let combinations = (0..16).map(|bits: u32| {
+            let on = |bit: u32, sd: f64| if bits >> bit & 1 == 1 { sd } else { 0.0 };
+            levels(on(0, 0.4), on(1, 0.2), on(2, 0.01), on(3, 30.0))
+        });
+        for noise in combinations.chain([levels(1.0, 0.0, 0.001, 0.0), levels(0.4, 0.0, 0.5, 0.0)])
+        {
             for derivative in [None, Some(&d[..])] {
                 for (start, len) in [(0, BLOCK), (1000, 253), (3, 7)] {
                     let block_noise =
@@ -759,28 +781,57 @@ mod tests {
                         let constant = (!regressors).then_some(&none);
                         let want = segment_moments(blocks[0].view(&reg), 0, len, constant, grade);
                         let mut block = MeasuredBlock::new();
-                        let got = [
-                            block.measure_and_sum(
-                                &reg,
-                                &noise,
-                                start,
-                                len,
-                                block_noise,
-                                d,
-                                regressors,
-                                grade,
-                            ),
+                        let wanted = |rows| Wanted {
+                            regressors,
+                            grade,
+                            rows,
+                        };
+                        let (n, levels) = (&noise, block_noise);
+                        let kept =
+                            block.measure_and_sum(&reg, n, start, len, levels, d, wanted(true));
+                        // The rows kept are the measured rows.
+                        let (want_rows, got_rows) = (blocks[0].view(&reg), block.view(&reg));
+                        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                        for (x, y) in [
+                            (want_rows.f, got_rows.f),
+                            (want_rows.w, got_rows.w),
+                            (want_rows.c, got_rows.c),
+                            (want_rows.y, got_rows.y),
+                            (want_rows.s, got_rows.s),
+                        ] {
+                            assert_eq!(bits(x), bits(y), "{noise:?} kept rows {start}+{len}");
+                        }
+                        let mut got = vec![
+                            kept,
+                            block.measure_and_sum(&reg, n, start, len, levels, d, wanted(false)),
                             block.measure_and_sum_portable(
                                 &reg,
-                                &noise,
+                                n,
                                 start,
                                 len,
-                                block_noise,
+                                levels,
                                 d,
-                                regressors,
-                                grade,
+                                wanted(true),
                             ),
                         ];
+                        // The AVX2 build too where the dispatch takes the AVX-512VL one.
+                        #[cfg(target_arch = "x86_64")]
+                        if std::arch::is_x86_feature_detected!("avx2") {
+                            for rows in [true, false] {
+                                // SAFETY: the CPU supports AVX2, checked just above.
+                                got.push(unsafe {
+                                    block.measure_and_sum_avx2(
+                                        &reg,
+                                        n,
+                                        start,
+                                        len,
+                                        levels,
+                                        d,
+                                        wanted(rows),
+                                    )
+                                });
+                            }
+                        }
                         let bits = |m: &Moments| {
                             let g = m.grade.map(|g| [g.s_s, g.s_1s, g.s_3s, g.s_ws]);
                             (

@@ -209,6 +209,19 @@ fn moments(lanes: &Lanes, len: usize, regressors: bool, grade: bool) -> Moments 
     }
 }
 
+/// What [`MeasuredBlock::measure_and_sum`] gives besides the sums that involve w or ỹ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wanted {
+    /// The sums of x̃₁ and x̃₃ alone (zero without: `MomentAccumulator::finish` takes the
+    /// regression's where those columns are noise-free).
+    pub regressors: bool,
+    /// The grade term's sums ([`GradeSums`]).
+    pub grade: bool,
+    /// The measured rows, for [`MeasuredBlock::view`]: without, the vectorised pass writes
+    /// no columns and the block's rows are not to be read.
+    pub rows: bool,
+}
+
 impl MeasuredBlock {
     /// [`measure`](Self::measure) in one pass over the samples; with `AVX2` (true only
     /// inside a function compiled for AVX2, called where the CPU has it) four samples per
@@ -223,14 +236,15 @@ impl MeasuredBlock {
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
     ) {
-        self.pass::<AVX2, false, false, false>(reg, levels, start, len, draws, derivative);
+        self.pass::<AVX2, false, false, false>(reg, levels, start, len, draws, derivative, true);
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
-    /// `segment_moments` (`row_sums.rs`) takes them from the measured rows, bit for bit:
-    /// without `regressors` the sums of x̃₁ and x̃₃ alone are zero, without `grade` there
-    /// are no grade sums. On x86-64 with AVX2 the sums are added in the pass, in the
-    /// registers the samples are measured in.
+    /// `segment_moments` (`row_sums.rs`) takes them from the measured rows, bit for bit;
+    /// `wanted` says which sums besides those of w and ỹ, and whether the rows are kept.
+    /// On x86-64 with AVX2 the sums are added in the pass, in the registers the samples are
+    /// measured in (with AVX-512VL where the CPU has it: the same operations, more
+    /// registers).
     #[allow(clippy::too_many_arguments)]
     pub fn measure_and_sum(
         &mut self,
@@ -240,23 +254,25 @@ impl MeasuredBlock {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
-        regressors: bool,
-        grade: bool,
+        wanted: Wanted,
     ) -> Moments {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            use std::arch::is_x86_feature_detected as has;
+            if has!("avx512f") && has!("avx512vl") {
+                // SAFETY: the CPU supports AVX-512F and VL (so AVX2), checked just above.
+                return unsafe {
+                    self.measure_and_sum_avx512(reg, levels, start, len, draws, derivative, wanted)
+                };
+            }
+            if has!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe {
-                    self.measure_and_sum_avx2(
-                        reg, levels, start, len, draws, derivative, regressors, grade,
-                    )
+                    self.measure_and_sum_avx2(reg, levels, start, len, draws, derivative, wanted)
                 };
             }
         }
-        self.measure_and_sum_portable(
-            reg, levels, start, len, draws, derivative, regressors, grade,
-        )
+        self.measure_and_sum_portable(reg, levels, start, len, draws, derivative, wanted)
     }
 
     /// [`measure_and_sum`](Self::measure_and_sum) as two steps: the block measured
@@ -271,8 +287,7 @@ impl MeasuredBlock {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
-        regressors: bool,
-        grade: bool,
+        wanted: Wanted,
     ) -> Moments {
         self.measure_one_pass::<false>(reg, levels, start, len, draws, derivative);
         let none = Moments::default();
@@ -280,15 +295,15 @@ impl MeasuredBlock {
             self.view(reg),
             0,
             len,
-            (!regressors).then_some(&none),
-            grade,
+            (!wanted.regressors).then_some(&none),
+            wanted.grade,
         )
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[allow(clippy::too_many_arguments)]
-    fn measure_and_sum_avx2(
+    pub(super) fn measure_and_sum_avx2(
         &mut self,
         reg: &Regression,
         levels: &NoiseLevels,
@@ -296,23 +311,66 @@ impl MeasuredBlock {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
-        regressors: bool,
-        grade: bool,
+        wanted: Wanted,
     ) -> Moments {
-        let (r, d) = (reg, derivative);
-        let lanes = match (regressors, grade) {
-            (true, true) => self.pass::<true, true, true, true>(r, levels, start, len, draws, d),
-            (true, false) => self.pass::<true, true, true, false>(r, levels, start, len, draws, d),
-            (false, true) => self.pass::<true, true, false, true>(r, levels, start, len, draws, d),
-            (false, false) => {
-                self.pass::<true, true, false, false>(r, levels, start, len, draws, d)
-            }
-        };
-        moments(&lanes, len, regressors, grade)
+        self.measure_and_sum_simd(reg, levels, start, len, draws, derivative, wanted)
     }
 
-    /// The pass: the block measured, and with `SUMS` (AVX2 only) the lanes of its sums of
-    /// the terms that `REGRESSORS` and `GRADE` ask for (the others stay zero).
+    /// The AVX2 pass compiled with AVX-512VL as well: the same 256-bit operations (no FMA:
+    /// Rust contracts nothing), so the same bits, with 32 registers instead of 16, enough
+    /// to keep every lane of the sums and the constants of the pass in registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    #[allow(clippy::too_many_arguments)]
+    fn measure_and_sum_avx512(
+        &mut self,
+        reg: &Regression,
+        levels: &NoiseLevels,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+        wanted: Wanted,
+    ) -> Moments {
+        self.measure_and_sum_simd(reg, levels, start, len, draws, derivative, wanted)
+    }
+
+    /// The pass of the AVX2 builds (always inlined into a function compiled for AVX2).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn measure_and_sum_simd(
+        &mut self,
+        reg: &Regression,
+        levels: &NoiseLevels,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+        wanted: Wanted,
+    ) -> Moments {
+        let (r, d, rows) = (reg, derivative, wanted.rows);
+        let lanes = match (wanted.regressors, wanted.grade) {
+            (true, true) => {
+                self.pass::<true, true, true, true>(r, levels, start, len, draws, d, rows)
+            }
+            (true, false) => {
+                self.pass::<true, true, true, false>(r, levels, start, len, draws, d, rows)
+            }
+            (false, true) => {
+                self.pass::<true, true, false, true>(r, levels, start, len, draws, d, rows)
+            }
+            (false, false) => {
+                self.pass::<true, true, false, false>(r, levels, start, len, draws, d, rows)
+            }
+        };
+        moments(&lanes, len, wanted.regressors, wanted.grade)
+    }
+
+    /// The pass: the block measured (without `rows`, the vectorised pass writes no
+    /// columns), and with `SUMS` (AVX2 only) the lanes of its sums of the terms that
+    /// `REGRESSORS` and `GRADE` ask for (the others stay zero).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn pass<const AVX2: bool, const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
         &mut self,
@@ -322,6 +380,7 @@ impl MeasuredBlock {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
+        rows: bool,
     ) -> Lanes {
         let x = Inputs::new(reg, levels, start, len, draws, derivative);
         (self.start, self.len) = (start, len);
@@ -343,7 +402,14 @@ impl MeasuredBlock {
         if AVX2 {
             // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are called
             // only where the CPU has it.
-            (done, lanes) = unsafe { simd::groups::<SUMS, REGRESSORS, GRADE>(&x, &mut out, len) };
+            (done, lanes) = unsafe {
+                match (SUMS, REGRESSORS) {
+                    (true, true) => simd::summed_groups::<GRADE>(&x, &mut out, len, rows),
+                    _ => simd::groups::<SUMS, REGRESSORS, GRADE, { simd::RUNTIME }>(
+                        &x, &mut out, len, rows,
+                    ),
+                }
+            };
         }
         let [f, w, c, s, y] = out;
         for j in done..len {
@@ -368,26 +434,128 @@ impl MeasuredBlock {
 #[cfg(target_arch = "x86_64")]
 mod simd {
     //! The pass in 256-bit registers, four samples per group.
+    //!
+    //! Which channels move the block is a constant of the loop ([`Inputs::channels`]), so
+    //! each combination the general path meets is compiled on its own, without a test of a
+    //! channel per group; the inputs are read through pointers checked once per block.
 
     use std::arch::x86_64::*;
 
     use super::{Inputs, Lanes, TERMS, row};
     use crate::numeric::trig::simd::kernel4;
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn load(x: &[f64], i: usize) -> __m256d {
-        assert!(i + 4 <= x.len());
-        // SAFETY: bounds checked just above.
-        unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
+    /// Bits of the channels that move a block (the `CH` parameter of [`groups`]).
+    pub(super) const FORCE: u8 = 1;
+    pub(super) const SPEED: u8 = 2;
+    pub(super) const GRADE_NOISE: u8 = 4;
+    pub(super) const OUTPUT: u8 = 8;
+    pub(super) const DERIVATIVE: u8 = 16;
+    /// `CH` for a loop that reads which channels are on at run time.
+    pub(super) const RUNTIME: u8 = u8::MAX;
+
+    impl Inputs<'_> {
+        /// The bits of the channels that move the block.
+        pub(super) fn channels(&self) -> u8 {
+            [
+                (self.force.is_some(), FORCE),
+                (self.speed.is_some(), SPEED),
+                (self.grade.is_some(), GRADE_NOISE),
+                (self.output.is_some(), OUTPUT),
+                (self.derivative.is_some(), DERIVATIVE),
+            ]
+            .into_iter()
+            .filter(|(on, _)| *on)
+            .fold(0, |bits, (_, bit)| bits | bit)
+        }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn store(x: &mut [f64], i: usize, v: __m256d) {
-        assert!(i + 4 <= x.len());
-        // SAFETY: bounds checked just above.
-        unsafe { _mm256_storeu_pd(x.as_mut_ptr().add(i), v) }
+    /// Whether the channel `bit` is on: a constant of the loop, or, for [`RUNTIME`], read
+    /// from the inputs (`present`).
+    #[inline(always)]
+    fn on<const CH: u8>(bit: u8, present: bool) -> bool {
+        if CH == RUNTIME {
+            present
+        } else {
+            CH & bit != 0
+        }
+    }
+
+    /// The block's inputs as pointers to `len` values each (null: the channel is off) and
+    /// the standard deviations, read once before the loop.
+    #[derive(Clone, Copy)]
+    struct Flat {
+        f: *const f64,
+        v: *const f64,
+        sin: *const f64,
+        cos: *const f64,
+        c: *const f64,
+        g_sin: *const f64,
+        accel: *const f64,
+        g: f64,
+        e_f: *const f64,
+        e_v: *const f64,
+        e_g: *const f64,
+        e_o: *const f64,
+        d: *const f64,
+        sd_f: f64,
+        sd_v: f64,
+        sd_g: f64,
+        sd_o: f64,
+    }
+
+    impl Flat {
+        /// The pointers of `x`, whose slices all hold `len` values (checked).
+        fn new(x: &Inputs<'_>, len: usize) -> Self {
+            let ptr = |s: &[f64]| {
+                assert_eq!(s.len(), len, "a column of the block");
+                s.as_ptr()
+            };
+            let draw = |d: Option<super::Draw<'_>>| match d {
+                Some(d) => (ptr(d.e), d.sd),
+                None => (std::ptr::null(), 0.0),
+            };
+            let ((e_f, sd_f), (e_v, sd_v), (e_g, sd_g), (e_o, sd_o)) =
+                (draw(x.force), draw(x.speed), draw(x.grade), draw(x.output));
+            Flat {
+                f: ptr(x.f),
+                v: ptr(x.v),
+                sin: ptr(x.sin),
+                cos: ptr(x.cos),
+                c: ptr(x.c),
+                g_sin: ptr(x.g_sin),
+                accel: ptr(x.accel),
+                g: x.g,
+                e_f,
+                e_v,
+                e_g,
+                e_o,
+                d: x.derivative.map_or(std::ptr::null(), ptr),
+                sd_f,
+                sd_v,
+                sd_g,
+                sd_o,
+            }
+        }
+    }
+
+    /// Four values from `p + i`.
+    ///
+    /// # Safety
+    /// `p` points at least at `i + 4` values; the CPU supports AVX2.
+    #[inline(always)]
+    unsafe fn load(p: *const f64, i: usize) -> __m256d {
+        // SAFETY: as the caller promises.
+        unsafe { _mm256_loadu_pd(p.add(i)) }
+    }
+
+    /// Four values to `p + i`.
+    ///
+    /// # Safety
+    /// `p` points at least at `i + 4` values; the CPU supports AVX2.
+    #[inline(always)]
+    unsafe fn store(p: *mut f64, i: usize, v: __m256d) {
+        // SAFETY: as the caller promises.
+        unsafe { _mm256_storeu_pd(p.add(i), v) }
     }
 
     /// The measured values `[x̃₁, w, x̃₃, s̃, ỹ]` of the group of samples `i..i + 4`, and
@@ -395,133 +563,147 @@ mod simd {
     /// caller replaces).
     ///
     /// # Safety
-    /// The CPU supports AVX2 (called only from [`groups`]).
+    /// The CPU supports AVX2, `i + 4 <= len` of [`Flat::new`], and a channel `CH` says is
+    /// on has its pointer (called only from [`groups`]).
     #[inline(always)]
-    unsafe fn measure4(x: &Inputs<'_>, i: usize) -> ([__m256d; 5], i32) {
-        // SAFETY: the CPU supports AVX2.
+    unsafe fn measure4<const CH: u8>(x: &Flat, i: usize) -> ([__m256d; 5], i32) {
+        // SAFETY: the CPU supports AVX2; every pointer read holds `i + 4` values.
         unsafe {
             let (add, mul, set) = (_mm256_add_pd, _mm256_mul_pd, _mm256_set1_pd);
-            let v = match x.speed {
-                Some(d) => add(load(x.v, i), mul(set(d.sd), load(d.e, i))),
-                None => load(x.v, i),
+            let v = match on::<CH>(SPEED, !x.e_v.is_null()) {
+                true => add(load(x.v, i), mul(set(x.sd_v), load(x.e_v, i))),
+                false => load(x.v, i),
             };
             let w = mul(v, v);
-            let f = match x.force {
-                Some(d) => add(load(x.f, i), mul(set(d.sd), load(d.e, i))),
-                None => load(x.f, i),
+            let f = match on::<CH>(FORCE, !x.e_f.is_null()) {
+                true => add(load(x.f, i), mul(set(x.sd_f), load(x.e_f, i))),
+                false => load(x.f, i),
             };
-            let (c, s, outside) = match x.grade {
-                Some(d) => {
-                    let (sin_d, cos_d, outside) = kernel4(mul(set(d.sd), load(d.e, i)));
+            let (c, s, outside) = match on::<CH>(GRADE_NOISE, !x.e_g.is_null()) {
+                true => {
+                    let (sin_d, cos_d, outside) = kernel4(mul(set(x.sd_g), load(x.e_g, i)));
                     let (sin0, cos0) = (load(x.sin, i), load(x.cos, i));
                     let sin = add(mul(sin0, cos_d), mul(cos0, sin_d));
                     let cos = _mm256_sub_pd(mul(cos0, cos_d), mul(sin0, sin_d));
                     (mul(set(-x.g), cos), mul(set(x.g), sin), outside)
                 }
-                None => (load(x.c, i), load(x.g_sin, i), 0),
+                false => (load(x.c, i), load(x.g_sin, i), 0),
             };
             let mut y = add(load(x.accel, i), s);
-            if let Some(d) = x.output {
-                y = add(y, mul(set(d.sd), load(d.e, i)));
+            if on::<CH>(OUTPUT, !x.e_o.is_null()) {
+                y = add(y, mul(set(x.sd_o), load(x.e_o, i)));
             }
-            if let Some(d) = x.derivative {
-                y = add(y, load(d, i));
+            if on::<CH>(DERIVATIVE, !x.d.is_null()) {
+                y = add(y, load(x.d, i));
             }
             ([f, w, c, s, y], outside)
         }
     }
 
-    /// Write the group `i..i + 4` measured as `values` (with `outside` the mask of
-    /// [`measure4`]: such a group is measured again by the scalar [`row`]) into the columns
-    /// and, with `SUMS`, add its terms to the lanes.
+    /// The group `i..i + 4` measured by the scalar [`row`] into the columns `out` (a group
+    /// with a grade angle outside the polynomials' range), and its values.
     ///
     /// # Safety
-    /// The CPU supports AVX2 (called only from [`groups`]).
-    #[inline(always)]
-    unsafe fn finish4<const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
-        x: &Inputs<'_>,
-        out: &mut [&mut [f64]; 5],
-        acc: &mut [__m256d; TERMS],
-        i: usize,
-        values: [__m256d; 5],
-        outside: i32,
-    ) {
-        // SAFETY: the CPU supports AVX2.
+    /// The CPU supports AVX2; each of `out` points at `i + 4` values.
+    #[cold]
+    #[inline(never)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn scalar4(x: &Inputs<'_>, out: [*mut f64; 5], i: usize) -> [__m256d; 5] {
+        // SAFETY: each column holds `i + 4` values.
         unsafe {
-            let [mut f, mut w, mut c, mut s, mut y] = values;
-            let [f_out, w_out, c_out, s_out, y_out] = out;
-            if x.force.is_some() {
-                store(f_out, i, f);
-            }
-            if x.grade.is_some() {
-                store(c_out, i, c);
-                store(s_out, i, s);
-            }
-            store(w_out, i, w);
-            store(y_out, i, y);
-            if outside != 0 {
-                for j in i..i + 4 {
-                    let r = row(x, j);
-                    (f_out[j], w_out[j], c_out[j], s_out[j], y_out[j]) =
-                        (r[0], r[1], r[2], r[3], r[4]);
-                }
-                // The scalar rows' values (x̃₁, x̃₃, s̃ written there whether moved or not).
-                (f, w, c, s, y) = (
-                    load(f_out, i),
-                    load(w_out, i),
-                    load(c_out, i),
-                    load(s_out, i),
-                    load(y_out, i),
-                );
-            }
-            if SUMS {
-                let (add, mul) = (_mm256_add_pd, _mm256_mul_pd);
-                let mut term = |k: usize, t: __m256d| acc[k] = add(acc[k], t);
-                term(0, mul(f, y));
-                term(1, mul(c, y));
-                term(2, mul(f, w));
-                term(3, mul(c, w));
-                term(4, mul(w, w));
-                term(5, mul(w, y));
-                term(6, w);
-                term(7, y);
-                if REGRESSORS {
-                    term(8, mul(f, f));
-                    term(9, mul(f, c));
-                    term(10, mul(c, c));
-                    term(11, f);
-                    term(12, c);
-                }
-                if GRADE {
-                    term(13, s);
-                    term(14, mul(f, s));
-                    term(15, mul(c, s));
-                    term(16, mul(w, s));
+            for j in i..i + 4 {
+                for (column, value) in out.iter().zip(row(x, j)) {
+                    *column.add(j) = value;
                 }
             }
+            // The scalar rows' values (x̃₁, x̃₃, s̃ written there whether moved or not).
+            out.map(|column| load(column, i))
         }
     }
 
     /// The groups of four samples of `0..len` into the columns `[x̃₁, w, x̃₃, s̃, ỹ]`
-    /// (x̃₁ written under force noise only, x̃₃ and s̃ under grade noise only) and, with
+    /// (with `rows` only; x̃₁ written under force noise only, x̃₃ and s̃ under grade noise
+    /// only) and, with
     /// `SUMS`, their terms into the lanes (those `REGRESSORS` and `GRADE` ask for); returns
-    /// the first sample not done (a multiple of four) and the lanes. A group with a grade
-    /// angle outside the polynomials' range is measured by the scalar [`row`] instead, as
-    /// `sin_cos_slice` hands such an angle to `f64::sin_cos`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn groups<const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
+    /// the first sample not done (a multiple of four) and the lanes. `CH` is
+    /// [`Inputs::channels`] or [`RUNTIME`]. A group with a grade angle outside the
+    /// polynomials' range is measured by the scalar [`row`] instead, as `sin_cos_slice`
+    /// hands such an angle to `f64::sin_cos`.
+    ///
+    /// # Safety
+    /// The CPU supports AVX2; always inlined into a function compiled for it (a function
+    /// compiled for AVX2 cannot be forced inline), whose features the loop is compiled with.
+    #[inline(always)]
+    pub(super) unsafe fn groups<
+        const SUMS: bool,
+        const REGRESSORS: bool,
+        const GRADE: bool,
+        const CH: u8,
+    >(
         x: &Inputs<'_>,
         out: &mut [&mut [f64]; 5],
         len: usize,
+        rows: bool,
     ) -> (usize, Lanes) {
+        assert!(CH == RUNTIME || CH == x.channels(), "the pass's channels");
+        let p = Flat::new(x, len);
+        let columns = out.each_mut().map(|column| {
+            assert_eq!(column.len(), len, "a measured column");
+            column.as_mut_ptr()
+        });
+        let [f_out, w_out, c_out, s_out, y_out] = columns;
+        let (force, grade) = (
+            on::<CH>(FORCE, !p.e_f.is_null()),
+            on::<CH>(GRADE_NOISE, !p.e_g.is_null()),
+        );
         let whole = len - len % 4;
-        let mut acc = [_mm256_setzero_pd(); TERMS];
+        // SAFETY (here and below): the CPU supports AVX2, as the caller promises.
+        let mut acc = [unsafe { _mm256_setzero_pd() }; TERMS];
         for i in (0..whole).step_by(4) {
-            // SAFETY: this function is compiled for AVX2 and called where the CPU has it.
+            // SAFETY: i + 4 <= len, the length of every input (checked by `Flat::new`) and
+            // column.
             unsafe {
-                let (values, outside) = measure4(x, i);
-                finish4::<SUMS, REGRESSORS, GRADE>(x, out, &mut acc, i, values, outside);
+                let (mut values, outside) = measure4::<CH>(&p, i);
+                if rows {
+                    if force {
+                        store(f_out, i, values[0]);
+                    }
+                    if grade {
+                        store(c_out, i, values[2]);
+                        store(s_out, i, values[3]);
+                    }
+                    store(w_out, i, values[1]);
+                    store(y_out, i, values[4]);
+                }
+                if outside != 0 {
+                    values = scalar4(x, columns, i);
+                }
+                if SUMS {
+                    let [f, w, c, s, y] = values;
+                    let (add, mul) = (_mm256_add_pd, _mm256_mul_pd);
+                    let mut term = |k: usize, t: __m256d| acc[k] = add(acc[k], t);
+                    term(0, mul(f, y));
+                    term(1, mul(c, y));
+                    term(2, mul(f, w));
+                    term(3, mul(c, w));
+                    term(4, mul(w, w));
+                    term(5, mul(w, y));
+                    term(6, w);
+                    term(7, y);
+                    if REGRESSORS {
+                        term(8, mul(f, f));
+                        term(9, mul(f, c));
+                        term(10, mul(c, c));
+                        term(11, f);
+                        term(12, c);
+                    }
+                    if GRADE {
+                        term(13, s);
+                        term(14, mul(f, s));
+                        term(15, mul(c, s));
+                        term(16, mul(w, s));
+                    }
+                }
             }
         }
         let mut lanes = [[0.0; 4]; TERMS];
@@ -532,5 +714,34 @@ mod simd {
             }
         }
         (whole, lanes)
+    }
+
+    /// [`groups`] with the sums of the general path's kernel (`REGRESSORS` set), compiled
+    /// for the block's channels: one loop per combination of force or grade noise (one is
+    /// on on the general path) with speed noise, output noise and a differentiated
+    /// acceleration, each on or off.
+    ///
+    /// # Safety
+    /// As [`groups`].
+    #[inline(always)]
+    pub(super) unsafe fn summed_groups<const GRADE: bool>(
+        x: &Inputs<'_>,
+        out: &mut [&mut [f64]; 5],
+        len: usize,
+        rows: bool,
+    ) -> (usize, Lanes) {
+        macro_rules! by_channels {
+            ($($ch:literal)*) => {
+                // SAFETY: as the caller promises.
+                unsafe {
+                    match x.channels() {
+                        $($ch => groups::<true, true, GRADE, $ch>(x, out, len, rows),)*
+                        _ => groups::<true, true, GRADE, RUNTIME>(x, out, len, rows),
+                    }
+                }
+            };
+        }
+        // Every value with FORCE (1) or GRADE_NOISE (4) set, below 32.
+        by_channels!(1 3 4 5 6 7 9 11 12 13 14 15 17 19 20 21 22 23 25 27 28 29 30 31)
     }
 }

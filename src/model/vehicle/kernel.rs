@@ -95,7 +95,9 @@ impl VehicleModel {
                 .then(|| Draws::new(self.shared, seed, self.stream_key(c), channel, r))
         });
         let mut buffers = PerChannel([[0.0; BLOCK]; CHANNEL_COUNT]);
-        let mut acc = MomentAccumulator::new(reg, noise).grade_sums(self.grade_sums);
+        let mut acc = MomentAccumulator::new(reg, noise)
+            .grade_sums(self.grade_sums)
+            .keep_rows(rows.is_some());
         let n = reg.len();
         // A differentiated acceleration: the speed noise of every logged sample of the span
         // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
@@ -316,8 +318,10 @@ impl VehicleModel {
                 conditions
                     .iter()
                     .map(|&c| {
+                        // No estimator reads the rows here (`one_draw_serves`).
                         MomentAccumulator::new(&self.conditions[c].regression, noise)
                             .grade_sums(self.grade_sums)
+                            .keep_rows(false)
                     })
                     .collect()
             })
