@@ -337,16 +337,27 @@ fn summary_rows_read_back_equal_the_rows_written() {
 fn realisations_computed_side_by_side_are_each_computed_alone_bit_for_bit() {
     // The executor computes a condition's realisations in small batches (its data read once
     // per batch); each must be what `realise` gives it alone: white speed and output noise,
-    // and AR(1) speed noise (filtered for the batch's realisations side by side).
+    // AR(1) speed noise (filtered for the batch's realisations side by side), and AR(1)
+    // speed noise over a differentiated acceleration's span (the spans filtered side by
+    // side, each realisation then measured alone) with estimators that read the rows.
     use chassis_mc::model::Model;
     use chassis_mc::model::vehicle::VehicleModel;
-    for extra in [
-        "output_sd = [0.05]",
-        "output_sd = [0.0]\nvelocity_correlation_time = [0.5]",
+    let differentiated = "[\"ols\", \"wbcls\", \"rls\"]\nacceleration = \"differentiated\"";
+    for (extra, estimators) in [
+        ("output_sd = [0.05]", r#"["ols"]"#),
+        (
+            "output_sd = [0.0]\nvelocity_correlation_time = [0.5]",
+            r#"["ols"]"#,
+        ),
+        (
+            "output_sd = [0.0]\nvelocity_correlation_time = [0.5]",
+            differentiated,
+        ),
     ] {
         let text = set_key(&study_text("thesis.toml"), "scales", "[1.3]")
             .replacen("output_sd = [0.0] ", "# ", 1)
             .replace("[noise]", &format!("[noise]\n{extra}"));
+        let text = set_key(&text, "estimators", estimators);
         let study = chassis_mc::study::Study::from_toml(&text, "batched").unwrap();
         let model = VehicleModel::new(&study).unwrap();
         let stride = model.layout().realisation_stride();
@@ -360,7 +371,7 @@ fn realisations_computed_side_by_side_are_each_computed_alone_bit_for_bit() {
             assert_eq!(
                 got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                 alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                "{extra}: realisation {}",
+                "{extra} {estimators}: realisation {}",
                 first + i as u64
             );
         }

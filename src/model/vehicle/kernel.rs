@@ -34,7 +34,7 @@ impl VehicleModel {
         match self.regression_of(seed, c, r) {
             Ok(world) => {
                 let (reg, ar1) = self.rows_of(c, &world);
-                self.measure(seed, c, r, reg, ar1, None)
+                self.measure(seed, c, r, reg, ar1, None, None)
             }
             Err(_) => Moments {
                 n: f64::NAN,
@@ -76,8 +76,10 @@ impl VehicleModel {
 
     /// The moments of realisation `r` of condition `c` on the regression `reg` (with AR(1)
     /// coefficients `ar1` of correlated speed noise), and, into `rows` when given, its
-    /// measured rows (from the same draws).
+    /// measured rows (from the same draws). `span`: the speed noise of a differentiated
+    /// acceleration's span, drawn and filtered already ([`Self::filter_spans`]).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn measure(
         &self,
         seed: u64,
@@ -86,6 +88,7 @@ impl VehicleModel {
         reg: &Regression,
         ar1: Option<&[[f64; 2]]>,
         mut rows: Option<(&mut Rows, &mut RowScans)>,
+        span: Option<&[f64]>,
     ) -> Moments {
         let cond = &self.conditions[c];
         let noise = cond.noise;
@@ -104,6 +107,9 @@ impl VehicleModel {
         // thread's buffer (kept from one realisation to the next).
         let mut span_buffer = SPAN_NOISE.take();
         let span_noise = match (&reg.differentiation, &mut streams[Channel::Velocity]) {
+            (Some(d), Some(_)) if noise.speed_noise_differentiated() && span.is_some() => {
+                Some((d, span.unwrap_or_default()))
+            }
             (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
                 let e = &mut span_buffer;
                 e.resize(d.span_t.len(), 0.0);
@@ -228,7 +234,9 @@ impl Draws {
 }
 
 impl VehicleModel {
-    /// [`Model::realise`](crate::model::Model::realise) with a thread's row buffer.
+    /// [`Model::realise`](crate::model::Model::realise) with a thread's row buffer (and the
+    /// span's speed noise filtered already, see [`Self::measure`]).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn realise_with(
         &self,
         seed: u64,
@@ -237,6 +245,7 @@ impl VehicleModel {
         rows: &mut Rows,
         scans: &mut RowScans,
         slots: &mut [f64],
+        span: Option<&[f64]>,
     ) {
         let cond = &self.conditions[c];
         let world = match self.regression_of(seed, c, r) {
@@ -249,10 +258,11 @@ impl VehicleModel {
             let grade = cond.noise.is_on(Channel::Grade);
             let rls = rls_target(&self.study.settings, &self.truth);
             scans.reset(self.reads, reg, grade, rls);
-            let moments = self.measure(seed, c, r, reg, ar1, Some((&mut *rows, &mut *scans)));
+            let kept = Some((&mut *rows, &mut *scans));
+            let moments = self.measure(seed, c, r, reg, ar1, kept, span);
             self.conclude(c, reg, &moments, Some((rows, scans)), slots);
         } else {
-            let moments = self.measure(seed, c, r, reg, ar1, None);
+            let moments = self.measure(seed, c, r, reg, ar1, None, span);
             self.conclude(c, reg, &moments, None, slots)
         }
     }
@@ -281,6 +291,53 @@ impl VehicleModel {
                     && !(cond.regression.differentiation.is_some()
                         && cond.noise.speed_noise_differentiated())
             })
+    }
+
+    /// Whether the realisations of condition `c` take their speed noise AR(1)-filtered over
+    /// a differentiated acceleration's span, on the condition's own regression: then
+    /// [`Self::filter_spans`] filters a group of them side by side.
+    pub(super) fn spans_filtered_together(&self, c: usize) -> bool {
+        let cond = &self.conditions[c];
+        cond.world.is_none()
+            && cond.ar1.is_some()
+            && cond.regression.differentiation.is_some()
+            && cond.noise.is_on(Channel::Velocity)
+            && cond.noise.speed_noise_differentiated()
+    }
+
+    /// The speed noise of the span of realisations `first .. first + count` of condition
+    /// `c` ([`Self::spans_filtered_together`]) into `out`, realisation i's at
+    /// `i * len .. (i + 1) * len` (`len` returned): drawn as [`Self::measure`] draws it,
+    /// and AR(1)-filtered with the realisations side by side. The recursions are
+    /// independent, so the processor overlaps them; one alone waits on each step's
+    /// multiply and add. The same operations in the same order, so the same bits.
+    pub(super) fn filter_spans(
+        &self,
+        seed: u64,
+        c: usize,
+        first: u64,
+        count: usize,
+        out: &mut Vec<f64>,
+    ) -> usize {
+        let cond = &self.conditions[c];
+        let (Some(d), Some(ar1)) = (&cond.regression.differentiation, &cond.ar1) else {
+            unreachable!("filter_spans on a condition without a filtered span");
+        };
+        let len = d.span_t.len();
+        out.resize(count * len, 0.0);
+        let key = self.stream_key(c);
+        for (i, e) in out.chunks_exact_mut(len).enumerate() {
+            Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
+        }
+        let mut previous = vec![0.0; count];
+        for (j, [phi, scale]) in ar1.iter().enumerate().take(len) {
+            for (i, previous) in previous.iter_mut().enumerate() {
+                let z = &mut out[i * len + j];
+                *z = phi * *previous + scale * *z;
+                *previous = *z;
+            }
+        }
+        len
     }
 
     /// The moments of realisations `first .. first + count` of each of `conditions` (one

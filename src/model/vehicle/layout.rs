@@ -89,6 +89,15 @@ fn parameter_info(i: usize) -> ParameterInfo {
     }
 }
 
+thread_local! {
+    /// The measured rows of this thread's current realisation and the sums taken over them
+    /// (memory reused).
+    static ROWS: RefCell<(Rows, RowScans)> = RefCell::default();
+    /// The filtered span noise of this thread's current group of realisations (memory
+    /// reused).
+    static SPANS: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
 impl Model for VehicleModel {
     fn layout(&self) -> &Layout {
         &self.layout
@@ -131,12 +140,9 @@ impl Model for VehicleModel {
     }
 
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
-        thread_local! {
-            /// The measured rows of this thread's current realisation and the sums taken
-            /// over them (memory reused).
-            static ROWS: RefCell<(Rows, RowScans)> = RefCell::default();
-        }
-        ROWS.with_borrow_mut(|(rows, scans)| self.realise_with(seed, c, r, rows, scans, slots));
+        ROWS.with_borrow_mut(|(rows, scans)| {
+            self.realise_with(seed, c, r, rows, scans, slots, None)
+        });
     }
 
     fn draw_group(&self, c: usize) -> usize {
@@ -151,6 +157,25 @@ impl Model for VehicleModel {
         count: usize,
         slots: &mut [f64],
     ) {
+        if let [c] = *conditions
+            && self.spans_filtered_together(c)
+        {
+            // Each realisation on its own, from spans filtered side by side.
+            return SPANS.with_borrow_mut(|spans| {
+                let len = self.filter_spans(seed, c, first, count, spans);
+                let stride = self.layout.realisation_stride();
+                ROWS.with_borrow_mut(|(rows, scans)| {
+                    for (i, (slots, span)) in slots
+                        .chunks_exact_mut(stride)
+                        .zip(spans.chunks_exact(len))
+                        .enumerate()
+                    {
+                        let r = first + i as u64;
+                        self.realise_with(seed, c, r, rows, scans, slots, Some(span));
+                    }
+                })
+            });
+        }
         if !self.one_draw_serves(conditions) {
             return realise_one_by_one(self, seed, conditions, first, count, slots);
         }
