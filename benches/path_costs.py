@@ -6,8 +6,9 @@ For each path a one-condition study is run with `--threads 1` at R = 20 and R = 
 (default 1020; best of `--repeat` wall times each); the marginal cost per realisation is
 (T(large) − T(20)) / (large − 20), which leaves out the study's preparation (simulating the cycle,
 the bounds, the covariances of the control variates), and per sample that over the rows
-regressed. The last column is the per-sample cost over the thesis path's, measured in the
-same run: ratios are what a shared, noisy machine can compare.
+regressed. The last column is the per-sample cost over the thesis path's, measured again
+just before each path with the same binary: ratios of timings taken moments apart are what
+a shared, noisy machine can compare.
 
 Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then OLS with
 BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
@@ -110,32 +111,39 @@ def main():
     paths = [p for i, p in enumerate(PATHS)
              if i == 0 or args.only is None or re.search(args.only, p[0])]
     binaries = [args.before, args.binary] if args.before else [args.binary]
+    # results[b][i]: (name, ms per realisation, s per sample, rows, s per sample of the
+    # thesis path measured just before it with the same binary)
     results = [[] for _ in binaries]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
-        for i, (name, text) in enumerate(paths):
+
+        def cost(binary, i, text):
+            """Marginal cost per realisation and the rows regressed, of path i."""
             study = tmp / f"path{i}.toml"
             # heavy_duty.toml names no files; both studies are read from the temp dir.
             study.write_text(text)
             out = tmp / f"out{i}"
+            small = wall(binary, study, SMALL, out, args.repeat)
+            large = wall(binary, study, args.large, out, args.repeat)
+            return (large - small) / (args.large - SMALL), rows_regressed(out)
+
+        for i, (name, text) in enumerate(paths):
             for binary, rows in zip(binaries, results):
-                small = wall(binary, study, SMALL, out, args.repeat)
-                large = wall(binary, study, args.large, out, args.repeat)
-                n = rows_regressed(out)
-                per_realisation = (large - small) / (args.large - SMALL)
-                rows.append((name, per_realisation, per_realisation / n, n))
+                # The thesis path again beside each path, so that its ratio compares two
+                # timings taken moments apart (the machine drifts within a run).
+                base, base_n = cost(binary, 0, paths[0][1])
+                per_r, n = (base, base_n) if i == 0 else cost(binary, i, text)
+                rows.append((name, per_r, per_r / n, n, base / base_n))
     heads = ["before: ", "after: "] if args.before else [""]
     print("| path | rows | " + " | ".join(
         f"{h}ms / realisation | {h}ns / sample | {h}× thesis per sample" for h in heads) + " |")
     print("|---|---|" + "---|---|---|" * len(heads))
-    bases = [rows[0][2] for rows in results]
-    for i, (name, _, _, n) in enumerate(results[0]):
+    for i, (name, _, _, n, _) in enumerate(results[0]):
         cells = []
-        for rows, base in zip(results, bases):
-            _, per_r, per_s, _ = rows[i]
+        for rows in results:
+            _, per_r, per_s, _, base = rows[i]
             cells += [f"{1e3 * per_r:.3f}", f"{1e9 * per_s:.1f}", f"{per_s / base:.2f}"]
         print(f"| {name} | {n} | " + " | ".join(cells) + " |")
-
 
 if __name__ == "__main__":
     main()

@@ -17,6 +17,25 @@ use crate::noise::BLOCK;
 mod one_pass;
 pub use one_pass::Wanted;
 
+/// What a block is measured from: samples `start .. start + len` of the regression `reg`,
+/// the noise levels, each channel's standard-normal draws of the block (a channel that is
+/// off has none) and the noise of a differentiated acceleration \[m/s²\] where there is one.
+#[derive(Clone, Copy)]
+pub struct Block<'a> {
+    /// The regression measured.
+    pub reg: &'a Regression,
+    /// The channels' standard deviations.
+    pub levels: &'a NoiseLevels,
+    /// The block's first sample.
+    pub start: usize,
+    /// The block's number of samples (at most [`BLOCK`]).
+    pub len: usize,
+    /// Each channel's draws of the block.
+    pub draws: BlockNoise<'a>,
+    /// A differentiated acceleration's noise of each sample \[m/s²\].
+    pub derivative: Option<&'a [f64]>,
+}
+
 /// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
 /// s̃ = g sin θ̃ — built from the block's draws by each channel's
 /// [`perturb`](Channel::perturb) (the general path; docs/model.md#sufficient-statistics).
@@ -48,58 +67,40 @@ impl MeasuredBlock {
         })
     }
 
-    /// Measure samples `start .. start + len` of `reg` with the block's standard-normal
-    /// draws (a channel that is off has none) and the noise of a differentiated
-    /// acceleration \[m/s²\] where there is one, in one pass over the samples. Compiled for
+    /// Measure the samples of `b` with its draws, in one pass over the samples. Compiled for
     /// AVX2 where the CPU has it: the same operations (no FMA, no reassociation), so the
     /// same bits, which are those of the channels' [`perturb`](Channel::perturb) column by
     /// column.
-    pub fn measure(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-    ) {
+    pub fn measure(&mut self, b: Block<'_>) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.measure_avx2(reg, levels, start, len, draws, derivative) };
+                return unsafe { self.measure_avx2(b) };
             }
         }
-        self.measure_one_pass::<false>(reg, levels, start, len, draws, derivative);
+        self.measure_one_pass::<false>(b);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn measure_avx2(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-    ) {
-        self.measure_one_pass::<true>(reg, levels, start, len, draws, derivative);
+    fn measure_avx2(&mut self, b: Block<'_>) {
+        self.measure_one_pass::<true>(b);
     }
 
     /// The block measured channel by channel, each channel's
     /// [`perturb`](Channel::perturb) on the whole block and then the columns pass by pass:
     /// the definition [`measure`](Self::measure) keeps bit for bit.
     #[cfg(test)]
-    fn measure_by_channels(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-    ) {
+    fn measure_by_channels(&mut self, b: Block<'_>) {
+        let Block {
+            reg,
+            levels,
+            start,
+            len,
+            draws,
+            derivative,
+        } = b;
         let mut samples = Samples::new(reg, start, len, &mut self.columns);
         for (c, sd) in levels.iter() {
             if let Some(d) = draws[c] {
@@ -308,7 +309,14 @@ impl Rows {
             return;
         }
         let mut block = MeasuredBlock::new();
-        block.measure(reg, levels, start, len, draws, derivative);
+        block.measure(Block {
+            reg,
+            levels,
+            start,
+            len,
+            draws,
+            derivative,
+        });
         self.push_measured(reg, &block);
     }
 
@@ -506,8 +514,15 @@ impl<'r> MomentAccumulator<'r> {
             grade: self.sum_grade,
             rows: self.keep_rows,
         };
-        let (reg, noise) = (self.reg, &self.noise);
-        let m = block.measure_and_sum(reg, noise, start, len, draws, derivative, wanted);
+        let b = Block {
+            reg: self.reg,
+            levels: &self.noise,
+            start,
+            len,
+            draws,
+            derivative,
+        };
+        let m = block.measure_and_sum(b, wanted);
         self.general.add(&m);
     }
 
@@ -755,9 +770,17 @@ mod tests {
                         BlockNoise::from_fn(|c| noise.is_on(c).then(|| &draws[c.index()][..len]));
                     let d = derivative.map(|d| &d[..len]);
                     let mut blocks = [(); 3].map(|_| MeasuredBlock::new());
-                    blocks[0].measure_by_channels(&reg, &noise, start, len, block_noise, d);
-                    blocks[1].measure_one_pass::<false>(&reg, &noise, start, len, block_noise, d);
-                    blocks[2].measure(&reg, &noise, start, len, block_noise, d);
+                    let b = Block {
+                        reg: &reg,
+                        levels: &noise,
+                        start,
+                        len,
+                        draws: block_noise,
+                        derivative: d,
+                    };
+                    blocks[0].measure_by_channels(b);
+                    blocks[1].measure_one_pass::<false>(b);
+                    blocks[2].measure(b);
                     let want = blocks[0].view(&reg);
                     for got in &blocks[1..] {
                         let got = got.view(&reg);
@@ -786,9 +809,7 @@ mod tests {
                             grade,
                             rows,
                         };
-                        let (n, levels) = (&noise, block_noise);
-                        let kept =
-                            block.measure_and_sum(&reg, n, start, len, levels, d, wanted(true));
+                        let kept = block.measure_and_sum(b, wanted(true));
                         // The rows kept are the measured rows.
                         let (want_rows, got_rows) = (blocks[0].view(&reg), block.view(&reg));
                         let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
@@ -803,33 +824,15 @@ mod tests {
                         }
                         let mut got = vec![
                             kept,
-                            block.measure_and_sum(&reg, n, start, len, levels, d, wanted(false)),
-                            block.measure_and_sum_portable(
-                                &reg,
-                                n,
-                                start,
-                                len,
-                                levels,
-                                d,
-                                wanted(true),
-                            ),
+                            block.measure_and_sum(b, wanted(false)),
+                            block.measure_and_sum_portable(b, wanted(true)),
                         ];
                         // The AVX2 build too where the dispatch takes the AVX-512VL one.
                         #[cfg(target_arch = "x86_64")]
                         if std::arch::is_x86_feature_detected!("avx2") {
                             for rows in [true, false] {
                                 // SAFETY: the CPU supports AVX2, checked just above.
-                                got.push(unsafe {
-                                    block.measure_and_sum_avx2(
-                                        &reg,
-                                        n,
-                                        start,
-                                        len,
-                                        levels,
-                                        d,
-                                        wanted(rows),
-                                    )
-                                });
+                                got.push(unsafe { block.measure_and_sum_avx2(b, wanted(rows)) });
                             }
                         }
                         let bits = |m: &Moments| {

@@ -8,9 +8,8 @@
 //! the same bits (docs/model.md#sufficient-statistics); only the memory traffic between
 //! the passes is gone.
 
-use super::{GradeSums, MeasuredBlock, Moments};
-use crate::estimate::channels::{BlockNoise, Channel, NoiseLevels, Quantity};
-use crate::estimate::regression::Regression;
+use super::{Block, GradeSums, MeasuredBlock, Moments};
+use crate::estimate::channels::{Channel, Quantity};
 use crate::estimate::row_sums::segment_moments;
 use crate::numeric::trig::sin_cos;
 
@@ -41,14 +40,15 @@ struct Inputs<'a> {
 }
 
 impl<'a> Inputs<'a> {
-    fn new(
-        reg: &'a Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'a>,
-        derivative: Option<&'a [f64]>,
-    ) -> Self {
+    fn new(b: Block<'a>) -> Self {
+        let Block {
+            reg,
+            levels,
+            start,
+            len,
+            draws,
+            derivative,
+        } = b;
         let range = start..start + len;
         let mut inputs = Inputs {
             f: &reg.f[range.clone()],
@@ -227,16 +227,8 @@ impl MeasuredBlock {
     /// inside a function compiled for AVX2, called where the CPU has it) four samples per
     /// 256-bit register, lane for lane the portable operations.
     #[inline(always)]
-    pub(super) fn measure_one_pass<const AVX2: bool>(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-    ) {
-        self.pass::<AVX2, false, false, false>(reg, levels, start, len, draws, derivative, true);
+    pub(super) fn measure_one_pass<const AVX2: bool>(&mut self, b: Block<'_>) {
+        self.pass::<AVX2, false, false, false>(b, true);
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
@@ -245,56 +237,32 @@ impl MeasuredBlock {
     /// On x86-64 with AVX2 the sums are added in the pass, in the registers the samples are
     /// measured in (with AVX-512VL where the CPU has it: the same operations, more
     /// registers).
-    #[allow(clippy::too_many_arguments)]
-    pub fn measure_and_sum(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-        wanted: Wanted,
-    ) -> Moments {
+    pub fn measure_and_sum(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::is_x86_feature_detected as has;
             if has!("avx512f") && has!("avx512vl") {
                 // SAFETY: the CPU supports AVX-512F and VL (so AVX2), checked just above.
-                return unsafe {
-                    self.measure_and_sum_avx512(reg, levels, start, len, draws, derivative, wanted)
-                };
+                return unsafe { self.measure_and_sum_avx512(b, wanted) };
             }
             if has!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe {
-                    self.measure_and_sum_avx2(reg, levels, start, len, draws, derivative, wanted)
-                };
+                return unsafe { self.measure_and_sum_avx2(b, wanted) };
             }
         }
-        self.measure_and_sum_portable(reg, levels, start, len, draws, derivative, wanted)
+        self.measure_and_sum_portable(b, wanted)
     }
 
     /// [`measure_and_sum`](Self::measure_and_sum) as two steps: the block measured
     /// ([`measure`](Self::measure)'s portable pass), then `segment_moments` of its rows.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(super) fn measure_and_sum_portable(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-        wanted: Wanted,
-    ) -> Moments {
-        self.measure_one_pass::<false>(reg, levels, start, len, draws, derivative);
+    pub(super) fn measure_and_sum_portable(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+        self.measure_one_pass::<false>(b);
         let none = Moments::default();
         segment_moments(
-            self.view(reg),
+            self.view(b.reg),
             0,
-            len,
+            b.len,
             (!wanted.regressors).then_some(&none),
             wanted.grade,
         )
@@ -302,18 +270,8 @@ impl MeasuredBlock {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn measure_and_sum_avx2(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-        wanted: Wanted,
-    ) -> Moments {
-        self.measure_and_sum_simd(reg, levels, start, len, draws, derivative, wanted)
+    pub(super) fn measure_and_sum_avx2(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+        self.measure_and_sum_simd(b, wanted)
     }
 
     /// The AVX2 pass compiled with AVX-512VL as well: the same 256-bit operations (no FMA:
@@ -321,68 +279,35 @@ impl MeasuredBlock {
     /// to keep every lane of the sums and the constants of the pass in registers.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    #[allow(clippy::too_many_arguments)]
-    fn measure_and_sum_avx512(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-        wanted: Wanted,
-    ) -> Moments {
-        self.measure_and_sum_simd(reg, levels, start, len, draws, derivative, wanted)
+    fn measure_and_sum_avx512(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+        self.measure_and_sum_simd(b, wanted)
     }
 
     /// The pass of the AVX2 builds (always inlined into a function compiled for AVX2).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn measure_and_sum_simd(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-        wanted: Wanted,
-    ) -> Moments {
-        let (r, d, rows) = (reg, derivative, wanted.rows);
+    fn measure_and_sum_simd(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+        let rows = wanted.rows;
         let lanes = match (wanted.regressors, wanted.grade) {
-            (true, true) => {
-                self.pass::<true, true, true, true>(r, levels, start, len, draws, d, rows)
-            }
-            (true, false) => {
-                self.pass::<true, true, true, false>(r, levels, start, len, draws, d, rows)
-            }
-            (false, true) => {
-                self.pass::<true, true, false, true>(r, levels, start, len, draws, d, rows)
-            }
-            (false, false) => {
-                self.pass::<true, true, false, false>(r, levels, start, len, draws, d, rows)
-            }
+            (true, true) => self.pass::<true, true, true, true>(b, rows),
+            (true, false) => self.pass::<true, true, true, false>(b, rows),
+            (false, true) => self.pass::<true, true, false, true>(b, rows),
+            (false, false) => self.pass::<true, true, false, false>(b, rows),
         };
-        moments(&lanes, len, wanted.regressors, wanted.grade)
+        moments(&lanes, b.len, wanted.regressors, wanted.grade)
     }
 
     /// The pass: the block measured (without `rows`, the vectorised pass writes no
     /// columns), and with `SUMS` (AVX2 only) the lanes of its sums of the terms that
     /// `REGRESSORS` and `GRADE` ask for (the others stay zero).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn pass<const AVX2: bool, const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
         &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
+        b: Block<'_>,
         rows: bool,
     ) -> Lanes {
-        let x = Inputs::new(reg, levels, start, len, draws, derivative);
+        let (start, len) = (b.start, b.len);
+        let x = Inputs::new(b);
         (self.start, self.len) = (start, len);
         self.grade_moved = x.grade.is_some();
         self.columns.clear();
