@@ -106,11 +106,10 @@ impl VehicleModel {
         // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
         // thread's buffer (kept from one realisation to the next).
         let mut span_buffer = SPAN_NOISE.take();
-        let span_noise = match (&reg.differentiation, &mut streams[Channel::Velocity]) {
-            (Some(d), Some(_)) if noise.speed_noise_differentiated() && span.is_some() => {
-                Some((d, span.unwrap_or_default()))
-            }
-            (Some(d), Some(stream)) if noise.speed_noise_differentiated() => {
+        let velocity = &mut streams[Channel::Velocity];
+        let span_noise = match (&reg.differentiation, velocity, span) {
+            (Some(d), Some(_), Some(span)) if noise.speed_noise_differentiated() => Some((d, span)),
+            (Some(d), Some(stream), None) if noise.speed_noise_differentiated() => {
                 let e = &mut span_buffer;
                 e.resize(d.span_t.len(), 0.0);
                 stream.fill(e);
