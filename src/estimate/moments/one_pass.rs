@@ -275,8 +275,8 @@ impl MeasuredBlock {
     }
 
     /// The AVX2 pass compiled with AVX-512VL as well: the same 256-bit operations (no FMA:
-    /// Rust contracts nothing), so the same bits, with 32 registers instead of 16, enough
-    /// to keep every lane of the sums and the constants of the pass in registers.
+    /// Rust contracts nothing), so the same bits, with 32 registers instead of 16 for the
+    /// seventeen lane sums and the constants of the pass (fewer of them on the stack).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f,avx512vl")]
     fn measure_and_sum_avx512(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
