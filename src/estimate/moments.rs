@@ -736,6 +736,21 @@ mod tests {
         check(noise, Some(&derivative));
     }
 
+    /// The five measured columns of two views bit for bit, and which columns are noise-free.
+    fn assert_same_rows(want: RowsView<'_>, got: RowsView<'_>, what: &str) {
+        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (x, y) in [
+            (want.f, got.f),
+            (want.w, got.w),
+            (want.c, got.c),
+            (want.y, got.y),
+            (want.s, got.s),
+        ] {
+            assert_eq!(bits(x), bits(y), "{what}");
+        }
+        assert_eq!(want.noise_free_f_c, got.noise_free_f_c, "{what}");
+    }
+
     #[test]
     fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
         // The block measured channel by channel (each channel's `perturb`, then the columns
@@ -783,18 +798,8 @@ mod tests {
                     blocks[2].measure(b);
                     let want = blocks[0].view(&reg);
                     for got in &blocks[1..] {
-                        let got = got.view(&reg);
-                        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-                        for (x, y) in [
-                            (want.f, got.f),
-                            (want.w, got.w),
-                            (want.c, got.c),
-                            (want.y, got.y),
-                            (want.s, got.s),
-                        ] {
-                            assert_eq!(bits(x), bits(y), "{noise:?} block {start}+{len}");
-                        }
-                        assert_eq!(want.noise_free_f_c, got.noise_free_f_c);
+                        let what = format!("{noise:?} block {start}+{len}");
+                        assert_same_rows(want, got.view(&reg), &what);
                     }
                     // The block's moments as well: measured and summed in one pass (as
                     // dispatched) and in two portable steps, against `segment_moments` of
@@ -811,17 +816,8 @@ mod tests {
                         };
                         let kept = block.measure_and_sum(b, wanted(true));
                         // The rows kept are the measured rows.
-                        let (want_rows, got_rows) = (blocks[0].view(&reg), block.view(&reg));
-                        let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-                        for (x, y) in [
-                            (want_rows.f, got_rows.f),
-                            (want_rows.w, got_rows.w),
-                            (want_rows.c, got_rows.c),
-                            (want_rows.y, got_rows.y),
-                            (want_rows.s, got_rows.s),
-                        ] {
-                            assert_eq!(bits(x), bits(y), "{noise:?} kept rows {start}+{len}");
-                        }
+                        let what = format!("{noise:?} kept rows {start}+{len}");
+                        assert_same_rows(blocks[0].view(&reg), block.view(&reg), &what);
                         let mut got = vec![
                             kept,
                             block.measure_and_sum(b, wanted(false)),

@@ -115,9 +115,8 @@ impl VehicleModel {
                 stream.fill(e);
                 if let Some(ar1) = ar1 {
                     let mut previous = 0.0;
-                    for (z, [phi, scale]) in e.iter_mut().zip(ar1) {
-                        *z = phi * previous + scale * *z;
-                        previous = *z;
+                    for (z, step) in e.iter_mut().zip(ar1) {
+                        ar1_step(&mut previous, z, *step);
                     }
                 }
                 Some((d, &span_buffer[..]))
@@ -152,9 +151,8 @@ impl VehicleModel {
             } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[Channel::Velocity]) {
                 let buffer = &mut buffers[Channel::Velocity][..len];
                 stream.fill(buffer);
-                for (z, [phi, scale]) in buffer.iter_mut().zip(&ar1[start..start + len]) {
-                    *z = phi * previous + scale * *z;
-                    previous = *z;
+                for (z, step) in buffer.iter_mut().zip(&ar1[start..start + len]) {
+                    ar1_step(&mut previous, z, *step);
                 }
             }
             // The speed noise is drawn above when it is correlated or differentiated.
@@ -185,6 +183,16 @@ impl VehicleModel {
         SPAN_NOISE.set(span_buffer);
         acc.finish()
     }
+}
+
+/// One step of the AR(1) filter of correlated speed noise (docs/model.md#noise-channels):
+/// z ← φ·previous + scale·z with `[φ, scale]` the row's coefficients, then previous ← z.
+/// Every filter of the kernel takes this step, one realisation alone or several side by
+/// side, so a realisation's noise has the same bits however it is batched.
+#[inline(always)]
+fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
+    *z = phi * *previous + scale * *z;
+    *previous = *z;
 }
 
 thread_local! {
@@ -329,11 +337,9 @@ impl VehicleModel {
             Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
         }
         let mut previous = vec![0.0; count];
-        for (j, [phi, scale]) in ar1.iter().enumerate().take(len) {
+        for (j, step) in ar1.iter().enumerate().take(len) {
             for (i, previous) in previous.iter_mut().enumerate() {
-                let z = &mut out[i * len + j];
-                *z = phi * *previous + scale * *z;
-                *previous = *z;
+                ar1_step(previous, &mut out[i * len + j], *step);
             }
         }
         len
@@ -407,11 +413,9 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                for (j, [phi, scale]) in rows.iter().enumerate() {
+                for (j, step) in rows.iter().enumerate() {
                     for (buffers, previous) in buffers.iter_mut().zip(&mut previous) {
-                        let z = &mut buffers[Channel::Velocity][j];
-                        *z = phi * *previous + scale * *z;
-                        *previous = *z;
+                        ar1_step(previous, &mut buffers[Channel::Velocity][j], *step);
                     }
                 }
             }
