@@ -161,6 +161,7 @@ impl MeasuredBlock {
             y: &self.y[..len],
             s,
             noise_free_f_c: f.is_none() && !self.grade_moved,
+            noise_free_y: false,
         }
     }
 }
@@ -201,6 +202,8 @@ pub struct RowsView<'a> {
     pub s: &'a [f64],
     /// True when x̃₁ and x̃₃ are the regression's noise-free columns.
     pub noise_free_f_c: bool,
+    /// True when ỹ is the regression's noise-free column.
+    pub noise_free_y: bool,
 }
 
 impl RowsView<'_> {
@@ -266,6 +269,7 @@ impl Rows {
             y: pick(&self.y, self.copies[2], &reg.y),
             s: pick(&self.s, self.copies[3], &reg.g_sin),
             noise_free_f_c: !self.copies[0] && !self.copies[1],
+            noise_free_y: !self.copies[2],
         }
     }
 

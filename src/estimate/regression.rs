@@ -28,6 +28,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
 use super::moments::{GradeSums, Moments};
+use super::row_sums::RlsPlan;
 use super::sums::{Column as Factor, Sum};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
@@ -130,6 +131,8 @@ pub struct Regression {
     /// The weight segments of `wbcls` and the noise-free sums of x₁ and x₃ over each,
     /// computed when first asked for.
     segments: OnceLock<Segments>,
+    /// What the `rls` scans of the realisations share, computed when first asked for.
+    rls: OnceLock<Arc<RlsPlan>>,
 }
 
 impl Regression {
@@ -246,6 +249,7 @@ impl Regression {
         Regression {
             differentiation: None,
             segments: OnceLock::new(),
+            rls: OnceLock::new(),
             t,
             run,
             speed_sums_noise_free,
@@ -271,6 +275,22 @@ impl Regression {
     /// Consecutive row ranges of at least `segment_s` \[s\] each (the last may be shorter;
     /// a range holds at least one row), and over each the noise-free sums of x₁ and x₃ alone
     /// (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃; the rest zero). Computed on first use; `segment_s` must
+    /// What the `rls` scans of this regression's rows share under forgetting factor
+    /// `lambda` ([`RlsPlan`]); computed on first use, `lambda` must be the same at every
+    /// call.
+    pub fn rls_plan(&self, lambda: f64) -> Arc<RlsPlan> {
+        let plan = self.rls.get_or_init(|| {
+            let columns = [&self.f[..], &self.c[..], &self.y[..]];
+            Arc::new(RlsPlan::new(&self.t, Some(columns), lambda))
+        });
+        assert_eq!(
+            plan.lambda().to_bits(),
+            lambda.to_bits(),
+            "one forgetting factor per regression"
+        );
+        Arc::clone(plan)
+    }
+
     /// be the same at every call.
     pub fn segments(&self, segment_s: f64) -> (&[(usize, usize)], &[Moments]) {
         let (ranges, sums) = self.segments.get_or_init(|| {

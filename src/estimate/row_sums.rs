@@ -3,6 +3,8 @@
 //! four lanes like the kernel's block sums, compiled for AVX2 where the CPU has it; the
 //! two builds run the same operations in the same order, so they agree bit for bit.
 
+use std::sync::Arc;
+
 use nalgebra::{Matrix3, Vector3};
 
 use super::moments::{GradeSums, Moments, RowsView};
@@ -159,22 +161,22 @@ mod simd {
     }
 
     /// [`RlsScan::groups`](super::RlsScan) in 256-bit registers, lane for lane, the
-    /// lanes kept in registers between checks.
+    /// lanes kept in registers between checks; only the terms the realisation sums under
+    /// `FREE` ([`super::summed`]).
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub(super) fn rls_groups<const FORGET: bool>(
+    pub(super) fn rls_groups<const FORGET: bool, const FREE: u8>(
         scan: &mut super::RlsScan,
         cols: [&[f64]; 4],
-        t: &[f64],
         start: usize,
         to: usize,
-        whole: usize,
     ) {
         let [f, w, c, y] = cols;
         let minus_k = _mm256_set1_pd(-scan.k);
         let age = _mm256_set1_pd(scan.age);
         let entry = load(&scan.entry, 0);
         let mut acc = scan.lanes.map(|l| load(&l, 0));
+        let plan = std::sync::Arc::clone(&scan.plan);
         let mut start = start;
         while start < to {
             let x1 = load(f, start);
@@ -192,7 +194,10 @@ mod simd {
                 _mm256_mul_pd(x2, y),
                 _mm256_mul_pd(x3, y),
             ];
-            for (a, t) in acc.iter_mut().zip(terms) {
+            for (k, (a, t)) in acc.iter_mut().zip(terms).enumerate() {
+                if !super::summed(FREE, k) {
+                    continue;
+                }
                 *a = if FORGET {
                     _mm256_add_pd(_mm256_mul_pd(age, *a), _mm256_mul_pd(entry, t))
                 } else {
@@ -200,10 +205,8 @@ mod simd {
                 };
             }
             let last = start + LANES - 1;
-            if t[last] - scan.last_check >= super::RLS_CHECK_S || last + 1 == whole {
-                scan.last_check = t[last];
-                scan.state = acc.map(|a| reduce(a));
-                scan.check(last);
+            if plan.checks.get(scan.next_check) == Some(&last) {
+                scan.check_group::<FREE>(&plan, |k| reduce(acc[k]), last);
             }
             start += LANES;
         }
@@ -398,9 +401,10 @@ impl RowScans {
             (true, None) => Some(SegmentScan::new(grade)),
             (false, _) => None,
         };
-        self.rls = reads
-            .rls
-            .then(|| RlsScan::new(reg.k, rls.lambda, rls.target, rls.band, reg.len()));
+        self.rls = reads.rls.then(|| {
+            let plan = reg.rls_plan(rls.lambda);
+            RlsScan::new(reg.k, plan, rls.target, rls.band, reg.len())
+        });
     }
 
     /// Take the measured rows up to `end` (exclusive; a multiple of four or the row count).
@@ -409,7 +413,7 @@ impl RowScans {
             scan.advance(rows, reg, end);
         }
         if let Some(scan) = &mut self.rls {
-            scan.advance(rows, &reg.t, end);
+            scan.advance(rows, end);
         }
     }
 
@@ -473,15 +477,101 @@ pub fn rls_scan(
     target: f64,
     band: f64,
 ) -> RlsResult {
-    let mut scan = RlsScan::new(k, lambda, target, band, rows.len());
-    scan.advance(rows, t, rows.len());
+    let plan = Arc::new(RlsPlan::new(t, None, lambda));
+    let mut scan = RlsScan::new(k, plan, target, band, rows.len());
+    scan.advance(rows, rows.len());
     scan.finish()
+}
+
+/// The terms of the running sums that involve no w, in the order of [`RlsPlan`]'s states:
+/// x₁², x₁x₃, x₃², x₁y, x₃y (indices into [`products`]).
+const PLANNED: [usize; 5] = [0, 2, 5, 6, 8];
+
+/// What the `rls` scans of one regression's realisations share: the checked rows (a
+/// function of the rows' times alone) and, over the regression's own x₁, x₃ and y, the
+/// state at each check of the [`PLANNED`] terms. A realisation whose x̃₁ and x̃₃ (and ỹ)
+/// are those columns would sum those terms to the same bits, so it takes their states from
+/// here and sums only the others (those of w, and with a noisy ỹ those of ỹ).
+#[derive(Debug, Clone)]
+pub struct RlsPlan {
+    lambda: f64,
+    /// The last row of each group of four checked, increasing (the rows after the last
+    /// group, each checked, are not listed).
+    checks: Vec<usize>,
+    /// The states of the [`PLANNED`] terms at each check (empty: not computed).
+    fixed: Vec<[f64; 5]>,
+}
+
+impl RlsPlan {
+    /// The checks of rows at times `t` (see [`rls_scan`]) and, with `columns` (x₁, x₃, y of
+    /// the regression), the states of the [`PLANNED`] terms at each under forgetting factor
+    /// `lambda`.
+    pub fn new(t: &[f64], columns: Option<[&[f64]; 3]>, lambda: f64) -> Self {
+        let n = t.len();
+        let whole = n - n % LANES;
+        let mut checks = Vec::new();
+        let mut last_check = f64::NEG_INFINITY;
+        for last in (LANES - 1..whole).step_by(LANES) {
+            if t[last] - last_check >= RLS_CHECK_S || last + 1 == whole {
+                last_check = t[last];
+                checks.push(last);
+            }
+        }
+        let mut plan = RlsPlan {
+            lambda,
+            checks,
+            fixed: Vec::new(),
+        };
+        if let Some([f, c, y]) = columns {
+            // Their scan with every term summed and each check's state recorded (the terms
+            // of w read some column of the right length and go unread).
+            let mut scan = RlsScan::new(0.0, Arc::new(plan.clone()), 0.0, 0.0, n);
+            scan.record = Some(Vec::with_capacity(plan.checks.len()));
+            let rows = RowsView {
+                f,
+                w: f,
+                c,
+                y,
+                s: y,
+                noise_free_f_c: false,
+                noise_free_y: false,
+            };
+            scan.advance(rows, whole);
+            plan.fixed = scan.record.take().unwrap_or_default();
+        }
+        plan
+    }
+
+    /// The forgetting factor the plan was made for.
+    pub fn lambda(&self) -> f64 {
+        self.lambda
+    }
+}
+
+/// [`RlsScan`]'s `FREE`: which of x̃₁, x̃₃, ỹ are the regression's own columns, so that the
+/// plan holds the states of the terms they alone make.
+const FREE_NONE: u8 = 0;
+/// x̃₁ and x̃₃ the regression's: x₁², x₁x₃, x₃² planned.
+const FREE_F_C: u8 = 1;
+/// x̃₁, x̃₃ and ỹ the regression's: every [`PLANNED`] term.
+const FREE_F_C_Y: u8 = 2;
+
+/// Whether a realisation sums term `k` of [`products`] under `free` (the plan holds the
+/// others' states).
+#[inline(always)]
+const fn summed(free: u8, k: usize) -> bool {
+    match free {
+        FREE_F_C_Y => matches!(k, 1 | 3 | 4 | 7),
+        FREE_F_C => !matches!(k, 0 | 2 | 5),
+        _ => true,
+    }
 }
 
 /// [`rls_scan`] run along the rows as they are measured: [`RlsScan::advance`] takes the
 /// rows up to a point (the kernel calls it after each block), [`RlsScan::finish`] gives the
 /// result. The same operations in the same order as one pass, so the same bits however the
-/// rows are split (at multiples of four).
+/// rows are split (at multiples of four) and whether a term is summed or its states taken
+/// from the [`RlsPlan`].
 #[derive(Debug, Clone)]
 pub struct RlsScan {
     k: f64,
@@ -497,15 +587,21 @@ pub struct RlsScan {
     state: [f64; 9],
     /// The first checked row of the current run of checks inside the band.
     settle: Option<usize>,
-    last_check: f64,
+    plan: Arc<RlsPlan>,
+    /// The next of the plan's checks.
+    next_check: usize,
+    /// Each check's states of the [`PLANNED`] terms, while the plan is made.
+    record: Option<Vec<[f64; 5]>>,
     /// The next row to take, and the row count.
     next: usize,
     n: usize,
 }
 
 impl RlsScan {
-    /// A scan of `n` rows (see [`rls_scan`] for the arguments).
-    pub fn new(k: f64, lambda: f64, target: f64, band: f64, n: usize) -> Self {
+    /// A scan of `n` rows with the plan of their regression (see [`rls_scan`] for the
+    /// arguments).
+    pub fn new(k: f64, plan: Arc<RlsPlan>, target: f64, band: f64, n: usize) -> Self {
+        let lambda = plan.lambda;
         RlsScan {
             k,
             lambda,
@@ -518,14 +614,16 @@ impl RlsScan {
             lanes: [[0.0; LANES]; 9],
             state: [0.0; 9],
             settle: None,
-            last_check: f64::NEG_INFINITY,
+            plan,
+            next_check: 0,
+            record: None,
             next: 0,
             n,
         }
     }
 
     /// Take rows up to `end` (exclusive; a multiple of four, or the row count).
-    pub fn advance(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
+    pub fn advance(&mut self, rows: RowsView<'_>, end: usize) {
         assert!(
             end.is_multiple_of(LANES) || end == self.n,
             "rows split at {end}"
@@ -534,31 +632,39 @@ impl RlsScan {
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.advance_avx2(rows, t, end) };
+                return unsafe { self.advance_avx2(rows, end) };
             }
         }
-        self.advance_portable(rows, t, end);
+        self.advance_by::<false>(rows, end);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn advance_avx2(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
-        if self.lambda == 1.0 {
-            self.advance_body::<true, false>(rows, t, end);
-        } else {
-            self.advance_body::<true, true>(rows, t, end);
-        }
+    fn advance_avx2(&mut self, rows: RowsView<'_>, end: usize) {
+        self.advance_by::<true>(rows, end);
     }
 
+    /// [`advance`](Self::advance) by the loop compiled for λ = 1 or not and for the
+    /// columns of the regression's own the rows read.
     #[inline(always)]
-    fn advance_portable(&mut self, rows: RowsView<'_>, t: &[f64], end: usize) {
-        if self.lambda == 1.0 {
-            self.advance_body::<false, false>(rows, t, end);
-        } else {
-            self.advance_body::<false, true>(rows, t, end);
+    fn advance_by<const AVX2: bool>(&mut self, rows: RowsView<'_>, end: usize) {
+        let planned = !self.plan.fixed.is_empty();
+        let free = match (planned, rows.noise_free_f_c, rows.noise_free_y) {
+            (true, true, true) => FREE_F_C_Y,
+            (true, true, false) => FREE_F_C,
+            _ => FREE_NONE,
+        };
+        match (self.lambda == 1.0, free) {
+            (true, FREE_F_C_Y) => self.advance_body::<AVX2, false, FREE_F_C_Y>(rows, end),
+            (true, FREE_F_C) => self.advance_body::<AVX2, false, FREE_F_C>(rows, end),
+            (true, _) => self.advance_body::<AVX2, false, FREE_NONE>(rows, end),
+            (false, FREE_F_C_Y) => self.advance_body::<AVX2, true, FREE_F_C_Y>(rows, end),
+            (false, FREE_F_C) => self.advance_body::<AVX2, true, FREE_F_C>(rows, end),
+            (false, _) => self.advance_body::<AVX2, true, FREE_NONE>(rows, end),
         }
     }
 
+    /// The check of the estimate at `row`.
     #[inline(always)]
     fn check(&mut self, row: usize) {
         if !settled(&self.state, self.target, self.band) {
@@ -568,18 +674,43 @@ impl RlsScan {
         }
     }
 
+    /// The plan's next check, at `row` (the last of a group): the state of each term the
+    /// realisation sums from its lanes (`sum(k)`, the lanes' (l₀ + l₁) + (l₂ + l₃)), of
+    /// the others from the plan; then the check.
     #[inline(always)]
-    fn advance_body<const AVX2: bool, const FORGET: bool>(
+    fn check_group<const FREE: u8>(
+        &mut self,
+        plan: &RlsPlan,
+        sum: impl Fn(usize) -> f64,
+        row: usize,
+    ) {
+        let j = self.next_check;
+        for k in 0..9 {
+            self.state[k] = if summed(FREE, k) {
+                sum(k)
+            } else {
+                let slot = PLANNED.iter().position(|&p| p == k);
+                plan.fixed[j][slot.expect("a planned term")]
+            };
+        }
+        if let Some(record) = &mut self.record {
+            record.push(PLANNED.map(|k| self.state[k]));
+        }
+        self.next_check += 1;
+        self.check(row);
+    }
+
+    #[inline(always)]
+    fn advance_body<const AVX2: bool, const FORGET: bool, const FREE: u8>(
         &mut self,
         rows: RowsView<'_>,
-        t: &[f64],
         end: usize,
     ) {
         let n = self.n;
         let whole = n - n % LANES;
         let k = self.k;
         let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
-        self.groups::<AVX2, FORGET>([f, w, c, y], t, self.next, end.min(whole), whole);
+        self.groups::<AVX2, FORGET, FREE>([f, w, c, y], self.next, end.min(whole));
         self.next = self.next.max(end.min(whole));
         if end == n {
             for i in whole.max(self.next)..n {
@@ -593,26 +724,24 @@ impl RlsScan {
         }
     }
 
-    /// Add the groups of four rows `start .. to` into the lanes, checking the estimate at
-    /// the end of each group due a check ([`RLS_CHECK_S`] after the last, or the last
-    /// group, ending at `whole`).
+    /// Add the groups of four rows `start .. to` into the lanes (the terms `FREE` leaves to
+    /// be summed), checking the estimate at the end of each group the plan checks.
     #[inline(always)]
-    fn groups<const AVX2: bool, const FORGET: bool>(
+    fn groups<const AVX2: bool, const FORGET: bool, const FREE: u8>(
         &mut self,
         cols: [&[f64]; 4],
-        t: &[f64],
         start: usize,
         to: usize,
-        whole: usize,
     ) {
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
             // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are
             // called only where the CPU has it.
-            return unsafe { simd::rls_groups::<FORGET>(self, cols, t, start, to, whole) };
+            return unsafe { simd::rls_groups::<FORGET, FREE>(self, cols, start, to) };
         }
         let [f, w, c, y] = cols;
         let (k, age, entry) = (self.k, self.age, self.entry);
+        let plan = Arc::clone(&self.plan);
         let mut lanes = self.lanes;
         for start in (start..to).step_by(LANES) {
             let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
@@ -631,7 +760,10 @@ impl RlsScan {
                 mul(x2, y),
                 mul(x3, y),
             ];
-            for (lane, t) in lanes.iter_mut().zip(terms) {
+            for (kk, (lane, t)) in lanes.iter_mut().zip(terms).enumerate() {
+                if !summed(FREE, kk) {
+                    continue;
+                }
                 for l in 0..LANES {
                     // λ = 1: the factors are exactly 1, so this is the same sum.
                     lane[l] = if FORGET {
@@ -642,10 +774,8 @@ impl RlsScan {
                 }
             }
             let last = start + LANES - 1;
-            if t[last] - self.last_check >= RLS_CHECK_S || last + 1 == whole {
-                self.last_check = t[last];
-                self.state = lanes.map(reduce);
-                self.check(last);
+            if plan.checks.get(self.next_check) == Some(&last) {
+                self.check_group::<FREE>(&plan, |kk| reduce(lanes[kk]), last);
             }
         }
         self.lanes = lanes;
@@ -727,6 +857,7 @@ mod tests {
             y: &cols[3],
             s: &cols[3],
             noise_free_f_c: false,
+            noise_free_y: false,
         }
     }
 
@@ -812,11 +943,19 @@ mod tests {
         }
     }
 
-    /// The scan of all rows in one portable pass, with the sum `FORGET` says.
-    fn portable<const FORGET: bool>(cols: &[Vec<f64>; 4], t: &[f64], lambda: f64) -> RlsResult {
+    /// The scan of all rows in one portable pass, with the sum `FORGET` says, summing the
+    /// terms `FREE` leaves to be summed (the others' states from the plan of the rows' own
+    /// x₁, x₃, y).
+    fn portable<const FORGET: bool, const FREE: u8>(
+        cols: &[Vec<f64>; 4],
+        t: &[f64],
+        lambda: f64,
+    ) -> RlsResult {
         let n = t.len();
-        let mut scan = RlsScan::new(3.3, lambda, 5e-4, 1e-5, n);
-        scan.advance_body::<false, FORGET>(view(cols), t, n);
+        let own = Some([&cols[0][..], &cols[2][..], &cols[3][..]]);
+        let plan = Arc::new(RlsPlan::new(t, own, lambda));
+        let mut scan = RlsScan::new(3.3, plan, 5e-4, 1e-5, n);
+        scan.advance_body::<false, FORGET, FREE>(view(cols), n);
         scan.finish()
     }
 
@@ -824,16 +963,17 @@ mod tests {
     fn the_dispatched_and_portable_builds_agree_bit_for_bit() {
         let (t, cols) = rows(1203);
         for lambda in [1.0, 0.995] {
-            assert_eq!(
-                rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5),
-                portable::<true>(&cols, &t, lambda)
-            );
+            let want = rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5);
+            assert_eq!(want, portable::<true, FREE_NONE>(&cols, &t, lambda));
+            // The planned terms' states taken from the plan: the same bits.
+            assert_eq!(want, portable::<true, FREE_F_C>(&cols, &t, lambda));
+            assert_eq!(want, portable::<true, FREE_F_C_Y>(&cols, &t, lambda));
         }
         // λ = 1: the specialised sum is the general one with factors of exactly 1.
-        assert_eq!(
-            portable::<false>(&cols, &t, 1.0),
-            portable::<true>(&cols, &t, 1.0)
-        );
+        let want = portable::<true, FREE_NONE>(&cols, &t, 1.0);
+        assert_eq!(want, portable::<false, FREE_NONE>(&cols, &t, 1.0));
+        assert_eq!(want, portable::<false, FREE_F_C>(&cols, &t, 1.0));
+        assert_eq!(want, portable::<false, FREE_F_C_Y>(&cols, &t, 1.0));
         for (a, b) in [(0, 1203), (5, 18), (100, 103)] {
             for grade in [false, true] {
                 assert_eq!(
@@ -847,19 +987,47 @@ mod tests {
     #[test]
     fn a_scan_taken_in_pieces_is_the_scan_in_one_pass_bit_for_bit() {
         // The kernel advances the scan block by block (multiples of four rows) while it
-        // measures them; the settle row needs a band that is met part of the way.
+        // measures them; the settle row needs a band that is met part of the way. The scan
+        // of rows whose x̃₁, x̃₃ (and ỹ) are the regression's takes the states of the terms
+        // of those columns from the regression's plan: the same bits as summing them, with
+        // ỹ the regression's and with ỹ moved (output noise).
         for n in [3usize, 401, 1203, 1204] {
             let (t, cols) = rows(n);
+            let mut moved = cols.clone();
+            for (i, y) in moved[3].iter_mut().enumerate() {
+                *y += 1e-3 * ((i * 31 % 17) as f64 - 8.0);
+            }
             for lambda in [1.0, 0.995] {
-                let whole = rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 5e-5);
-                for piece in [4, 256, 1000] {
-                    let mut scan = RlsScan::new(3.3, lambda, 5e-4, 5e-5, n);
-                    let mut end = 0;
-                    while end < n {
-                        end = (end + piece).min(n);
-                        scan.advance(view(&cols), &t, end);
+                let own = [&cols[0][..], &cols[2][..], &cols[3][..]];
+                let plan = Arc::new(RlsPlan::new(&t, Some(own), lambda));
+                let unplanned = Arc::new(RlsPlan::new(&t, None, lambda));
+                fn free(cols: &[Vec<f64>; 4], y_free: bool) -> RowsView<'_> {
+                    RowsView {
+                        noise_free_f_c: true,
+                        noise_free_y: y_free,
+                        ..view(cols)
                     }
-                    assert_eq!(scan.finish(), whole, "n {n} λ {lambda} pieces of {piece}");
+                }
+                let cases = [
+                    (&unplanned, view(&cols), view(&cols)),
+                    (&plan, free(&cols, true), view(&cols)),
+                    (&plan, free(&moved, false), view(&moved)),
+                ];
+                for (plan, rows, plain) in cases {
+                    let whole = rls_scan(plain, &t, 3.3, lambda, 5e-4, 5e-5);
+                    for piece in [4, 256, 1000] {
+                        let mut scan = RlsScan::new(3.3, Arc::clone(plan), 5e-4, 5e-5, n);
+                        let mut end = 0;
+                        while end < n {
+                            end = (end + piece).min(n);
+                            scan.advance(rows, end);
+                        }
+                        let what = format!(
+                            "n {n} λ {lambda} pieces of {piece}, free {} {}",
+                            rows.noise_free_f_c, rows.noise_free_y
+                        );
+                        assert_eq!(scan.finish(), whole, "{what}");
+                    }
                 }
             }
         }

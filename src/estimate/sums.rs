@@ -328,6 +328,7 @@ mod tests {
             y: &reg.y,
             s: &reg.g_sin,
             noise_free_f_c: true,
+            noise_free_y: true,
         };
         let (ranges, constant) = reg.segments(SEGMENT_S);
         assert!(ranges.len() > 3);

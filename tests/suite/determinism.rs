@@ -426,3 +426,51 @@ fn refactors_keep_the_drawn_entries_bit_for_bit() {
         ]
     );
 }
+
+#[test]
+fn refactors_keep_the_row_scans_bit_for_bit() {
+    // WBCLS's segment moments and RLS's running sums over the rows (docs/model.md,
+    // "Estimators that read the rows"): the thesis path (only w moved), with forgetting,
+    // with output noise (ỹ moved) and with grade noise (x̃₃ and ỹ moved). Pinned on the
+    // engine before RLS took the states of the terms of noise-free columns from its plan.
+    let cases = [
+        ("[0.0]", "", ""),
+        ("[0.0]", "", "\nforgetting = 0.995"),
+        ("[0.05]", "", ""),
+        ("[0.0]", "\ngrade_sd = [0.01]", ""),
+    ];
+    let mut found = Vec::new();
+    for (output, grade, estimation) in cases {
+        let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
+        let text = set_key(&text, "velocity_sd", &format!("[0.5]{grade}"));
+        let text = set_key(&text, "output_sd", output);
+        let text = set_key(
+            &text,
+            "estimators",
+            &format!("[\"ols\", \"wbcls\", \"rls\"]{estimation}"),
+        );
+        let study = chassis_mc::study::Study::from_toml(&text, "pinned")
+            .unwrap()
+            .with_overrides(Some(32), None)
+            .unwrap();
+        let (dir, _) = run(&study, None);
+        for name in ["realisations", "summary"] {
+            let table = read_table(&dir.path().join(format!("{name}.parquet")));
+            found.push(hash_columns(&table, &|_| true));
+        }
+    }
+    println!("row scans' hashes: {found:016x?}");
+    assert_eq!(
+        found,
+        [
+            0x48ae_7793_8259_998c,
+            0x7fd4_a65b_6316_6e3b,
+            0x1865_199b_db9a_7971,
+            0x8793_7c34_d4b4_da80,
+            0x91a6_bd4a_7bb4_b978,
+            0x2ebf_e92e_574f_d191,
+            0xb13b_9dd0_77f6_3139,
+            0x32f8_02f5_5c6d_83eb,
+        ]
+    );
+}
