@@ -28,7 +28,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
 use super::moments::{GradeSums, Moments};
-use super::row_sums::RlsPlan;
+use super::row_sums::{RlsPlan, output_sums};
 use super::sums::{Column as Factor, Sum};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
@@ -272,9 +272,6 @@ impl Regression {
         }
     }
 
-    /// Consecutive row ranges of at least `segment_s` \[s\] each (the last may be shorter;
-    /// a range holds at least one row), and over each the noise-free sums of x₁ and x₃ alone
-    /// (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃; the rest zero). Computed on first use; `segment_s` must
     /// What the `rls` scans of this regression's rows share under forgetting factor
     /// `lambda` ([`RlsPlan`]); computed on first use, `lambda` must be the same at every
     /// call.
@@ -291,7 +288,12 @@ impl Regression {
         Arc::clone(plan)
     }
 
-    /// be the same at every call.
+    /// Consecutive row ranges of at least `segment_s` \[s\] each (the last may be shorter;
+    /// a range holds at least one row), and over each the noise-free sums of the terms
+    /// without w: those of x₁ and x₃ alone (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃), and Σx₁y, Σx₃y,
+    /// Σy in four lanes as `row_sums.rs` sums a segment (so a segment whose ỹ is y takes
+    /// them to the same bits); the rest zero. Computed on first use; `segment_s` must be the
+    /// same at every call.
     pub fn segments(&self, segment_s: f64) -> (&[(usize, usize)], &[Moments]) {
         let (ranges, sums) = self.segments.get_or_init(|| {
             let t = &self.t;
@@ -321,6 +323,8 @@ impl Regression {
                             _ => unreachable!("a sum has one or two factors"),
                         };
                     }
+                    [m.s_1y, m.s_3y, m.s_y] =
+                        output_sums(&self.f[a..b], &self.c[a..b], &self.y[a..b]);
                     m
                 })
                 .collect();

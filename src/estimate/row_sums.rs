@@ -29,7 +29,9 @@ pub const RLS_CHECK_S: f64 = 0.25;
 
 /// The moments of rows `start..end` (N = the row count). With `constant`, the sums of
 /// x̃₁ and x̃₃ alone (Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃) are taken from it instead of being
-/// summed: the caller passes them where those columns are noise-free. With `grade`, the
+/// summed: the caller passes them where those columns are noise-free (the segment's of
+/// `Regression::segments`); where `rows.noise_free_y` says ỹ is noise-free too, so are
+/// Σx̃₁ỹ, Σx̃₃ỹ and Σỹ. With `grade`, the
 /// sums of the grade term ([`GradeSums`]) as well (`None` without).
 pub fn segment_moments(
     rows: RowsView<'_>,
@@ -125,9 +127,14 @@ mod simd {
         unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
     }
 
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn lane_sums<const K: usize>(
+    /// The lane sums of `terms` (see [`super::lane_sums`]): always inlined, so that the
+    /// terms are constants of the loop (a function compiled for AVX2 cannot be forced
+    /// inline, and out of line the terms would be read at run time).
+    ///
+    /// # Safety
+    /// The CPU supports AVX2; called only from a function compiled for it.
+    #[inline(always)]
+    pub(super) unsafe fn lane_sums<const K: usize>(
         cols: [&[f64]; 4],
         terms: [Term; K],
         whole: usize,
@@ -136,20 +143,23 @@ mod simd {
         for (c, col) in cols.iter().enumerate() {
             assert!(!used(c) || col.len() >= whole);
         }
-        let mut acc = [_mm256_setzero_pd(); K];
-        let mut i = 0;
-        while i < whole {
-            for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-                let t = if z == ALONE {
-                    load(cols[x], i)
-                } else {
-                    _mm256_mul_pd(load(cols[x], i), load(cols[z], i))
-                };
-                *a = _mm256_add_pd(*a, t);
+        // SAFETY: the CPU supports AVX2, as the caller promises.
+        unsafe {
+            let mut acc = [_mm256_setzero_pd(); K];
+            let mut i = 0;
+            while i < whole {
+                for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+                    let t = if z == ALONE {
+                        load(cols[x], i)
+                    } else {
+                        _mm256_mul_pd(load(cols[x], i), load(cols[z], i))
+                    };
+                    *a = _mm256_add_pd(*a, t);
+                }
+                i += LANES;
             }
-            i += LANES;
+            acc.map(|a| lanes(a))
         }
-        acc.map(|a| lanes(a))
     }
 
     /// (l₀ + l₁) + (l₂ + l₃) of a register's lanes, the portable `reduce`'s additions.
@@ -241,6 +251,42 @@ fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [
     acc.map(reduce)
 }
 
+/// The sums that involve w: [Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw], each the same bits as in
+/// [`noisy_sums`] (a term's lanes are summed apart from the others').
+#[inline(always)]
+fn w_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 5] {
+    let n = f.len();
+    let whole = n - n % LANES;
+    // Columns 0..4: x̃₁, w, x̃₃, ỹ.
+    let terms = [(0, 1), (2, 1), (1, 1), (1, 3), (1, ALONE)];
+    let mut acc = lane_sums::<AVX2, 5>([f, w, c, y], terms, whole);
+    for i in whole..n {
+        let (x1, w, x3, y) = (f[i], w[i], c[i], y[i]);
+        for (a, t) in acc.iter_mut().zip([x1 * w, x3 * w, w * w, w * y, w]) {
+            a[0] += t;
+        }
+    }
+    acc.map(reduce)
+}
+
+/// The sums of ỹ without w: [Σx̃₁ỹ, Σx̃₃ỹ, Σỹ] of rows `f`, `c`, `y`, the same bits as
+/// [`segment_moments`] sums them (the portable build; the AVX2 build agrees bit for bit).
+/// For the regression's noise-free sums over each segment (`Regression::segments`).
+pub(crate) fn output_sums(f: &[f64], c: &[f64], y: &[f64]) -> [f64; 3] {
+    let n = f.len();
+    let whole = n - n % LANES;
+    // Columns 0..4: x₁, (none), x₃, y.
+    let terms = [(0, 3), (2, 3), (3, ALONE)];
+    let mut acc = lane_sums::<false, 3>([f, &[], c, y], terms, whole);
+    for i in whole..n {
+        let (x1, x3, y) = (f[i], c[i], y[i]);
+        for (a, t) in acc.iter_mut().zip([x1 * y, x3 * y, y]) {
+            a[0] += t;
+        }
+    }
+    acc.map(reduce)
+}
+
 /// The sums of x̃₁ and x̃₃ alone: [Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃].
 #[inline(always)]
 fn regressor_sums<const AVX2: bool>(f: &[f64], c: &[f64]) -> [f64; 5] {
@@ -295,7 +341,14 @@ fn segment_moments_body<const AVX2: bool>(
         &rows.y[start..end],
     );
     let grade = grade.then(|| grade_sums::<AVX2>(f, w, c, &rows.s[start..end]));
-    let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = noisy_sums::<AVX2>(f, w, c, y);
+    let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = match constant {
+        // ỹ the regression's: its sums without w are the segment's noise-free ones.
+        Some(m) if rows.noise_free_y => {
+            let [s_1w, s_3w, s_ww, s_wy, s_w] = w_sums::<AVX2>(f, w, c, y);
+            [m.s_1y, m.s_3y, s_1w, s_3w, s_ww, s_wy, s_w, m.s_y]
+        }
+        _ => noisy_sums::<AVX2>(f, w, c, y),
+    };
     let [s_11, s_13, s_33, s_1, s_3] = match constant {
         Some(m) => [m.s_11, m.s_13, m.s_33, m.s_1, m.s_3],
         None => regressor_sums::<AVX2>(f, c),

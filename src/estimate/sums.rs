@@ -282,8 +282,8 @@ mod tests {
     use crate::estimate::wbcls::SEGMENT_S;
 
     /// The hand-written lists of sums against their definition: for every [`Sum`], the
-    /// regression's noise-free moments, its noise-free segment sums (the sums of x₁ and x₃
-    /// alone, the rest zero) and the segment sums of `row_sums.rs` (summed, and with those
+    /// regression's noise-free moments, its noise-free segment sums (the sums without w,
+    /// the rest zero) and the segment sums of `row_sums.rs` (summed, and with those
     /// of x₁ and x₃ taken from the segment sums) equal Σ of the product of the sum's
     /// factors over the rows (the noise-free rows; the kernel's paths are checked against
     /// the macro's own `add_row` in `moments.rs`). The lists sum in other orders (lanes, blocks,
@@ -296,10 +296,11 @@ mod tests {
         let reg = test_regression();
         let w: Vec<f64> = reg.v.iter().map(|v| v * v).collect();
         let row = |i: usize| [reg.f[i], w[i], reg.c[i], reg.y[i]];
-        let check = |what: &str, m: &Moments, a: usize, b: usize, only_regressors: bool| {
+        // `without_w`: only the sums without w are expected (the others zero).
+        let check = |what: &str, m: &Moments, a: usize, b: usize, without_w: bool| {
             for s in Sum::ALL {
                 let (mut sum, mut abs) = (0.0, 0.0);
-                if s.regressors_only() || !only_regressors {
+                if !s.factors().contains(&Column::W) || !without_w {
                     for i in a..b {
                         let t: f64 = s.factors().iter().map(|c| row(i)[c.index()]).product();
                         sum += t;
@@ -343,6 +344,12 @@ mod tests {
             );
             let m = segment_moments(view, a, b, Some(k), false);
             check("segment_moments with constants", &m, a, b, false);
+            // The constants of ỹ are the sums it would take of the rows, bit for bit.
+            let summed = RowsView {
+                noise_free_y: false,
+                ..view
+            };
+            assert_eq!(m, segment_moments(summed, a, b, Some(k), false));
         }
     }
 
