@@ -129,21 +129,15 @@ fn derivative_variance(r: &Realisation<'_>, segments: &[(usize, usize)]) -> Opti
 /// the mean of Ṽ² − σ² (an unbiased local V², at least 0) and of x̃₃²; the means over all
 /// segments where it has no neighbour.
 fn neighbour_means(moments: &[Moments], s2: f64, skip: usize) -> Vec<(f64, f64)> {
-    let mean = |ms: &mut dyn Iterator<Item = &Moments>| {
-        let (mut w, mut c2, mut n) = (0.0, 0.0, 0.0);
-        for m in ms {
-            w += m.s_w;
-            c2 += m.s_33;
-            n += m.n;
-        }
-        (n > 0.0).then(|| ((w / n - s2).max(0.0), c2 / n))
-    };
-    let overall = mean(&mut moments.iter()).unwrap_or((0.0, 0.0));
+    // [ΣṼ², Σx̃₃², N] of segments, each added in turn, and their means (`None`: no row).
+    let add = |[w, c2, n]: [f64; 3], m: &Moments| [w + m.s_w, c2 + m.s_33, n + m.n];
+    let mean = |[w, c2, n]: [f64; 3]| (n > 0.0).then(|| ((w / n - s2).max(0.0), c2 / n));
+    let overall = mean(moments.iter().fold([0.0; 3], add)).unwrap_or((0.0, 0.0));
     (0..moments.len())
         .map(|b| {
             let before = b.checked_sub(skip + 1).map(|i| &moments[i]);
-            let after = moments.get(b + skip + 1);
-            mean(&mut before.into_iter().chain(after)).unwrap_or(overall)
+            let near = before.into_iter().chain(moments.get(b + skip + 1));
+            mean(near.fold([0.0; 3], add)).unwrap_or(overall)
         })
         .collect()
 }
