@@ -18,6 +18,11 @@ OLS + BCLS + WBCLS.
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
         [--before OTHER/target/release/chassis-mc] [--only REGEX]
+
+With `--in-process` the costs come instead from `examples/path_ratio.rs` (built by
+`cargo build --release --example path_ratio`), which computes realisations of the thesis
+path and of each path alternately in one process, best of eight rounds each: no process
+start, preparation or output in the timings, and the two timings moments apart.
 """
 
 import argparse
@@ -104,6 +109,10 @@ def main():
     ap.add_argument("--before", type=pathlib.Path,
                     help="another chassis-mc (an earlier commit's build) measured in the same "
                          "run, alternating with --binary: its columns come first")
+    ap.add_argument("--in-process", action="store_true",
+                    help="time realisations in one process (examples/path_ratio.rs, built "
+                         "by `cargo build --release --example path_ratio`) instead of "
+                         "whole runs; --binary still gives the rows regressed")
     ap.add_argument("--only", metavar="REGEX",
                     help="measure only the paths whose names match (the thesis path always, "
                          "as the base of the ratios)")
@@ -127,6 +136,11 @@ def main():
             large = wall(binary, study, args.large, out, args.repeat)
             return (large - small) / (args.large - SMALL), rows_regressed(out)
 
+        if args.in_process:
+            if args.before:
+                ap.error("--in-process measures this checkout's build only (no --before)")
+            in_process(args, paths, tmp)
+            return
         for i, (name, text) in enumerate(paths):
             for binary, rows in zip(binaries, results):
                 # The thesis path again beside each path, so that its ratio compares two
@@ -144,6 +158,38 @@ def main():
             _, per_r, per_s, _, base = rows[i]
             cells += [f"{1e3 * per_r:.3f}", f"{1e9 * per_s:.1f}", f"{per_s / base:.2f}"]
         print(f"| {name} | {n} | " + " | ".join(cells) + " |")
+
+def in_process(args, paths, tmp):
+    """The table from `examples/path_ratio.rs`: each path against the thesis path in one
+    process."""
+    ratio = ROOT / "target" / "release" / "examples" / "path_ratio"
+    if not ratio.exists():
+        raise SystemExit(f"{ratio} missing: cargo build --release --example path_ratio")
+
+    def study(i, text):
+        """The study file of path i and the rows it regresses (from a run of one
+        realisation)."""
+        file = tmp / f"path{i}.toml"
+        file.write_text(text)
+        out = tmp / f"rows{i}"
+        shutil.rmtree(out, ignore_errors=True)
+        subprocess.run([str(args.binary), "run", str(file), "--out", str(out), "--threads", "1",
+                        "--realisations", "1", "--quiet"], check=True,
+                       stdout=subprocess.DEVNULL)
+        return file, rows_regressed(out)
+
+    base, base_n = study(0, paths[0][1])
+    print("| path | rows | ms / realisation | ns / sample | × thesis per sample |")
+    print("|---|---|---|---|---|")
+    for i, (name, text) in enumerate(paths):
+        file, n = (base, base_n) if i == 0 else study(i, text)
+        line = subprocess.run([str(ratio), str(base), str(file), "8", "80"], check=True,
+                              capture_output=True, text=True).stdout.split()
+        base_ms, ms = float(line[0]), float(line[1])
+        per_s, base_s = ms * 1e-3 / n, base_ms * 1e-3 / base_n
+        print(f"| {name} | {n} | {ms:.3f} | {1e9 * per_s:.1f} | {per_s / base_s:.2f} |",
+              flush=True)
+
 
 if __name__ == "__main__":
     main()
