@@ -112,7 +112,8 @@ def main():
     ap.add_argument("--in-process", action="store_true",
                     help="time realisations in one process (examples/path_ratio.rs, built "
                          "by `cargo build --release --example path_ratio`) instead of "
-                         "whole runs; --binary still gives the rows regressed")
+                         "whole runs (--repeat and --large do not apply); --binary still "
+                         "gives the rows regressed")
     ap.add_argument("--only", metavar="REGEX",
                     help="measure only the paths whose names match (the thesis path always, "
                          "as the base of the ratios)")

@@ -144,16 +144,24 @@ def test_a_failure_while_running_is_a_run_error(tmp_path):
 
 INTERRUPTED = textwrap.dedent(
     """
-    import os, signal, sys, chassis_mc
+    import os, signal, sys, threading, time, chassis_mc
+    # Python's own Ctrl-C handler, as in a terminal: a process started in the background
+    # by a shell without job control inherits SIGINT ignored, and Python then leaves it so.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     stop_at = int(sys.argv[4])
-    def progress(done, total):
-        print(f"progress {done} {total}", file=sys.stderr, flush=True)
-        # Ctrl-C as the terminal sends it (SIGINT to the process), once the progress shows
-        # `stop_at` realisations done: sent from here, it arrives while the run is going
-        # whatever the load on the machine (a parent that reads this line and signals
-        # could be scheduled after a short run has finished).
-        if done >= stop_at:
-            os.kill(os.getpid(), signal.SIGINT)
+    done = [0]
+    def progress(count, total):
+        print(f"progress {count} {total}", file=sys.stderr, flush=True)
+        done[0] = count
+    def ctrl_c():
+        # Ctrl-C as the terminal sends it (SIGINT to the process) once the progress shows
+        # `stop_at` realisations done, from this thread while the main thread waits on the
+        # run: it arrives while the run is going whatever the load on the machine (a parent
+        # reading the progress could be scheduled after a short run has finished).
+        while done[0] < stop_at:
+            time.sleep(0.001)
+        os.kill(os.getpid(), signal.SIGINT)
+    threading.Thread(target=ctrl_c, daemon=True).start()
     try:
         chassis_mc.run(sys.argv[1], out=sys.argv[2], realisations=int(sys.argv[3]),
                        threads=1, progress=progress)

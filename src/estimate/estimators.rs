@@ -299,7 +299,8 @@ pub fn estimates_without_draws(
     let scans = rows.as_ref().map(|rows| {
         let mut scans = RowScans::default();
         let grade = noise.is_on(Channel::Grade);
-        scans.reset(reads, reg, grade, rls_target(settings, truth));
+        // One scan of these rows: nothing to share with others.
+        scans.reset(reads, reg, grade, rls_target(settings, truth), false);
         scans.advance(rows.view(reg), reg, reg.len());
         scans
     });

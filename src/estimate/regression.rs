@@ -77,8 +77,8 @@ impl<T: fmt::Debug> fmt::Debug for Column<T> {
     }
 }
 
-/// Row ranges and the noise-free sums of x₁ and x₃ over each (see [`Regression::segments`]).
-/// Row ranges a..b and a value of each.
+/// Row ranges a..b and a value of each: the weight segments and their noise-free sums
+/// without w (see [`Regression::segments`]), or the spans of a differentiated acceleration.
 type Segments<T = Moments> = (Vec<(usize, usize)>, Vec<T>);
 
 /// The noise-free regression of one drive cycle and its constant sums.
@@ -128,8 +128,8 @@ pub struct Regression {
     /// The logged speed samples a differentiated acceleration reads (`None`: the
     /// regression's output holds the model acceleration).
     pub differentiation: Option<Differentiation>,
-    /// The weight segments of `wbcls` and the noise-free sums of x₁ and x₃ over each,
-    /// computed when first asked for.
+    /// The weight segments of `wbcls` and the noise-free sums without w over each
+    /// (those of x₁ and x₃ alone, Σx₁y, Σx₃y, Σy), computed when first asked for.
     segments: OnceLock<Segments>,
     /// What the `rls` scans of the realisations share, computed when first asked for.
     rls: OnceLock<Arc<RlsPlan>>,

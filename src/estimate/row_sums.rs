@@ -444,8 +444,18 @@ pub struct RlsTarget {
 
 impl RowScans {
     /// Empty scans of `reg`'s rows for what `reads` asks (`grade`: the segments sum the
-    /// grade term too), keeping the memory of earlier realisations.
-    pub fn reset(&mut self, reads: RowReads, reg: &Regression, grade: bool, rls: RlsTarget) {
+    /// grade term too), keeping the memory of earlier realisations. `shared`: `reg` serves
+    /// many realisations (a condition's), so RLS takes what they share from its plan
+    /// ([`Regression::rls_plan`], made once); otherwise (a realisation's own regression)
+    /// RLS sums every term itself, the same bits without a plan to make per realisation.
+    pub fn reset(
+        &mut self,
+        reads: RowReads,
+        reg: &Regression,
+        grade: bool,
+        rls: RlsTarget,
+        shared: bool,
+    ) {
         self.segments = match (reads.segments, self.segments.take()) {
             (true, Some(mut scan)) => {
                 scan.reset(grade);
@@ -455,7 +465,10 @@ impl RowScans {
             (false, _) => None,
         };
         self.rls = reads.rls.then(|| {
-            let plan = reg.rls_plan(rls.lambda);
+            let plan = match shared {
+                true => reg.rls_plan(rls.lambda),
+                false => Arc::new(RlsPlan::new(&reg.t, None, rls.lambda)),
+            };
             RlsScan::new(reg.k, plan, rls.target, rls.band, reg.len())
         });
     }

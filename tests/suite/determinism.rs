@@ -431,16 +431,19 @@ fn refactors_keep_the_drawn_entries_bit_for_bit() {
 fn refactors_keep_the_row_scans_bit_for_bit() {
     // WBCLS's segment moments and RLS's running sums over the rows (docs/model.md,
     // "Estimators that read the rows"): the thesis path (only w moved), with forgetting,
-    // with output noise (ỹ moved) and with grade noise (x̃₃ and ỹ moved). Pinned on the
-    // engine before RLS took the states of the terms of noise-free columns from its plan.
+    // with output noise (ỹ moved), with grade noise (x̃₃ and ỹ moved) and on each
+    // realisation's own regression. Pinned on the engine before RLS took the states of the
+    // terms of noise-free columns from its plan (commit 9bee3d7).
     let cases = [
-        ("[0.0]", "", ""),
-        ("[0.0]", "", "\nforgetting = 0.995"),
-        ("[0.05]", "", ""),
-        ("[0.0]", "\ngrade_sd = [0.01]", ""),
+        ("[0.0]", "", "", ""),
+        ("[0.0]", "", "\nforgetting = 0.995", ""),
+        ("[0.05]", "", "", ""),
+        ("[0.0]", "\ngrade_sd = [0.01]", "", ""),
+        // A random force calibration: each realisation's own regression.
+        ("[0.0]", "", "", "\n[truth]\nforce_scale_sd = [0.03]\n"),
     ];
     let mut found = Vec::new();
-    for (output, grade, estimation) in cases {
+    for (output, grade, estimation, truth) in cases {
         let text = set_key(&study_text("bias_compensation.toml"), "scales", "[1.0]");
         let text = set_key(&text, "velocity_sd", &format!("[0.5]{grade}"));
         let text = set_key(&text, "output_sd", output);
@@ -449,6 +452,7 @@ fn refactors_keep_the_row_scans_bit_for_bit() {
             "estimators",
             &format!("[\"ols\", \"wbcls\", \"rls\"]{estimation}"),
         );
+        let text = format!("{text}{truth}");
         let study = chassis_mc::study::Study::from_toml(&text, "pinned")
             .unwrap()
             .with_overrides(Some(32), None)
@@ -471,6 +475,8 @@ fn refactors_keep_the_row_scans_bit_for_bit() {
             0x2ebf_e92e_574f_d191,
             0xb13b_9dd0_77f6_3139,
             0x32f8_02f5_5c6d_83eb,
+            0x808d_ee45_156f_b98d,
+            0xbe3c_1f33_3fbe_94e5,
         ]
     );
 }

@@ -258,6 +258,8 @@ impl MeasuredBlock {
     #[inline(always)]
     pub(super) fn measure_and_sum_portable(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
         self.measure_one_pass::<false>(b);
+        // Zero sums of x̃₁ and x̃₃ alone where they are not wanted; the block's view never
+        // says ỹ is the regression's, so its sums are always summed.
         let none = Moments::default();
         segment_moments(
             self.view(b.reg),

@@ -264,7 +264,8 @@ impl VehicleModel {
             rows.reset(reg, &cond.noise);
             let grade = cond.noise.is_on(Channel::Grade);
             let rls = rls_target(&self.study.settings, &self.truth);
-            scans.reset(self.reads, reg, grade, rls);
+            // A realisation's own regression (drawn entries) serves it alone.
+            scans.reset(self.reads, reg, grade, rls, world.is_none());
             let kept = Some((&mut *rows, &mut *scans));
             let moments = self.measure(seed, c, r, reg, ar1, kept, span);
             self.conclude(c, reg, &moments, Some((rows, scans)), slots);
