@@ -224,11 +224,33 @@ mod simd {
     }
 }
 
+/// Each term summed over all rows of `cols` (`n` rows): [`lane_sums`] of the groups of
+/// four, the rows after them into lane 0, then each sum (l₀ + l₁) + (l₂ + l₃). The sums
+/// below are this with their lists of terms; a term's lanes are summed apart from the
+/// others', so a term has the same bits in any list.
+#[inline(always)]
+fn sums<const AVX2: bool, const K: usize>(
+    cols: [&[f64]; 4],
+    terms: [Term; K],
+    n: usize,
+) -> [f64; K] {
+    let whole = n - n % LANES;
+    let mut acc = lane_sums::<AVX2, K>(cols, terms, whole);
+    for i in whole..n {
+        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+            a[0] += if z == ALONE {
+                cols[x][i]
+            } else {
+                cols[x][i] * cols[z][i]
+            };
+        }
+    }
+    acc.map(reduce)
+}
+
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
 #[inline(always)]
 fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
-    let n = f.len();
-    let whole = n - n % LANES;
     // Columns 0..4: x̃₁, w, x̃₃, ỹ.
     let terms = [
         (0, 3),
@@ -240,84 +262,38 @@ fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [
         (1, ALONE),
         (3, ALONE),
     ];
-    let mut acc = lane_sums::<AVX2, 8>([f, w, c, y], terms, whole);
-    for i in whole..n {
-        let (x1, w, x3, y) = (f[i], w[i], c[i], y[i]);
-        let terms = [x1 * y, x3 * y, x1 * w, x3 * w, w * w, w * y, w, y];
-        for (a, t) in acc.iter_mut().zip(terms) {
-            a[0] += t;
-        }
-    }
-    acc.map(reduce)
+    sums::<AVX2, 8>([f, w, c, y], terms, f.len())
 }
 
-/// The sums that involve w: [Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw], each the same bits as in
-/// [`noisy_sums`] (a term's lanes are summed apart from the others').
+/// The sums that involve w: [Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw] (those of [`noisy_sums`]).
 #[inline(always)]
 fn w_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 5] {
-    let n = f.len();
-    let whole = n - n % LANES;
     // Columns 0..4: x̃₁, w, x̃₃, ỹ.
     let terms = [(0, 1), (2, 1), (1, 1), (1, 3), (1, ALONE)];
-    let mut acc = lane_sums::<AVX2, 5>([f, w, c, y], terms, whole);
-    for i in whole..n {
-        let (x1, w, x3, y) = (f[i], w[i], c[i], y[i]);
-        for (a, t) in acc.iter_mut().zip([x1 * w, x3 * w, w * w, w * y, w]) {
-            a[0] += t;
-        }
-    }
-    acc.map(reduce)
+    sums::<AVX2, 5>([f, w, c, y], terms, f.len())
 }
 
 /// The sums of ỹ without w: [Σx̃₁ỹ, Σx̃₃ỹ, Σỹ] of rows `f`, `c`, `y`, the same bits as
 /// [`segment_moments`] sums them (the portable build; the AVX2 build agrees bit for bit).
 /// For the regression's noise-free sums over each segment (`Regression::segments`).
 pub(crate) fn output_sums(f: &[f64], c: &[f64], y: &[f64]) -> [f64; 3] {
-    let n = f.len();
-    let whole = n - n % LANES;
     // Columns 0..4: x₁, (none), x₃, y.
-    let terms = [(0, 3), (2, 3), (3, ALONE)];
-    let mut acc = lane_sums::<false, 3>([f, &[], c, y], terms, whole);
-    for i in whole..n {
-        let (x1, x3, y) = (f[i], c[i], y[i]);
-        for (a, t) in acc.iter_mut().zip([x1 * y, x3 * y, y]) {
-            a[0] += t;
-        }
-    }
-    acc.map(reduce)
+    sums::<false, 3>([f, &[], c, y], [(0, 3), (2, 3), (3, ALONE)], f.len())
 }
 
 /// The sums of x̃₁ and x̃₃ alone: [Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃].
 #[inline(always)]
 fn regressor_sums<const AVX2: bool>(f: &[f64], c: &[f64]) -> [f64; 5] {
-    let n = f.len();
-    let whole = n - n % LANES;
     let terms = [(0, 0), (0, 2), (2, 2), (0, ALONE), (2, ALONE)];
-    let mut acc = lane_sums::<AVX2, 5>([f, &[], c, &[]], terms, whole);
-    for i in whole..n {
-        let (x1, x3) = (f[i], c[i]);
-        for (a, t) in acc.iter_mut().zip([x1 * x1, x1 * x3, x3 * x3, x1, x3]) {
-            a[0] += t;
-        }
-    }
-    acc.map(reduce)
+    sums::<AVX2, 5>([f, &[], c, &[]], terms, f.len())
 }
 
 /// The sums of the grade term s̃: [Σs̃, Σx̃₁s̃, Σx̃₃s̃, Σws̃].
 #[inline(always)]
 fn grade_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
-    let n = f.len();
-    let whole = n - n % LANES;
     // Columns 0..4: x̃₁, w, x̃₃, s̃.
     let terms = [(3, ALONE), (0, 3), (2, 3), (1, 3)];
-    let mut acc = lane_sums::<AVX2, 4>([f, w, c, s], terms, whole);
-    for i in whole..n {
-        let (x1, w, x3, s) = (f[i], w[i], c[i], s[i]);
-        for (a, t) in acc.iter_mut().zip([s, x1 * s, x3 * s, w * s]) {
-            a[0] += t;
-        }
-    }
-    let [s_s, s_1s, s_3s, s_ws] = acc.map(reduce);
+    let [s_s, s_1s, s_3s, s_ws] = sums::<AVX2, 4>([f, w, c, s], terms, f.len());
     GradeSums {
         s_s,
         s_1s,
