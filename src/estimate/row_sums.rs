@@ -236,6 +236,7 @@ fn sums<const AVX2: bool, const K: usize>(
 ) -> [f64; K] {
     let whole = n - n % LANES;
     let mut acc = lane_sums::<AVX2, K>(cols, terms, whole);
+    #[allow(clippy::needless_range_loop)] // row i of each of the columns a term names
     for i in whole..n {
         for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
             a[0] += if z == ALONE {
