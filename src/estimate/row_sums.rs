@@ -317,7 +317,12 @@ fn segment_moments_body<const AVX2: bool>(
         &rows.c[start..end],
         &rows.y[start..end],
     );
-    let grade = grade.then(|| grade_sums::<AVX2>(f, w, c, &rows.s[start..end]));
+    // An `if`, not a closure: a closure is not inlined into the AVX2 functions with it.
+    let grade = if grade {
+        Some(grade_sums::<AVX2>(f, w, c, &rows.s[start..end]))
+    } else {
+        None
+    };
     let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = match constant {
         // ỹ the regression's: its sums without w are the segment's noise-free ones.
         Some(m) if rows.noise_free_y => {
@@ -494,14 +499,48 @@ impl SegmentScan {
     }
 
     fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
-        let (segments, constant) = reg.segments(SEGMENT_S);
+        let (segments, constants) = reg.segments(SEGMENT_S);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { self.advance_avx2(rows, segments, constants, end) };
+            }
+        }
+        self.advance_body::<false>(rows, segments, constants, end);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn advance_avx2(
+        &mut self,
+        rows: RowsView<'_>,
+        segments: &[(usize, usize)],
+        constants: &[Moments],
+        end: usize,
+    ) {
+        self.advance_body::<true>(rows, segments, constants, end);
+    }
+
+    /// The segments that end by `end`, each [`segment_moments`] of its rows, written into
+    /// `done` by the function that sums them (compiled for AVX2, the copy of a segment's
+    /// moments is a few register stores rather than a call of `memcpy`).
+    #[inline(always)]
+    fn advance_body<const AVX2: bool>(
+        &mut self,
+        rows: RowsView<'_>,
+        segments: &[(usize, usize)],
+        constants: &[Moments],
+        end: usize,
+    ) {
         while let Some(&(a, b)) = segments.get(self.done.len()) {
             if b > end {
                 break;
             }
-            let constant = rows.noise_free_f_c.then_some(&constant[self.done.len()]);
-            self.done
-                .push(segment_moments(rows, a, b, constant, self.grade));
+            let constant = rows.noise_free_f_c.then_some(&constants[self.done.len()]);
+            self.done.push(segment_moments_body::<AVX2>(
+                rows, a, b, constant, self.grade,
+            ));
         }
     }
 }

@@ -154,6 +154,7 @@ macro_rules! sums {
             }
 
             /// Add `q` times every sum of `b` (not N, not the grade term's).
+            #[inline(always)]
             fn add_scaled_sums(&mut self, b: &Moments, q: f64) {
                 $( self.$field += q * b.$field; )*
             }
@@ -236,6 +237,7 @@ impl GradeSums {
 
     /// Add `q` times every sum of `b` (destructured, so that a new field fails to compile
     /// here).
+    #[inline(always)]
     fn add_scaled(&mut self, b: &GradeSums, q: f64) {
         let GradeSums {
             s_s,
@@ -262,6 +264,7 @@ impl Moments {
     }
 
     /// Add `q` times every sum of `b`, N included (weighted sums of segments).
+    #[inline(always)]
     pub(crate) fn add_scaled(&mut self, b: &Moments, q: f64) {
         self.add_scaled_sums(b, q);
         self.n += q * b.n;
