@@ -31,10 +31,29 @@ pub(crate) fn speed_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { simd::speed_sums(cols, e, sd_v) };
+            return unsafe { simd::speed_sums::<false>(cols, e, sd_v, &mut []) };
         }
     }
-    speed_sums_body(cols, e, sd_v)
+    speed_sums_body::<false>(cols, e, sd_v, &mut [])
+}
+
+/// [`speed_sums`] that also writes each sample's w into `w` (as long as the block): the
+/// measured rows of the fast path, the values the sums take.
+pub(crate) fn speed_sums_writing_w(
+    cols: &Columns<'_>,
+    e: &[f64],
+    sd_v: f64,
+    w: &mut [f64],
+) -> [f64; 5] {
+    assert_eq!(w.len(), cols.v.len(), "the block's w");
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { simd::speed_sums::<true>(cols, e, sd_v, w) };
+        }
+    }
+    speed_sums_body::<true>(cols, e, sd_v, w)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -62,10 +81,17 @@ mod simd {
         unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
     }
 
+    /// With `STORE`, w is written into `w_out` (as long as the block).
     #[target_feature(enable = "avx2")]
-    pub(super) fn speed_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
+    pub(super) fn speed_sums<const STORE: bool>(
+        cols: &Columns<'_>,
+        e: &[f64],
+        sd_v: f64,
+        w_out: &mut [f64],
+    ) -> [f64; 5] {
         let n = cols.v.len();
         assert!(cols.f.len() == n && cols.c.len() == n && cols.y.len() == n && e.len() >= n);
+        assert!(!STORE || w_out.len() == n);
         let whole = n - n % LANES;
         let sd = _mm256_set1_pd(sd_v);
         let mut acc = [_mm256_setzero_pd(); 5];
@@ -73,6 +99,10 @@ mod simd {
         while i < whole {
             let vt = _mm256_add_pd(load(cols.v, i), _mm256_mul_pd(sd, load(e, i)));
             let w = _mm256_mul_pd(vt, vt);
+            if STORE {
+                // SAFETY: i + 4 <= whole <= n = w_out.len() (checked above).
+                unsafe { _mm256_storeu_pd(w_out.as_mut_ptr().add(i), w) };
+            }
             acc[0] = _mm256_add_pd(acc[0], w);
             acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(w, load(cols.f, i)));
             acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(w, load(cols.c, i)));
@@ -81,7 +111,7 @@ mod simd {
             i += LANES;
         }
         let mut acc = acc.map(|a| lanes(a));
-        speed_sums_tail(cols, e, sd_v, whole, &mut acc);
+        speed_sums_tail::<STORE>(cols, e, sd_v, whole, &mut acc, w_out);
         acc.map(reduce)
     }
 
@@ -108,8 +138,14 @@ mod simd {
     }
 }
 
+/// The portable [`speed_sums`]; with `STORE`, w is written into `w_out`.
 #[inline(always)]
-fn speed_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
+fn speed_sums_body<const STORE: bool>(
+    cols: &Columns<'_>,
+    e: &[f64],
+    sd_v: f64,
+    w_out: &mut [f64],
+) -> [f64; 5] {
     let mut acc = [[0.0; LANES]; 5];
     let n = cols.v.len();
     let whole = n - n % LANES;
@@ -119,10 +155,13 @@ fn speed_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
         .zip(cols.c[..whole].chunks_exact(LANES))
         .zip(cols.y[..whole].chunks_exact(LANES))
         .zip(e[..whole].chunks_exact(LANES));
-    for ((((v, f), c), y), e) in lanes {
+    for (g, ((((v, f), c), y), e)) in lanes.enumerate() {
         for l in 0..LANES {
             let vt = v[l] + sd_v * e[l];
             let w = vt * vt;
+            if STORE {
+                w_out[g * LANES + l] = w;
+            }
             acc[0][l] += w;
             acc[1][l] += w * f[l];
             acc[2][l] += w * c[l];
@@ -130,7 +169,7 @@ fn speed_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
             acc[4][l] += w * y[l];
         }
     }
-    speed_sums_tail(cols, e, sd_v, whole, &mut acc);
+    speed_sums_tail::<STORE>(cols, e, sd_v, whole, &mut acc, w_out);
     acc.map(reduce)
 }
 
@@ -138,16 +177,20 @@ fn speed_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
 /// so that they agree bit for bit).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // five parallel slices indexed together
-fn speed_sums_tail(
+fn speed_sums_tail<const STORE: bool>(
     cols: &Columns<'_>,
     e: &[f64],
     sd_v: f64,
     whole: usize,
     acc: &mut [[f64; LANES]; 5],
+    w_out: &mut [f64],
 ) {
     for i in whole..cols.v.len() {
         let vt = cols.v[i] + sd_v * e[i];
         let w = vt * vt;
+        if STORE {
+            w_out[i] = w;
+        }
         acc[0][0] += w;
         acc[1][0] += w * cols.f[i];
         acc[2][0] += w * cols.c[i];
@@ -221,7 +264,7 @@ mod tests {
     use crate::noise::NormalStream;
 
     #[test]
-    fn vector_block_sums_equal_the_portable_ones_bit_for_bit() {
+    fn vector_block_sums_equal_the_portable_ones_bit_for_bit_and_write_w() {
         let reg = regression();
         let mut e = [0.0; BLOCK];
         NormalStream::for_realisation(5, 0, Channel::Velocity.stream(), 1).fill(&mut e);
@@ -234,9 +277,23 @@ mod tests {
                 c: &reg.c[start..start + len],
                 y: &reg.y[start..start + len],
             };
-            let portable = speed_sums_body(&cols, &e[..len], 0.8);
+            let portable = speed_sums_body::<false>(&cols, &e[..len], 0.8, &mut []);
             let dispatched = speed_sums(&cols, &e[..len], 0.8);
             assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));
+            // Writing w changes no sum, and writes the w of each sample, every one of them
+            // (the two writers start from values no w can take).
+            let (mut w_portable, mut w_dispatched) = (vec![-1.0; len], vec![-2.0; len]);
+            let writing = speed_sums_body::<true>(&cols, &e[..len], 0.8, &mut w_portable);
+            assert_eq!(writing.map(f64::to_bits), portable.map(f64::to_bits));
+            let writing = speed_sums_writing_w(&cols, &e[..len], 0.8, &mut w_dispatched);
+            assert_eq!(writing.map(f64::to_bits), portable.map(f64::to_bits));
+            for (j, (a, b)) in w_portable.iter().zip(&w_dispatched).enumerate() {
+                let vt = cols.v[j] + 0.8 * e[j];
+                assert_eq!(
+                    (a.to_bits(), b.to_bits()),
+                    ((vt * vt).to_bits(), (vt * vt).to_bits())
+                );
+            }
             let portable = output_sums_body(&cols, &e[..len], 0.8, &eta[..len]);
             let dispatched = output_sums(&cols, &e[..len], 0.8, &eta[..len]);
             assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));

@@ -9,7 +9,7 @@
 #[cfg(test)]
 use super::channels::Samples;
 use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns};
-use super::kernels::{Columns, ZEROS, output_sums, speed_sums};
+use super::kernels::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 use super::regression::Regression;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
@@ -273,9 +273,21 @@ impl Rows {
         }
     }
 
+    /// On the fast path, room for the w of the next block's `len` rows, for the fast
+    /// path's sums to write as they take them
+    /// ([`MomentAccumulator::add_block_writing_w`]); that block's
+    /// [`push_block`](Self::push_block) is then told w is written.
+    pub fn w_room(&mut self, len: usize) -> &mut [f64] {
+        assert!(self.fast, "w is written ahead on the fast path only");
+        let from = self.w.len();
+        self.w.resize(from + len, 0.0);
+        &mut self.w[from..]
+    }
+
     /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
     /// derivative noise (the same the moments of the block are summed from, with the same
-    /// arithmetic).
+    /// arithmetic); with `w_written`, their w is in place already ([`Self::w_room`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn push_block(
         &mut self,
         reg: &Regression,
@@ -284,17 +296,20 @@ impl Rows {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
+        w_written: bool,
     ) {
         let range = start..start + len;
         if self.fast {
             // Fast path: only Ṽ and ỹ carry noise.
             let sd_v = levels[Channel::Velocity];
             let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
-            self.w
-                .extend(reg.v[range.clone()].iter().zip(e).map(|(v, e)| {
-                    let vt = v + sd_v * e;
-                    vt * vt
-                }));
+            if !w_written {
+                self.w
+                    .extend(reg.v[range.clone()].iter().zip(e).map(|(v, e)| {
+                        let vt = v + sd_v * e;
+                        vt * vt
+                    }));
+            }
             if let (Some(y), true) = (&mut self.y, self.copies[2]) {
                 let from = y.len();
                 match draws[Channel::Output] {
@@ -448,12 +463,38 @@ impl<'r> MomentAccumulator<'r> {
         derivative: Option<&[f64]>,
     ) {
         if self.use_fast_path {
-            self.add_fast(start, len, draws, derivative);
+            self.add_fast(start, len, draws, derivative, None);
         } else {
             self.add_general(start, len, draws, derivative);
         }
     }
 
+    /// Whether [`add_block_writing_w`](Self::add_block_writing_w) writes w: on the fast
+    /// path with speed noise (elsewhere w is not computed there).
+    pub fn writes_w(&self) -> bool {
+        self.use_fast_path && self.noise[Channel::Velocity] != 0.0
+    }
+
+    /// [`add_block`](Self::add_block) that, where [`writes_w`](Self::writes_w), also writes
+    /// each sample's w = Ṽ² into `w` (`len` values): the fast path's measured rows, the
+    /// values its sums take, computed once for both.
+    #[inline]
+    pub fn add_block_writing_w(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+        w: &mut [f64],
+    ) {
+        assert!(
+            self.writes_w(),
+            "w is written on the fast path with speed noise only"
+        );
+        self.add_fast(start, len, draws, derivative, Some(w));
+    }
+
+    /// The fast path's block; with `w` (speed noise on), w written into it.
     #[inline]
     fn add_fast(
         &mut self,
@@ -461,6 +502,7 @@ impl<'r> MomentAccumulator<'r> {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
+        w: Option<&mut [f64]>,
     ) {
         let reg = self.reg;
         let range = start..start + len;
@@ -475,7 +517,10 @@ impl<'r> MomentAccumulator<'r> {
         let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
         // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
         if sd_v != 0.0 {
-            let [s_w, s_wf, s_wc, s_ww, s_wy] = speed_sums(&cols, e, sd_v);
+            let [s_w, s_wf, s_wc, s_ww, s_wy] = match w {
+                Some(w) => speed_sums_writing_w(&cols, e, sd_v, w),
+                None => speed_sums(&cols, e, sd_v),
+            };
             s.s_w += s_w;
             s.s_wf += s_wf;
             s.s_wc += s_wc;

@@ -170,11 +170,22 @@ impl VehicleModel {
                 });
             }
             let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
-            acc.add_block(start, len, draws, derivative);
+            // On the fast path with the rows kept, the sums write w into the rows as they
+            // take it (one computation of it for both).
+            let w_written = match &mut rows {
+                Some((rows, _)) if acc.writes_w() => {
+                    acc.add_block_writing_w(start, len, draws, derivative, rows.w_room(len));
+                    true
+                }
+                _ => {
+                    acc.add_block(start, len, draws, derivative);
+                    false
+                }
+            };
             if let Some((rows, scans)) = &mut rows {
                 match acc.measured() {
                     Some(block) => rows.push_measured(reg, block),
-                    None => rows.push_block(reg, &noise, start, len, draws, derivative),
+                    None => rows.push_block(reg, &noise, start, len, draws, derivative, w_written),
                 }
                 // The sums the estimators read over the rows, while the block is in cache.
                 scans.advance(rows.view(reg), reg, start + len);
