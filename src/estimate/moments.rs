@@ -169,10 +169,14 @@ impl MeasuredBlock {
 /// The measured rows of one realisation, for estimators that need more than the sums
 /// (weighted and recursive ones). A column the noise does not touch is not copied: the
 /// regression's own column stands in for it (see [`Rows::view`]).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default)]
 pub struct Rows {
-    /// w = Ṽ² \[m²/s²\] (column 2 is −k w).
+    /// w = Ṽ² \[m²/s²\] (column 2 is −k w) of the first `len` rows; as long as the
+    /// regression, the values after `len` left from an earlier realisation (so that a block's
+    /// w is written in place, without first zeroing or growing the column).
     w: Vec<f64>,
+    /// The rows taken so far.
+    len: usize,
     /// x̃₁ = F̃ \[N\] (`None`: noise-free).
     f: Option<Vec<f64>>,
     /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
@@ -242,8 +246,8 @@ impl Rows {
                 v.clear();
             }
         };
-        self.w.clear();
-        self.w.reserve(n);
+        self.len = 0;
+        self.w.resize(n, 0.0);
         // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
         let force = general && noise.is_on(Channel::Force);
         let grade = general && noise.is_on(Channel::Grade);
@@ -264,7 +268,7 @@ impl Rows {
         };
         RowsView {
             f: pick(&self.f, self.copies[0], &reg.f),
-            w: &self.w,
+            w: &self.w[..self.len],
             c: pick(&self.c, self.copies[1], &reg.c),
             y: pick(&self.y, self.copies[2], &reg.y),
             s: pick(&self.s, self.copies[3], &reg.g_sin),
@@ -279,9 +283,7 @@ impl Rows {
     /// [`push_block`](Self::push_block) is then told w is written.
     pub fn w_room(&mut self, len: usize) -> &mut [f64] {
         assert!(self.fast, "w is written ahead on the fast path only");
-        let from = self.w.len();
-        self.w.resize(from + len, 0.0);
-        &mut self.w[from..]
+        &mut self.w[self.len..self.len + len]
     }
 
     /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
@@ -304,12 +306,13 @@ impl Rows {
             let sd_v = levels[Channel::Velocity];
             let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
             if !w_written {
-                self.w
-                    .extend(reg.v[range.clone()].iter().zip(e).map(|(v, e)| {
-                        let vt = v + sd_v * e;
-                        vt * vt
-                    }));
+                let room = &mut self.w[self.len..self.len + len];
+                for ((w, v), e) in room.iter_mut().zip(&reg.v[range.clone()]).zip(e) {
+                    let vt = v + sd_v * e;
+                    *w = vt * vt;
+                }
             }
+            self.len += len;
             if let (Some(y), true) = (&mut self.y, self.copies[2]) {
                 let from = y.len();
                 match draws[Channel::Output] {
@@ -343,7 +346,9 @@ impl Rows {
     /// moves; the regression's stand in for the others).
     pub fn push_measured(&mut self, reg: &Regression, block: &MeasuredBlock) {
         let rows = block.view(reg);
-        self.w.extend_from_slice(rows.w);
+        let len = rows.w.len();
+        self.w[self.len..self.len + len].copy_from_slice(rows.w);
+        self.len += len;
         for (own, copied, theirs) in [
             (&mut self.f, self.copies[0], rows.f),
             (&mut self.c, self.copies[1], rows.c),
