@@ -361,19 +361,21 @@ fn realisations_computed_side_by_side_are_each_computed_alone_bit_for_bit() {
         let study = chassis_mc::study::Study::from_toml(&text, "batched").unwrap();
         let model = VehicleModel::new(&study).unwrap();
         let stride = model.layout().realisation_stride();
-        let (first, n) = (1021u64, 5usize);
-        let mut together = vec![0.0; n * stride];
-        model.realise_group(2018, &[0], first, n, &mut together);
-        for i in 0..n {
-            let mut alone = vec![0.0; stride];
-            model.realise(2018, 0, first + i as u64, &mut alone);
-            let got = &together[i * stride..(i + 1) * stride];
-            assert_eq!(
-                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                "{extra} {estimators}: realisation {}",
-                first + i as u64
-            );
+        // A short batch, and one of the executor's eight (filtered by its own loop).
+        for (first, n) in [(1021u64, 5usize), (2042, 8)] {
+            let mut together = vec![0.0; n * stride];
+            model.realise_group(2018, &[0], first, n, &mut together);
+            for i in 0..n {
+                let mut alone = vec![0.0; stride];
+                model.realise(2018, 0, first + i as u64, &mut alone);
+                let got = &together[i * stride..(i + 1) * stride];
+                assert_eq!(
+                    got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    "{extra} {estimators}: realisation {} of a batch of {n}",
+                    first + i as u64
+                );
+            }
         }
     }
 }

@@ -206,6 +206,27 @@ fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
     *previous = *z;
 }
 
+/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of `N` spans of noise
+/// laid end to end in `out`, the spans side by side: sample j of every span, then j + 1.
+/// Each span's previous value stays in a register (in a list in memory, each step would
+/// wait for the store of the step before).
+#[inline(always)]
+fn filter_side_by_side<const N: usize>(out: &mut [f64], ar1: &[[f64; 2]]) {
+    let len = ar1.len();
+    assert_eq!(out.len(), N * len, "N spans of the filter's length");
+    let mut spans: [&mut [f64]; N] = out
+        .chunks_exact_mut(len)
+        .collect::<Vec<_>>()
+        .try_into()
+        .expect("N spans");
+    let mut previous = [0.0; N];
+    for (j, step) in ar1.iter().enumerate() {
+        for (span, previous) in spans.iter_mut().zip(&mut previous) {
+            ar1_step(previous, &mut span[j], *step);
+        }
+    }
+}
+
 thread_local! {
     /// The speed noise of a differentiated acceleration's span (memory reused by the
     /// thread's next realisation).
@@ -348,10 +369,17 @@ impl VehicleModel {
         for (i, e) in out.chunks_exact_mut(len).enumerate() {
             Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
         }
-        let mut previous = vec![0.0; count];
-        for (j, step) in ar1.iter().enumerate().take(len) {
-            for (i, previous) in previous.iter_mut().enumerate() {
-                ar1_step(previous, &mut out[i * len + j], *step);
+        let ar1 = &ar1[..len];
+        match count {
+            // The executor's batches: each realisation's previous noise in a register.
+            8 => filter_side_by_side::<8>(out, ar1),
+            _ => {
+                let mut previous = vec![0.0; count];
+                for (j, step) in ar1.iter().enumerate() {
+                    for (i, previous) in previous.iter_mut().enumerate() {
+                        ar1_step(previous, &mut out[i * len + j], *step);
+                    }
+                }
             }
         }
         len
