@@ -292,15 +292,7 @@ pub fn estimates_without_draws(
         let n = reg.len();
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
-            rows.push_block(
-                reg,
-                rows_noise,
-                start,
-                len,
-                BlockNoise::default(),
-                None,
-                false,
-            );
+            rows.push_block(reg, rows_noise, start, len, BlockNoise::default(), None);
         }
         rows
     });

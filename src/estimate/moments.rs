@@ -172,11 +172,14 @@ impl MeasuredBlock {
 #[derive(Debug, Clone, Default)]
 pub struct Rows {
     /// w = Ṽ² \[m²/s²\] (column 2 is −k w) of the first `len` rows; as long as the
-    /// regression, the values after `len` left from an earlier realisation (so that a block's
-    /// w is written in place, without first zeroing or growing the column).
+    /// regression, the values after `len` from an earlier realisation or zero (so that a
+    /// block's w is written in place, without first zeroing or growing the column).
     w: Vec<f64>,
     /// The rows taken so far.
     len: usize,
+    /// The length of the room for w handed out by [`Rows::w_room`] and not yet taken by
+    /// [`Rows::push_block`].
+    w_ahead: Option<usize>,
     /// x̃₁ = F̃ \[N\] (`None`: noise-free).
     f: Option<Vec<f64>>,
     /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
@@ -247,6 +250,7 @@ impl Rows {
             }
         };
         self.len = 0;
+        self.w_ahead = None;
         self.w.resize(n, 0.0);
         // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
         let force = general && noise.is_on(Channel::Force);
@@ -280,16 +284,18 @@ impl Rows {
     /// On the fast path, room for the w of the next block's `len` rows, for the fast
     /// path's sums to write as they take them
     /// ([`MomentAccumulator::add_block_writing_w`]); that block's
-    /// [`push_block`](Self::push_block) is then told w is written.
+    /// [`push_block`](Self::push_block) then takes w as written there.
     pub fn w_room(&mut self, len: usize) -> &mut [f64] {
         assert!(self.fast, "w is written ahead on the fast path only");
+        assert!(self.w_ahead.is_none(), "room for w handed out twice");
+        self.w_ahead = Some(len);
         &mut self.w[self.len..self.len + len]
     }
 
     /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
     /// derivative noise (the same the moments of the block are summed from, with the same
-    /// arithmetic); with `w_written`, their w is in place already ([`Self::w_room`]).
-    #[allow(clippy::too_many_arguments)]
+    /// arithmetic); their w as written in the room [`Self::w_room`] handed out for them, if
+    /// it did.
     pub fn push_block(
         &mut self,
         reg: &Regression,
@@ -298,9 +304,15 @@ impl Rows {
         len: usize,
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
-        w_written: bool,
     ) {
         let range = start..start + len;
+        let w_written = match self.w_ahead.take() {
+            Some(room) => {
+                assert_eq!(room, len, "the room for w is the block's");
+                true
+            }
+            None => false,
+        };
         if self.fast {
             // Fast path: only Ṽ and ỹ carry noise.
             let sd_v = levels[Channel::Velocity];
@@ -678,6 +690,57 @@ mod tests {
             );
         }
         assert_eq!(a.n, b.n);
+    }
+
+    #[test]
+    fn rows_whose_w_the_sums_write_equal_the_rows_pushed_whole() {
+        // A `Rows` reused from a realisation with other draws (so w's room holds stale
+        // values), filled block by block with w written by the fast path's sums where they
+        // write it, against rows pushed with w computed by `push_block`: the same view, bit
+        // for bit, for speed and output noise, output noise alone (w not written by the
+        // sums), and speed noise under a differentiated acceleration's noise.
+        let reg = regression();
+        let n = reg.len();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (sd_v, sd_y, derivative) in [(0.4, 0.2, false), (0.0, 0.2, false), (0.4, 0.0, true)] {
+            let mut noise = NoiseLevels::default();
+            noise[Channel::Velocity] = sd_v;
+            noise[Channel::Output] = sd_y;
+            let d: Vec<f64> = (0..n).map(|i| 1e-3 * (i % 7) as f64).collect();
+            let fill = |rows: &mut Rows, r: u64, written: bool| {
+                rows.reset(&reg, &noise);
+                let draws = channel_draws(n, 9, r);
+                let mut acc = MomentAccumulator::new(&reg, noise);
+                for start in (0..n).step_by(BLOCK) {
+                    let len = BLOCK.min(n - start);
+                    let block = BlockNoise::from_fn(|c| {
+                        noise
+                            .is_on(c)
+                            .then(|| &draws[c.index()][start..start + len])
+                    });
+                    let d = derivative.then(|| &d[start..start + len]);
+                    if written && acc.writes_w() {
+                        acc.add_block_writing_w(start, len, block, d, rows.w_room(len));
+                    } else {
+                        acc.add_block(start, len, block, d);
+                    }
+                    rows.push_block(&reg, &noise, start, len, block, d);
+                }
+            };
+            let (mut written, mut pushed) = (Rows::new(&reg, &noise), Rows::new(&reg, &noise));
+            fill(&mut written, 1, true);
+            fill(&mut written, 2, true);
+            fill(&mut pushed, 2, false);
+            let (a, b) = (written.view(&reg), pushed.view(&reg));
+            assert_eq!(a.len(), n);
+            for (x, y) in [(a.w, b.w), (a.y, b.y), (a.f, b.f), (a.c, b.c)] {
+                assert_eq!(
+                    bits(x),
+                    bits(y),
+                    "σ_v {sd_v}, σ_y {sd_y}, derivative {derivative}"
+                );
+            }
+        }
     }
 
     /// `n` standard normals of every channel, from realisation `r` of seed `seed`.

@@ -26,7 +26,7 @@ const GROUP_BATCH: usize = 32;
 
 /// The same for a single condition: its data per block is one condition's, not a whole
 /// group's, so fewer realisations side by side already keep it in cache.
-const SINGLE_BATCH: usize = 8;
+pub(crate) const SINGLE_BATCH: usize = 8;
 
 /// A contiguous range of realisations of one condition, or of several conditions of one
 /// draw group ([`Model::draw_group`]) computed together from one draw per realisation.

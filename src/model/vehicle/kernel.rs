@@ -14,6 +14,7 @@ use crate::estimate::regression::Regression;
 use crate::estimate::rls::rls_target;
 use crate::estimate::row_sums::RowScans;
 use crate::model::Status;
+use crate::montecarlo::SINGLE_BATCH;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
 
 impl VehicleModel {
@@ -172,20 +173,16 @@ impl VehicleModel {
             let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
             // On the fast path with the rows kept, the sums write w into the rows as they
             // take it (one computation of it for both).
-            let w_written = match &mut rows {
+            match &mut rows {
                 Some((rows, _)) if acc.writes_w() => {
                     acc.add_block_writing_w(start, len, draws, derivative, rows.w_room(len));
-                    true
                 }
-                _ => {
-                    acc.add_block(start, len, draws, derivative);
-                    false
-                }
-            };
+                _ => acc.add_block(start, len, draws, derivative),
+            }
             if let Some((rows, scans)) = &mut rows {
                 match acc.measured() {
                     Some(block) => rows.push_measured(reg, block),
-                    None => rows.push_block(reg, &noise, start, len, draws, derivative, w_written),
+                    None => rows.push_block(reg, &noise, start, len, draws, derivative),
                 }
                 // The sums the estimators read over the rows, while the block is in cache.
                 scans.advance(rows.view(reg), reg, start + len);
@@ -214,11 +211,8 @@ fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
 fn filter_side_by_side<const N: usize>(out: &mut [f64], ar1: &[[f64; 2]]) {
     let len = ar1.len();
     assert_eq!(out.len(), N * len, "N spans of the filter's length");
-    let mut spans: [&mut [f64]; N] = out
-        .chunks_exact_mut(len)
-        .collect::<Vec<_>>()
-        .try_into()
-        .expect("N spans");
+    let mut chunks = out.chunks_exact_mut(len);
+    let mut spans: [&mut [f64]; N] = std::array::from_fn(|_| chunks.next().expect("N spans"));
     let mut previous = [0.0; N];
     for (j, step) in ar1.iter().enumerate() {
         for (span, previous) in spans.iter_mut().zip(&mut previous) {
@@ -372,7 +366,7 @@ impl VehicleModel {
         let ar1 = &ar1[..len];
         match count {
             // The executor's batches: each realisation's previous noise in a register.
-            8 => filter_side_by_side::<8>(out, ar1),
+            SINGLE_BATCH => filter_side_by_side::<SINGLE_BATCH>(out, ar1),
             _ => {
                 let mut previous = vec![0.0; count];
                 for (j, step) in ar1.iter().enumerate() {
