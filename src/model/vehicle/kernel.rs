@@ -447,9 +447,24 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                for (j, step) in rows.iter().enumerate() {
-                    for (buffers, previous) in buffers.iter_mut().zip(&mut previous) {
-                        ar1_step(previous, &mut buffers[Channel::Velocity][j], *step);
+                if count == SINGLE_BATCH {
+                    // The executor's batches: each realisation's previous noise in a
+                    // register for the block.
+                    let mut last: [f64; SINGLE_BATCH] = std::array::from_fn(|i| previous[i]);
+                    let mut noise = buffers.iter_mut().map(|b| &mut b[Channel::Velocity]);
+                    let mut noise: [&mut [f64; BLOCK]; SINGLE_BATCH] =
+                        std::array::from_fn(|_| noise.next().expect("a batch's buffers"));
+                    for (j, step) in rows.iter().enumerate() {
+                        for (e, last) in noise.iter_mut().zip(&mut last) {
+                            ar1_step(last, &mut e[j], *step);
+                        }
+                    }
+                    previous.copy_from_slice(&last);
+                } else {
+                    for (j, step) in rows.iter().enumerate() {
+                        for (buffers, previous) in buffers.iter_mut().zip(&mut previous) {
+                            ar1_step(previous, &mut buffers[Channel::Velocity][j], *step);
+                        }
                     }
                 }
             }
