@@ -203,22 +203,23 @@ fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
     *previous = *z;
 }
 
-/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of `N` spans of noise
-/// laid end to end in `out`, the spans side by side: sample j of every span, then j + 1.
-/// Each span's previous value stays in a register (in a list in memory, each step would
-/// wait for the store of the step before).
+/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of the noise of `N`
+/// realisations side by side: sample j of every one, then j + 1, each from its `previous`
+/// value (left at its last). Each realisation's previous value stays in a register (in a
+/// list in memory, each step would wait for the store of the step before).
 #[inline(always)]
-fn filter_side_by_side<const N: usize>(out: &mut [f64], ar1: &[[f64; 2]]) {
-    let len = ar1.len();
-    assert_eq!(out.len(), N * len, "N spans of the filter's length");
-    let mut chunks = out.chunks_exact_mut(len);
-    let mut spans: [&mut [f64]; N] = std::array::from_fn(|_| chunks.next().expect("N spans"));
-    let mut previous = [0.0; N];
+fn filter_side_by_side<const N: usize>(
+    mut noise: [&mut [f64]; N],
+    previous: &mut [f64; N],
+    ar1: &[[f64; 2]],
+) {
+    let mut last = *previous;
     for (j, step) in ar1.iter().enumerate() {
-        for (span, previous) in spans.iter_mut().zip(&mut previous) {
-            ar1_step(previous, &mut span[j], *step);
+        for (e, last) in noise.iter_mut().zip(&mut last) {
+            ar1_step(last, &mut e[j], *step);
         }
     }
+    *previous = last;
 }
 
 thread_local! {
@@ -366,7 +367,11 @@ impl VehicleModel {
         let ar1 = &ar1[..len];
         match count {
             // The executor's batches: each realisation's previous noise in a register.
-            SINGLE_BATCH => filter_side_by_side::<SINGLE_BATCH>(out, ar1),
+            SINGLE_BATCH => {
+                let mut spans = out.chunks_exact_mut(len);
+                let spans = std::array::from_fn(|_| spans.next().expect("a batch's spans"));
+                filter_side_by_side::<SINGLE_BATCH>(spans, &mut [0.0; SINGLE_BATCH], ar1);
+            }
             _ => {
                 let mut previous = vec![0.0; count];
                 for (j, step) in ar1.iter().enumerate() {
@@ -450,15 +455,10 @@ impl VehicleModel {
                 if count == SINGLE_BATCH {
                     // The executor's batches: each realisation's previous noise in a
                     // register for the block.
+                    let mut noise = buffers.iter_mut().map(|b| &mut b[Channel::Velocity][..]);
+                    let noise = std::array::from_fn(|_| noise.next().expect("a batch's buffers"));
                     let mut last: [f64; SINGLE_BATCH] = std::array::from_fn(|i| previous[i]);
-                    let mut noise = buffers.iter_mut().map(|b| &mut b[Channel::Velocity]);
-                    let mut noise: [&mut [f64; BLOCK]; SINGLE_BATCH] =
-                        std::array::from_fn(|_| noise.next().expect("a batch's buffers"));
-                    for (j, step) in rows.iter().enumerate() {
-                        for (e, last) in noise.iter_mut().zip(&mut last) {
-                            ar1_step(last, &mut e[j], *step);
-                        }
-                    }
+                    filter_side_by_side::<SINGLE_BATCH>(noise, &mut last, rows);
                     previous.copy_from_slice(&last);
                 } else {
                     for (j, step) in rows.iter().enumerate() {
