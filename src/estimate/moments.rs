@@ -713,11 +713,7 @@ mod tests {
                 let mut acc = MomentAccumulator::new(&reg, noise);
                 for start in (0..n).step_by(BLOCK) {
                     let len = BLOCK.min(n - start);
-                    let block = BlockNoise::from_fn(|c| {
-                        noise
-                            .is_on(c)
-                            .then(|| &draws[c.index()][start..start + len])
-                    });
+                    let block = block_draws(&draws, &noise, start, len);
                     let d = derivative.then(|| &d[start..start + len]);
                     if written && acc.writes_w() {
                         acc.add_block_writing_w(start, len, block, d, rows.w_room(len));
@@ -741,6 +737,20 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The draws of rows `start .. start + len` of each channel `noise` has on.
+    fn block_draws<'a>(
+        draws: &'a [Vec<f64>],
+        noise: &NoiseLevels,
+        start: usize,
+        len: usize,
+    ) -> BlockNoise<'a> {
+        BlockNoise::from_fn(|c| {
+            noise
+                .is_on(c)
+                .then(|| &draws[c.index()][start..start + len])
+        })
     }
 
     /// `n` standard normals of every channel, from realisation `r` of seed `seed`.
@@ -816,11 +826,7 @@ mod tests {
             let mut fast = MomentAccumulator::new(&reg, noise);
             for start in (0..n).step_by(BLOCK) {
                 let len = BLOCK.min(n - start);
-                let block = BlockNoise::from_fn(|c| {
-                    noise
-                        .is_on(c)
-                        .then(|| &draws[c.index()][start..start + len])
-                });
+                let block = block_draws(&draws, &noise, start, len);
                 let d = derivative.map(|d| &d[start..start + len]);
                 acc.add_block(start, len, block, d);
                 fast.add_block(start, len, block, d);
@@ -979,11 +985,7 @@ mod tests {
             let mut acc = MomentAccumulator::new(&reg, noise).grade_sums(needed);
             for start in (0..n).step_by(BLOCK) {
                 let len = BLOCK.min(n - start);
-                let block = BlockNoise::from_fn(|c| {
-                    noise
-                        .is_on(c)
-                        .then(|| &draws[c.index()][start..start + len])
-                });
+                let block = block_draws(&draws, &noise, start, len);
                 acc.add_block(start, len, block, None);
             }
             acc.finish()
