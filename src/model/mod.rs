@@ -367,6 +367,12 @@ pub fn layout_of(study: &Study) -> Layout {
     }
 }
 
+/// Realisations of a single condition the executor computes together by one task (at
+/// most; a draw group's take more): the condition's data per block is one condition's, so
+/// this many side by side already keep it in cache. The kernel's filters of AR(1) noise
+/// are compiled for a batch of this many.
+pub const SINGLE_BATCH: usize = 8;
+
 /// A model: prepared conditions and the per-realisation computation.
 pub trait Model: Sync + fmt::Debug {
     /// Layout of this model's rows.

@@ -15,7 +15,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use crate::model::Model;
+use crate::model::{Model, SINGLE_BATCH};
 
 /// Realisations computed per chunk (one Arrow batch per chunk).
 pub const DEFAULT_CHUNK: u64 = 1024;
@@ -23,10 +23,6 @@ pub const DEFAULT_CHUNK: u64 = 1024;
 /// Realisations of a draw group computed together by one task (at most), so that each block
 /// of every condition's data is read once for all of them (from cache) rather than once each.
 const GROUP_BATCH: usize = 32;
-
-/// The same for a single condition: its data per block is one condition's, not a whole
-/// group's, so fewer realisations side by side already keep it in cache.
-pub(crate) const SINGLE_BATCH: usize = 8;
 
 /// A contiguous range of realisations of one condition, or of several conditions of one
 /// draw group ([`Model::draw_group`]) computed together from one draw per realisation.

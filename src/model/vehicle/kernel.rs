@@ -13,8 +13,8 @@ use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::rls::rls_target;
 use crate::estimate::row_sums::RowScans;
+use crate::model::SINGLE_BATCH;
 use crate::model::Status;
-use crate::montecarlo::SINGLE_BATCH;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
 
 impl VehicleModel {
