@@ -203,23 +203,35 @@ fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
     *previous = *z;
 }
 
-/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of the noise of `N`
+/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of the noise of
 /// realisations side by side: sample j of every one, then j + 1, each from its `previous`
-/// value (left at its last). Each realisation's previous value stays in a register (in a
-/// list in memory, each step would wait for the store of the step before).
-#[inline(always)]
-fn filter_side_by_side<const N: usize>(
-    mut noise: [&mut [f64]; N],
-    previous: &mut [f64; N],
-    ar1: &[[f64; 2]],
-) {
-    let mut last = *previous;
+/// value (left at its last). A batch of the executor's size keeps each realisation's
+/// previous value in a register (in a list in memory, each step waits for the store of
+/// the step before).
+fn filter_side_by_side(noise: &mut [&mut [f64]], previous: &mut [f64], ar1: &[[f64; 2]]) {
+    assert_eq!(
+        noise.len(),
+        previous.len(),
+        "a previous value per realisation"
+    );
+    if let (Ok(noise), Ok(previous)) = (
+        <&mut [&mut [f64]; SINGLE_BATCH]>::try_from(&mut *noise),
+        <&mut [f64; SINGLE_BATCH]>::try_from(&mut *previous),
+    ) {
+        let mut last = *previous;
+        for (j, step) in ar1.iter().enumerate() {
+            for (e, last) in noise.iter_mut().zip(&mut last) {
+                ar1_step(last, &mut e[j], *step);
+            }
+        }
+        *previous = last;
+        return;
+    }
     for (j, step) in ar1.iter().enumerate() {
-        for (e, last) in noise.iter_mut().zip(&mut last) {
-            ar1_step(last, &mut e[j], *step);
+        for (e, previous) in noise.iter_mut().zip(previous.iter_mut()) {
+            ar1_step(previous, &mut e[j], *step);
         }
     }
-    *previous = last;
 }
 
 thread_local! {
@@ -364,23 +376,8 @@ impl VehicleModel {
         for (i, e) in out.chunks_exact_mut(len).enumerate() {
             Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
         }
-        let ar1 = &ar1[..len];
-        match count {
-            // The executor's batches: each realisation's previous noise in a register.
-            SINGLE_BATCH => {
-                let mut spans = out.chunks_exact_mut(len);
-                let spans = std::array::from_fn(|_| spans.next().expect("a batch's spans"));
-                filter_side_by_side::<SINGLE_BATCH>(spans, &mut [0.0; SINGLE_BATCH], ar1);
-            }
-            _ => {
-                let mut previous = vec![0.0; count];
-                for (j, step) in ar1.iter().enumerate() {
-                    for (i, previous) in previous.iter_mut().enumerate() {
-                        ar1_step(previous, &mut out[i * len + j], *step);
-                    }
-                }
-            }
-        }
+        let mut spans: Vec<&mut [f64]> = out.chunks_exact_mut(len).collect();
+        filter_side_by_side(&mut spans, &mut vec![0.0; count], &ar1[..len]);
         len
     }
 
@@ -452,21 +449,11 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                if count == SINGLE_BATCH {
-                    // The executor's batches: each realisation's previous noise in a
-                    // register for the block.
-                    let mut noise = buffers.iter_mut().map(|b| &mut b[Channel::Velocity][..]);
-                    let noise = std::array::from_fn(|_| noise.next().expect("a batch's buffers"));
-                    let mut last: [f64; SINGLE_BATCH] = std::array::from_fn(|i| previous[i]);
-                    filter_side_by_side::<SINGLE_BATCH>(noise, &mut last, rows);
-                    previous.copy_from_slice(&last);
-                } else {
-                    for (j, step) in rows.iter().enumerate() {
-                        for (buffers, previous) in buffers.iter_mut().zip(&mut previous) {
-                            ar1_step(previous, &mut buffers[Channel::Velocity][j], *step);
-                        }
-                    }
-                }
+                let mut noise: Vec<&mut [f64]> = buffers
+                    .iter_mut()
+                    .map(|b| &mut b[Channel::Velocity][..])
+                    .collect();
+                filter_side_by_side(&mut noise, &mut previous, rows);
             }
             for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
                 let len = BLOCK.min(n - start);
