@@ -108,7 +108,7 @@ mod simd {
 
     use std::arch::x86_64::*;
 
-    use super::{ALONE, LANES, Term};
+    use super::{ALONE, LANES, PENDING, Term};
 
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -162,31 +162,27 @@ mod simd {
         }
     }
 
-    /// (l₀ + l₁) + (l₂ + l₃) of a register's lanes, the portable `reduce`'s additions.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn reduce(v: __m256d) -> f64 {
-        let pairs = _mm_hadd_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd::<1>(v));
-        _mm_cvtsd_f64(_mm_hadd_pd(pairs, pairs))
-    }
-
-    /// [`RlsScan::groups`](super::RlsScan) in 256-bit registers, lane for lane, the
-    /// lanes kept in registers between checks; only the terms the realisation sums under
-    /// `FREE` ([`super::summed`]).
+    /// [`RlsScan`](super::RlsScan)'s groups of four rows in 256-bit registers, lane for
+    /// lane, the lanes kept in registers between checks; only the terms the realisation
+    /// sums under `FREE` ([`super::summed`]). The lanes at each check are put aside and the
+    /// checks taken [`PENDING`] at a time by [`checks`] (in order, the same operations).
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(super) fn rls_groups<const FORGET: bool, const FREE: u8>(
-        scan: &mut super::RlsScan,
+        run: &mut super::RlsRun,
+        plan: &super::RlsPlan,
         cols: [&[f64]; 4],
         start: usize,
         to: usize,
     ) {
         let [f, w, c, y] = cols;
-        let minus_k = _mm256_set1_pd(-scan.k);
-        let age = _mm256_set1_pd(scan.age);
-        let entry = load(&scan.entry, 0);
-        let mut acc = scan.lanes.map(|l| load(&l, 0));
-        let plan = std::sync::Arc::clone(&scan.plan);
+        let minus_k = _mm256_set1_pd(-run.k);
+        let age = _mm256_set1_pd(run.age);
+        let entry = load(&run.entry, 0);
+        let mut acc = run.lanes.map(|l| load(&l, 0));
+        let row_of = |check: usize| plan.checks.get(check).copied().unwrap_or(usize::MAX);
+        let mut count = 0;
+        let mut next_row = row_of(run.next_check);
         let mut start = start;
         while start < to {
             let x1 = load(f, start);
@@ -214,13 +210,96 @@ mod simd {
                     _mm256_add_pd(*a, t)
                 };
             }
-            let last = start + LANES - 1;
-            if plan.checks.get(scan.next_check) == Some(&last) {
-                scan.check_group::<FREE>(&plan, |k| reduce(acc[k]), last);
+            if start + LANES - 1 == next_row {
+                for (k, a) in acc.iter().enumerate() {
+                    if super::summed(FREE, k) {
+                        store(&mut run.pending[count][k], *a);
+                    }
+                }
+                count += 1;
+                if count == PENDING {
+                    checks::<FREE>(run, plan, count);
+                    count = 0;
+                }
+                next_row = row_of(run.next_check + count);
             }
             start += LANES;
         }
-        scan.lanes = acc.map(|a| lanes(a));
+        if count > 0 {
+            checks::<FREE>(run, plan, count);
+        }
+        for (lane, a) in run.lanes.iter_mut().zip(acc) {
+            store(lane, a);
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store(to: &mut [f64; LANES], v: __m256d) {
+        // SAFETY: writes four f64 into an array of four.
+        unsafe { _mm256_storeu_pd(to.as_mut_ptr(), v) };
+    }
+
+    /// The plan's next `count` checks (at most [`PENDING`]), the run's `pending` holding
+    /// each one's lanes of the terms it sums under `FREE`: side by side, check c in lane c,
+    /// the operations of [`super::RlsRun::check_group`] (each state (l₀ + l₁) + (l₂ + l₃)
+    /// of its lanes or the plan's, then [`super::settled`]'s), then the checks in order.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn checks<const FREE: u8>(run: &mut super::RlsRun, plan: &super::RlsPlan, count: usize) {
+        debug_assert!((1..=PENDING).contains(&count));
+        let j = run.next_check;
+        let pending = &run.pending;
+        let mut states = [_mm256_setzero_pd(); 9];
+        for (k, state) in states.iter_mut().enumerate() {
+            *state = if super::summed(FREE, k) {
+                // Lane c: check c's (l₀ + l₁) + (l₂ + l₃) (lanes past `count` go unread).
+                let pairs = _mm256_hadd_pd(load(&pending[0][k], 0), load(&pending[1][k], 0));
+                let more = _mm256_hadd_pd(load(&pending[2][k], 0), load(&pending[3][k], 0));
+                _mm256_add_pd(
+                    _mm256_permute2f128_pd::<0x20>(pairs, more),
+                    _mm256_permute2f128_pd::<0x31>(pairs, more),
+                )
+            } else {
+                // The plan's states of checks j .. j + 4 (past its last check, copies of
+                // the last).
+                let slot = super::PLANNED.iter().position(|&p| p == k);
+                load(&plan.fixed[slot.expect("a planned term")], j)
+            };
+        }
+        let [p, q, e, s, u, v, b1, b2, b3] = states;
+        let (mul, sub, add) = (_mm256_mul_pd, _mm256_sub_pd, _mm256_add_pd);
+        let c11 = sub(mul(s, v), mul(u, u));
+        let det = add(
+            sub(mul(p, c11), mul(q, sub(mul(q, v), mul(u, e)))),
+            mul(e, sub(mul(q, u), mul(s, e))),
+        );
+        let num = add(
+            sub(mul(b1, c11), mul(q, sub(mul(b2, v), mul(u, b3)))),
+            mul(e, sub(mul(b2, u), mul(s, b3))),
+        );
+        let magnitude = _mm256_set1_pd(f64::from_bits(!(1u64 << 63)));
+        let off = _mm256_and_pd(sub(num, mul(_mm256_set1_pd(run.target), det)), magnitude);
+        let within = _mm256_cmp_pd::<_CMP_LE_OQ>(
+            off,
+            mul(_mm256_set1_pd(run.band), _mm256_and_pd(det, magnitude)),
+        );
+        let nonzero = _mm256_cmp_pd::<_CMP_NEQ_UQ>(det, _mm256_setzero_pd());
+        let settled = _mm256_movemask_pd(_mm256_and_pd(within, nonzero));
+        let mut each = [[0.0; LANES]; 9];
+        for (each, state) in each.iter_mut().zip(states) {
+            store(each, state);
+        }
+        if let Some(record) = &mut run.record {
+            record.extend((0..count).map(|c| super::PLANNED.map(|k| each[k][c])));
+        }
+        for (state, each) in run.state.iter_mut().zip(&each) {
+            *state = each[count - 1];
+        }
+        for c in 0..count {
+            run.settle_at(settled & (1 << c) != 0, plan.checks[j + c]);
+        }
+        run.next_check += count;
     }
 }
 
@@ -580,9 +659,14 @@ pub struct RlsPlan {
     /// The last row of each group of four checked, increasing (the rows after the last
     /// group, each checked, are not listed).
     checks: Vec<usize>,
-    /// The states of the [`PLANNED`] terms at each check (empty: not computed).
-    fixed: Vec<[f64; 5]>,
+    /// The state of each [`PLANNED`] term at each check, then [`PLAN_PADDING`] copies of
+    /// the last (so that any check's state and the next three's are one slice); empty:
+    /// not computed.
+    fixed: [Vec<f64>; 5],
 }
+
+/// The copies of the last check's states after [`RlsPlan`]'s.
+const PLAN_PADDING: usize = LANES - 1;
 
 impl RlsPlan {
     /// The checks of rows at times `t` (see [`rls_scan`]) and, with `columns` (x₁, x₃, y of
@@ -602,13 +686,13 @@ impl RlsPlan {
         let mut plan = RlsPlan {
             lambda,
             checks,
-            fixed: Vec::new(),
+            fixed: Default::default(),
         };
         if let Some([f, c, y]) = columns {
             // Their scan with every term summed and each check's state recorded (the terms
             // of w read some column of the right length and go unread).
             let mut scan = RlsScan::new(0.0, Arc::new(plan.clone()), 0.0, 0.0, n);
-            scan.record = Some(Vec::with_capacity(plan.checks.len()));
+            scan.run.record = Some(Vec::with_capacity(plan.checks.len()));
             let rows = RowsView {
                 f,
                 w: f,
@@ -619,7 +703,13 @@ impl RlsPlan {
                 noise_free_y: false,
             };
             scan.advance(rows, whole);
-            plan.fixed = scan.record.take().unwrap_or_default();
+            let states = scan.run.record.take().unwrap_or_default();
+            if let Some(last) = states.last() {
+                let padded = states.iter().chain(std::iter::repeat_n(last, PLAN_PADDING));
+                for (slot, fixed) in plan.fixed.iter_mut().enumerate() {
+                    *fixed = padded.clone().map(|state| state[slot]).collect();
+                }
+            }
         }
         plan
     }
@@ -630,7 +720,7 @@ impl RlsPlan {
     }
 }
 
-/// [`RlsScan`]'s `FREE`: which of x̃₁, x̃₃, ỹ are the regression's own columns, so that the
+/// [`RlsRun`]'s `FREE`: which of x̃₁, x̃₃, ỹ are the regression's own columns, so that the
 /// plan holds the states of the terms they alone make.
 const FREE_NONE: u8 = 0;
 /// x̃₁ and x̃₃ the regression's: x₁², x₁x₃, x₃² planned.
@@ -656,6 +746,13 @@ const fn summed(free: u8, k: usize) -> bool {
 /// from the [`RlsPlan`].
 #[derive(Debug, Clone)]
 pub struct RlsScan {
+    plan: Arc<RlsPlan>,
+    run: RlsRun,
+}
+
+/// An [`RlsScan`] but its plan, which the scan's steps read as they change this.
+#[derive(Debug, Clone)]
+struct RlsRun {
     k: f64,
     lambda: f64,
     target: f64,
@@ -669,7 +766,6 @@ pub struct RlsScan {
     state: [f64; 9],
     /// The first checked row of the current run of checks inside the band.
     settle: Option<usize>,
-    plan: Arc<RlsPlan>,
     /// The next of the plan's checks.
     next_check: usize,
     /// Each check's states of the [`PLANNED`] terms, while the plan is made.
@@ -677,14 +773,20 @@ pub struct RlsScan {
     /// The next row to take, and the row count.
     next: usize,
     n: usize,
+    /// The lanes of the summed terms at the checks not yet taken (the AVX2 build takes
+    /// them several at a time).
+    pending: [[[f64; LANES]; 9]; PENDING],
 }
+
+/// The checks the AVX2 build of [`RlsScan`] puts aside before it takes them side by side.
+const PENDING: usize = 4;
 
 impl RlsScan {
     /// A scan of `n` rows with the plan of their regression (see [`rls_scan`] for the
     /// arguments).
     pub fn new(k: f64, plan: Arc<RlsPlan>, target: f64, band: f64, n: usize) -> Self {
         let lambda = plan.lambda;
-        RlsScan {
+        let run = RlsRun {
             k,
             lambda,
             target,
@@ -696,60 +798,75 @@ impl RlsScan {
             lanes: [[0.0; LANES]; 9],
             state: [0.0; 9],
             settle: None,
-            plan,
             next_check: 0,
             record: None,
             next: 0,
             n,
-        }
+            pending: [[[0.0; LANES]; 9]; PENDING],
+        };
+        RlsScan { plan, run }
     }
 
     /// Take rows up to `end` (exclusive; a multiple of four, or the row count).
     pub fn advance(&mut self, rows: RowsView<'_>, end: usize) {
         assert!(
-            end.is_multiple_of(LANES) || end == self.n,
+            end.is_multiple_of(LANES) || end == self.run.n,
             "rows split at {end}"
         );
+        let RlsScan { plan, run } = self;
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.advance_avx2(rows, end) };
+                return unsafe { run.advance_avx2(plan, rows, end) };
             }
         }
-        self.advance_by::<false>(rows, end);
+        run.advance_by::<false>(plan, rows, end);
     }
 
+    /// The normal equations of all rows and the settle row (all rows taken).
+    pub fn finish(&self) -> RlsResult {
+        self.run.finish()
+    }
+}
+
+impl RlsRun {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn advance_avx2(&mut self, rows: RowsView<'_>, end: usize) {
-        self.advance_by::<true>(rows, end);
+    fn advance_avx2(&mut self, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
+        self.advance_by::<true>(plan, rows, end);
     }
 
-    /// [`advance`](Self::advance) by the loop compiled for λ = 1 or not and for the
-    /// columns of the regression's own the rows read.
+    /// [`RlsScan::advance`] by the loop compiled for λ = 1 or not and for the columns of
+    /// the regression's own the rows read.
     #[inline(always)]
-    fn advance_by<const AVX2: bool>(&mut self, rows: RowsView<'_>, end: usize) {
-        let planned = !self.plan.fixed.is_empty();
+    fn advance_by<const AVX2: bool>(&mut self, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
+        let planned = !plan.fixed[0].is_empty();
         let free = match (planned, rows.noise_free_f_c, rows.noise_free_y) {
             (true, true, true) => FREE_F_C_Y,
             (true, true, false) => FREE_F_C,
             _ => FREE_NONE,
         };
         match (self.lambda == 1.0, free) {
-            (true, FREE_F_C_Y) => self.advance_body::<AVX2, false, FREE_F_C_Y>(rows, end),
-            (true, FREE_F_C) => self.advance_body::<AVX2, false, FREE_F_C>(rows, end),
-            (true, _) => self.advance_body::<AVX2, false, FREE_NONE>(rows, end),
-            (false, FREE_F_C_Y) => self.advance_body::<AVX2, true, FREE_F_C_Y>(rows, end),
-            (false, FREE_F_C) => self.advance_body::<AVX2, true, FREE_F_C>(rows, end),
-            (false, _) => self.advance_body::<AVX2, true, FREE_NONE>(rows, end),
+            (true, FREE_F_C_Y) => self.advance_body::<AVX2, false, FREE_F_C_Y>(plan, rows, end),
+            (true, FREE_F_C) => self.advance_body::<AVX2, false, FREE_F_C>(plan, rows, end),
+            (true, _) => self.advance_body::<AVX2, false, FREE_NONE>(plan, rows, end),
+            (false, FREE_F_C_Y) => self.advance_body::<AVX2, true, FREE_F_C_Y>(plan, rows, end),
+            (false, FREE_F_C) => self.advance_body::<AVX2, true, FREE_F_C>(plan, rows, end),
+            (false, _) => self.advance_body::<AVX2, true, FREE_NONE>(plan, rows, end),
         }
     }
 
     /// The check of the estimate at `row`.
     #[inline(always)]
     fn check(&mut self, row: usize) {
-        if !settled(&self.state, self.target, self.band) {
+        self.settle_at(settled(&self.state, self.target, self.band), row);
+    }
+
+    /// The check at `row` whose estimate is (`true`) or is not within the band.
+    #[inline(always)]
+    fn settle_at(&mut self, within: bool, row: usize) {
+        if !within {
             self.settle = None;
         } else if self.settle.is_none() {
             self.settle = Some(row);
@@ -772,7 +889,7 @@ impl RlsScan {
                 sum(k)
             } else {
                 let slot = PLANNED.iter().position(|&p| p == k);
-                plan.fixed[j][slot.expect("a planned term")]
+                plan.fixed[slot.expect("a planned term")][j]
             };
         }
         if let Some(record) = &mut self.record {
@@ -785,6 +902,7 @@ impl RlsScan {
     #[inline(always)]
     fn advance_body<const AVX2: bool, const FORGET: bool, const FREE: u8>(
         &mut self,
+        plan: &RlsPlan,
         rows: RowsView<'_>,
         end: usize,
     ) {
@@ -792,7 +910,7 @@ impl RlsScan {
         let whole = n - n % LANES;
         let k = self.k;
         let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
-        self.groups::<AVX2, FORGET, FREE>([f, w, c, y], self.next, end.min(whole));
+        self.groups::<AVX2, FORGET, FREE>(plan, [f, w, c, y], self.next, end.min(whole));
         self.next = self.next.max(end.min(whole));
         if end == n {
             for i in whole.max(self.next)..n {
@@ -811,6 +929,7 @@ impl RlsScan {
     #[inline(always)]
     fn groups<const AVX2: bool, const FORGET: bool, const FREE: u8>(
         &mut self,
+        plan: &RlsPlan,
         cols: [&[f64]; 4],
         start: usize,
         to: usize,
@@ -819,11 +938,10 @@ impl RlsScan {
         if AVX2 {
             // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are
             // called only where the CPU has it.
-            return unsafe { simd::rls_groups::<FORGET, FREE>(self, cols, start, to) };
+            return unsafe { simd::rls_groups::<FORGET, FREE>(self, plan, cols, start, to) };
         }
         let [f, w, c, y] = cols;
         let (k, age, entry) = (self.k, self.age, self.entry);
-        let plan = Arc::clone(&self.plan);
         let mut lanes = self.lanes;
         for start in (start..to).step_by(LANES) {
             let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
@@ -857,14 +975,14 @@ impl RlsScan {
             }
             let last = start + LANES - 1;
             if plan.checks.get(self.next_check) == Some(&last) {
-                self.check_group::<FREE>(&plan, |kk| reduce(lanes[kk]), last);
+                self.check_group::<FREE>(plan, |kk| reduce(lanes[kk]), last);
             }
         }
         self.lanes = lanes;
     }
 
-    /// The normal equations of all rows and the settle row (all rows taken).
-    pub fn finish(&self) -> RlsResult {
+    /// [`RlsScan::finish`].
+    fn finish(&self) -> RlsResult {
         debug_assert_eq!(self.next, self.n, "rows left untaken");
         let [p, q, e, s, u, v, b1, b2, b3] = self.state;
         (
@@ -1036,8 +1154,9 @@ mod tests {
         let n = t.len();
         let own = Some([&cols[0][..], &cols[2][..], &cols[3][..]]);
         let plan = Arc::new(RlsPlan::new(t, own, lambda));
-        let mut scan = RlsScan::new(3.3, plan, 5e-4, 1e-5, n);
-        scan.advance_body::<false, FORGET, FREE>(view(cols), n);
+        let mut scan = RlsScan::new(3.3, Arc::clone(&plan), 5e-4, 1e-5, n);
+        scan.run
+            .advance_body::<false, FORGET, FREE>(&plan, view(cols), n);
         scan.finish()
     }
 
