@@ -114,8 +114,7 @@ mod simd {
     #[target_feature(enable = "avx2")]
     pub(super) fn lanes(v: __m256d) -> [f64; LANES] {
         let mut out = [0.0; LANES];
-        // SAFETY: writes four f64 into an array of four.
-        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
+        store(&mut out, v);
         out
     }
 
@@ -775,6 +774,7 @@ struct RlsRun {
     n: usize,
     /// The lanes of the summed terms at the checks not yet taken (the AVX2 build takes
     /// them several at a time).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pending: [[[f64; LANES]; 9]; PENDING],
 }
 
@@ -1026,9 +1026,9 @@ fn settled(a: &[f64; 9], target: f64, band: f64) -> bool {
 mod tests {
     use super::*;
 
-    /// Deterministic rows y = xθ + wiggle over `n` samples 0.1 s apart.
-    fn rows(n: usize) -> (Vec<f64>, [Vec<f64>; 4]) {
-        let t: Vec<f64> = (0..n).map(|i| 0.1 * i as f64).collect();
+    /// Deterministic rows y = xθ + wiggle over `n` samples `dt` apart.
+    fn rows_every(dt: f64, n: usize) -> (Vec<f64>, [Vec<f64>; 4]) {
+        let t: Vec<f64> = (0..n).map(|i| dt * i as f64).collect();
         let f: Vec<f64> = t.iter().map(|t| 2000.0 + 200.0 * (0.3 * t).sin()).collect();
         let w: Vec<f64> = t
             .iter()
@@ -1048,6 +1048,10 @@ mod tests {
             .collect();
         (t, [f, w, c, y])
     }
+
+    /// The time steps of the tests: 0.1 s (every group checked) and 0.01 s (every seventh,
+    /// as on the thesis cycle, so the checks put aside have unchecked groups between them).
+    const STEPS: [f64; 2] = [0.1, 0.01];
 
     fn view(cols: &[Vec<f64>; 4]) -> RowsView<'_> {
         RowsView {
@@ -1105,8 +1109,11 @@ mod tests {
         // 0.01–1 % around the final 1/M estimate, so the settle row falls at different
         // places (or nowhere). The lanes sum the same products in another order: agreement
         // to 1e-12 relative (rounding of ~1e3 terms).
-        for n in [3usize, 401, 1203, 1204] {
-            let (t, cols) = rows(n);
+        let cases = STEPS
+            .into_iter()
+            .flat_map(|dt| [3usize, 401, 1203, 1204].map(|n| (dt, n)));
+        for (dt, n) in cases {
+            let (t, cols) = rows_every(dt, n);
             for lambda in [1.0, 0.995] {
                 let ((a, b), _) = rls_scan(view(&cols), &t, 3.3, lambda, 0.0, 0.0);
                 let final_theta = crate::numeric::linalg::solve_spd(&a, &b).map_or(0.0, |v| v[0]);
@@ -1120,7 +1127,7 @@ mod tests {
                         band * final_theta,
                     );
                     let (state, want) = naive(&t, &cols, lambda, final_theta, band * final_theta);
-                    assert_eq!(got, want, "n {n} λ {lambda} band {band}");
+                    assert_eq!(got, want, "dt {dt} n {n} λ {lambda} band {band}");
                     let lanes = [
                         a[(0, 0)],
                         a[(0, 1)],
@@ -1135,7 +1142,7 @@ mod tests {
                     for (x, y) in lanes.iter().zip(state) {
                         assert!(
                             (x - y).abs() <= 1e-12 * y.abs().max(1e-300),
-                            "n {n} λ {lambda}: {x} vs {y}"
+                            "dt {dt} n {n} λ {lambda}: {x} vs {y}"
                         );
                     }
                 }
@@ -1162,7 +1169,13 @@ mod tests {
 
     #[test]
     fn the_dispatched_and_portable_builds_agree_bit_for_bit() {
-        let (t, cols) = rows(1203);
+        for dt in STEPS {
+            dispatched_and_portable_agree(dt);
+        }
+    }
+
+    fn dispatched_and_portable_agree(dt: f64) {
+        let (t, cols) = rows_every(dt, 1203);
         for lambda in [1.0, 0.995] {
             let want = rls_scan(view(&cols), &t, 3.3, lambda, 5e-4, 1e-5);
             assert_eq!(want, portable::<true, FREE_NONE>(&cols, &t, lambda));
@@ -1192,8 +1205,11 @@ mod tests {
         // of rows whose x̃₁, x̃₃ (and ỹ) are the regression's takes the states of the terms
         // of those columns from the regression's plan: the same bits as summing them, with
         // ỹ the regression's and with ỹ moved (output noise).
-        for n in [3usize, 401, 1203, 1204] {
-            let (t, cols) = rows(n);
+        let cases = STEPS
+            .into_iter()
+            .flat_map(|dt| [3usize, 401, 1203, 1204].map(|n| (dt, n)));
+        for (dt, n) in cases {
+            let (t, cols) = rows_every(dt, n);
             let mut moved = cols.clone();
             for (i, y) in moved[3].iter_mut().enumerate() {
                 *y += 1e-3 * ((i * 31 % 17) as f64 - 8.0);
@@ -1224,7 +1240,7 @@ mod tests {
                             scan.advance(rows, end);
                         }
                         let what = format!(
-                            "n {n} λ {lambda} pieces of {piece}, free {} {}",
+                            "dt {dt} n {n} λ {lambda} pieces of {piece}, free {} {}",
                             rows.noise_free_f_c, rows.noise_free_y
                         );
                         assert_eq!(scan.finish(), whole, "{what}");
