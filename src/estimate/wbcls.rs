@@ -60,17 +60,12 @@ impl Estimator for Wbcls {
         let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
             let th = [theta[0], theta[1], theta[2]];
-            let mut total = Moments::default();
-            for (b, (m, &(v2, c2))) in moments.iter().zip(&local).enumerate() {
-                let variance = row_variance(&th, k, v2, c2, r.noise)
-                    + derivative.as_ref().map_or(0.0, |d| d[b]);
-                if !(variance > 0.0 && variance.is_finite()) {
-                    // No noise, or a variance model that breaks down: stay with the last
-                    // estimate.
-                    return Estimate::theta(Ok(theta));
-                }
-                total.add_scaled(m, 1.0 / variance);
-            }
+            let derivative = derivative.as_deref();
+            let Some(total) = weighted(moments, &local, derivative, &th, k, r.noise) else {
+                // No noise, or a variance model that breaks down: stay with the last
+                // estimate.
+                return Estimate::theta(Ok(theta));
+            };
             theta = match r.settings.solve(&total.bcls_system(k, g, r.noise)) {
                 Ok(theta) => theta,
                 failed => return Estimate::theta(failed),
@@ -83,6 +78,61 @@ impl Estimator for Wbcls {
         // The sandwich is the spread of the unweighted estimators.
         bound.kind != BoundKind::EivSandwich
     }
+}
+
+/// The segments' moments, each weighted by 1/Ω̂ at the estimate `theta` (its local speed
+/// and grade loading from `local`, plus the variance `derivative` adds), summed in order;
+/// `None` where a variance is not positive and finite. Compiled for AVX2 where the CPU
+/// has it (the same operations: only the instructions differ).
+fn weighted(
+    moments: &[Moments],
+    local: &[(f64, f64)],
+    derivative: Option<&[f64]>,
+    theta: &[f64; 3],
+    k: f64,
+    noise: &NoiseLevels,
+) -> Option<Moments> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { weighted_avx2(moments, local, derivative, theta, k, noise) };
+        }
+    }
+    weighted_body(moments, local, derivative, theta, k, noise)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn weighted_avx2(
+    moments: &[Moments],
+    local: &[(f64, f64)],
+    derivative: Option<&[f64]>,
+    theta: &[f64; 3],
+    k: f64,
+    noise: &NoiseLevels,
+) -> Option<Moments> {
+    weighted_body(moments, local, derivative, theta, k, noise)
+}
+
+#[inline(always)]
+fn weighted_body(
+    moments: &[Moments],
+    local: &[(f64, f64)],
+    derivative: Option<&[f64]>,
+    theta: &[f64; 3],
+    k: f64,
+    noise: &NoiseLevels,
+) -> Option<Moments> {
+    let mut total = Moments::default();
+    for (b, (m, &(v2, c2))) in moments.iter().zip(local).enumerate() {
+        let variance = row_variance(theta, k, v2, c2, noise) + derivative.map_or(0.0, |d| d[b]);
+        if !(variance > 0.0 && variance.is_finite()) {
+            return None;
+        }
+        total.add_scaled(m, 1.0 / variance);
+    }
+    Some(total)
 }
 
 /// How many segments on each side of a segment are skipped before its neighbours, the
