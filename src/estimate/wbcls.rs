@@ -59,9 +59,15 @@ impl Estimator for Wbcls {
         let local = neighbour_means(moments, sd * sd, segments_left_out(r.noise));
         let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
-            let th = [theta[0], theta[1], theta[2]];
-            let derivative = derivative.as_deref();
-            let Some(total) = weighted(moments, &local, derivative, &th, k, r.noise) else {
+            let weighting = Weighting {
+                moments,
+                local: &local,
+                derivative: derivative.as_deref(),
+                theta: [theta[0], theta[1], theta[2]],
+                k,
+                noise: r.noise,
+            };
+            let Some(total) = weighting.total() else {
                 // No noise, or a variance model that breaks down: stay with the last
                 // estimate.
                 return Estimate::theta(Ok(theta));
@@ -80,59 +86,52 @@ impl Estimator for Wbcls {
     }
 }
 
-/// The segments' moments, each weighted by 1/Ω̂ at the estimate `theta` (its local speed
-/// and grade loading from `local`, plus the variance `derivative` adds), summed in order;
-/// `None` where a variance is not positive and finite. Compiled for AVX2 where the CPU
-/// has it (the same operations: only the instructions differ).
-fn weighted(
-    moments: &[Moments],
-    local: &[(f64, f64)],
-    derivative: Option<&[f64]>,
-    theta: &[f64; 3],
+/// One pass of the reweighting: the segments' `moments`, each weighted by 1/Ω̂ at the
+/// estimate `theta` (its local speed and grade loading from `local`, plus the variance
+/// `derivative` adds).
+struct Weighting<'a> {
+    moments: &'a [Moments],
+    local: &'a [(f64, f64)],
+    derivative: Option<&'a [f64]>,
+    theta: [f64; 3],
     k: f64,
-    noise: &NoiseLevels,
-) -> Option<Moments> {
+    noise: &'a NoiseLevels,
+}
+
+impl Weighting<'_> {
+    /// The weighted moments summed in order; `None` where a variance is not positive and
+    /// finite. Compiled for AVX2 where the CPU has it (the same operations: only the
+    /// instructions differ).
+    fn total(&self) -> Option<Moments> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { self.total_avx2() };
+            }
+        }
+        self.total_body()
+    }
+
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { weighted_avx2(moments, local, derivative, theta, k, noise) };
-        }
+    #[target_feature(enable = "avx2")]
+    fn total_avx2(&self) -> Option<Moments> {
+        self.total_body()
     }
-    weighted_body(moments, local, derivative, theta, k, noise)
-}
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn weighted_avx2(
-    moments: &[Moments],
-    local: &[(f64, f64)],
-    derivative: Option<&[f64]>,
-    theta: &[f64; 3],
-    k: f64,
-    noise: &NoiseLevels,
-) -> Option<Moments> {
-    weighted_body(moments, local, derivative, theta, k, noise)
-}
-
-#[inline(always)]
-fn weighted_body(
-    moments: &[Moments],
-    local: &[(f64, f64)],
-    derivative: Option<&[f64]>,
-    theta: &[f64; 3],
-    k: f64,
-    noise: &NoiseLevels,
-) -> Option<Moments> {
-    let mut total = Moments::default();
-    for (b, (m, &(v2, c2))) in moments.iter().zip(local).enumerate() {
-        let variance = row_variance(theta, k, v2, c2, noise) + derivative.map_or(0.0, |d| d[b]);
-        if !(variance > 0.0 && variance.is_finite()) {
-            return None;
+    #[inline(always)]
+    fn total_body(&self) -> Option<Moments> {
+        let mut total = Moments::default();
+        for (b, (m, &(v2, c2))) in self.moments.iter().zip(self.local).enumerate() {
+            let variance = row_variance(&self.theta, self.k, v2, c2, self.noise)
+                + self.derivative.map_or(0.0, |d| d[b]);
+            if !(variance > 0.0 && variance.is_finite()) {
+                return None;
+            }
+            total.add_scaled(m, 1.0 / variance);
         }
-        total.add_scaled(m, 1.0 / variance);
+        Some(total)
     }
-    Some(total)
 }
 
 /// How many segments on each side of a segment are skipped before its neighbours, the

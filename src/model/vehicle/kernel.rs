@@ -204,20 +204,25 @@ fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
 }
 
 /// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of the noise of
-/// realisations side by side: sample j of every one, then j + 1, each from its `previous`
-/// value (left at its last). A batch of the executor's size keeps each realisation's
-/// previous value in a register (in a list in memory, each step waits for the store of
-/// the step before).
-fn filter_side_by_side(noise: &mut [&mut [f64]], previous: &mut [f64], ar1: &[[f64; 2]]) {
+/// realisations side by side (realisation i's noise `pick(&mut noise[i])`): sample j of
+/// every one, then j + 1, each from its `previous` value (left at its last). A batch of the
+/// executor's size keeps each realisation's previous value in a register (in a list in
+/// memory, each step waits for the store of the step before).
+fn filter_side_by_side<T>(
+    noise: &mut [T],
+    pick: impl Fn(&mut T) -> &mut [f64],
+    previous: &mut [f64],
+    ar1: &[[f64; 2]],
+) {
     assert_eq!(
         noise.len(),
         previous.len(),
         "a previous value per realisation"
     );
-    if let (Ok(noise), Ok(previous)) = (
-        <&mut [&mut [f64]; SINGLE_BATCH]>::try_from(&mut *noise),
-        <&mut [f64; SINGLE_BATCH]>::try_from(&mut *previous),
-    ) {
+    if let Ok(previous) = <&mut [f64; SINGLE_BATCH]>::try_from(&mut *previous) {
+        let mut each = noise.iter_mut().map(&pick);
+        let mut noise: [&mut [f64]; SINGLE_BATCH] =
+            std::array::from_fn(|_| each.next().expect("a noise per previous value"));
         let mut last = *previous;
         for (j, step) in ar1.iter().enumerate() {
             for (e, last) in noise.iter_mut().zip(&mut last) {
@@ -229,7 +234,7 @@ fn filter_side_by_side(noise: &mut [&mut [f64]], previous: &mut [f64], ar1: &[[f
     }
     for (j, step) in ar1.iter().enumerate() {
         for (e, previous) in noise.iter_mut().zip(previous.iter_mut()) {
-            ar1_step(previous, &mut e[j], *step);
+            ar1_step(previous, &mut pick(e)[j], *step);
         }
     }
 }
@@ -377,7 +382,7 @@ impl VehicleModel {
             Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
         }
         let mut spans: Vec<&mut [f64]> = out.chunks_exact_mut(len).collect();
-        filter_side_by_side(&mut spans, &mut vec![0.0; count], &ar1[..len]);
+        filter_side_by_side(&mut spans, |s| &mut **s, &mut vec![0.0; count], &ar1[..len]);
         len
     }
 
@@ -449,11 +454,12 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                let mut noise: Vec<&mut [f64]> = buffers
-                    .iter_mut()
-                    .map(|b| &mut b[Channel::Velocity][..])
-                    .collect();
-                filter_side_by_side(&mut noise, &mut previous, rows);
+                filter_side_by_side(
+                    &mut buffers,
+                    |b| &mut b[Channel::Velocity][..],
+                    &mut previous,
+                    rows,
+                );
             }
             for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
                 let len = BLOCK.min(n - start);
