@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use chassis_mc::montecarlo::Silent;
 use chassis_mc::run::{RunOptions, STAGING, Shard, run_study, summarize};
+use chassis_mc::study::Study;
 
 use super::common::*;
 
@@ -239,4 +240,129 @@ fn leftovers_of_a_killed_run_are_cleared_not_fatal() {
     .unwrap();
     assert!(!file.exists() && !figures.exists(), "leftovers are removed");
     assert!(dir.path().join("summary.parquet").exists());
+}
+
+/// Every sensor path of the kernel (README "Performance"), 40 realisations per condition
+/// (one thread computes them in batches of eight side by side, two in batches of five):
+/// the thesis drive (30 s at 0.01 s) with white and AR(1) speed noise, the model's and a
+/// differentiated acceleration, with and without grade noise, and the truck's drive (10
+/// minutes at 0.1 s: five-row WBCLS segments) with the same axes; each with all four
+/// estimators (the rows scanned for WBCLS and RLS, each realisation measured on its own)
+/// and with OLS and BCLS alone (realisations measured side by side where they can be).
+/// Each with a name for the messages and its number of estimators.
+fn sensor_path_studies() -> Vec<(String, Study, usize)> {
+    let axes = "[noise]\nvelocity_correlation_time = [0.0, 1.0]\ngrade_sd = [0.0, 0.001]";
+    let thesis = set_key(&study_text("bias_compensation.toml"), "duration", "30.0");
+    let thesis = set_key(&set_key(&thesis, "scales", "[1.0]"), "velocity_sd", "[1.0]");
+    let truck = set_key(&study_text("heavy_duty.toml"), "durations", "[600.0]");
+    let truck = set_key(&truck, "velocity_sd", "[0.5]");
+    let mut studies = Vec::new();
+    for (name, text) in [("thesis", thesis), ("truck", truck)] {
+        for estimators in [r#"["ols", "bcls", "wbcls", "rls"]"#, r#"["ols", "bcls"]"#] {
+            let estimation =
+                format!("{estimators}\nacceleration = [\"model\", \"differentiated\"]");
+            let text = set_key(
+                &text.replacen("[noise]", axes, 1),
+                "estimators",
+                &estimation,
+            );
+            let study = Study::from_toml(&text, name)
+                .unwrap()
+                .with_overrides(Some(40), None)
+                .unwrap();
+            let count = estimators.matches(',').count() + 1;
+            studies.push((format!("{name} {estimators}"), study, count));
+        }
+    }
+    studies
+}
+
+/// `table`'s rows sorted by condition, realisation and estimator.
+fn sorted(table: &arrow::array::RecordBatch) -> arrow::array::RecordBatch {
+    let keys = ["condition", "realisation", "estimator"].map(|name| arrow::compute::SortColumn {
+        values: table.column_by_name(name).unwrap().clone(),
+        options: None,
+    });
+    let order = arrow::compute::lexsort_to_indices(&keys, None).unwrap();
+    arrow::compute::take_record_batch(table, &order).unwrap()
+}
+
+#[test]
+fn every_sensor_path_is_the_same_across_threads_shards_resume_and_extension() {
+    for (name, study, estimators) in sensor_path_studies() {
+        let files = ["realisations.parquet", "summary.parquet", "cycles.parquet"];
+        let same = |a: &std::path::Path, b: &std::path::Path, how: &str| {
+            for file in files {
+                assert!(
+                    bytes(&a.join(file)) == bytes(&b.join(file)),
+                    "{name}, {how}: {file} differs"
+                );
+            }
+        };
+        let (one, _) = run(&study, Some(1));
+        let (two, _) = run(&study, Some(2));
+        same(one.path(), two.path(), "two threads against one");
+
+        // Three shards in a scrambled order, then summarize.
+        let sharded = tempfile::tempdir().unwrap();
+        for k in [2, 0, 1] {
+            let mut options = RunOptions::new(sharded.path());
+            options.shard = Some(Shard { index: k, count: 3 });
+            run_study(&study, &options, &Silent).unwrap();
+        }
+        summarize(&[sharded.path().to_path_buf()], sharded.path(), false).unwrap();
+        for file in ["summary.parquet", "cycles.parquet"] {
+            assert!(
+                bytes(&one.path().join(file)) == bytes(&sharded.path().join(file)),
+                "{name}, three shards: {file} differs"
+            );
+        }
+        let parts: Vec<_> = (0..3)
+            .map(|k| {
+                read_table(
+                    &sharded
+                        .path()
+                        .join(format!("shard={k}/realisations.parquet")),
+                )
+            })
+            .collect();
+        let parts = arrow::compute::concat_batches(&parts[0].schema(), &parts).unwrap();
+        let whole = read_table(&one.path().join("realisations.parquet"));
+        assert_eq!(whole.num_rows(), 8 * 40 * estimators, "{name}: eight paths");
+        assert_eq!(
+            sorted(&parts).columns(),
+            sorted(&whole).columns(),
+            "{name}, three shards: the realisations differ"
+        );
+
+        // Extended from R = 20 to 40 in the same directory.
+        let grown = tempfile::tempdir().unwrap();
+        let options = RunOptions::new(grown.path());
+        let fewer = study.clone().with_overrides(Some(20), None).unwrap();
+        run_study(&fewer, &options, &Silent).unwrap();
+        let report = run_study(&study, &options, &Silent).unwrap();
+        assert_eq!(report.reused, 8 * 20, "{name}: the first 20 of each kept");
+        same(one.path(), grown.path(), "extended from R = 20");
+
+        // Asked to stop once three conditions are done (one part each), then resumed.
+        let resumed = tempfile::tempdir().unwrap();
+        let mut options = RunOptions::new(resumed.path());
+        options.threads = Some(1);
+        let stop = StopAfter {
+            after: 3 * 40,
+            done: Default::default(),
+        };
+        let stopped = run_study(&study, &options, &stop);
+        assert!(
+            matches!(stopped, Err(chassis_mc::run::RunError::Interrupted { .. })),
+            "{name}: {stopped:?}"
+        );
+        let report = run_study(&study, &options, &Silent).unwrap();
+        assert!(
+            (40..8 * 40).contains(&report.reused),
+            "{name}: kept {}",
+            report.reused
+        );
+        same(one.path(), resumed.path(), "stopped and resumed");
+    }
 }
