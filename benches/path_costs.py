@@ -17,18 +17,24 @@ hour) with OLS, with grade noise, and with a differentiated acceleration, grade 
 OLS + BCLS + WBCLS.
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
-        [--before OTHER/target/release/chassis-mc] [--only REGEX]
+        [--rounds 5] [--before OTHER/target/release/chassis-mc] [--only REGEX]
+
+With `--rounds N` the whole table is measured N times over (each path again beside the
+thesis path in each round) and each cell is the median over the rounds, with the range of
+the ratio: one round's ratio moves by ±20 % on the shared machine, the median far less.
 
 With `--in-process` the costs come instead from `examples/path_ratio.rs` (built by
 `cargo build --release --example path_ratio`), which computes realisations of the thesis
 path and of each path alternately in one process, best of eight rounds each: no process
-start, preparation or output in the timings, and the two timings moments apart.
+start, preparation or output in the timings, and the two timings moments apart (with
+`--rounds`, that run again per round).
 """
 
 import argparse
 import pathlib
 import re
 import shutil
+import statistics
 import subprocess
 import tempfile
 import time
@@ -106,6 +112,9 @@ def main():
                     help="the larger R (the difference must outweigh the timing noise)")
     ap.add_argument("--binary", type=pathlib.Path, default=BINARY,
                     help="the chassis-mc measured (default: this checkout's release build)")
+    ap.add_argument("--rounds", type=int, default=1,
+                    help="measure the table this many times over and give each cell's median "
+                         "over the rounds, with the range of the ratio")
     ap.add_argument("--before", type=pathlib.Path,
                     help="another chassis-mc (an earlier commit's build) measured in the same "
                          "run, alternating with --binary: its columns come first")
@@ -123,7 +132,9 @@ def main():
     binaries = [args.before, args.binary] if args.before else [args.binary]
     # results[b][i]: (name, ms per realisation, s per sample, rows, s per sample of the
     # thesis path measured just before it with the same binary)
-    results = [[] for _ in binaries]
+    # results[b][i]: per round, (ms per realisation, s per sample, rows, s per sample of the
+    # thesis path measured just before it with the same binary)
+    results = [[[] for _ in paths] for _ in binaries]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = pathlib.Path(tmp)
 
@@ -142,23 +153,31 @@ def main():
                 ap.error("--in-process measures this checkout's build only (no --before)")
             in_process(args, paths, tmp)
             return
-        for i, (name, text) in enumerate(paths):
-            for binary, rows in zip(binaries, results):
-                # The thesis path again beside each path, so that its ratio compares two
-                # timings taken moments apart (the machine drifts within a run).
-                base, base_n = cost(binary, 0, paths[0][1])
-                per_r, n = (base, base_n) if i == 0 else cost(binary, i, text)
-                rows.append((name, per_r, per_r / n, n, base / base_n))
+        for _ in range(args.rounds):
+            for i, (name, text) in enumerate(paths):
+                for binary, rows in zip(binaries, results):
+                    # The thesis path again beside each path, so that its ratio compares two
+                    # timings taken moments apart (the machine drifts within a run).
+                    base, base_n = cost(binary, 0, paths[0][1])
+                    per_r, n = (base, base_n) if i == 0 else cost(binary, i, text)
+                    rows[i].append((per_r, per_r / n, n, base / base_n))
     heads = ["before: ", "after: "] if args.before else [""]
-    print("| path | rows | " + " | ".join(
-        f"{h}ms / realisation | {h}ns / sample | {h}× thesis per sample" for h in heads) + " |")
-    print("|---|---|" + "---|---|---|" * len(heads))
-    for i, (name, _, _, n, _) in enumerate(results[0]):
+    columns = ["ms / realisation", "ns / sample", "× thesis per sample"]
+    if args.rounds > 1:
+        columns.append("× thesis, range")
+    print("| path | rows | " + " | ".join(f"{h}{c}" for h in heads for c in columns) + " |")
+    print("|---|---|" + "---|" * len(columns) * len(heads))
+    for i, (name, _) in enumerate(paths):
         cells = []
         for rows in results:
-            _, per_r, per_s, _, base = rows[i]
-            cells += [f"{1e3 * per_r:.3f}", f"{1e9 * per_s:.1f}", f"{per_s / base:.2f}"]
-        print(f"| {name} | {n} | " + " | ".join(cells) + " |")
+            ratios = [per_s / base for _, per_s, _, base in rows[i]]
+            cells += [f"{1e3 * statistics.median(r[0] for r in rows[i]):.3f}",
+                      f"{1e9 * statistics.median(r[1] for r in rows[i]):.1f}",
+                      f"{statistics.median(ratios):.2f}"]
+            if args.rounds > 1:
+                cells.append(f"{min(ratios):.2f}–{max(ratios):.2f}")
+        print(f"| {name} | {results[0][i][0][2]} | " + " | ".join(cells) + " |")
+
 
 def in_process(args, paths, tmp):
     """The table from `examples/path_ratio.rs`: each path against the thesis path in one
@@ -180,16 +199,28 @@ def in_process(args, paths, tmp):
         return file, rows_regressed(out)
 
     base, base_n = study(0, paths[0][1])
-    print("| path | rows | ms / realisation | ns / sample | × thesis per sample |")
-    print("|---|---|---|---|---|")
-    for i, (name, text) in enumerate(paths):
-        file, n = (base, base_n) if i == 0 else study(i, text)
-        line = subprocess.run([str(ratio), str(base), str(file), "8", "80"], check=True,
-                              capture_output=True, text=True).stdout.split()
-        base_ms, ms = float(line[0]), float(line[1])
-        per_s, base_s = ms * 1e-3 / n, base_ms * 1e-3 / base_n
-        print(f"| {name} | {n} | {ms:.3f} | {1e9 * per_s:.1f} | {per_s / base_s:.2f} |",
-              flush=True)
+    files = [(base, base_n)] + [study(i, text) for i, (_, text) in enumerate(paths) if i > 0]
+    # per path, per round: (ms per realisation, s per sample, ratio to the thesis path's)
+    rows = [[] for _ in paths]
+    for _ in range(args.rounds):
+        for (file, n), measured in zip(files, rows):
+            line = subprocess.run([str(ratio), str(base), str(file), "8", "80"], check=True,
+                                  capture_output=True, text=True).stdout.split()
+            base_ms, ms = float(line[0]), float(line[1])
+            per_s, base_s = ms * 1e-3 / n, base_ms * 1e-3 / base_n
+            measured.append((ms, per_s, per_s / base_s))
+    ranged = args.rounds > 1
+    print("| path | rows | ms / realisation | ns / sample | × thesis per sample |"
+          + (" × thesis, range |" if ranged else ""))
+    print("|---|---|---|---|---|" + ("---|" if ranged else ""))
+    for (name, _), (_, n), measured in zip(paths, files, rows):
+        ratios = [r[2] for r in measured]
+        cells = [f"{statistics.median(r[0] for r in measured):.3f}",
+                 f"{1e9 * statistics.median(r[1] for r in measured):.1f}",
+                 f"{statistics.median(ratios):.2f}"]
+        if ranged:
+            cells.append(f"{min(ratios):.2f}–{max(ratios):.2f}")
+        print(f"| {name} | {n} | " + " | ".join(cells) + " |", flush=True)
 
 
 if __name__ == "__main__":
