@@ -6,9 +6,9 @@ For each path a one-condition study is run with `--threads 1` at R = 20 and R = 
 (default 1020; best of `--repeat` wall times each); the marginal cost per realisation is
 (T(large) − T(20)) / (large − 20), which leaves out the study's preparation (simulating the cycle,
 the bounds, the covariances of the control variates), and per sample that over the rows
-regressed. The last column is the per-sample cost over the thesis path's, measured again
-just before each path with the same binary: ratios of timings taken moments apart are what
-a shared, noisy machine can compare.
+regressed. The "× thesis" column is the per-sample cost over the thesis path's, measured
+again just before each path with the same binary: ratios of timings taken moments apart are
+what a shared, noisy machine can compare.
 
 Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then OLS with
 BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
@@ -17,11 +17,12 @@ hour) with OLS, with grade noise, and with a differentiated acceleration, grade 
 OLS + BCLS + WBCLS.
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
-        [--rounds 5] [--before OTHER/target/release/chassis-mc] [--only REGEX]
+        [--rounds N] [--before OTHER/target/release/chassis-mc] [--only REGEX]
 
-With `--rounds N` the whole table is measured N times over (each path again beside the
-thesis path in each round) and each cell is the median over the rounds, with the range of
-the ratio: one round's ratio moves by ±20 % on the shared machine, the median far less.
+With `--rounds N` (default 1) the whole table is measured N times over (each path again
+beside the thesis path in each round) and each cell is the median of its N values, with the
+range of the ratio: one round's ratio moves by ±20 % on the shared machine. Each cell's
+median is taken on its own, so two cells of a row may come from different rounds.
 
 With `--in-process` the costs come instead from `examples/path_ratio.rs` (built by
 `cargo build --release --example path_ratio`), which computes realisations of the thesis
@@ -35,6 +36,7 @@ import pathlib
 import re
 import shutil
 import statistics
+import sys
 import subprocess
 import tempfile
 import time
@@ -127,12 +129,12 @@ def main():
                     help="measure only the paths whose names match (the thesis path always, "
                          "as the base of the ratios)")
     args = ap.parse_args()
+    if args.rounds < 1:
+        ap.error("--rounds must be at least 1")
     paths = [p for i, p in enumerate(PATHS)
              if i == 0 or args.only is None or re.search(args.only, p[0])]
     binaries = [args.before, args.binary] if args.before else [args.binary]
-    # results[b][i]: (name, ms per realisation, s per sample, rows, s per sample of the
-    # thesis path measured just before it with the same binary)
-    # results[b][i]: per round, (ms per realisation, s per sample, rows, s per sample of the
+    # results[b][i]: per round, (s per realisation, s per sample, rows, s per sample of the
     # thesis path measured just before it with the same binary)
     results = [[[] for _ in paths] for _ in binaries]
     with tempfile.TemporaryDirectory() as tmp:
@@ -153,7 +155,9 @@ def main():
                 ap.error("--in-process measures this checkout's build only (no --before)")
             in_process(args, paths, tmp)
             return
-        for _ in range(args.rounds):
+        for k in range(args.rounds):
+            if args.rounds > 1:
+                print(f"round {k + 1} of {args.rounds}", file=sys.stderr, flush=True)
             for i, (name, text) in enumerate(paths):
                 for binary, rows in zip(binaries, results):
                     # The thesis path again beside each path, so that its ratio compares two
@@ -202,7 +206,9 @@ def in_process(args, paths, tmp):
     files = [(base, base_n)] + [study(i, text) for i, (_, text) in enumerate(paths) if i > 0]
     # per path, per round: (ms per realisation, s per sample, ratio to the thesis path's)
     rows = [[] for _ in paths]
-    for _ in range(args.rounds):
+    for k in range(args.rounds):
+        if args.rounds > 1:
+            print(f"round {k + 1} of {args.rounds}", file=sys.stderr, flush=True)
         for (file, n), measured in zip(files, rows):
             line = subprocess.run([str(ratio), str(base), str(file), "8", "80"], check=True,
                                   capture_output=True, text=True).stdout.split()
@@ -220,7 +226,7 @@ def in_process(args, paths, tmp):
                  f"{statistics.median(ratios):.2f}"]
         if ranged:
             cells.append(f"{min(ratios):.2f}–{max(ratios):.2f}")
-        print(f"| {name} | {n} | " + " | ".join(cells) + " |", flush=True)
+        print(f"| {name} | {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

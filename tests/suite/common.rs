@@ -9,7 +9,7 @@ use std::process::{Command, Stdio};
 
 use arrow::array::{Array, Float64Array, Int32Array, Int64Array, RecordBatch, StringArray};
 use chassis_mc::montecarlo::Silent;
-use chassis_mc::run::{RunOptions, RunReport, run_study};
+use chassis_mc::run::{RunOptions, RunReport, Shard, run_study};
 use chassis_mc::study::Study;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
@@ -78,6 +78,20 @@ pub fn run(study: &Study, threads: Option<usize>) -> (tempfile::TempDir, RunRepo
     options.threads = threads;
     let report = run_study(study, &options, &Silent).unwrap();
     (dir, report)
+}
+
+/// Run `study` into `dir` as `order.len()` shards, in the order given (a cluster finishes
+/// them in any order); each writes its realisations and no summary of its own.
+pub fn run_shards(study: &Study, dir: &Path, order: &[u64]) {
+    for &k in order {
+        let mut options = RunOptions::new(dir);
+        options.shard = Some(Shard {
+            index: k,
+            count: order.len() as u64,
+        });
+        let report = run_study(study, &options, &Silent).unwrap();
+        assert!(report.summary.is_empty(), "shard {k} wrote a summary");
+    }
 }
 
 /// Run `study` (figures too, as every run draws them) and read its summary.parquet.

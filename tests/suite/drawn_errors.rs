@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::Command;
 
 use chassis_mc::montecarlo::Silent;
-use chassis_mc::run::{RunOptions, Shard, run_study, summarize};
+use chassis_mc::run::{RunOptions, run_study, summarize};
 use chassis_mc::study::Study;
 
 use super::common::*;
@@ -72,11 +72,7 @@ fn drawn_entries_and_the_map_give_the_same_bytes_across_threads_shards_extension
 
     // Three shards in a scrambled order, then summarized: the unsharded summary.
     let sharded = tempfile::tempdir().unwrap();
-    for k in [2, 0, 1] {
-        let mut options = RunOptions::new(sharded.path());
-        options.shard = Some(Shard { index: k, count: 3 });
-        run_study(&study, &options, &Silent).unwrap();
-    }
+    run_shards(&study, sharded.path(), &[2, 0, 1]);
     summarize(&[sharded.path().to_path_buf()], sharded.path(), false).unwrap();
     assert!(
         bytes(&one.path().join("summary.parquet"))
