@@ -155,9 +155,7 @@ def main():
                 ap.error("--in-process measures this checkout's build only (no --before)")
             in_process(args, paths, tmp)
             return
-        for k in range(args.rounds):
-            if args.rounds > 1:
-                print(f"round {k + 1} of {args.rounds}", file=sys.stderr, flush=True)
+        for _ in rounds(args.rounds):
             for i, (name, text) in enumerate(paths):
                 for binary, rows in zip(binaries, results):
                     # The thesis path again beside each path, so that its ratio compares two
@@ -166,21 +164,38 @@ def main():
                     per_r, n = (base, base_n) if i == 0 else cost(binary, i, text)
                     rows[i].append((per_r, per_r / n, n, base / base_n))
     heads = ["before: ", "after: "] if args.before else [""]
-    columns = ["ms / realisation", "ns / sample", "× thesis per sample"]
-    if args.rounds > 1:
-        columns.append("× thesis, range")
-    print("| path | rows | " + " | ".join(f"{h}{c}" for h in heads for c in columns) + " |")
-    print("|---|---|" + "---|" * len(columns) * len(heads))
+    names = columns(args.rounds)
+    print("| path | rows | " + " | ".join(f"{h}{c}" for h in heads for c in names) + " |")
+    print("|---|---|" + "---|" * len(names) * len(heads))
     for i, (name, _) in enumerate(paths):
         cells = []
         for rows in results:
-            ratios = [per_s / base for _, per_s, _, base in rows[i]]
-            cells += [f"{1e3 * statistics.median(r[0] for r in rows[i]):.3f}",
-                      f"{1e9 * statistics.median(r[1] for r in rows[i]):.1f}",
-                      f"{statistics.median(ratios):.2f}"]
-            if args.rounds > 1:
-                cells.append(f"{min(ratios):.2f}–{max(ratios):.2f}")
+            cells += summary_cells([r[0] for r in rows[i]], [r[1] for r in rows[i]],
+                                   [per_s / base for _, per_s, _, base in rows[i]])
         print(f"| {name} | {results[0][i][0][2]} | " + " | ".join(cells) + " |")
+
+
+def rounds(count):
+    """range(count), saying on stderr which round starts when there are several."""
+    for k in range(count):
+        if count > 1:
+            print(f"round {k + 1} of {count}", file=sys.stderr, flush=True)
+        yield k
+
+
+def columns(count):
+    """The table's columns for one binary measured over `count` rounds."""
+    names = ["ms / realisation", "ns / sample", "× thesis per sample"]
+    return names + ["× thesis, range"] if count > 1 else names
+
+
+def summary_cells(per_r, per_s, ratios):
+    """The cells of one path: the medians over the rounds of the cost per realisation and
+    per sample [s] and of the ratio to the thesis path, then the ratio's range when there
+    are several rounds."""
+    cells = [f"{1e3 * statistics.median(per_r):.3f}", f"{1e9 * statistics.median(per_s):.1f}",
+             f"{statistics.median(ratios):.2f}"]
+    return cells + [f"{min(ratios):.2f}–{max(ratios):.2f}"] if len(ratios) > 1 else cells
 
 
 def in_process(args, paths, tmp):
@@ -204,28 +219,19 @@ def in_process(args, paths, tmp):
 
     base, base_n = study(0, paths[0][1])
     files = [(base, base_n)] + [study(i, text) for i, (_, text) in enumerate(paths) if i > 0]
-    # per path, per round: (ms per realisation, s per sample, ratio to the thesis path's)
-    rows = [[] for _ in paths]
-    for k in range(args.rounds):
-        if args.rounds > 1:
-            print(f"round {k + 1} of {args.rounds}", file=sys.stderr, flush=True)
-        for (file, n), measured in zip(files, rows):
+    # per path, per round: (s per realisation, s per sample, ratio to the thesis path's)
+    measured = [[] for _ in paths]
+    for _ in rounds(args.rounds):
+        for (file, n), each in zip(files, measured):
             line = subprocess.run([str(ratio), str(base), str(file), "8", "80"], check=True,
                                   capture_output=True, text=True).stdout.split()
-            base_ms, ms = float(line[0]), float(line[1])
-            per_s, base_s = ms * 1e-3 / n, base_ms * 1e-3 / base_n
-            measured.append((ms, per_s, per_s / base_s))
-    ranged = args.rounds > 1
-    print("| path | rows | ms / realisation | ns / sample | × thesis per sample |"
-          + (" × thesis, range |" if ranged else ""))
-    print("|---|---|---|---|---|" + ("---|" if ranged else ""))
-    for (name, _), (_, n), measured in zip(paths, files, rows):
-        ratios = [r[2] for r in measured]
-        cells = [f"{statistics.median(r[0] for r in measured):.3f}",
-                 f"{1e9 * statistics.median(r[1] for r in measured):.1f}",
-                 f"{statistics.median(ratios):.2f}"]
-        if ranged:
-            cells.append(f"{min(ratios):.2f}–{max(ratios):.2f}")
+            base_r, per_r = float(line[0]) * 1e-3, float(line[1]) * 1e-3
+            each.append((per_r, per_r / n, (per_r / n) / (base_r / base_n)))
+    names = columns(args.rounds)
+    print("| path | rows | " + " | ".join(names) + " |")
+    print("|---|---|" + "---|" * len(names))
+    for (name, _), (_, n), each in zip(paths, files, measured):
+        cells = summary_cells(*([r[k] for r in each] for k in range(3)))
         print(f"| {name} | {n} | " + " | ".join(cells) + " |")
 
 

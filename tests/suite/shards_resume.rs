@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use chassis_mc::montecarlo::Silent;
-use chassis_mc::run::{RunOptions, STAGING, run_study, summarize};
+use chassis_mc::run::{RunOptions, RunReport, STAGING, run_study, summarize};
 use chassis_mc::study::Study;
 
 use super::common::*;
@@ -110,6 +110,26 @@ impl chassis_mc::montecarlo::Observer for StopAfter {
     }
 }
 
+/// Run `study` into `dir` on one thread, asked to stop once `after` realisations are done
+/// (the run ends interrupted, without a summary), then run it again to the end there: the
+/// second run's report.
+fn stop_then_resume(study: &Study, dir: &std::path::Path, after: u64) -> RunReport {
+    let mut options = RunOptions::new(dir);
+    options.threads = Some(1);
+    let stop = StopAfter {
+        after,
+        done: Default::default(),
+    };
+    let stopped = run_study(study, &options, &stop);
+    assert!(
+        matches!(stopped, Err(chassis_mc::run::RunError::Interrupted { .. })),
+        "{}: {stopped:?}",
+        study.name()
+    );
+    assert!(!dir.join("summary.parquet").exists());
+    run_study(study, &options, &Silent).unwrap()
+}
+
 #[test]
 fn a_run_asked_to_stop_keeps_its_parts_and_resumes_to_identical_output() {
     // 11 conditions × 2500 realisations, one part per condition (three chunks of 1024). The
@@ -117,19 +137,7 @@ fn a_run_asked_to_stop_keeps_its_parts_and_resumes_to_identical_output() {
     // once two conditions are computed, the run has committed at least the first's part.
     let study = study("thesis.toml", 2500);
     let dir = tempfile::tempdir().unwrap();
-    let mut options = RunOptions::new(dir.path());
-    options.threads = Some(1);
-    let stop = StopAfter {
-        after: 2 * 2500,
-        done: Default::default(),
-    };
-    let stopped = run_study(&study, &options, &stop);
-    assert!(
-        matches!(stopped, Err(chassis_mc::run::RunError::Interrupted { .. })),
-        "{stopped:?}"
-    );
-    assert!(!dir.path().join("summary.parquet").exists());
-    let resumed = run_study(&study, &options, &Silent).unwrap();
+    let resumed = stop_then_resume(&study, dir.path(), 2 * 2500);
     assert!(resumed.reused >= 2500, "kept {}", resumed.reused);
     assert!(resumed.reused < 11 * 2500);
     let (direct, _) = run(&study, None);
@@ -345,18 +353,7 @@ fn every_sensor_path_is_the_same_across_threads_shards_resume_and_extension() {
         // Asked to stop once three conditions are done (one part each): the parts written
         // before the stop is seen are kept (at least one), then the run resumes.
         let resumed = tempfile::tempdir().unwrap();
-        let mut options = RunOptions::new(resumed.path());
-        options.threads = Some(1);
-        let stop = StopAfter {
-            after: 3 * 40,
-            done: Default::default(),
-        };
-        let stopped = run_study(&study, &options, &stop);
-        assert!(
-            matches!(stopped, Err(chassis_mc::run::RunError::Interrupted { .. })),
-            "{name}: {stopped:?}"
-        );
-        let report = run_study(&study, &options, &Silent).unwrap();
+        let report = stop_then_resume(&study, resumed.path(), 3 * 40);
         assert!(
             (40..8 * 40).contains(&report.reused),
             "{name}: kept {}",
