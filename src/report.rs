@@ -115,15 +115,23 @@ fn table_of(
     listed: &[usize],
 ) -> String {
     let mut out = String::new();
+    // The condition metric's column, where any condition has a value: a flat road (a
+    // coast-down without [terrain]) has no terrain metric, and its terrain scale means
+    // nothing, so neither is shown.
+    let metric_shown = infos
+        .iter()
+        .any(|i| i.metrics.first().is_some_and(|m| m.is_finite()));
+    let no_terrain = !metric_shown && layout.condition_metrics.first() == Some(&"terrain_ms_grid");
+    let meaningless = |a: usize| no_terrain && layout.axes[a].name == "scale";
     let varies: Vec<bool> = (0..layout.axes.len())
-        .map(|a| a == 0 || infos.iter().any(|i| i.axes[a] != infos[0].axes[a]))
+        .map(|a| !meaningless(a) && (a == 0 || infos.iter().any(|i| i.axes[a] != infos[0].axes[a])))
         .collect();
     let fixed: Vec<String> = layout
         .axes
         .iter()
         .zip(&varies)
         .enumerate()
-        .filter(|(_, (_, v))| !**v)
+        .filter(|(a, (_, v))| !**v && !meaningless(*a))
         .map(|(a, (axis, _))| format!("{} = {}", axis.name, infos[0].axes[a]))
         .collect();
     for line in &layout.context {
@@ -208,7 +216,7 @@ fn table_of(
         for (a, _) in layout.axes.iter().zip(&varies).filter(|(_, v)| **v) {
             let _ = write!(header, " {:>11}", a.name);
         }
-        if let Some(m) = layout.condition_metrics.first() {
+        if let Some(m) = layout.condition_metrics.first().filter(|_| metric_shown) {
             let _ = write!(header, " {:>11}", short_metric(m));
         }
         let _ = write!(
@@ -233,7 +241,7 @@ fn table_of(
                     }
                 }
             }
-            if let Some(m) = info.metrics.first() {
+            if let Some(m) = info.metrics.first().filter(|_| metric_shown) {
                 let _ = write!(line, " {m:>11.5e}");
             }
             let mean = format!("{:.6e} ± {:.1e}", r.mean.value, r.mean.mcse);

@@ -142,10 +142,24 @@ impl<'a> Params<'a> {
                 if v > 0.0 && v.is_finite() {
                     Ok(v)
                 } else {
-                    Err(self.error(&format!("{key}[{i}]"), format!("must be > 0, got {v}")))
+                    Err(self.error(
+                        &format!("{key}[{i}]"),
+                        format!("must be > 0, got {}", shown(v)),
+                    ))
                 }
             })
-            .collect()
+            .collect::<Result<Vec<f64>, _>>()
+            .and_then(|values| match first_repeat(&values) {
+                Some((first, again)) => Err(self.error(
+                    &format!("{key}[{again}]"),
+                    format!(
+                        "{} is listed twice (also at {key}[{first}]); each value of an axis is \
+                         one condition",
+                        values[again]
+                    ),
+                )),
+                None => Ok(values),
+            })
     }
 
     /// An error about `key` of this table.
@@ -177,7 +191,7 @@ impl<'a> Params<'a> {
             }
         };
         if !v.is_finite() {
-            return Err(self.error(key, format!("must be a finite number, got {v}")));
+            return Err(self.error(key, format!("must be a finite number, got {}", shown(v))));
         }
         Ok(v)
     }
@@ -188,7 +202,7 @@ impl<'a> Params<'a> {
         if v > 0.0 {
             Ok(v)
         } else {
-            Err(self.error(key, format!("must be > 0, got {v}")))
+            Err(self.error(key, format!("must be > 0, got {}", shown(v))))
         }
     }
 
@@ -198,7 +212,7 @@ impl<'a> Params<'a> {
         if v >= 0.0 {
             Ok(v)
         } else {
-            Err(self.error(key, format!("must be >= 0, got {v}")))
+            Err(self.error(key, format!("must be >= 0, got {}", shown(v))))
         }
     }
 
@@ -227,5 +241,20 @@ impl<'a> Params<'a> {
                 }
             })
             .collect()
+    }
+}
+
+/// The first value of `values` equal to an earlier one, as (index of the earlier, index of
+/// the repeat).
+pub fn first_repeat(values: &[f64]) -> Option<(usize, usize)> {
+    (1..values.len()).find_map(|j| (0..j).find(|&i| values[i] == values[j]).map(|i| (i, j)))
+}
+
+/// A number as a message shows it: as written for everyday sizes, in scientific notation
+/// beyond them (so that 1e300 is not printed with its 301 digits).
+pub fn shown(v: f64) -> String {
+    match v.abs() {
+        a if a == 0.0 || (1e-4..1e15).contains(&a) || !a.is_finite() => format!("{v}"),
+        _ => format!("{v:e}"),
     }
 }

@@ -113,6 +113,67 @@ impl Columns {
     }
 }
 
+/// The largest input file the engine reads \[bytes\]: a 1 Hz log of a year is about 30 MB of
+/// CSV, a 100 Hz log of a day about 500 MB.
+pub const MAX_INPUT_BYTES: u64 = 4 << 30;
+
+/// The longest piece of a user's cell or value a message quotes \[characters\].
+pub const MAX_QUOTE_CHARS: usize = 60;
+
+/// `text` as a message quotes it: whole when short, else its first [`MAX_QUOTE_CHARS`]
+/// characters and how long it is.
+pub fn quote(text: &str) -> String {
+    match text.char_indices().nth(MAX_QUOTE_CHARS) {
+        None => format!("\"{text}\""),
+        Some((end, _)) => format!("\"{}…\" ({} bytes)", &text[..end], text.len()),
+    }
+}
+
+/// The bytes of the regular file at `path` (a symbolic link to one is followed): a device
+/// (`/dev/zero`), a FIFO or a directory is refused before anything is read, so a wrong path
+/// neither hangs nor fills the memory, and so is a file over `max_bytes`. The error is the
+/// reason, for the caller to put beside the path.
+pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    // Opened without blocking, so that a FIFO with no writer cannot hang the open; the
+    // type is checked on the open handle, so the file checked is the file read.
+    let file = {
+        use std::os::unix::fs::OpenOptionsExt;
+        std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(path)
+            .map_err(|e| format!("cannot read: {e}"))?
+    };
+    let meta = file.metadata().map_err(|e| format!("cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "is a {}, not a regular file",
+            crate::output::lock::kind_of(&meta.file_type())
+        ));
+    }
+    if meta.len() > max_bytes {
+        return Err(format!(
+            "is {} bytes; at most {max_bytes} bytes are read",
+            meta.len()
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(format!("grew past {max_bytes} bytes while being read"));
+    }
+    Ok(bytes)
+}
+
+/// `O_NONBLOCK` of Linux and the BSDs (opening a FIFO without a writer returns at once).
+#[cfg(target_os = "linux")]
+const O_NONBLOCK: i32 = 0o4000;
+#[cfg(not(target_os = "linux"))]
+const O_NONBLOCK: i32 = 0x0004;
+
 /// Read the columns `wanted` (each must exist) from `path`, with at least `min_rows` rows.
 pub fn read_columns(
     path: &Path,
@@ -152,15 +213,37 @@ fn positions(path: &Path, names: &[String], wanted: &[&str]) -> Result<Vec<usize
     wanted
         .iter()
         .map(|w| {
-            names
+            let fail = |reason: String| TabularError {
+                file: path.to_path_buf(),
+                column: Some(w.to_string()),
+                place: None,
+                reason,
+            };
+            let mut at = names
                 .iter()
-                .position(|n| n == w)
-                .ok_or_else(|| TabularError {
-                    file: path.to_path_buf(),
-                    column: Some(w.to_string()),
-                    place: None,
-                    reason: format!("no such column; the file has {names:?}"),
-                })
+                .enumerate()
+                .filter(|(_, n)| n == w)
+                .map(|(i, _)| i);
+            match (at.next(), at.next()) {
+                (Some(i), None) => Ok(i),
+                (Some(i), Some(j)) => Err(fail(format!(
+                    "two columns have this name (columns {} and {}); rename one so that the \
+                     column read is not a guess",
+                    i + 1,
+                    j + 1
+                ))),
+                (None, _) => {
+                    let shown: Vec<String> = names.iter().take(40).map(|n| quote(n)).collect();
+                    let more = match names.len() > shown.len() {
+                        true => format!(" and {} more", names.len() - shown.len()),
+                        false => String::new(),
+                    };
+                    Err(fail(format!(
+                        "no such column; the file has [{}]{more}",
+                        shown.join(", ")
+                    )))
+                }
+            }
         })
         .collect()
 }
@@ -205,7 +288,7 @@ fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
         place,
         reason,
     };
-    let bytes = std::fs::read(path).map_err(|e| fail(None, None, format!("cannot read: {e}")))?;
+    let bytes = read_regular(path, MAX_INPUT_BYTES).map_err(|reason| fail(None, None, reason))?;
     // The reader's line k + 1 is the file's line physical[k]: messages name the file's lines.
     let (text, physical) = prepare_csv(&bytes);
     let line_at = |k: u64| physical.get(k as usize - 1).copied().unwrap_or(k as usize);
@@ -244,14 +327,14 @@ fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
                 fail(
                     place.clone(),
                     Some(column),
-                    format!("\"{cell}\" is not a number"),
+                    format!("{} is not a number", quote(cell)),
                 )
             })?;
             if !v.is_finite() {
                 return Err(fail(
                     place,
                     Some(column),
-                    format!("{cell} is not a finite number"),
+                    format!("{} is not a finite number", quote(cell)),
                 ));
             }
             out.push(v);
@@ -274,6 +357,19 @@ fn read_parquet(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
         reason,
     };
     let file = File::open(path).map_err(|e| fail(None, None, format!("cannot open: {e}")))?;
+    match file.metadata() {
+        Ok(m) if !m.is_file() => {
+            return Err(fail(
+                None,
+                None,
+                format!(
+                    "is a {}, not a regular file",
+                    crate::output::lock::kind_of(&m.file_type())
+                ),
+            ));
+        }
+        _ => {}
+    }
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| fail(None, None, format!("not a readable Parquet file: {e}")))?;
     let names: Vec<String> = builder

@@ -516,16 +516,17 @@ fn fit(
 /// `simulate-log`: realisation `realisation` of a one-condition study as a CSV log at
 /// `path`; returns its number of samples.
 #[pyfunction]
-#[pyo3(signature = (study, path, realisation=0))]
+#[pyo3(signature = (study, path, realisation=0, force=false))]
 fn simulate_log(
     py: Python<'_>,
     study: &PyStudy,
     path: PathBuf,
     realisation: u64,
+    force: bool,
 ) -> PyResult<usize> {
     let watch = Watch::default();
     supervise(py, &watch, None, None, || {
-        chassis_mc::fit::simulate_log(&study.0, realisation, Path::new(&path))
+        chassis_mc::fit::simulate_log(&study.0, realisation, Path::new(&path), force)
     })?
     .map_err(|e| from_fit_error(py, e))
 }

@@ -122,15 +122,30 @@ pub enum Command {
 #[derive(Debug, clap::Args)]
 pub struct Overrides {
     /// Realisations per condition, overriding the study's `realisations`.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number(1, u64::MAX))]
     realisations: Option<u64>,
     /// Master seed, overriding the study's `seed`: a whole number from 0 to
     /// 9223372036854775807 (2^63 − 1), as in a study file.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true, value_parser = whole_number(0, i64::MAX as u64))]
     seed: Option<u64>,
     /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, value_name = "T", value_parser = clap::value_parser!(u16).range(1..))]
-    threads: Option<u16>,
+    #[arg(long, value_name = "T", allow_negative_numbers = true, value_parser = whole_number(1, u64::from(u16::MAX)))]
+    threads: Option<u64>,
+}
+
+/// A parser of a whole number in `low..=high` whose error says the range and what was
+/// given (a negative number too, instead of clap's advice to write `-- -1`).
+fn whole_number(low: u64, high: u64) -> impl Fn(&str) -> Result<u64, String> + Clone {
+    move |text: &str| {
+        let range = match high {
+            u64::MAX => format!("a whole number >= {low}"),
+            _ => format!("a whole number from {low} to {high}"),
+        };
+        match text.trim().parse::<i128>() {
+            Ok(v) if (i128::from(low)..=i128::from(high)).contains(&v) => Ok(v as u64),
+            _ => Err(format!("must be {range}, got {text}")),
+        }
+    }
 }
 
 // The arguments of `Run`.
@@ -151,8 +166,8 @@ pub struct RunArgs {
     /// Do not draw DIR/figures/*.svg.
     #[arg(long)]
     pub no_figures: bool,
-    /// Print no table and no progress (notices such as a recomputed damaged part are
-    /// still printed on stderr).
+    /// Print no progress (the results table, the files written and notices such as a
+    /// recomputed damaged part are still printed).
     #[arg(long)]
     pub quiet: bool,
     // Its help names the measures of the planner's list, so the two cannot differ.
@@ -291,6 +306,10 @@ pub struct SimulateLogArgs {
     /// Which realisation's noise.
     #[arg(long, value_name = "R", default_value_t = 0)]
     pub realisation: u64,
+    /// Replace FILE even if it is not a log simulate-log wrote (without it, a file whose
+    /// first line is not simulate-log's header is never overwritten: exit 2).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub overrides: Overrides,
 }
@@ -323,7 +342,7 @@ impl Overrides {
 
     /// Worker threads (`None`: every core).
     pub fn threads(&self) -> Option<usize> {
-        self.threads.map(usize::from)
+        self.threads.map(|t| t as usize)
     }
 }
 
@@ -343,5 +362,35 @@ pub fn output_directory(flag: &str, dir: &Path) -> Result<(), Failure> {
             dir.display()
         )));
     }
+    // Inside the engine's own bookkeeping (a run's staging directory, a file being written)
+    // the directory would be deleted or replaced by the run that owns it.
+    let absolute = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+    if let Some(inside) = absolute.ancestors().skip(1).find(|a| {
+        a.file_name().is_some_and(|n| {
+            let n = n.to_string_lossy();
+            n == crate::run::STAGING || crate::output::is_temporary(&n)
+        })
+    }) {
+        return Err(Failure::bad_argument(format!(
+            "{flag} {}: is inside {}, which a chassis-mc run owns and deletes when it ends; \
+             choose a directory outside it",
+            dir.display(),
+            inside.display()
+        )));
+    }
     Ok(())
+}
+
+/// `--out FILE` of a command that writes one file: not a directory, under a directory.
+pub fn output_file(flag: &str, file: &Path) -> Result<(), Failure> {
+    if file.is_dir() {
+        return Err(Failure::bad_argument(format!(
+            "{flag} {}: is a directory; give the path of the file to write",
+            file.display()
+        )));
+    }
+    match file.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(parent) => output_directory(flag, parent),
+        None => Ok(()),
+    }
 }

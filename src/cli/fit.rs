@@ -3,7 +3,7 @@
 
 use crate::fit::{FitError, FitSpec};
 
-use super::args::{FitArgs, SimulateLogArgs, output_directory};
+use super::args::{FitArgs, SimulateLogArgs, output_directory, output_file};
 use super::failure::Failure;
 
 /// `fit`: estimate θ from the fit file's log, print the table and the files written.
@@ -27,10 +27,12 @@ pub fn simulate_log(args: SimulateLogArgs) -> Result<(), Failure> {
         study,
         out,
         realisation,
+        force,
         overrides,
     } = args;
+    output_file("--out", &out)?;
     let study = overrides.load(&study)?;
-    let n = crate::fit::simulate_log(&study, realisation, &out)?;
+    let n = crate::fit::simulate_log(&study, realisation, &out, force)?;
     println!("wrote {} ({n} samples)", out.display());
     Ok(())
 }

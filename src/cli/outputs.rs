@@ -43,7 +43,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
     let progress = Progress::new(quiet);
     let report = run_study(&study, &options, &progress)?;
     progress.finish();
-    if let (Some(shard), false) = (shard, quiet) {
+    if let Some(shard) = shard {
         println!(
             "shard {shard}: {} realisations computed, {} kept; wrote {}",
             report.computed,
@@ -51,7 +51,7 @@ pub fn run(args: RunArgs) -> Result<(), Failure> {
             report.files[0].display()
         );
         println!("when every shard is done: chassis-mc summarize <DIR>");
-    } else if !quiet {
+    } else {
         print!(
             "{}",
             crate::report::table(&report.layout, &report.infos, &report.summary)

@@ -55,17 +55,65 @@ pub fn human_duration(d: Duration) -> String {
     }
 }
 
-/// The plain progress line: done/total, percentage, rate and time left.
-pub fn line(done: u64, total: u64, computed: u64, elapsed: Duration) -> String {
-    let rate = computed as f64 / elapsed.as_secs_f64().max(1e-9);
-    let left = total.saturating_sub(done) as f64;
-    let eta = if rate > 0.0 {
-        human_duration(Duration::from_secs_f64((left / rate).min(1e12)))
-    } else {
-        "unknown".into()
+/// How long the realisations must have been computing before a time left is estimated
+/// (unless [`SETTLED_FRACTION`] of them is done first): the first chunks include the
+/// threads' start and the caches' warm-up, and a rate from them can be off by a factor of
+/// hundreds.
+pub const SETTLE_TIME: Duration = Duration::from_secs(20);
+
+/// The fraction of the realisations to compute after which the time left is estimated
+/// however short the run so far.
+pub const SETTLED_FRACTION: f64 = 0.1;
+
+/// What a progress line says of the computing so far: realisations `done` of `total`,
+/// `computed` of them by this run (not kept from an earlier one), `elapsed` since the run
+/// began; `computing` is the time since the first realisation was computed and
+/// `since_first` the realisations computed after it (the rate), `None` before any.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pace {
+    /// Realisations done (kept and computed).
+    pub done: u64,
+    /// Realisations in all.
+    pub total: u64,
+    /// Realisations computed by this run.
+    pub computed: u64,
+    /// Time since the run began.
+    pub elapsed: Duration,
+    /// Time since the first computed realisations, and how many were computed after them.
+    pub computing: Option<(Duration, u64)>,
+}
+
+/// The plain progress line: done/total, percentage, rate and time left. The rate is that
+/// since the first computed realisations, and the time left is estimated only once the
+/// computing has run [`SETTLE_TIME`] or done [`SETTLED_FRACTION`] of the work to compute.
+pub fn line(pace: Pace) -> String {
+    let Pace {
+        done,
+        total,
+        computed,
+        elapsed,
+        computing,
+    } = pace;
+    let to_compute = total.saturating_sub(done) + computed;
+    let (rate, eta) = match computing {
+        Some((time, count)) if count > 0 && time > Duration::ZERO => {
+            let rate = count as f64 / time.as_secs_f64();
+            let settled = time >= SETTLE_TIME
+                || computed as f64 >= SETTLED_FRACTION * to_compute.max(1) as f64;
+            let left = total.saturating_sub(done) as f64;
+            let eta = match settled {
+                true => format!(
+                    "about {} left",
+                    human_duration(Duration::from_secs_f64((left / rate).min(1e12)))
+                ),
+                false => "time left not yet known".to_string(),
+            };
+            (rate, eta)
+        }
+        _ => (0.0, "time left not yet known".to_string()),
     };
     format!(
-        "progress: {done}/{total} realisations ({:.1} %), {}, {} elapsed, about {eta} left",
+        "progress: {done}/{total} realisations ({:.1} %), {}, {} elapsed, {eta}",
         100.0 * done as f64 / total.max(1) as f64,
         human_rate(rate),
         human_duration(elapsed),
@@ -81,6 +129,8 @@ pub struct Lines {
     kept: AtomicU64,
     started: Instant,
     last: Mutex<Instant>,
+    /// When the first realisations were computed, and the count done then.
+    first: Mutex<Option<(Instant, u64)>>,
     interval: Duration,
 }
 
@@ -94,6 +144,7 @@ impl Lines {
             kept: AtomicU64::new(0),
             started: now,
             last: Mutex::new(now),
+            first: Mutex::new(None),
             interval,
         }
     }
@@ -108,16 +159,27 @@ impl Lines {
         Some(self.current(now))
     }
 
+    /// `count` more realisations computed at `now`.
+    pub fn record(&self, count: u64, now: Instant) {
+        let done = self.done.fetch_add(count, Ordering::Relaxed) + count;
+        let mut first = self.first.lock().expect("progress lock");
+        if first.is_none() {
+            *first = Some((now, done));
+        }
+    }
+
     /// The line describing the state at `now`.
     pub fn current(&self, now: Instant) -> String {
         let done = self.done.load(Ordering::Relaxed);
         let kept = self.kept.load(Ordering::Relaxed);
-        line(
+        let first = *self.first.lock().expect("progress lock");
+        line(Pace {
             done,
-            self.total.load(Ordering::Relaxed),
-            done - kept.min(done),
-            now.duration_since(self.started),
-        )
+            total: self.total.load(Ordering::Relaxed),
+            computed: done - kept.min(done),
+            elapsed: now.duration_since(self.started),
+            computing: first.map(|(at, then)| (now.duration_since(at), done - then.min(done))),
+        })
     }
 }
 
@@ -184,8 +246,9 @@ impl Observer for Progress {
         match self {
             Progress::Bar(bar) => bar.inc(count),
             Progress::Lines(lines) => {
-                lines.done.fetch_add(count, Ordering::Relaxed);
-                if let Some(line) = lines.due(Instant::now()) {
+                let now = Instant::now();
+                lines.record(count, now);
+                if let Some(line) = lines.due(now) {
                     eprintln!("{line}");
                 }
             }
@@ -227,18 +290,38 @@ mod tests {
     fn lines_come_at_most_once_per_interval_with_rate_and_eta() {
         let lines = Lines::new(Duration::from_secs(10));
         lines.total.store(1000, Ordering::Relaxed);
-        lines.done.store(250, Ordering::Relaxed);
         let t0 = lines.started;
+        lines.record(50, t0);
+        lines.record(200, t0 + Duration::from_secs(8));
         assert_eq!(lines.due(t0 + Duration::from_secs(5)), None);
         let line = lines
             .due(t0 + Duration::from_secs(10))
             .expect("a line after 10 s");
-        // 250 realisations in 10 s: 25/s, 750 left: 30 s.
+        // 200 realisations in the 10 s after the first 50: 20/s; 25 % done (past the 10 %
+        // that settles the estimate), 750 left: 37.5 s, shown rounded.
         assert_eq!(
             line,
-            "progress: 250/1000 realisations (25.0 %), 25.0/s, 10 s elapsed, about 30 s left"
+            "progress: 250/1000 realisations (25.0 %), 20.0/s, 10 s elapsed, about 38 s left"
         );
         assert_eq!(lines.due(t0 + Duration::from_secs(15)), None);
         assert!(lines.due(t0 + Duration::from_secs(20)).is_some());
+    }
+
+    #[test]
+    fn no_time_left_is_extrapolated_from_a_slow_start() {
+        // An 18 s run whose first 9 s prepare the model: its first line, at 10 s, had
+        // said "about 3 h 13 min left" from the few realisations done by then.
+        let lines = Lines::new(Duration::from_secs(10));
+        lines.total.store(100_000, Ordering::Relaxed);
+        let t0 = lines.started;
+        lines.record(8, t0 + Duration::from_secs(9));
+        lines.record(800, t0 + Duration::from_secs(10));
+        let line = lines.due(t0 + Duration::from_secs(10)).expect("a line");
+        assert!(line.ends_with("time left not yet known"), "{line}");
+        // Once 10 % is computed, the rate since the first results gives the time left:
+        // 9 992 realisations in the 2 s after the first 8 (4 996/s), 90 000 left: 18 s.
+        lines.record(9_192, t0 + Duration::from_secs(11));
+        let line = lines.current(t0 + Duration::from_secs(11));
+        assert!(line.ends_with("about 18 s left"), "{line}");
     }
 }

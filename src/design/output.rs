@@ -213,9 +213,7 @@ fn write_report(
          <h2>Study as run</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&study.to_toml())
     );
-    let tmp = out.join(output::temporary_name("report.html"));
-    std::fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
-    Ok(PendingFile::new(tmp, out.join("report.html")))
+    output::write_pending(out, "report.html", html.as_bytes())
 }
 
 /// A value of `key`: a count (the number of runs) as the whole number it is, any other

@@ -31,7 +31,7 @@ use crate::estimate::regression::Regression;
 use crate::figures::FigureError;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
-use crate::output::{self, FileMetadata, OutputError, PendingFile, set};
+use crate::output::{self, FileMetadata, OutputError, set};
 use crate::study::{StudyError, TruthAxes};
 use crate::vehicle::Replay;
 use crate::vehicle::truth::MODEL_ERRORS;
@@ -307,11 +307,10 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         extra: Vec::new(),
     };
     let svg = outputs::figure(&rows)?;
-    let figure_tmp = out.join(output::temporary_name(FIT_FIGURE));
-    std::fs::write(&figure_tmp, &svg).map_err(|e| OutputError::io(&figure_tmp, e))?;
+    let figure = output::write_pending(out, FIT_FIGURE, svg.as_bytes())?;
     let mut pending = vec![
         outputs::write_rows(out, &rows, &meta)?,
-        PendingFile::new(figure_tmp, out.join(FIT_FIGURE)),
+        figure,
         outputs::write_report(out, spec, &rows, &budget, &svg)?,
     ];
     if !budget.is_empty() {

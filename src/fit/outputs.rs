@@ -441,7 +441,5 @@ pub(super) fn write_report(
         },
         text = escape(&spec.text),
     );
-    let tmp = out.join(output::temporary_name("report.html"));
-    std::fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
-    Ok(PendingFile::new(tmp, out.join("report.html")))
+    output::write_pending(out, "report.html", html.as_bytes())
 }

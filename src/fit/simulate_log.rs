@@ -12,11 +12,22 @@ use crate::study::Study;
 
 use super::FitError;
 
+/// The header row of every log `simulate-log` writes: a file that starts with it is the
+/// engine's own earlier output, which a new log may replace.
+pub const LOG_HEADER: &str = "time_s,speed_m_s,force_n,grade_rad,accel_m_s2";
+
 /// Write a synthetic log of `study` (one condition) to `path`: the noise-free cycle with
 /// realisation `r`'s noise of every channel that is on (drawn as a run draws it),
 /// columns `time_s`, `speed_m_s`, `force_n`, `grade_rad` and `accel_m_s2` (the model
 /// acceleration plus the output noise: an accelerometer).
-pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitError> {
+///
+/// A file already at `path` is replaced only when it is an earlier log of the engine's (it
+/// starts with [`LOG_HEADER`]) or with `force`: a measured log is never overwritten by
+/// mistake. The log is written under a temporary name and renamed into place when complete.
+pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<usize, FitError> {
+    if !force {
+        ensure_replaceable(path)?;
+    }
     let model = VehicleModel::new(study)?;
     if model.condition_count() != 1 {
         return Err(study
@@ -58,7 +69,7 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitErro
         draws(Channel::Grade),
         draws(Channel::Force),
     );
-    let mut csv = String::from("time_s,speed_m_s,force_n,grade_rad,accel_m_s2\n");
+    let mut csv = format!("{LOG_HEADER}\n");
     for i in 0..n {
         let _ = writeln!(
             csv,
@@ -70,6 +81,43 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path) -> Result<usize, FitErro
             cycle.accel_m_s2[i] + ey[i]
         );
     }
-    std::fs::write(path, csv).map_err(|e| OutputError::io(path, e))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(crate::output::temporary_name(&name));
+    let pending = crate::output::PendingFile::new(tmp.clone(), path.to_path_buf());
+    std::fs::write(&tmp, csv).map_err(|e| OutputError::io(&tmp, e))?;
+    pending.commit()?;
     Ok(n)
+}
+
+/// Fail unless the file at `path` (if any) is a log the engine wrote: a user's file there
+/// (a real measured log) is never replaced without `force`.
+fn ensure_replaceable(path: &Path) -> Result<(), FitError> {
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return Ok(());
+    };
+    let ours = meta.is_file() && {
+        use std::io::Read;
+        let mut head = vec![0; LOG_HEADER.len() + 1];
+        std::fs::File::open(path)
+            .and_then(|mut f| f.read_exact(&mut head))
+            .is_ok_and(|()| {
+                head.strip_suffix(b"\n")
+                    .or_else(|| head.strip_suffix(b"\r"))
+                    .is_some_and(|h| h == LOG_HEADER.as_bytes())
+            })
+    };
+    match ours {
+        true => Ok(()),
+        false => Err(OutputError::NotEngines {
+            path: path.to_path_buf(),
+            reason: format!(
+                "is not a log simulate-log wrote (its first line is not `{LOG_HEADER}`), so it \
+                 may be a measured log; choose another --out, or give --force to replace it"
+            ),
+        }
+        .into()),
+    }
 }

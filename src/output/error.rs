@@ -112,6 +112,15 @@ pub enum OutputError {
         /// The files, relative to it.
         files: Vec<String>,
     },
+    /// A file the engine would replace is not one it wrote (a user's own file at the path
+    /// given): it is never overwritten without being told to.
+    #[error("{path}: {reason}; nothing was changed")]
+    NotEngines {
+        /// The file.
+        path: PathBuf,
+        /// Why it is not the engine's, and how to replace it anyway.
+        reason: String,
+    },
     /// A file or directory given as an argument does not exist.
     #[error("{path}: no such file or directory")]
     Missing {
@@ -130,6 +139,37 @@ pub enum OutputError {
         /// The first file, which the others are compared with.
         first: PathBuf,
         /// What differs, each with both values.
+        differences: Vec<String>,
+    },
+    /// A bookkeeping file of the engine's in the output directory (its manifest, its
+    /// journal) does not hold what the engine writes there: the directory cannot be used
+    /// as it is.
+    #[error(
+        "{path}: {reason}; this output directory cannot be used as it is (move the file away \
+         if it is yours, or choose another --out)"
+    )]
+    Unusable {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A shard run into a directory that holds shards of another run: it would mix two
+    /// runs in one set.
+    #[error(
+        "{dir}: shard {shard} of this run would join {} of another run: they differ in {}; \
+         run it into another --out, or move the other shards away (nothing was changed)",
+        other.display(),
+        differences.join("; ")
+    )]
+    ShardOfAnotherRun {
+        /// The output directory.
+        dir: PathBuf,
+        /// This run's shard, "K/N".
+        shard: String,
+        /// The other run's realisation file.
+        other: PathBuf,
+        /// What differs, each with both values (this run's first).
         differences: Vec<String>,
     },
     /// A run was interrupted while replacing the directory's output files, so they may
@@ -157,7 +197,33 @@ impl OutputError {
                 | OutputError::NotOwned { .. }
                 | OutputError::Mismatch { .. }
                 | OutputError::Missing { .. }
-        )
+                | OutputError::Unusable { .. }
+                | OutputError::ShardOfAnotherRun { .. }
+                | OutputError::NotEngines { .. }
+                | OutputError::Incomplete { .. }
+        ) || self.io_kind().is_some_and(|kind| {
+            use std::io::ErrorKind::*;
+            // The directory given cannot be written, or a path in it is of the wrong kind.
+            matches!(
+                kind,
+                PermissionDenied | ReadOnlyFilesystem | NotADirectory | IsADirectory
+            )
+        })
+    }
+
+    /// The kind of the operating system's error, for a failed filesystem operation.
+    pub fn io_kind(&self) -> Option<std::io::ErrorKind> {
+        match self {
+            OutputError::Io { source, .. } => Some(source.kind()),
+            _ => None,
+        }
+    }
+
+    pub(crate) fn unusable(path: &Path, reason: impl Into<String>) -> Self {
+        OutputError::Unusable {
+            path: path.to_path_buf(),
+            reason: reason.into(),
+        }
     }
 
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {

@@ -330,5 +330,13 @@ impl Drop for PendingFile {
     }
 }
 
+/// Write `bytes` as `dir/name` under its temporary name: the returned file is renamed into
+/// place by a commit, and a failed write (a full disk) leaves nothing behind.
+pub fn write_pending(dir: &Path, name: &str, bytes: &[u8]) -> Result<PendingFile, OutputError> {
+    let pending = PendingFile::new(dir.join(temporary_name(name)), dir.join(name));
+    fs::write(pending.tmp_path(), bytes).map_err(|e| OutputError::io(pending.tmp_path(), e))?;
+    Ok(pending)
+}
+
 /// Shared pointer to a schema (re-exported for callers building batches).
 pub type Schema = Arc<arrow::datatypes::Schema>;

@@ -134,6 +134,16 @@ impl OpenedFile {
 pub struct Footer(Vec<(String, String)>);
 
 impl Footer {
+    /// The footer a file written with `meta` would have, holding `table`.
+    pub fn of(meta: &super::FileMetadata, table: &str) -> Footer {
+        Footer(
+            meta.key_values(table)
+                .into_iter()
+                .map(|kv| (kv.key, kv.value.unwrap_or_default()))
+                .collect(),
+        )
+    }
+
     /// The value of `key`, if the footer has it.
     pub fn get(&self, key: &str) -> Option<&str> {
         self.0

@@ -86,6 +86,49 @@ pub fn commit_part(
     file.renamed(&part_name(condition, start, hash)).commit()
 }
 
+/// Fail with [`OutputError::Unsafe`], changing nothing, unless `staging` (the engine's
+/// staging directory) is absent or a real directory holding only what the engine writes
+/// there: parts ([`part_name`]) and files under temporary names. A symbolic link there could
+/// lead anywhere, and a file of another name is not the engine's to delete.
+pub fn ensure_staging(staging: &Path) -> Result<(), OutputError> {
+    let unsafe_because = |reason: String| OutputError::Unsafe {
+        file: staging.to_path_buf(),
+        line: None,
+        reason,
+    };
+    let meta = match fs::symlink_metadata(staging) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(OutputError::io(staging, e)),
+    };
+    if !meta.is_dir() {
+        return Err(unsafe_because(format!(
+            "is a {}, not the staging directory chassis-mc makes for its parts; nothing was \
+             changed: move it away",
+            super::lock::kind_of(&meta.file_type())
+        )));
+    }
+    let mut foreign = Vec::new();
+    for entry in fs::read_dir(staging).map_err(|e| OutputError::io(staging, e))? {
+        let entry = entry.map_err(|e| OutputError::io(staging, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let kind = entry.file_type().map_err(|e| OutputError::io(staging, e))?;
+        let engines = kind.is_file() && (is_temporary(&name) || named_checksum(&name).is_some());
+        if !engines {
+            foreign.push(name);
+        }
+    }
+    foreign.sort();
+    match foreign.is_empty() {
+        true => Ok(()),
+        false => Err(unsafe_because(format!(
+            "holds {}, which chassis-mc did not write (its staging directory holds only its \
+             parts); nothing was changed: move them away",
+            foreign.join(", ")
+        ))),
+    }
+}
+
 /// The staged parts in `staging` that belong to the study `identity`. Temporary files,
 /// parts whose bytes do not match the checksum in their name (torn or corrupted), files
 /// whose footer does not parse and parts of another study are deleted; `notice` is told

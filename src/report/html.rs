@@ -328,24 +328,36 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
     }
     for (e, name) in layout.estimators.iter().enumerate() {
         let rows: Vec<&SummaryRow> = summary.iter().filter(|r| r.estimator == e).collect();
-        let biased: Vec<&&SummaryRow> = rows
+        let tested = bias_tests(&rows);
+        if tested.is_empty() {
+            continue;
+        }
+        let biased = holm_rejections(&tested, FAMILY_WISE_ALPHA);
+        let rule = format!(
+            "two-sided Student's t at n − 1 degrees of freedom on bias / MCSE, Holm's rule over \
+             its {} estimates at a {:.0} % family-wise error rate",
+            tested.len(),
+            100.0 * FAMILY_WISE_ALPHA
+        );
+        match biased
             .iter()
-            .filter(|r| r.bias.value.abs() > 4.0 * r.bias.mcse)
-            .collect();
-        if let Some(worst) = biased
-            .iter()
+            .map(|&k| tested[k].0)
             .max_by(|a, b| a.rel_bias.value.abs().total_cmp(&b.rel_bias.value.abs()))
         {
-            out.push(format!(
-                "{name} is biased beyond 4 MCSE in {} of its {} estimates (largest: {} {:+.2} % \
-                 of the truth in condition {}). EmpSE and every bound describe the spread only; \
-                 RMSE includes the bias.",
+            Some(worst) => out.push(format!(
+                "{name} is biased in {} of its {} estimates ({rule}; largest: {} {:+.2} % of the \
+                 truth in condition {}). EmpSE and every bound describe the spread only; RMSE \
+                 includes the bias.",
                 biased.len(),
-                rows.len(),
+                tested.len(),
                 layout.parameters[worst.parameter].name,
                 100.0 * worst.rel_bias.value,
                 worst.condition
-            ));
+            )),
+            None => out.push(format!(
+                "{name}: no evidence of bias in any of its {} estimates ({rule}).",
+                tested.len()
+            )),
         }
     }
     let failed: u64 = summary
@@ -361,6 +373,48 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
         ));
     }
     out
+}
+
+/// The family-wise error rate of the bias warnings: the chance that an estimator with no
+/// bias at all is called biased in any of its estimates.
+pub const FAMILY_WISE_ALPHA: f64 = 0.05;
+
+/// Each row of `rows` with a finite bias and MCSE, with the two-sided p of H₀: no bias —
+/// t = bias / MCSE against Student's t at n − 1 degrees of freedom (the MCSE is S/√n, so t
+/// is the one-sample t statistic, exact for normal estimates).
+fn bias_tests<'a>(rows: &[&'a SummaryRow]) -> Vec<(&'a SummaryRow, f64)> {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    rows.iter()
+        .filter(|r| r.n >= 2 && r.bias.value.is_finite() && r.bias.mcse.is_finite())
+        .map(|&r| {
+            let t = r.bias.value / r.bias.mcse;
+            let p = match (t.is_finite(), StudentsT::new(0.0, 1.0, (r.n - 1) as f64)) {
+                (true, Ok(dist)) => (2.0 * dist.sf(t.abs())).min(1.0),
+                // a bias with no spread at all (MCSE 0): certain unless it is 0
+                _ => match r.bias.value == 0.0 {
+                    true => 1.0,
+                    false => 0.0,
+                },
+            };
+            (r, p)
+        })
+        .collect()
+}
+
+/// The indices of `tested` whose hypothesis Holm's step-down rule rejects at family-wise
+/// error rate `alpha`: sorted by p, the k-th smallest (from 0) is rejected while
+/// p ≤ alpha / (m − k). Valid under any dependence between the tests (the three parameters
+/// of one condition share their realisations).
+fn holm_rejections(tested: &[(&SummaryRow, f64)], alpha: f64) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..tested.len()).collect();
+    order.sort_by(|&a, &b| tested[a].1.total_cmp(&tested[b].1));
+    let m = tested.len();
+    order
+        .into_iter()
+        .enumerate()
+        .take_while(|&(k, i)| tested[i].1 <= alpha / (m - k) as f64)
+        .map(|(_, i)| i)
+        .collect()
 }
 
 /// The warnings of the model errors (docs/model.md#model-errors, "In report.html"): one per

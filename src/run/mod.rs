@@ -187,7 +187,9 @@ pub(super) fn remove_temporaries(dir: &Path) -> Result<(), OutputError> {
         let entry = entry.map_err(|e| OutputError::io(dir, e))?;
         if output::is_temporary(&entry.file_name().to_string_lossy()) {
             let path = entry.path();
-            let removed = if path.is_dir() {
+            // A symbolic link goes itself: what it points to is never touched.
+            let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
+            let removed = if is_dir {
                 fs::remove_dir_all(&path)
             } else {
                 fs::remove_file(&path)
@@ -228,12 +230,16 @@ fn run_prepared(
         writes.extend(written_beside(model.as_ref(), options.figures));
     }
     set::ensure_owned(&dir, &writes)?;
-    remove_temporaries(&dir)?;
     let staging = dir.join(STAGING);
+    output::store::ensure_staging(&staging)?;
+    remove_temporaries(&dir)?;
     fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     let layout = model.layout().clone();
     let infos = model.infos();
     let meta = FileMetadata::of_study(study, identity(study, &*model, &infos));
+    if let Some(shard) = options.shard {
+        refuse_other_runs_shards(out_dir, shard, &meta)?;
+    }
 
     // The model's extra tables (the cycles) do not depend on the realisations: they are
     // written while the realisations are computed.
@@ -338,6 +344,65 @@ fn refuse_shards(dir: &Path) -> Result<(), OutputError> {
     }
 }
 
+/// Fail if `out_dir` holds another shard (`shard=J/`, J ≠ this one's) of a different run
+/// than `meta` describes as shard `shard`: another study, seed, R, engine or split. The
+/// shard would join a set it does not belong to (and its summary could not be made).
+fn refuse_other_runs_shards(
+    out_dir: &Path,
+    shard: Shard,
+    meta: &FileMetadata,
+) -> Result<(), OutputError> {
+    let entries = match fs::read_dir(out_dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(OutputError::io(out_dir, e)),
+    };
+    let mut names: Vec<String> = entries
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("shard=") && *n != shard.dir_name())
+        .collect();
+    names.sort();
+    let mine = output::Footer::of(
+        &meta.with(output::keys::SHARD, shard.to_string()),
+        "realisations",
+    );
+    for name in names {
+        let file = out_dir.join(&name).join(files::REALISATIONS);
+        if !file.is_file() {
+            continue;
+        }
+        let theirs = output::read_metadata(&file)?;
+        let mut differences = Vec::new();
+        let split = |f: &output::Footer| {
+            f.get(output::keys::SHARD)
+                .and_then(|s| s.split_once('/'))
+                .map(|(_, n)| n.to_string())
+        };
+        if split(&theirs) != split(&mine) {
+            differences.push(format!(
+                "the number of shards {} here, {} there",
+                shard.count,
+                split(&theirs).unwrap_or_else(|| "none".into())
+            ));
+        }
+        if theirs.get(output::keys::IDENTITY) != mine.get(output::keys::IDENTITY)
+            || theirs.get(output::keys::REALISATIONS) != mine.get(output::keys::REALISATIONS)
+        {
+            differences.extend(summarize::differences(&mine, &theirs));
+        }
+        if !differences.is_empty() {
+            return Err(OutputError::ShardOfAnotherRun {
+                dir: out_dir.to_path_buf(),
+                shard: shard.to_string(),
+                other: file,
+                differences,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Lock `dir` for this process (creating it), telling `observer` when the lock of a killed
 /// process is taken over.
 fn lock(dir: &Path, observer: &dyn Observer) -> Result<DirLock, OutputError> {
@@ -409,9 +474,7 @@ pub(super) fn write_report(
         summary,
         figures: &figures,
     });
-    let tmp = out_dir.join(output::temporary_name(REPORT));
-    fs::write(&tmp, html).map_err(|e| OutputError::io(&tmp, e))?;
-    Ok(PendingFile::new(tmp, out_dir.join(REPORT)))
+    output::write_pending(out_dir, REPORT, html.as_bytes())
 }
 
 pub(super) fn write_summary(

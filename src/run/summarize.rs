@@ -187,7 +187,7 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
 /// `that`: the seed, the realisations per condition, the engine version, the study itself
 /// (compared with seed and R set equal), or else the engine's arithmetic (same version,
 /// another build).
-fn differences(this: &output::Footer, that: &output::Footer) -> Vec<String> {
+pub(super) fn differences(this: &output::Footer, that: &output::Footer) -> Vec<String> {
     let mut found = Vec::new();
     for (key, what) in [
         (keys::SEED, "seed"),

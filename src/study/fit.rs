@@ -223,12 +223,14 @@ impl FitSpec {
     /// [`FitSpec::parse_with_log`]).
     pub fn load_with_log(path: &Path, log: Option<&Path>) -> Result<FitSpec, StudyError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| StudyError {
-            file: origin.clone(),
-            key: None,
-            line: None,
-            reason: format!("cannot read: {e}"),
-        })?;
+        let text = crate::tabular::read_regular(path, super::MAX_STUDY_BYTES)
+            .and_then(|b| String::from_utf8(b).map_err(|_| "is not UTF-8 text".to_string()))
+            .map_err(|reason| StudyError {
+                file: origin.clone(),
+                key: None,
+                line: None,
+                reason,
+            })?;
         let dir = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),

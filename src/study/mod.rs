@@ -41,6 +41,9 @@ pub use crate::vehicle::MAX_SAMPLES;
 /// Largest number of realisations per condition accepted.
 pub const MAX_REALISATIONS: u64 = 1 << 40;
 
+/// The largest study or fit file read \[bytes\]: a study is a page of TOML.
+pub const MAX_STUDY_BYTES: u64 = 16 << 20;
+
 /// A study file that cannot be run, with the place and the reason.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StudyError {
@@ -125,12 +128,17 @@ impl Study {
     /// Read and validate a study file.
     pub fn load(path: &Path) -> Result<Study, StudyError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| StudyError {
-            file: origin.clone(),
-            key: None,
-            line: None,
-            reason: format!("cannot read the study file: {e}"),
-        })?;
+        let text = crate::tabular::read_regular(path, MAX_STUDY_BYTES)
+            .and_then(|b| String::from_utf8(b).map_err(|_| "is not UTF-8 text".to_string()))
+            .map_err(|reason| StudyError {
+                file: origin.clone(),
+                key: None,
+                line: None,
+                reason: match reason.strip_prefix("cannot read: ") {
+                    Some(why) => format!("cannot read the study file: {why}"),
+                    None => format!("the study file {reason}"),
+                },
+            })?;
         Study::from_toml(&text, &origin)
     }
 

@@ -91,7 +91,7 @@ pub(super) fn validate_truth(
         }
         let numbers = c.numbers(&key, value)?;
         axes.0[i] = c.list(&key, &numbers, |c, k, v| match (entry.check)(v) {
-            Some(reason) => Err(c.fail(k, format!("{reason}, got {v}"))),
+            Some(reason) => Err(c.fail(k, format!("{reason}, got {}", crate::settings::shown(v)))),
             None => Ok(v),
         })?;
     }
@@ -153,7 +153,10 @@ pub(super) fn validate_systematic(
             }
         };
         if let Some(reason) = (entry.check)(one) {
-            return Err(c.fail(&key, format!("{reason}, got {one}")));
+            return Err(c.fail(
+                &key,
+                format!("{reason}, got {}", crate::settings::shown(one)),
+            ));
         }
         out.push((i, one));
     }

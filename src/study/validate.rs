@@ -212,7 +212,10 @@ impl<'a> Checker<'a> {
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(self.fail(key, format!("must be a finite number, got {v}")))
+            Err(self.fail(
+                key,
+                format!("must be a finite number, got {}", crate::settings::shown(v)),
+            ))
         }
     }
 
@@ -221,7 +224,10 @@ impl<'a> Checker<'a> {
         if v > 0.0 {
             Ok(v)
         } else {
-            Err(self.fail(key, format!("must be > 0, got {v}")))
+            Err(self.fail(
+                key,
+                format!("must be > 0, got {}", crate::settings::shown(v)),
+            ))
         }
     }
 
@@ -230,7 +236,10 @@ impl<'a> Checker<'a> {
         if v >= 0.0 {
             Ok(v)
         } else {
-            Err(self.fail(key, format!("must be >= 0, got {v}")))
+            Err(self.fail(
+                key,
+                format!("must be >= 0, got {}", crate::settings::shown(v)),
+            ))
         }
     }
 
@@ -258,11 +267,24 @@ impl<'a> Checker<'a> {
         if values.is_empty() {
             return Err(self.fail(key, "must list at least one value"));
         }
-        values
+        let checked: Vec<f64> = values
             .iter()
             .enumerate()
             .map(|(i, &v)| item(self, &format!("{key}[{i}]"), v))
-            .collect()
+            .collect::<Result<_, _>>()?;
+        // An axis's values are conditions: one listed twice would be two identical
+        // conditions, each with its own draws.
+        if let Some((first, again)) = crate::settings::first_repeat(&checked) {
+            return Err(self.fail(
+                &format!("{key}[{again}]"),
+                format!(
+                    "{} is listed twice (also at {key}[{first}]); each value of an axis is one \
+                     condition",
+                    crate::settings::shown(checked[again])
+                ),
+            ));
+        }
+        Ok(checked)
     }
 }
 

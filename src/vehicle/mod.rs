@@ -270,6 +270,19 @@ pub enum SimulationError {
     },
 }
 
+impl SimulationError {
+    /// The time \[s\] at which the simulation failed.
+    pub fn time_s(&self) -> f64 {
+        match self {
+            SimulationError::Stalled { time_s, .. }
+            | SimulationError::RanOffTerrain { time_s, .. }
+            | SimulationError::TooSteep { time_s, .. }
+            | SimulationError::CoastRun { time_s, .. }
+            | SimulationError::NonFinite { time_s } => *time_s,
+        }
+    }
+}
+
 /// The noise-free time series of a drive cycle, one entry per sample (SI units).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DriveCycle {

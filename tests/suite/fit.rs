@@ -49,7 +49,7 @@ fn bootstrap_intervals_cover_the_truth_and_bias_correction_removes_the_bias() {
             .clone()
             .with_overrides(None, Some(1000 + seed))
             .unwrap();
-        simulate_log(&s, 0, &log).unwrap();
+        simulate_log(&s, 0, &log, false).unwrap();
         let spec = FitSpec::parse(
             &fit_file_seeded(&log.display().to_string(), 400, 7000 + seed),
             "fit test",
@@ -113,7 +113,7 @@ fn the_shipped_log_is_what_simulate_log_writes() {
     // studies/data/fit_log.csv is generated: regenerating it gives the same bytes.
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("log.csv");
-    simulate_log(&study("fit_log.toml", 1), 0, &path).unwrap();
+    simulate_log(&study("fit_log.toml", 1), 0, &path, false).unwrap();
     assert_eq!(
         std::fs::read(&path).unwrap(),
         std::fs::read(root().join("studies/data/fit_log.csv")).unwrap(),
@@ -270,7 +270,7 @@ fn without_an_accelerometer_the_bootstrap_interval_is_as_wide_as_the_spread_acro
     let mut found: [Vec<(f64, f64, f64)>; 5] = Default::default();
     for r in 0..LOGS {
         let log = tmp.path().join(format!("log{r}.csv"));
-        simulate_log(&base, r, &log).unwrap();
+        simulate_log(&base, r, &log, false).unwrap();
         let text = fit_file_seeded(&log.display().to_string(), 200, 7000 + r)
             .replace("acceleration_column = \"accel_m_s2\"\n", "")
             .replace("[\"ols\", \"bcls\"]", "[\"bcls\"]");

@@ -87,7 +87,15 @@ pub(super) fn scale_cycles(
                 .drive
                 .cycle(&vs.vehicle, road, &truth)
                 .map_err(|e| {
-                    // A coast-down run names the key to change; the rest blame the scale.
+                    // A mass drift that has taken away most of the mass by then is the
+                    // cause, whatever the integration met; a coast-down run names the key to
+                    // change; the rest blame the scale.
+                    if let Some(reason) = drifted_away(&truth, &vs.vehicle, e.time_s()) {
+                        return error_at(
+                            "truth.mass_rate",
+                            format!("at scale {scale}{with_truth}: {reason} ({e})"),
+                        );
+                    }
                     let key = match &e {
                         SimulationError::CoastRun { key, .. } => key.to_string(),
                         _ => key.clone(),
@@ -123,6 +131,36 @@ pub(super) fn scale_cycles(
         // The first error in study order, whatever the thread count.
         .into_iter()
         .collect()
+}
+
+/// Why the simulation of `truth` failed at `time_s` because its mass drifted away: at that
+/// time the truth's inertia has fallen below half of its start (or to zero), so its motion
+/// is no longer a vehicle's. `None` when the mass is still there.
+fn drifted_away(
+    truth: &Truth,
+    vehicle: &crate::vehicle::VehicleParams,
+    time_s: f64,
+) -> Option<String> {
+    let at = |t: f64| {
+        let sample = crate::vehicle::truth::TruthSample {
+            time_s: t,
+            distance_m: 0.0,
+            speed_m_s: 0.0,
+            grade_rad: 0.0,
+            heading: 1.0,
+            run: 0,
+            run_time_s: t,
+        };
+        truth.inertia_kg(vehicle, &sample)
+    };
+    let (start, then) = (at(0.0), at(time_s));
+    (!(then > 0.5 * start)).then(|| {
+        format!(
+            "the truth's mass drifts from {start:.1} kg to {then:.1} kg by t = {time_s:.2} s, \
+             where the simulation failed; make |truth.mass_rate| smaller or the drive shorter \
+             so that the mass stays positive"
+        )
+    })
 }
 
 /// The index in [`scale_cycles`] of the cycle of scale `scale_index` and truth

@@ -93,6 +93,7 @@ impl Manifest {
     /// committed into, or one written by an engine without manifests).
     pub fn read(dir: &Path) -> Result<Option<Manifest>, OutputError> {
         let path = dir.join(MANIFEST);
+        super::lock::ensure_plain_file(&path)?;
         let text = match fs::read_to_string(&path) {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -104,11 +105,11 @@ impl Manifest {
     fn parse(text: &str, path: &Path) -> Result<Manifest, OutputError> {
         let mut lines = text.lines();
         if lines.next() != Some(MANIFEST_HEADER) {
-            return Err(OutputError::format(path, "not a chassis-mc manifest"));
+            return Err(OutputError::unusable(path, "not a chassis-mc manifest"));
         }
         let mut entries = Vec::new();
         for (i, line) in lines.enumerate() {
-            let bad = || OutputError::format(path, format!("line {}: malformed entry", i + 2));
+            let bad = || OutputError::unusable(path, format!("line {}: malformed entry", i + 2));
             let mut fields = line.splitn(3, '\t');
             let (Some(hash), Some(len), Some(file)) = (fields.next(), fields.next(), fields.next())
             else {
@@ -147,6 +148,7 @@ impl Manifest {
 /// Fail if a replacement of `dir`'s output set was interrupted (a journal is present):
 /// what is there may mix two runs.
 pub fn ensure_complete(dir: &Path) -> Result<(), OutputError> {
+    super::lock::ensure_plain_file(&dir.join(JOURNAL))?;
     if dir.join(JOURNAL).exists() {
         return Err(OutputError::Incomplete {
             dir: dir.to_path_buf(),
@@ -250,6 +252,7 @@ pub fn commit(
 /// whether there was.
 pub fn recover(dir: &Path) -> Result<bool, OutputError> {
     let path = dir.join(JOURNAL);
+    super::lock::ensure_plain_file(&path)?;
     let text = match fs::read_to_string(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
@@ -257,7 +260,7 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
     };
     let mut lines = text.lines();
     if lines.next() != Some(JOURNAL_HEADER) {
-        return Err(OutputError::format(&path, "not a chassis-mc journal"));
+        return Err(OutputError::unusable(&path, "not a chassis-mc journal"));
     }
     let mut ops = Vec::new();
     for (i, line) in lines.enumerate() {
@@ -266,7 +269,7 @@ pub fn recover(dir: &Path) -> Result<bool, OutputError> {
             ["rename", from, to] => Op::Rename(from.to_string(), to.to_string()),
             ["delete", file] => Op::Delete(file.to_string()),
             _ => {
-                return Err(OutputError::format(
+                return Err(OutputError::unusable(
                     &path,
                     format!("line {}: malformed step", i + 2),
                 ));

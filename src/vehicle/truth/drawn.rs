@@ -178,7 +178,7 @@ pub(super) const GUST: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: true,
     neutral: 0.0,
-    check: |s| (!(s.is_finite() && s >= 0.0)).then_some("must be a finite number >= 0"),
+    check: |s| super::steady::within(s, 0.0, 20.0, "must be a finite number in [0, 20] m/s"),
     build: |s, values| {
         Some(Arc::new(Gust {
             sd_m_s: s,
@@ -196,7 +196,12 @@ pub(super) const GUST_TIME: ModelErrorEntry = ModelErrorEntry {
     axis: false,
     drawn: true,
     neutral: 10.0,
-    check: |t| (!(t.is_finite() && t > 0.0)).then_some("must be a finite number > 0"),
+    // Up to about 100 days: a correlation time far beyond a run's length makes each run's
+    // gust one steady draw.
+    check: |t| {
+        (!(t.is_finite() && t > 0.0 && t <= 1e7))
+            .then_some("must be a finite number > 0 and at most 1e7 s")
+    },
     build: |_, _| None,
 };
 
@@ -208,9 +213,7 @@ pub(super) const FORCE_SCALE_SD: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: true,
     neutral: 0.0,
-    check: |s| {
-        (!(s.is_finite() && (0.0..1.0).contains(&s))).then_some("must be a finite number in [0, 1)")
-    },
+    check: |s| super::steady::within(s, 0.0, 0.5, "must be a finite number in [0, 0.5]"),
     build: |s, _| Some(Arc::new(ForceScaleDrawn { sd: s })),
 };
 

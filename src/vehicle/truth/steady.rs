@@ -104,13 +104,14 @@ impl ModelError for MassRate {
     }
 }
 
-fn finite(v: f64) -> Option<&'static str> {
-    (!v.is_finite()).then_some("must be a finite number")
+/// `Some(reason)` unless `v` is a finite number in `[low, high]`.
+pub(super) fn within(v: f64, low: f64, high: f64, reason: &'static str) -> Option<&'static str> {
+    (!(v.is_finite() && (low..=high).contains(&v))).then_some(reason)
 }
 
-fn above_minus_one(v: f64) -> Option<&'static str> {
-    (!(v.is_finite() && v > -1.0)).then_some("must be a finite number > -1")
-}
+/// The strongest steady wind a study may name \[m/s\]: a violent storm (Beaufort 11 ends at
+/// 32.6 m/s); beyond it no road test runs, and the truth's motion is meaningless.
+pub(super) const WIND_LIMIT_M_S: f64 = 50.0;
 
 /// `truth.wind_speed`.
 pub(super) const WIND: ModelErrorEntry = ModelErrorEntry {
@@ -120,7 +121,14 @@ pub(super) const WIND: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: false,
     neutral: 0.0,
-    check: finite,
+    check: |w| {
+        within(
+            w,
+            -WIND_LIMIT_M_S,
+            WIND_LIMIT_M_S,
+            "must be a finite number within ±50 m/s (a violent storm)",
+        )
+    },
     build: |w, _| Some(Arc::new(Wind { speed_m_s: w })),
 };
 
@@ -132,7 +140,9 @@ pub(super) const ROTATING_MASS: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: false,
     neutral: 0.0,
-    check: above_minus_one,
+    // Rotating parts add 3–15 % to a car's inertia, up to about 50 % in a truck's lowest
+    // gear: a factor outside [−0.5, 1] is not a vehicle.
+    check: |d| within(d, -0.5, 1.0, "must be a finite number in [-0.5, 1]"),
     build: |d, _| Some(Arc::new(RotatingMass { factor: d })),
 };
 
@@ -144,7 +154,9 @@ pub(super) const FORCE_SCALE: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: false,
     neutral: 0.0,
-    check: above_minus_one,
+    // A logged force half or one and a half times the truth's is no calibration error but
+    // another signal.
+    check: |s| within(s, -0.5, 0.5, "must be a finite number in [-0.5, 0.5]"),
     build: |s, _| Some(Arc::new(ForceScale { scale: s })),
 };
 
@@ -156,7 +168,8 @@ pub(super) const ROLLING_SPEED: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: false,
     neutral: 0.0,
-    check: |c| (!(c.is_finite() && c >= 0.0)).then_some("must be a finite number >= 0"),
+    // Tyres give 0.005–0.02 s/m; at 0.1 s/m the rolling resistance quadruples by 30 m/s.
+    check: |c| within(c, 0.0, 0.1, "must be a finite number in [0, 0.1] s/m"),
     build: |c, _| Some(Arc::new(RollingSpeed { coefficient_s_m: c })),
 };
 
@@ -168,7 +181,9 @@ pub(super) const AIR_DENSITY: ModelErrorEntry = ModelErrorEntry {
     axis: true,
     drawn: false,
     neutral: 1.0,
-    check: |r| (!(r.is_finite() && r > 0.0)).then_some("must be a finite number > 0"),
+    // Air on a road: about 0.7 kg/m³ (a high pass in summer) to 1.5 kg/m³ (a cold sea
+    // level), around the 1.2 kg/m³ a study assumes.
+    check: |r| within(r, 0.5, 2.0, "must be a finite number in [0.5, 2]"),
     build: |r, _| Some(Arc::new(AirDensity { ratio: r })),
 };
 
@@ -180,6 +195,7 @@ pub(super) const MASS_RATE: ModelErrorEntry = ModelErrorEntry {
     axis: false,
     drawn: false,
     neutral: 0.0,
-    check: finite,
+    // A truck burns about 0.01 kg/s of fuel; 10 kg/s empties a tanker in minutes.
+    check: |m| within(m, -10.0, 10.0, "must be a finite number within ±10 kg/s"),
     build: |m, _| Some(Arc::new(MassRate { rate_kg_s: m })),
 };
