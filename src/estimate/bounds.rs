@@ -4,7 +4,7 @@
 
 use nalgebra::Matrix3;
 
-use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance};
+use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance, SecondOrder};
 use super::parameters::Parameters;
 use super::regression::Regression;
 use crate::numeric::linalg::SolveError;
@@ -95,6 +95,63 @@ impl Regression {
         Ok(bread * meat * bread)
     }
 
+    /// The sandwich of an estimator that compensates the noise's bias with its moments
+    /// (BCLS): [`Regression::sandwich_covariance`] with, in XᵀΣX, the variance the
+    /// compensation leaves beyond the first order ([`Regression::compensation_meat`]).
+    /// Returns the standard errors.
+    pub fn compensated_sandwich_se(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+        parameters: Parameters,
+    ) -> Result<[f64; 3], SolveError> {
+        let bread = parameters.inverse(&self.xtx)?;
+        let first = self.sandwich_covariance(theta, noise, parameters)?;
+        let cov = first + bread * self.compensation_meat(theta, noise) * bread;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// Σᵢ of each row's terms of the compensated estimating function's variance beyond the
+    /// first order (docs/model.md#compensated-sandwich): every channel's own
+    /// [`SecondOrder`] terms, and for every pair of channels c ≠ c′ E\[Δ_cΔ_cᵀ\] Ω_c′ +
+    /// E\[Δ_c ε_c\] E\[Δ_c′ ε_c′\]ᵀ. Second order in the noise: it matters where a regressor's
+    /// own spread along the rows is not large against its noise (force noise on a nearly
+    /// constant F).
+    pub fn compensation_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
+        let mut meat = Matrix3::zeros();
+        for i in 0..self.len() {
+            let at = OmegaAt {
+                theta: *theta,
+                k: self.k,
+                v2: self.v[i] * self.v[i],
+                grade: GradeLoading::Row {
+                    g: self.g,
+                    slope: self.cos_grade[i] - theta[2] * self.sin_grade[i],
+                },
+            };
+            let x = [self.f[i], -self.k * self.v[i] * self.v[i], self.c[i]];
+            let mut omega_total = 0.0;
+            let mut terms: Vec<(SecondOrder, f64)> = Vec::new();
+            for c in Channel::OMEGA_ORDER {
+                let sd = noise[c];
+                if sd > 0.0 {
+                    let omega = c.omega_term(sd, &at);
+                    omega_total += omega;
+                    terms.push((c.second_order(sd, noise, &at, &x), omega));
+                }
+            }
+            let loading_sum = terms
+                .iter()
+                .fold(nalgebra::Vector3::zeros(), |l, (t, _)| l + t.loading);
+            for (t, omega) in &terms {
+                meat += t.own + t.perturbation * (omega_total - omega)
+                    - t.loading * t.loading.transpose();
+            }
+            meat += loading_sum * loading_sum.transpose();
+        }
+        meat
+    }
+
     /// `eiv_crlb_linearized`: (XᵀΩ⁻¹X)⁻¹, the Cramér–Rao bound of the linearised
     /// equation-error model with independent Gaussian errors of variance Ω_i (the best a
     /// weighted, unbiased estimator could do), over the fitted `parameters`; returns the
@@ -141,9 +198,23 @@ pub fn thesis_bound(
     }
 }
 
-/// A bound's standard errors from the noise-free regression, the truth θ, the noise levels
-/// and the fitted parameters (`None` where they cannot be computed).
-pub type ConstantBound = fn(&Regression, &[f64; 3], &NoiseLevels, Parameters) -> Option<[f64; 3]>;
+/// A bound's standard errors from the noise-free regression, the truth θ, the noise levels,
+/// the fitted parameters and the estimator's [`Spread`] (`None` where they cannot be
+/// computed).
+pub type ConstantBound =
+    fn(&Regression, &[f64; 3], &NoiseLevels, Parameters, Spread) -> Option<[f64; 3]>;
+
+/// What an estimator's spread is predicted from: the sandwich of its estimating function
+/// differs between an estimator that takes the noisy sums as they are and one that
+/// compensates them with the noise's moments, whose compensation adds variance of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Spread {
+    /// The noisy sums as they are (OLS and its kin): the first-order sandwich.
+    Plain,
+    /// The sums compensated by the noise's moments (BCLS): the first-order sandwich plus
+    /// what the compensation adds (docs/model.md#compensated-sandwich).
+    Compensated,
+}
 
 /// How a bound's standard errors are obtained.
 #[derive(Debug, Clone, Copy)]
@@ -215,7 +286,7 @@ pub static BOUNDS: [Bound; 4] = [
         name: "crlb_output",
         description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
         applies: NoiseLevels::output_only,
-        value: BoundValue::Constant(|reg, _, n, p| {
+        value: BoundValue::Constant(|reg, _, n, p, _| {
             scaled_inverse_sd(&reg.xtx, n[Channel::Output], p).ok()
         }),
         not_valid: None,
@@ -223,9 +294,12 @@ pub static BOUNDS: [Bound; 4] = [
     Bound {
         kind: BoundKind::EivSandwich,
         name: "eiv_sandwich",
-        description: "first-order covariance (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Σ the covariance of the equation errors (diagonal Ω; banded for AR(1) speed noise and for a differentiated acceleration)",
+        description: "covariance (XᵀX)⁻¹ XᵀΣX (XᵀX)⁻¹ of OLS/BCLS under regressor noise, Σ the covariance of the equation errors (diagonal Ω; banded for AR(1) speed noise and for a differentiated acceleration); for BCLS with the variance its compensation adds (second order in the noise: force noise, and white speed noise with a model acceleration)",
         applies: NoiseLevels::in_regressors,
-        value: BoundValue::Constant(|reg, theta, n, p| reg.sandwich_se(theta, n, p).ok()),
+        value: BoundValue::Constant(|reg, theta, n, p, spread| match spread {
+            Spread::Plain => reg.sandwich_se(theta, n, p).ok(),
+            Spread::Compensated => reg.compensated_sandwich_se(theta, n, p).ok(),
+        }),
         not_valid: None,
     },
     Bound {
@@ -233,7 +307,7 @@ pub static BOUNDS: [Bound; 4] = [
         name: "eiv_crlb_linearized",
         description: "(XᵀΩ⁻¹X)⁻¹: the bound of the linearised equation-error model (what a weighted unbiased estimator could reach); independent rows only (not reported under correlated or differentiated speed noise)",
         applies: |n| n.in_regressors() && n.independent_rows(),
-        value: BoundValue::Constant(|reg, theta, n, p| reg.linearized_crlb_se(theta, n, p).ok()),
+        value: BoundValue::Constant(|reg, theta, n, p, _| reg.linearized_crlb_se(theta, n, p).ok()),
         not_valid: None,
     },
 ];

@@ -10,7 +10,7 @@ use std::ops::Deref;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::bounds::Bound;
+use super::bounds::{Bound, Spread};
 use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::moments::{Moments, Rows, RowsView};
 use super::parameters::Parameters;
@@ -174,6 +174,12 @@ pub trait Estimator: Sync + Send + fmt::Debug {
         false
     }
 
+    /// What its spread is predicted from (the sandwich of its estimating function): the
+    /// noisy sums as they are, by default.
+    fn spread(&self) -> Spread {
+        Spread::Plain
+    }
+
     /// Whether `bound` is reported next to this estimator's estimates (where the bound
     /// applies to the noise at all): a bound that does not describe this estimator's
     /// spread is left out (NaN) rather than misread. Every bound by default.
@@ -228,6 +234,10 @@ impl Estimator for Bcls {
 
     fn compensates_speed_noise(&self) -> bool {
         true
+    }
+
+    fn spread(&self) -> Spread {
+        Spread::Compensated
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {

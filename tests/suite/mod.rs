@@ -9,6 +9,7 @@ mod control_variates;
 mod design;
 mod determinism;
 mod drawn_errors;
+mod fault_pass;
 mod figures;
 mod fit;
 mod grid_cost;

@@ -1,9 +1,11 @@
 //! Force noise: white noise σ_F on the measured propulsion force (docs/model.md#noise-channels).
 
 use super::covariance::gaussian_moment;
+use nalgebra::{Matrix3, Vector3};
+
 use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity, Samples,
-    TrueRow,
+    SecondOrder, TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
@@ -33,6 +35,18 @@ impl ChannelTerms for ForceNoise {
     /// (F̃ − F)θ₁.
     fn omega_term(sd: f64, at: &OmegaAt) -> f64 {
         (at.theta[0] * sd).powi(2)
+    }
+
+    /// Δ = δ e₁ and ε = −θ₁δ, δ ~ N(0, σ²): the compensation of Σx̃₁² leaves −θ₁(δ² − σ²)
+    /// in ψ₁, of variance 2θ₁²σ⁴ and uncorrelated with the first-order part (odd moments).
+    fn second_order(sd: f64, _noise: &NoiseLevels, at: &OmegaAt, _x: &[f64; 3]) -> SecondOrder {
+        let (s2, t1) = (sd * sd, at.theta[0]);
+        let e1 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        SecondOrder {
+            own: e1 * (2.0 * t1 * t1 * s2 * s2),
+            perturbation: e1 * s2,
+            loading: Vector3::new(-t1 * s2, 0.0, 0.0),
+        }
     }
 
     /// E\[F̃²\] = F² + σ².

@@ -39,7 +39,7 @@ pub use covariance::{
 };
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
-pub use omega::{GradeLoading, OmegaAt, RowCovariance};
+pub use omega::{GradeLoading, OmegaAt, RowCovariance, SecondOrder};
 
 /// One noise channel's terms, implemented by a unit struct in the channel's own file and
 /// registered by one line of `channels!` (docs/model.md#noise-channels). The defaults
@@ -88,6 +88,14 @@ pub trait ChannelTerms {
         _noise: &NoiseLevels,
     ) -> Option<RowCovariance> {
         None
+    }
+
+    /// Its terms of the compensated estimating function's variance at a row beyond the
+    /// first order (docs/model.md#compensated-sandwich), at SD `sd` > 0 under `noise`;
+    /// `x` is the noise-free row. Nothing by default (noise that enters the output only, or
+    /// whose second order is not derived).
+    fn second_order(_sd: f64, _noise: &NoiseLevels, _at: &OmegaAt, _x: &[f64; 3]) -> SecondOrder {
+        SecondOrder::NONE
     }
 
     /// Per segment of rows, the variance it adds to ỹ beyond its Ω term (`None`: nothing).
@@ -228,6 +236,18 @@ macro_rules! channels {
             /// channels' left as they are (docs/model.md#bcls).
             pub fn compensate(self, m: &Moments, sd: f64, g: f64) -> Moments {
                 match self { $(Channel::$variant => <$terms>::compensate(m, sd, g),)* }
+            }
+
+            /// This channel's terms of the compensated estimating function's variance at a
+            /// row beyond the first order ([`ChannelTerms::second_order`]).
+            pub fn second_order(
+                self,
+                sd: f64,
+                noise: &NoiseLevels,
+                at: &OmegaAt,
+                x: &[f64; 3],
+            ) -> SecondOrder {
+                match self { $(Channel::$variant => <$terms>::second_order(sd, noise, at, x),)* }
             }
 
             /// This channel's part of the sandwich's XᵀΣX beyond its Ω terms at the

@@ -4,7 +4,7 @@
 //! acceleration adds to ỹ and how far its correlation reaches. The sandwich, `eiv_crlb_linearized`
 //! and `wbcls` ask these; none of them knows a channel's internals.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::{CHANNEL_COUNT, Channel, NoiseLevels};
 
@@ -67,4 +67,29 @@ impl Channel {
     pub fn shares_rows(self, noise: &NoiseLevels) -> bool {
         self.correlation_time_s(noise) > 0.0 || self.enters_neighbours(noise)
     }
+}
+
+/// One channel's terms of the variance of the compensated estimating function
+/// ψ = x̃ũ − E\[x̃ũ\] at a row beyond the first-order x xᵀ Ω (docs/model.md#compensated-sandwich).
+/// A channel that moves a regressor by Δ (zero mean after compensation) and the equation
+/// error by ε adds its own second-order variance, and, with every other channel c′,
+/// E\[ΔΔᵀ\]·Ω_c′ and E\[Δε\]·E\[Δ′ε′\]ᵀ (the channels are independent).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SecondOrder {
+    /// Var of its own second-order part, and that part's covariance with its first-order
+    /// part (both ways).
+    pub own: Matrix3<f64>,
+    /// E\[ΔΔᵀ\]: the covariance of its perturbation of the compensated regressors.
+    pub perturbation: Matrix3<f64>,
+    /// E\[Δε\]: the perturbation's covariance with its equation error.
+    pub loading: Vector3<f64>,
+}
+
+impl SecondOrder {
+    /// No terms beyond the first order.
+    pub const NONE: SecondOrder = SecondOrder {
+        own: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        perturbation: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        loading: Vector3::new(0.0, 0.0, 0.0),
+    };
 }

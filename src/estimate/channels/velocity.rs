@@ -13,7 +13,7 @@ use super::covariance::{
 };
 use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity,
-    RowCovariance, RowMoments, Samples, TrueRow,
+    RowCovariance, RowMoments, Samples, SecondOrder, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::Regression;
@@ -143,6 +143,29 @@ impl ChannelTerms for Speed {
     fn omega_term(sd: f64, at: &OmegaAt) -> f64 {
         let s2 = sd.powi(2);
         (at.theta[1] * at.k).powi(2) * (4.0 * at.v2 * s2 + 2.0 * s2 * s2)
+    }
+
+    /// White noise on rows that hold one sample each (a model acceleration): with s = 2Ve
+    /// + e², d = s − σ², the compensated ψ is kθ₂\[x d − k e₂ (s² − 6σ²s − E\[·\])\]
+    /// (BCLS's unbiased Ṽ⁴ − 6σ²Ṽ² + 3σ⁴ and Ṽ² − σ²), so beyond x xᵀ Ω its own part has
+    /// variance k²(kθ₂)²(32V⁴σ⁴ + 96V²σ⁶ + 24σ⁸) and covariance −k(kθ₂)²·8V²σ⁴ with x d;
+    /// Δ = −k d e₂, ε = kθ₂ d. Rows that share the noise (AR(1), differentiated): not derived.
+    fn second_order(sd: f64, noise: &NoiseLevels, at: &OmegaAt, x: &[f64; 3]) -> SecondOrder {
+        if Channel::Velocity.shares_rows(noise) {
+            return SecondOrder::NONE;
+        }
+        let (s2, v2, k) = (sd * sd, at.v2, at.k);
+        let a2 = (k * at.theta[1]).powi(2);
+        let var_d = 4.0 * v2 * s2 + 2.0 * s2 * s2;
+        let e2 = Vector3::new(0.0, 1.0, 0.0);
+        let x = Vector3::from(*x);
+        let cross = x * e2.transpose() + e2 * x.transpose();
+        let var_q = 32.0 * v2 * v2 * s2 * s2 + 96.0 * v2 * s2 * s2 * s2 + 24.0 * s2.powi(4);
+        SecondOrder {
+            own: e2 * e2.transpose() * (k * k * a2 * var_q) - cross * (k * a2 * 8.0 * v2 * s2 * s2),
+            perturbation: e2 * e2.transpose() * (k * k * var_d),
+            loading: Vector3::new(0.0, -k * k * at.theta[1] * var_d, 0.0),
+        }
     }
 
     /// E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6σ²V² + 3σ⁴.

@@ -495,15 +495,15 @@ impl VehicleModel {
         let parameters = self.study.settings.parameters;
         let fisher_condition = parameters.condition_number(&noisy_xtx);
         let thesis_bound = thesis_bound(&noisy_xtx, &cond.noise, parameters);
-        // Every bound's standard errors in this realisation (the same for every estimator).
-        let bounds: Vec<[f64; 3]> = BOUNDS
+        // Every bound's standard errors in this realisation: those computed per realisation
+        // the same for every estimator, the constant ones those of the estimator's spread.
+        let per_realisation: Vec<Option<[f64; 3]>> = BOUNDS
             .iter()
-            .zip(&cond.constant_bounds)
-            .map(|(bound, constant)| match bound.value {
+            .map(|bound| match bound.value {
                 BoundValue::PerRealisation(se) if (bound.applies)(&cond.noise) => {
-                    se(&noisy_xtx, &cond.noise, parameters).unwrap_or([f64::NAN; 3])
+                    Some(se(&noisy_xtx, &cond.noise, parameters).unwrap_or([f64::NAN; 3]))
                 }
-                _ => *constant,
+                _ => None,
             })
             .collect();
         let layout = &self.layout;
@@ -527,7 +527,8 @@ impl VehicleModel {
             // The layout's parameters are the fitted ones, in θ's order.
             for (p, &i) in parameters.free().iter().enumerate() {
                 slots[layout.theta_at(ei, p)] = theta[i];
-                for (b, values) in bounds.iter().enumerate() {
+                for (b, own) in per_realisation.iter().enumerate() {
+                    let values = own.unwrap_or(cond.constant_bounds[ei][b]);
                     slots[layout.bound_at(ei, b, p)] = if cond.info.applies[ei][b] {
                         values[i]
                     } else {

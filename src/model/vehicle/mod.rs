@@ -27,7 +27,7 @@ pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
 use super::{ConditionInfo, Layout, ModelErrorValue};
-use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue};
+use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::conversions::EXTRAS;
@@ -55,9 +55,10 @@ struct Condition {
     regression: Arc<Regression>,
     /// AR(1) coefficients of correlated speed noise (`None` when white).
     ar1: Option<Vec<[f64; 2]>>,
-    /// Per entry of [`BOUNDS`]: its standard errors where they are constant over the
-    /// realisations and the bound applies (NaN otherwise).
-    constant_bounds: Vec<[f64; 3]>,
+    /// Per estimator, per entry of [`BOUNDS`]: its standard errors where they are constant
+    /// over the realisations and the bound applies (NaN otherwise); the estimators of one
+    /// [`Spread`] share them.
+    constant_bounds: Vec<Arc<Vec<[f64; 3]>>>,
     /// Its draw group ([`Model::draw_group`](super::Model::draw_group)): its own index
     /// unless the draws are shared.
     group: usize,
@@ -170,16 +171,40 @@ impl VehicleModel {
                     .position(|&a| a == noise.acceleration)
                     .expect("the grid takes the source from the study's list");
                 let regression = segment.regressions[source][point.grade_bias_index].clone();
-                let constant_bounds = BOUNDS
+                let of_spread = |spread: Spread| -> Arc<Vec<[f64; 3]>> {
+                    Arc::new(
+                        BOUNDS
+                            .iter()
+                            .map(|bound| {
+                                match bound.value {
+                                    BoundValue::Constant(se) if (bound.applies)(&noise) => se(
+                                        &regression,
+                                        &truth,
+                                        &noise,
+                                        vs.settings.parameters,
+                                        spread,
+                                    ),
+                                    _ => None,
+                                }
+                                .unwrap_or([f64::NAN; 3])
+                            })
+                            .collect(),
+                    )
+                };
+                let mut by_spread: Vec<(Spread, Arc<Vec<[f64; 3]>>)> = Vec::new();
+                let constant_bounds = vs
+                    .estimators
                     .iter()
-                    .map(|bound| {
-                        match bound.value {
-                            BoundValue::Constant(se) if (bound.applies)(&noise) => {
-                                se(&regression, &truth, &noise, vs.settings.parameters)
+                    .map(|e| {
+                        let spread = e.spread();
+                        match by_spread.iter().find(|(s, _)| *s == spread) {
+                            Some((_, b)) => b.clone(),
+                            None => {
+                                let b = of_spread(spread);
+                                by_spread.push((spread, b.clone()));
+                                b
                             }
-                            _ => None,
                         }
-                        .unwrap_or([f64::NAN; 3])
                     })
                     .collect();
                 let applies = vs
@@ -307,8 +332,8 @@ impl VehicleModel {
         ]
         .into_iter()
         .map(BoundKind::index)
-        .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[b][first].is_finite())
-        .map_or([f64::NAN; 3], |b| cond.constant_bounds[b]);
+        .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[e][b][first].is_finite())
+        .map_or([f64::NAN; 3], |b| cond.constant_bounds[e][b]);
         if est.bias_prediction() == BiasPrediction::ModelErrors {
             let mut bias = [0.0; 3];
             // A compensating estimator's noise-free estimate is the truth without model
