@@ -154,11 +154,11 @@ pub fn check(study: &Study, threads: Option<usize>) -> Result<StudyCheck, RunErr
     })
 }
 
-/// Estimated bytes of realisations.parquet, which holds a row group per condition (and
-/// per [`ROW_GROUP_ROWS`] rows within one): fixed bytes F, per row group g, per
-/// realisation b. Measured on sample files of [`SIZE_CONDITIONS`] conditions: each
-/// condition's n realisations as a row group (A), the same twice (A₂ = A + Σ(g + b n)),
-/// and n/2 realisations each (B = F + Σ(g + b n/2)).
+/// Estimated bytes of realisations.parquet, whose row groups hold [`ROW_GROUP_ROWS`] rows
+/// each, across conditions: fixed bytes F, per row group g, per realisation b. Measured on
+/// sample files of the n realisations of [`SIZE_CONDITIONS`] conditions (k of them): all as
+/// one row group (A = F + g + b n k), the same twice as two (A₂ = A + g + b n k), and n/2
+/// realisations each as one (B = F + g + b n k / 2).
 fn realisations_bytes(
     model: &dyn Model,
     study: &Study,
@@ -192,10 +192,12 @@ fn realisations_bytes(
     let rows = |batch: &arrow::array::RecordBatch, m: u64| {
         batch.slice(0, m as usize * layout.estimators.len())
     };
-    let size = |name: &str, groups: &[arrow::array::RecordBatch]| -> Result<f64, OutputError> {
+    let size = |name: &str, groups: &[&[arrow::array::RecordBatch]]| -> Result<f64, OutputError> {
         let mut sink = ParquetSink::create(dir, name, schema.clone(), meta, "realisations")?;
-        for g in groups {
-            sink.write(g)?;
+        for group in groups {
+            let batch = arrow::compute::concat_batches(&schema, group.iter())
+                .map_err(|e| OutputError::arrow(dir, e))?;
+            sink.write(&batch)?;
             sink.flush()?;
         }
         let file = sink.finish()?;
@@ -203,19 +205,21 @@ fn realisations_bytes(
         Ok(len.len() as f64)
     };
     let whole: Vec<_> = batches.iter().map(|b| rows(b, n)).collect();
-    let twice: Vec<_> = whole.iter().chain(&whole).cloned().collect();
     let half: Vec<_> = batches.iter().map(|b| rows(b, n / 2)).collect();
-    let (a, a2, b) = (size("a", &whole)?, size("a2", &twice)?, size("b", &half)?);
-    let k = sampled.len() as f64;
-    let fixed = 2.0 * a - a2;
-    let group_n = (a2 - a) / k; // g + b n
-    let group_half = (b - fixed) / k; // g + b n / 2
-    let per_realisation = ((group_n - group_half) / (n / 2) as f64).max(0.0);
-    let per_group = (group_n - per_realisation * n as f64).max(0.0);
-    let r = study.realisations();
-    let rows_per_condition = r * layout.estimators.len() as u64;
-    let groups = rows_per_condition.div_ceil(ROW_GROUP_ROWS as u64).max(1);
-    Ok(fixed + count as f64 * (groups as f64 * per_group + per_realisation * r as f64))
+    let (a, a2, b) = (
+        size("a", &[&whole])?,
+        size("a2", &[&whole, &whole])?,
+        size("b", &[&half])?,
+    );
+    let sampled_realisations = (n * sampled.len() as u64) as f64;
+    let per_realisation = (2.0 * (a - b) / sampled_realisations).max(0.0);
+    let per_group = (a2 - a - per_realisation * sampled_realisations).max(0.0);
+    let fixed = (a - per_group - per_realisation * sampled_realisations).max(0.0);
+    let realisations = count as u64 * study.realisations();
+    let groups = (realisations * layout.estimators.len() as u64)
+        .div_ceil(ROW_GROUP_ROWS as u64)
+        .max(1);
+    Ok(fixed + groups as f64 * per_group + per_realisation * realisations as f64)
 }
 
 /// Every other file a run writes, written as a run writes them into `dir` from a summary of

@@ -120,13 +120,18 @@ pub const MAX_INPUT_BYTES: u64 = 4 << 30;
 /// The longest piece of a user's cell or value a message quotes \[characters\].
 pub const MAX_QUOTE_CHARS: usize = 60;
 
-/// `text` as a message quotes it: whole when short, else its first [`MAX_QUOTE_CHARS`]
+/// `text` as a message shows it: whole when short, else its first [`MAX_QUOTE_CHARS`]
 /// characters and how long it is.
-pub fn quote(text: &str) -> String {
+pub fn shorten(text: &str) -> String {
     match text.char_indices().nth(MAX_QUOTE_CHARS) {
-        None => format!("\"{text}\""),
-        Some((end, _)) => format!("\"{}…\" ({} bytes)", &text[..end], text.len()),
+        None => text.to_string(),
+        Some((end, _)) => format!("{}… ({} bytes)", &text[..end], text.len()),
     }
+}
+
+/// [`shorten`]ed `text` in double quotes.
+pub fn quote(text: &str) -> String {
+    format!("\"{}\"", shorten(text))
 }
 
 /// The bytes of the regular file at `path` (a symbolic link to one is followed): a device
@@ -149,7 +154,7 @@ pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
     if !meta.is_file() {
         return Err(format!(
             "is a {}, not a regular file",
-            crate::output::lock::kind_of(&meta.file_type())
+            file_kind(&meta.file_type())
         ));
     }
     if meta.len() > max_bytes {
@@ -166,6 +171,24 @@ pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
         return Err(format!("grew past {max_bytes} bytes while being read"));
     }
     Ok(bytes)
+}
+
+/// What a file type is, in words ("FIFO", "symbolic link", …).
+pub fn file_kind(t: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_symlink() {
+        "symbolic link"
+    } else if t.is_dir() {
+        "directory"
+    } else if t.is_fifo() {
+        "FIFO"
+    } else if t.is_socket() {
+        "socket"
+    } else if t.is_block_device() || t.is_char_device() {
+        "device"
+    } else {
+        "regular file"
+    }
 }
 
 /// `O_NONBLOCK` of Linux and the BSDs (opening a FIFO without a writer returns at once).
@@ -334,7 +357,7 @@ fn read_csv(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
                 return Err(fail(
                     place,
                     Some(column),
-                    format!("{} is not a finite number", quote(cell)),
+                    format!("{} is not a finite number", shorten(cell)),
                 ));
             }
             out.push(v);
@@ -362,10 +385,7 @@ fn read_parquet(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
             return Err(fail(
                 None,
                 None,
-                format!(
-                    "is a {}, not a regular file",
-                    crate::output::lock::kind_of(&m.file_type())
-                ),
+                format!("is a {}, not a regular file", file_kind(&m.file_type())),
             ));
         }
         _ => {}

@@ -118,6 +118,19 @@ impl Regression {
     /// own spread along the rows is not large against its noise (force noise on a nearly
     /// constant F).
     pub fn compensation_meat(&self, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
+        // AR(1) speed noise whose correlation does not reach the next sample (φ = 0 at
+        // every step) is white noise, and has white noise's terms.
+        let mut noise = *noise;
+        if noise.velocity_correlated()
+            && !noise.speed_noise_differentiated()
+            && self
+                .ar1_coefficients(noise.velocity_correlation_s)
+                .iter()
+                .all(|[phi, _]| *phi == 0.0)
+        {
+            noise.velocity_correlation_s = 0.0;
+        }
+        let noise = &noise;
         let mut meat = Matrix3::zeros();
         for i in 0..self.len() {
             let at = OmegaAt {

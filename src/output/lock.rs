@@ -139,28 +139,10 @@ pub fn ensure_plain_file(path: &Path) -> Result<(), OutputError> {
             line: None,
             reason: format!(
                 "is a {}, not a file chassis-mc wrote; it was left as it is: move it away",
-                kind_of(&m.file_type())
+                crate::tabular::file_kind(&m.file_type())
             ),
         }),
         _ => Ok(()),
-    }
-}
-
-/// What a file type is, in words.
-pub(crate) fn kind_of(t: &fs::FileType) -> &'static str {
-    use std::os::unix::fs::FileTypeExt;
-    if t.is_symlink() {
-        "symbolic link"
-    } else if t.is_dir() {
-        "directory"
-    } else if t.is_fifo() {
-        "FIFO"
-    } else if t.is_socket() {
-        "socket"
-    } else if t.is_block_device() || t.is_char_device() {
-        "device"
-    } else {
-        "regular file"
     }
 }
 

@@ -234,6 +234,11 @@ impl ParquetSink {
             .map_err(|e| OutputError::parquet(&self.pending.tmp_path, e))
     }
 
+    /// The file being written (its temporary name).
+    pub fn path(&self) -> &Path {
+        &self.pending.tmp_path
+    }
+
     /// End the current row group here.
     pub fn flush(&mut self) -> Result<(), OutputError> {
         self.writer

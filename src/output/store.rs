@@ -68,6 +68,31 @@ pub fn part_name(condition: usize, start: u64, hash: u64) -> String {
     format!("part-c{condition:06}-r{start:015}-h{hash:016x}.parquet")
 }
 
+/// Whether `name` is a part's name: [`part_name`]'s, or one without the checksum (as an
+/// engine that did not record it named its parts).
+fn is_part_name(name: &str) -> bool {
+    let Some(rest) = name
+        .strip_prefix("part-c")
+        .and_then(|r| r.strip_suffix(".parquet"))
+    else {
+        return false;
+    };
+    let digits = |s: &str, n: usize| s.len() == n && s.bytes().all(|b| b.is_ascii_digit());
+    let mut fields = rest.split('-');
+    match (fields.next(), fields.next(), fields.next(), fields.next()) {
+        (Some(c), Some(r), hash, None) => {
+            digits(c, 6)
+                && r.strip_prefix('r').is_some_and(|r| digits(r, 15))
+                && hash.is_none_or(|h| {
+                    h.len() == 17
+                        && h.starts_with('h')
+                        && h[1..].bytes().all(|b| b.is_ascii_hexdigit())
+                })
+        }
+        _ => false,
+    }
+}
+
 /// The checksum a part's name records.
 fn named_checksum(name: &str) -> Option<u64> {
     let hex = name.strip_prefix("part-")?.strip_suffix(".parquet")?;
@@ -105,7 +130,7 @@ pub fn ensure_staging(staging: &Path) -> Result<(), OutputError> {
         return Err(unsafe_because(format!(
             "is a {}, not the staging directory chassis-mc makes for its parts; nothing was \
              changed: move it away",
-            super::lock::kind_of(&meta.file_type())
+            crate::tabular::file_kind(&meta.file_type())
         )));
     }
     let mut foreign = Vec::new();
@@ -113,7 +138,7 @@ pub fn ensure_staging(staging: &Path) -> Result<(), OutputError> {
         let entry = entry.map_err(|e| OutputError::io(staging, e))?;
         let name = entry.file_name().to_string_lossy().into_owned();
         let kind = entry.file_type().map_err(|e| OutputError::io(staging, e))?;
-        let engines = kind.is_file() && (is_temporary(&name) || named_checksum(&name).is_some());
+        let engines = kind.is_file() && (is_temporary(&name) || is_part_name(&name));
         if !engines {
             foreign.push(name);
         }
@@ -391,10 +416,17 @@ impl Cursor {
     }
 }
 
+/// Rows per batch the assembler hands the Parquet writer: every batch but the last has
+/// exactly this many rows, and it divides [`super::ROW_GROUP_ROWS`], so row groups and
+/// pages fall at the same rows whatever sizes the copied and computed pieces had.
+pub const WRITE_ROWS: usize = 8192;
+
 /// Writes the realisation file in plan order: the rows of segments with a source are
-/// copied from it, computed rows are written as they arrive (in plan order too). A row
-/// group ends at every change of condition, so the file's bytes do not depend on which rows
-/// were copied and which computed.
+/// copied from it, computed rows are written as they arrive (in plan order too). The rows
+/// reach the writer in batches of exactly [`WRITE_ROWS`] (re-cut from whatever arrived), so
+/// the file's bytes — its row groups of [`super::ROW_GROUP_ROWS`] rows across conditions,
+/// and their pages — do not depend on which rows were copied and which computed. Row groups
+/// span conditions: the footer's metadata grows with the rows, not with the conditions.
 pub struct Assembler<'a> {
     sources: &'a [Source],
     segments: &'a [Segment],
@@ -404,8 +436,43 @@ pub struct Assembler<'a> {
     last_use: Vec<usize>,
     /// The first segment not yet written or passed.
     next: usize,
-    last_condition: Option<usize>,
+    /// Rows received and not yet written (fewer than [`WRITE_ROWS`]).
+    pending: Vec<RecordBatch>,
+    pending_rows: usize,
     out: ParquetSink,
+}
+
+/// Hand `batch` to `out` through `pending`, in batches of exactly [`WRITE_ROWS`].
+fn rechunked(
+    out: &mut ParquetSink,
+    pending: &mut Vec<RecordBatch>,
+    pending_rows: &mut usize,
+    batch: &RecordBatch,
+) -> Result<(), OutputError> {
+    let mut rest = batch.clone();
+    while *pending_rows + rest.num_rows() >= WRITE_ROWS {
+        let take = WRITE_ROWS - *pending_rows;
+        pending.push(rest.slice(0, take));
+        rest = rest.slice(take, rest.num_rows() - take);
+        write_pending(out, pending)?;
+        *pending_rows = 0;
+    }
+    if rest.num_rows() > 0 {
+        *pending_rows += rest.num_rows();
+        pending.push(rest);
+    }
+    Ok(())
+}
+
+/// Write the batches of `pending` to `out` as one batch, and empty it.
+fn write_pending(out: &mut ParquetSink, pending: &mut Vec<RecordBatch>) -> Result<(), OutputError> {
+    let Some(first) = pending.first() else {
+        return Ok(());
+    };
+    let batch = arrow::compute::concat_batches(&first.schema(), pending.iter())
+        .map_err(|e| OutputError::arrow(out.path(), e))?;
+    pending.clear();
+    out.write(&batch)
 }
 
 impl<'a> Assembler<'a> {
@@ -423,7 +490,8 @@ impl<'a> Assembler<'a> {
             cursors: sources.iter().map(|_| None).collect(),
             last_use,
             next: 0,
-            last_condition: None,
+            pending: Vec::new(),
+            pending_rows: 0,
             out,
         }
     }
@@ -437,13 +505,18 @@ impl<'a> Assembler<'a> {
         batch: &RecordBatch,
     ) -> Result<(), OutputError> {
         self.copy_before((condition, first))?;
-        self.enter(condition)?;
-        self.out.write(batch)
+        rechunked(
+            &mut self.out,
+            &mut self.pending,
+            &mut self.pending_rows,
+            batch,
+        )
     }
 
-    /// Copy the remaining sourced segments and write the footer.
+    /// Copy the remaining sourced segments, write the last rows and the footer.
     pub fn finish(mut self) -> Result<PendingFile, OutputError> {
         self.copy_before((usize::MAX, u64::MAX))?;
+        write_pending(&mut self.out, &mut self.pending)?;
         self.out.finish()
     }
 
@@ -456,26 +529,38 @@ impl<'a> Assembler<'a> {
             let k = self.next;
             self.next += 1;
             let Some(i) = seg.source else { continue };
-            self.enter(seg.condition)?;
             let cursor = match &mut self.cursors[i] {
                 Some(cursor) => cursor,
                 slot => slot.insert(Cursor::open(&self.sources[i].path)?),
             };
-            let out = &mut self.out;
-            cursor.copy(seg.condition, &seg.range, &mut |batch| out.write(batch))?;
+            let (out, pending, pending_rows) =
+                (&mut self.out, &mut self.pending, &mut self.pending_rows);
+            cursor.copy(seg.condition, &seg.range, &mut |batch| {
+                rechunked(out, pending, pending_rows, batch)
+            })?;
             if self.last_use[i] == k {
                 self.cursors[i] = None;
             }
         }
         Ok(())
     }
+}
 
-    /// End the row group when the condition changes.
-    fn enter(&mut self, condition: usize) -> Result<(), OutputError> {
-        if self.last_condition.is_some_and(|c| c != condition) {
-            self.out.flush()?;
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parts_are_told_by_their_names() {
+        assert!(is_part_name(&part_name(12, 8192, 0xdead_beef)));
+        assert!(is_part_name("part-c000010-r000000000000000.parquet"));
+        for other in [
+            "notes.txt",
+            "part-c10-r0.parquet",
+            "part-c000010-r000000000000000-hxyz.parquet",
+            "part-c000010-r000000000000000-h0000000000000000-x.parquet",
+        ] {
+            assert!(!is_part_name(other), "{other}");
         }
-        self.last_condition = Some(condition);
-        Ok(())
     }
 }

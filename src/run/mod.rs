@@ -230,16 +230,16 @@ fn run_prepared(
         writes.extend(written_beside(model.as_ref(), options.figures));
     }
     set::ensure_owned(&dir, &writes)?;
-    let staging = dir.join(STAGING);
-    output::store::ensure_staging(&staging)?;
-    remove_temporaries(&dir)?;
-    fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
     let layout = model.layout().clone();
     let infos = model.infos();
     let meta = FileMetadata::of_study(study, identity(study, &*model, &infos));
     if let Some(shard) = options.shard {
         refuse_other_runs_shards(out_dir, shard, &meta)?;
     }
+    let staging = dir.join(STAGING);
+    output::store::ensure_staging(&staging)?;
+    remove_temporaries(&dir)?;
+    fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
 
     // The model's extra tables (the cycles) do not depend on the realisations: they are
     // written while the realisations are computed.

@@ -582,12 +582,13 @@ air_density_ratio = 1",
     )
     .unwrap();
     assert_eq!(ground.to_toml(), plain.to_toml());
-    // Two conditions at the neutral value are two conditions, kept.
-    assert!(
-        truth("wind_speed = [0.0, 0.0]")
-            .to_toml()
-            .contains("wind_speed")
-    );
+    // A value listed twice would be two identical conditions: refused, naming the repeat.
+    let twice = chassis_mc::study::Study::from_toml(
+        &format!("{lists}\n[truth]\nwind_speed = [0.0, 0.0]\n"),
+        "truth.toml",
+    )
+    .unwrap_err();
+    assert_eq!(twice.key.as_deref(), Some("truth.wind_speed[1]"), "{twice}");
     // A value of the wrong type still names the key.
     let wrong = set_key(&t, "velocity_sd", "\"fast\"");
     let err = chassis_mc::study::Study::from_toml(&wrong, "wrong.toml").unwrap_err();

@@ -212,24 +212,32 @@ fn refactors_keep_the_design_outputs_of_the_shipped_example_bit_for_bit() {
     // meant to keep results (a refactor of the search or of how the key is set) must keep
     // these; one meant to change them updates them and says why in its commit. The values
     // are what this test printed ("design hashes: …", with --nocapture) on commit 286971f.
+    //
+    // Re-pinned when BCLS's eiv_sandwich, design's surrogate for its spread, began to include
+    // the variance its compensation leaves beyond the first order
+    // (docs/model.md#compensated-sandwich): `predicted` moved (closer to the Monte Carlo:
+    // 9.80e-4 against 9.93e-4 at the duration example's answer, 9.36e-4 before), and with it
+    // the bracket the searches bisect: every answer is that of commit 0ba1550 (147.19 s,
+    // 1.2328 m/s, the scales), the noise-level search reaching it in 5 Monte Carlo runs
+    // instead of 8 (1.2479 fails where 1.2517 did).
     let tmp = tempfile::tempdir().unwrap();
     let study = study_path("design_thesis.toml");
     let help = "drag_over_mass:rel_rmse<=0.001";
     let cases: [(&str, &str, &str, &str, u64); 4] = [
         // The `design --help` example (README: "chassis-mc design studies/design_thesis.toml
         // --vary drive.duration --from 60 --to 600 ...").
-        ("drive.duration", "60", "600", help, 0x910d_9f75_4d5e_3851),
+        ("drive.duration", "60", "600", help, 0x2592_6f98_200b_d4a7),
         // README's second example.
-        ("noise.velocity_sd", "0.1", "3", help, 0x0e08_009a_60aa_de82),
+        ("noise.velocity_sd", "0.1", "3", help, 0x9052_70e1_32cf_4e06),
         // The third key, on the same study: met at the end of the range ...
-        ("terrain.scale", "0.5", "4", help, 0x3b28_8b57_3a95_dae7),
+        ("terrain.scale", "0.5", "4", help, 0x7d75_4963_44b1_9aaa),
         // ... and met nowhere in it (exit code 1, the outputs written all the same).
         (
             "terrain.scale",
             "0.05",
             "4",
             "inv_mass:rel_rmse<=0.001",
-            0x04b8_b225_d57d_51d6,
+            0x5ace_c37a_e08d_14c2,
         ),
     ];
     let mut found = Vec::new();
@@ -575,7 +583,7 @@ fn design_refuses_a_truth_key_it_cannot_vary_naming_it_and_the_keys_it_can() {
     let (code, _, err) = run("truth.rolling_speed_coefficient", "-0.5");
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("truth.rolling_speed_coefficient"), "{err}");
-    assert!(err.contains(">= 0"), "{err}");
+    assert!(err.contains("[0, 0.1]"), "{err}");
     assert!(!out.join("design.parquet").exists());
 }
 

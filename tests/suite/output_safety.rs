@@ -355,7 +355,8 @@ fn a_users_files_at_the_engines_paths_are_never_overwritten() {
 #[test]
 fn mixed_shards_are_refused_naming_what_differs() {
     // Shards of one study with different seeds were refused as "a different study or R
-    // (realisations 30 vs 30)". The message names what differs, and only that.
+    // (realisations 30 vs 30)". The message names what differs, and only that; and the
+    // shard of another run is refused when it is run, before it can join the directory.
     let tmp = tempfile::tempdir().unwrap();
     let heavier = tmp.path().join("heavier.toml");
     std::fs::write(
@@ -393,19 +394,15 @@ fn mixed_shards_are_refused_naming_what_differs() {
             "--shard",
             "1/2",
         ]);
-        succeeds(second);
-        let o = refused(
-            chassis(&["summarize".as_ref(), d.as_os_str()]),
-            &[
-                "shard=1/realisations.parquet",
-                "shard=0/realisations.parquet",
-                says,
-            ],
-        );
+        let o = refused(second, &["shard 1/2", "shard=0/realisations.parquet", says]);
         let err = stderr(&o);
         let (_, reason) = err.split_once("they differ in").unwrap();
-        let (reason, _) = reason.split_once("; summarise").unwrap();
+        let (reason, _) = reason.split_once("; run it").unwrap();
         assert!(!reason.contains(not), "{case}: {err}");
+        assert!(
+            !d.join("shard=1").exists(),
+            "{case}: the refused shard left a directory"
+        );
     }
 }
 
