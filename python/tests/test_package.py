@@ -325,3 +325,80 @@ def test_design_answers_as_the_command_does(tmp_path):
     with pytest.raises(ValueError):
         chassis_mc.design(study, vary="drive.nonsense", from_=60, to=600,
                           target="drag_over_mass:rel_rmse<=0.001")
+
+
+# Issue 43, item 7: every error class pickles with its fields, so that an error raised in a
+# worker process reaches the parent whole (multiprocessing and concurrent.futures pickle it).
+
+def error_examples() -> list:
+    """One instance of each error class the package raises, every field set."""
+    return [
+        chassis_mc.StudyError(
+            "bad.toml: key `vehicle.mass` (line 7): must be > 0, got -1",
+            "bad.toml", "vehicle.mass", 7, "must be > 0, got -1",
+        ),
+        chassis_mc.StudyError("<dict>: key `seed`: must be >= 0", "<dict>", "seed", None,
+                              "must be >= 0"),
+        chassis_mc.RunError("out: is a file, not a directory", True),
+        chassis_mc.RunError("disk full", False),
+        chassis_mc.ChassisMcError("something"),
+    ]
+
+
+FIELDS = ["file", "key", "line", "reason", "bad_input"]
+
+
+def test_every_error_class_pickles_with_its_fields():
+    import pickle
+
+    for error in error_examples():
+        back = pickle.loads(pickle.dumps(error))
+        assert type(back) is type(error)
+        assert str(back) == str(error)
+        assert back.args == error.args
+        for name in FIELDS:
+            assert getattr(back, name, "absent") == getattr(error, name, "absent"), name
+
+
+def bad_study() -> dict:
+    study = thesis_dict()
+    study["vehicle"]["mass"] = -1500.0
+    return study
+
+
+def test_a_bad_study_in_a_multiprocessing_pool_reaches_the_parent_as_a_study_error():
+    import concurrent.futures
+    import multiprocessing
+
+    # spawn: a fresh interpreter per worker (no fork of this process's threads). A timeout,
+    # so that an error the parent cannot unpickle fails the test instead of hanging it
+    # (multiprocessing.Pool then waits for the result forever).
+    context = multiprocessing.get_context("spawn")
+    pool = context.Pool(1)
+    raised = None
+    try:
+        pending = pool.map_async(chassis_mc.load, [bad_study()])
+        try:
+            pending.get(timeout=120)
+        except chassis_mc.StudyError as e:
+            raised = e
+        except multiprocessing.TimeoutError:
+            pass
+    finally:
+        # Pool.terminate asserts that the pool's result thread is alive: it is not when the
+        # error could not be unpickled (the failure this test is about, reported below).
+        try:
+            pool.terminate()
+        except AssertionError:
+            assert raised is None
+    assert raised is not None, "the worker's StudyError did not reach the parent in 120 s"
+    assert raised.file == "<dict>"
+    assert raised.key == "vehicle.mass"
+    assert raised.line is None
+    assert raised.reason and "vehicle.mass" in str(raised)
+
+    with concurrent.futures.ProcessPoolExecutor(1, mp_context=context) as executor:
+        future = executor.submit(chassis_mc.load, bad_study())
+        with pytest.raises(chassis_mc.StudyError) as bad:
+            future.result(timeout=120)
+    assert bad.value.key == "vehicle.mass" and bad.value.file == "<dict>"
