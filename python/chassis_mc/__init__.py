@@ -6,9 +6,22 @@ seed. Results come back as pyarrow Tables (``.to_pandas()`` for pandas; DuckDB r
 directly), read from the Parquet files the run wrote. The columns and units are in the
 README ("Outputs") and docs/model.md.
 
-A study (or a fit file) is given as a path (``str`` or ``os.PathLike``), as TOML text (a
-``str`` holding a newline or ``=``), or as a dict of the TOML's tables and keys; a dict is
-validated by the same code as a file, and its errors name the key (``vehicle.mass``).
+A study (or a fit file) is given as a path (``str`` or ``os.PathLike``), as TOML text, or
+as a dict of the TOML's tables and keys (e.g. from ``tomllib.load``); a dict is validated by
+the same code as a file, and its errors name the key (``vehicle.mass``). A ``str`` is read
+as follows:
+
+- a ``str`` that names an existing file is that file's path, whatever it holds
+  (``results/seed=3/thesis.toml``, a shard's ``shard=0/``);
+- otherwise a ``str`` holding a newline, or parsing as TOML, is TOML text;
+- any other ``str`` is a path to a file that does not exist: a :class:`StudyError` says so,
+  naming it.
+
+:func:`loads` takes TOML text explicitly (never a path). A study file's relative data paths
+(``drive.trace``, a terrain ``file``, a fit file's ``log.file``) resolve against the file's
+own directory; TOML text and a dict have none, so theirs resolve against ``base=`` (a
+directory, e.g. the one the TOML was read from) when given, else against the current
+directory.
 
     >>> import chassis_mc
     >>> result = chassis_mc.run("studies/thesis.toml", realisations=200)
@@ -49,6 +62,7 @@ __all__ = [
     "design",
     "fit",
     "load",
+    "loads",
     "run",
     "simulate_log",
 ]
@@ -69,35 +83,89 @@ Progress = Union[bool, Callable[[int, int], None]]
 LINE_INTERVAL = 10.0
 
 
-def _kind(source: Any) -> Tuple[str, Any]:
-    """('path' | 'text' | 'dict', value) for a study or fit file given as any Source."""
+#: A directory: where the relative data paths of a study given as TOML text or a dict are.
+Base = Union[str, "os.PathLike[str]"]
+
+
+def _kind(source: Any, what: str = "study") -> Tuple[str, Any]:
+    """('path' | 'text' | 'dict', value) for a study or fit file given as any Source: a str
+    naming an existing file is a path; else one holding a newline or parsing as TOML is
+    text; any other str is a file that does not exist (a StudyError naming it)."""
     if isinstance(source, Mapping):
         return "dict", dict(source)
     if isinstance(source, os.PathLike):
         return "path", os.fspath(source)
     if isinstance(source, str):
-        if "\n" in source or "=" in source:
+        if os.path.exists(source):
+            return "path", source
+        if "\n" in source or _core.parses_as_toml(source):
             return "text", source
-        return "path", source
+        where = "" if os.path.isabs(source) else f" in the current directory, {os.getcwd()}"
+        hint = " (chassis_mc.loads takes TOML text)" if what == "study" else ""
+        reason = (
+            f"the file does not exist{where}: a str names a {what} file unless it holds "
+            f"TOML text, and this one is not TOML either{hint}"
+        )
+        raise StudyError(f"{source}: {reason}", source, None, None, reason)
     raise TypeError(
-        f"a study is a path, TOML text or a dict, not a {type(source).__name__}"
+        f"a {what} is a path, TOML text or a dict, not a {type(source).__name__}"
     )
 
 
+def _base(base: Optional[Base], kind: str, what: str = "study") -> Optional[str]:
+    """`base` as a directory for a study without a file of its own; refused for a file (its
+    relative paths resolve against its own directory)."""
+    if base is None:
+        return None
+    if kind == "path":
+        raise ValueError(
+            f"base= applies to a {what} given as TOML text or a dict: a {what} file's "
+            "relative paths resolve against the file's own directory"
+        )
+    directory = os.fspath(base)
+    if not os.path.isdir(directory):
+        raise ValueError(f"base: {directory!r} is not a directory")
+    return directory
+
+
 def load(
-    study: Source, *, realisations: Optional[int] = None, seed: Optional[int] = None
+    study: Source,
+    *,
+    realisations: Optional[int] = None,
+    seed: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> "_core.Study":
     """Read and validate a study (path, TOML text or dict) without running it.
 
     ``realisations`` and ``seed`` override the study's, as ``--realisations`` and
-    ``--seed`` do on the command line. Raises :class:`StudyError`.
+    ``--seed`` do on the command line. ``base`` is the directory that the relative data
+    paths of TOML text or a dict resolve against (default: the current directory; a study
+    file's resolve against its own). Raises :class:`StudyError`.
     """
     if isinstance(study, _core.Study):
+        if base is not None:
+            raise ValueError("base= applies to a study given as TOML text or a dict, not "
+                             "to a Study (its data paths are already resolved)")
         if realisations is None and seed is None:
             return study
-        return _core.load_study("text", study.to_toml(), realisations, seed)
+        return study.with_overrides(realisations, seed)
     kind, value = _kind(study)
-    return _core.load_study(kind, value, realisations, seed)
+    return _core.load_study(kind, value, realisations, seed, _base(base, kind))
+
+
+def loads(
+    text: str,
+    *,
+    realisations: Optional[int] = None,
+    seed: Optional[int] = None,
+    base: Optional[Base] = None,
+) -> "_core.Study":
+    """Read and validate a study given as TOML text (never read as a path), as
+    :func:`load` does: its relative data paths resolve against ``base`` (default: the
+    current directory). Raises :class:`StudyError`."""
+    if not isinstance(text, str):
+        raise TypeError(f"loads takes TOML text (a str), not a {type(text).__name__}")
+    return _core.load_study("text", text, realisations, seed, _base(base, "text"))
 
 
 class _Reporter:
@@ -222,6 +290,7 @@ def run(
     threads: Optional[int] = None,
     progress: Progress = True,
     figures: Optional[bool] = None,
+    base: Optional[Base] = None,
 ) -> RunResult:
     """Run a study, as ``chassis-mc run STUDY --out OUT``, and return its tables.
 
@@ -236,12 +305,14 @@ def run(
         progress: True for a bar (tqdm) or a plain line, False for none, or a callable
             taking (done, total).
         figures: draw the SVG figures into ``out/figures`` (default: when ``out`` is given).
+        base: the directory the relative data paths of TOML text or a dict resolve against
+            (default: the current directory; see :func:`load`).
 
     Raises:
         StudyError: the study cannot be run. RunError: a failure while running.
         KeyboardInterrupt: Ctrl-C; the completed parts stay in ``out`` for the next call.
     """
-    loaded = load(study, realisations=realisations, seed=seed)
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     reporter = _Reporter(progress)
     with _Output(out) as output:
         draw = output.kept is not None if figures is None else figures
@@ -299,10 +370,12 @@ def check(
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> CheckResult:
     """Validate a study and time a few realisations, as ``chassis-mc check``, without
-    running it. Raises :class:`StudyError` for a study that cannot be run."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    running it (``base`` as in :func:`load`). Raises :class:`StudyError` for a study that
+    cannot be run."""
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     text, per, seconds, size = _core.check(loaded, threads)
     return CheckResult(text, list(per), seconds, size)
 
@@ -349,12 +422,13 @@ def design(
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> DesignResult:
     """The smallest duration (or scale, or largest noise) meeting a target precision, as
     ``chassis-mc design STUDY --vary KEY --from A --to B --target TARGET``; the keys and
-    targets are those of ``chassis-mc design --help``. Unlike the command, a range without
-    an answer is not an error: ``answer`` is None."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    targets are those of ``chassis-mc design --help`` (``base`` as in :func:`load`). Unlike
+    the command, a range without an answer is not an error: ``answer`` is None."""
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     with _Output(out) as output:
         sentence, answer, sd, used, r, files = _core.design(
             loaded, vary, float(from_), float(to), target, os.fspath(output.path),
@@ -426,6 +500,7 @@ def fit(
     *,
     log: Any = None,
     out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    base: Optional[Base] = None,
 ) -> FitResult:
     """Estimate θ from a measured log, as ``chassis-mc fit FIT --out OUT``.
 
@@ -434,13 +509,16 @@ def fit(
         log: the log, replacing the fit file's ``log.file``: a path (CSV or Parquet), a
             pandas DataFrame or a pyarrow Table with the columns ``[log]`` names.
         out: the output directory; without it a temporary one, removed after.
+        base: the directory a relative ``log.file`` of TOML text or a dict resolves against
+            (default: the current directory; a fit file's resolves against its own).
     """
     if isinstance(fit, _core.Study):
         raise TypeError("fit takes a fit file (path, TOML text or dict), not a Study")
-    kind, value = _kind(fit)
+    kind, value = _kind(fit, "fit")
+    directory = _base(base, kind, "fit")
     with _Output(out) as output, tempfile.TemporaryDirectory(prefix="chassis-mc-log-") as tmp:
         log_path = None if log is None else _log_file(log, pathlib.Path(tmp))
-        text, files = _core.fit(kind, value, os.fspath(output.path), log_path)
+        text, files = _core.fit(kind, value, os.fspath(output.path), log_path, directory)
         table = _read(output.path / "fit.parquet")
         assert table is not None, "a fit writes fit.parquet"
         return FitResult(
@@ -459,11 +537,12 @@ def simulate_log(
     realisation: int = 0,
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> pa.Table:
     """One realisation of a one-condition study as a measured log, as ``chassis-mc
     simulate-log STUDY --out FILE``: written as CSV to ``out`` when given, and returned as a
-    pyarrow Table."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    pyarrow Table (``base`` as in :func:`load`)."""
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     import pyarrow.csv as pacsv
 
     if out is not None:

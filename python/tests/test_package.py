@@ -402,3 +402,103 @@ def test_a_bad_study_in_a_multiprocessing_pool_reaches_the_parent_as_a_study_err
         with pytest.raises(chassis_mc.StudyError) as bad:
             future.result(timeout=120)
     assert bad.value.key == "vehicle.mass" and bad.value.file == "<dict>"
+
+
+# Issue 43, item 8: a str that names an existing file is a path, whatever it contains (the
+# engine's own shard directories are named shard=K); TOML text is a str that names no file
+# and holds a newline or parses as TOML, or explicitly chassis_mc.loads(text).
+
+def test_a_str_path_with_an_equals_sign_is_read_as_a_path(tmp_path):
+    for directory in ["seed=3", "shard=0"]:
+        path = tmp_path / directory / "thesis.toml"
+        path.parent.mkdir()
+        shutil.copy(THESIS, path)
+        study = chassis_mc.load(str(path))
+        assert study.origin == str(path)
+        assert study.to_toml() == chassis_mc.load(THESIS).to_toml()
+
+
+def test_a_str_that_names_no_file_and_is_not_toml_says_the_file_does_not_exist(tmp_path):
+    missing = str(tmp_path / "seed=3" / "thesis.toml")
+    for call in [chassis_mc.load, chassis_mc.check, chassis_mc.run]:
+        with pytest.raises(chassis_mc.StudyError) as bad:
+            call(missing)
+        assert bad.value.file == missing
+        assert "does not exist" in bad.value.reason
+        assert missing in str(bad.value)
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.fit(missing)
+    assert bad.value.file == missing and "does not exist" in bad.value.reason
+
+
+def test_loads_takes_toml_text_and_a_one_line_toml_str_is_still_text():
+    text = THESIS.read_text()
+    study = chassis_mc.loads(text, realisations=20)
+    assert study.origin == "<string>" and study.realisations == 20
+    assert chassis_mc.load(text, realisations=20).to_toml() == study.to_toml()
+    # TOML text on one line (no newline) that names no file is text: its error is the
+    # study's (a missing key), not a missing file
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load('name = "one line"')
+    assert bad.value.file == "<string>"
+    # loads never reads a file, even when the text is an existing file's name
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.loads(str(THESIS))
+    assert bad.value.file == "<string>"
+
+
+# Issue 43, item 20: a study given as a dict (or TOML text) has no file to resolve its data
+# paths against: they resolve against `base=` when given, else the current directory, and an
+# error for a relative data path not found there says so.
+
+ROUTE = ROOT / "studies" / "route_trace.toml"  # drive.trace = "data/route_trace.csv"
+
+
+def test_a_dict_study_resolves_its_data_paths_against_base(tmp_path, monkeypatch):
+    tomllib = pytest.importorskip("tomllib")
+    study = tomllib.loads(ROUTE.read_text())
+    monkeypatch.chdir(tmp_path)  # where data/route_trace.csv is not
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load(study)
+    assert bad.value.key == "drive.trace" and bad.value.file == "<dict>"
+    assert "current directory" in bad.value.reason and "base=" in bad.value.reason
+    assert "current directory" in str(bad.value)
+    # the same as TOML text
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load(ROUTE.read_text())
+    assert bad.value.key == "drive.trace" and "base=" in bad.value.reason
+
+    from_dict = chassis_mc.load(study, base=ROUTE.parent)
+    from_file = chassis_mc.load(ROUTE)
+    assert from_dict.to_toml() == from_file.to_toml()
+    assert chassis_mc.loads(ROUTE.read_text(), base=str(ROUTE.parent)).to_toml() == \
+        from_file.to_toml()
+    ran = chassis_mc.run(study, base=ROUTE.parent, realisations=10, progress=False)
+    assert_same_table(ran.summary, chassis_mc.run(ROUTE, realisations=10, progress=False).summary)
+    assert chassis_mc.check(study, base=ROUTE.parent, realisations=10).estimated_seconds > 0
+
+    # a data path that does not exist under base either: the error names it, no hint
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.load(study, base=tmp_path)
+    assert bad.value.key == "drive.trace" and str(tmp_path) in bad.value.reason
+    # base is for a study without a file of its own
+    with pytest.raises(ValueError, match="base"):
+        chassis_mc.load(ROUTE, base=ROUTE.parent)
+
+
+def test_a_study_loaded_elsewhere_keeps_its_data_paths_when_overridden(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = chassis_mc.load(ROUTE)
+    again = chassis_mc.load(study, realisations=10, seed=5)
+    assert (again.realisations, again.seed) == (10, 5)
+    assert chassis_mc.check(study, realisations=10).estimated_seconds > 0
+
+
+def test_a_dict_fit_file_resolves_its_log_against_base(tmp_path, monkeypatch):
+    tomllib = pytest.importorskip("tomllib")
+    spec = tomllib.loads(FIT.read_text())  # log.file = "data/fit_log.csv"
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.fit(spec)
+    assert bad.value.key == "log.file" and "base=" in bad.value.reason
+    assert_same_table(chassis_mc.fit(spec, base=FIT.parent).table, chassis_mc.fit(FIT).table)
