@@ -35,8 +35,10 @@ call resumes from them.
 
 from __future__ import annotations
 
+import operator
 import os
 import pathlib
+import re
 import sys
 import tempfile
 import time
@@ -81,6 +83,49 @@ Progress = Union[bool, Callable[[int, int], None]]
 
 #: Least time between two plain progress lines when stderr is not a terminal [s].
 LINE_INTERVAL = 10.0
+
+
+def _whole(name: str, value: Any, low: int, high: int) -> Tuple[int, Optional[str]]:
+    """`value` as an int and, when it is outside [low, high], why (for the caller's error).
+    A bool or a float is not a whole number (TypeError); a numpy integer is."""
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        number = operator.index(value)
+    except TypeError:
+        raise TypeError(
+            f"{name} must be a whole number from {low} to {high} (an int), not "
+            f"{type(value).__name__} {value!r}"
+        ) from None
+    if low <= number <= high:
+        return number, None
+    return number, f"must be a whole number from {low} to {high}, got {number}"
+
+
+def _override(name: str, value: Optional[int], low: int, high: int) -> Optional[int]:
+    """An override of the study's `realisations` or `seed`: a StudyError (file
+    ``<arguments>``, key `name`) outside the command line's range."""
+    if value is None:
+        return None
+    number, reason = _whole(name, value, low, high)
+    if reason is not None:
+        raise StudyError(f"{name} {reason}", "<arguments>", name, None, reason)
+    return number
+
+
+def _count(name: str, value: Optional[int], low: int, high: int) -> Optional[int]:
+    """A count that is no part of the study (``threads``): a ValueError outside its range."""
+    if value is None:
+        return None
+    number, reason = _whole(name, value, low, high)
+    if reason is not None:
+        raise ValueError(f"{name} {reason}")
+    return number
+
+
+def _threads(threads: Optional[int]) -> Optional[int]:
+    """Worker threads: 1 to 65535 as the command line's --threads, or None (every core)."""
+    return _count("threads", threads, 1, _core.MAX_THREADS)
 
 
 #: A directory: where the relative data paths of a study given as TOML text or a dict are.
@@ -142,6 +187,8 @@ def load(
     paths of TOML text or a dict resolve against (default: the current directory; a study
     file's resolve against its own). Raises :class:`StudyError`.
     """
+    realisations = _override("realisations", realisations, 1, _core.MAX_REALISATIONS)
+    seed = _override("seed", seed, 0, _core.MAX_SEED)
     if isinstance(study, _core.Study):
         if base is not None:
             raise ValueError("base= applies to a study given as TOML text or a dict, not "
@@ -165,6 +212,8 @@ def loads(
     current directory). Raises :class:`StudyError`."""
     if not isinstance(text, str):
         raise TypeError(f"loads takes TOML text (a str), not a {type(text).__name__}")
+    realisations = _override("realisations", realisations, 1, _core.MAX_REALISATIONS)
+    seed = _override("seed", seed, 0, _core.MAX_SEED)
     return _core.load_study("text", text, realisations, seed, _base(base, "text"))
 
 
@@ -299,9 +348,11 @@ def run(
         out: the output directory (created if missing; an interrupted or smaller run there
             is resumed or extended). Without it the run writes to a temporary directory,
             reads the tables into memory and removes it.
-        realisations: realisations per condition, overriding the study's.
-        seed: master seed, overriding the study's.
-        threads: worker threads (default: every core). Results do not depend on it.
+        realisations: realisations per condition, overriding the study's: a whole number
+            from 1 to 2^40 (out of range: :class:`StudyError` with ``key="realisations"``).
+        seed: master seed, overriding the study's: a whole number from 0 to 2^63 − 1.
+        threads: worker threads, 1 to 65535 as the command line's ``--threads`` (default:
+            every core; out of range: ValueError). Results do not depend on it.
         progress: True for a bar (tqdm) or a plain line, False for none, or a callable
             taking (done, total).
         figures: draw the SVG figures into ``out/figures`` (default: when ``out`` is given).
@@ -312,6 +363,7 @@ def run(
         StudyError: the study cannot be run. RunError: a failure while running.
         KeyboardInterrupt: Ctrl-C; the completed parts stay in ``out`` for the next call.
     """
+    threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     reporter = _Reporter(progress)
     with _Output(out) as output:
@@ -375,6 +427,7 @@ def check(
     """Validate a study and time a few realisations, as ``chassis-mc check``, without
     running it (``base`` as in :func:`load`). Raises :class:`StudyError` for a study that
     cannot be run."""
+    threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     text, per, seconds, size = _core.check(loaded, threads)
     return CheckResult(text, list(per), seconds, size)
@@ -428,6 +481,7 @@ def design(
     ``chassis-mc design STUDY --vary KEY --from A --to B --target TARGET``; the keys and
     targets are those of ``chassis-mc design --help`` (``base`` as in :func:`load`). Unlike
     the command, a range without an answer is not an error: ``answer`` is None."""
+    threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     with _Output(out) as output:
         sentence, answer, sd, used, r, files = _core.design(
@@ -470,29 +524,107 @@ class FitResult:
         return self.text
 
 
-def _log_file(log: Any, directory: pathlib.Path) -> str:
-    """A log given as a path, a pandas DataFrame or a pyarrow Table, as a file the fit
-    reads: a table is written as Parquet with its numeric columns as float64 (the values
-    exactly as given)."""
+@dataclass
+class _LogTable:
+    """A log given as a table, written to `path` for the fit to read: `name` says what it
+    was in errors (never the temporary path), `index` holds a DataFrame's index labels."""
+
+    path: str
+    name: str
+    index: Any = None
+
+    def place(self, row: int) -> str:
+        """`row N` (1-based, as the engine counts a Parquet file's rows) with its position
+        in the table and, for a DataFrame, its index label."""
+        where = f"row {row} (position {row - 1}"
+        if self.index is not None and 0 <= row - 1 < len(self.index):
+            label = self.index[row - 1]
+            label = label.item() if hasattr(label, "item") else label
+            where += f", index label {label!r}"
+        return where + ")"
+
+    def renamed(self, error: ChassisMcError) -> ChassisMcError:
+        """`error` saying `name` where it names the temporary file."""
+
+        def rename(text: str) -> str:
+            text = text.replace(f"{self.path}: ", f"{self.name}: ").replace(self.path, self.name)
+            pattern = re.escape(self.name) + r': (column "[^"]*", )?row (\d+):'
+            return re.sub(
+                pattern,
+                lambda m: f"{self.name}: {m.group(1) or ''}{self.place(int(m.group(2)))}:",
+                text,
+            )
+
+        message = rename(str(error.args[0]) if error.args else "")
+        if isinstance(error, StudyError):
+            reason = rename(error.reason)
+            if error.key == "log.file" and reason.startswith(f"{self.name}: "):
+                # about the table, not the fit file's log.file (which the table replaces)
+                reason = reason[len(self.name) + 2 :]
+                return StudyError(f"{self.name}: {reason}", self.name, None, None, reason)
+            return StudyError(message, error.file, error.key, error.line, reason)
+        if isinstance(error, RunError):
+            return RunError(message, error.bad_input)
+        return type(error)(message)
+
+
+def _unconvertible(frame: Any, name: str) -> StudyError:
+    """The error of a DataFrame log whose columns pyarrow cannot convert: the first column
+    that fails, and its first cell that is not a number."""
+    import pandas as pd
+
+    for position, column_name in enumerate(frame.columns):
+        column = frame.iloc[:, position]
+        try:
+            pa.array(column, from_pandas=True)
+            continue
+        except (pa.ArrowInvalid, pa.ArrowTypeError) as e:
+            failure = str(e)
+        numbers = pd.to_numeric(column, errors="coerce")
+        odd = (column.notna() & numbers.isna()).to_numpy().nonzero()[0]
+        log = _LogTable("", name, frame.index)
+        if len(odd):
+            value = column.iloc[int(odd[0])]
+            reason = (
+                f'column "{column_name}", {log.place(int(odd[0]) + 1)}: {value!r} (a '
+                f"{type(value).__name__}) is not a number"
+            )
+        else:
+            reason = f'column "{column_name}": cannot be converted to a table column: {failure}'
+        return StudyError(f"{name}: {reason}", name, None, None, reason)
+    raise AssertionError("pyarrow converts each column alone but not the whole DataFrame")
+
+
+def _log_file(log: Any, directory: pathlib.Path) -> Union[str, _LogTable]:
+    """A log given as a path (returned as it is), a pandas DataFrame or a pyarrow Table: a
+    table is written as Parquet with its numeric columns as float64 (the values exactly as
+    given) to `directory`, and named in errors as what it was given as."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
+    index = None
     if isinstance(log, pa.Table):
         table = log
+        name = "the pyarrow Table given as log"
     elif hasattr(log, "to_parquet") and hasattr(log, "columns"):
-        table = pa.Table.from_pandas(log, preserve_index=False)
+        name = "the DataFrame given as log"
+        try:
+            table = pa.Table.from_pandas(log, preserve_index=False)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            raise _unconvertible(log, name) from None
+        index = log.index
     else:
         raise TypeError(
             f"log: a path, a pandas DataFrame or a pyarrow Table, not a {type(log).__name__}"
         )
     columns = []
-    for name, column in zip(table.column_names, table.columns):
+    for column_name, column in zip(table.column_names, table.columns):
         if pa.types.is_integer(column.type) or pa.types.is_floating(column.type):
             column = column.cast(pa.float64())
-        columns.append((name, column))
-    table = pa.table({name: column for name, column in columns})
+        columns.append((column_name, column))
+    table = pa.table({column_name: column for column_name, column in columns})
     path = directory / "log.parquet"
     pq.write_table(table, path, compression="zstd")
-    return os.fspath(path)
+    return _LogTable(os.fspath(path), name, index)
 
 
 def fit(
@@ -507,7 +639,9 @@ def fit(
     Args:
         fit: the fit file: a path, TOML text or a dict.
         log: the log, replacing the fit file's ``log.file``: a path (CSV or Parquet), a
-            pandas DataFrame or a pyarrow Table with the columns ``[log]`` names.
+            pandas DataFrame or a pyarrow Table with the columns ``[log]`` names. An error
+            in a table names it (``the DataFrame given as log``), its column and its row
+            (1-based, with its position and index label).
         out: the output directory; without it a temporary one, removed after.
         base: the directory a relative ``log.file`` of TOML text or a dict resolves against
             (default: the current directory; a fit file's resolves against its own).
@@ -517,8 +651,15 @@ def fit(
     kind, value = _kind(fit, "fit")
     directory = _base(base, kind, "fit")
     with _Output(out) as output, tempfile.TemporaryDirectory(prefix="chassis-mc-log-") as tmp:
-        log_path = None if log is None else _log_file(log, pathlib.Path(tmp))
-        text, files = _core.fit(kind, value, os.fspath(output.path), log_path, directory)
+        given = None if log is None else _log_file(log, pathlib.Path(tmp))
+        log_path = given.path if isinstance(given, _LogTable) else given
+        try:
+            text, files = _core.fit(kind, value, os.fspath(output.path), log_path, directory)
+        except ChassisMcError as e:
+            if not isinstance(given, _LogTable):
+                raise
+            # the temporary file is no name the caller knows: name what they gave
+            raise given.renamed(e) from None
         table = _read(output.path / "fit.parquet")
         assert table is not None, "a fit writes fit.parquet"
         return FitResult(
@@ -542,6 +683,7 @@ def simulate_log(
     """One realisation of a one-condition study as a measured log, as ``chassis-mc
     simulate-log STUDY --out FILE``: written as CSV to ``out`` when given, and returned as a
     pyarrow Table (``base`` as in :func:`load`)."""
+    realisation = _count("realisation", realisation, 0, 2**64 - 1)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     import pyarrow.csv as pacsv
 

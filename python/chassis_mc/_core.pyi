@@ -4,6 +4,9 @@ the functions of `chassis_mc`, which take paths, TOML text, dicts and tables."""
 from typing import Any, Callable, List, Optional, Tuple
 
 __version__: str
+MAX_REALISATIONS: int
+MAX_SEED: int
+MAX_THREADS: int
 
 class Study:
     """A validated study (from `chassis_mc.load`)."""

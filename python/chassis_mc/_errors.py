@@ -19,8 +19,10 @@ class StudyError(ChassisMcError, ValueError):
 
     Attributes:
         file: the file it was read from, ``<string>`` for TOML text, ``<dict>`` for a dict,
-            or ``command line`` for an override such as ``realisations``.
-        key: the dotted key at fault, e.g. ``vehicle.mass`` or ``terrain.scales[2]``, or None.
+            ``<arguments>`` for an argument of the call such as ``realisations``, or ``the
+            DataFrame given as log`` for a log table that cannot be converted.
+        key: the dotted key at fault, e.g. ``vehicle.mass`` or ``terrain.scales[2]`` (for
+            an argument, its name), or None.
         line: the 1-based line of the key in the file, or None (always None for a dict).
         reason: what is wrong, in words.
     """

@@ -648,5 +648,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate_log, m)?)?;
     m.add_function(wrap_pyfunction!(main, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // The ranges of the arguments, as the command line's: --realisations, --seed (a study
+    // file's seed is a TOML integer, at most i64::MAX) and --threads (a u16 from 1).
+    m.add("MAX_REALISATIONS", chassis_mc::study::MAX_REALISATIONS)?;
+    m.add("MAX_SEED", i64::MAX as u64)?;
+    m.add("MAX_THREADS", u16::MAX)?;
     Ok(())
 }

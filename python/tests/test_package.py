@@ -502,3 +502,85 @@ def test_a_dict_fit_file_resolves_its_log_against_base(tmp_path, monkeypatch):
         chassis_mc.fit(spec)
     assert bad.value.key == "log.file" and "base=" in bad.value.reason
     assert_same_table(chassis_mc.fit(spec, base=FIT.parent).table, chassis_mc.fit(FIT).table)
+
+
+# Issue 43, item 9: arguments out of range are clear errors naming the argument and its
+# range (as the command line's: --threads 1 to 65535, --seed 0 to 2^63 − 1); a DataFrame
+# log's errors name the DataFrame and its column and row, never the temporary file it is
+# handed to the engine as.
+
+def test_arguments_out_of_range_name_the_argument_and_its_range():
+    for value in [-1, 0, 2**40 + 1]:
+        with pytest.raises(chassis_mc.StudyError) as bad:
+            chassis_mc.load(THESIS, realisations=value)
+        assert bad.value.key == "realisations" and bad.value.file == "<arguments>"
+        assert str(bad.value) == (
+            f"realisations must be a whole number from 1 to {2**40}, got {value}"
+        )
+    for value in [-1, 2**63, 2**64]:
+        with pytest.raises(chassis_mc.StudyError) as bad:
+            chassis_mc.load(THESIS, seed=value)
+        assert bad.value.key == "seed"
+        assert str(bad.value) == (
+            f"seed must be a whole number from 0 to {2**63 - 1}, got {value}"
+        )
+    for value in [-2, 0, 65536]:
+        with pytest.raises(ValueError) as bad:
+            chassis_mc.run(THESIS, realisations=5, threads=value, progress=False)
+        assert str(bad.value) == f"threads must be a whole number from 1 to 65535, got {value}"
+        with pytest.raises(ValueError, match="^threads must be a whole number from 1"):
+            chassis_mc.check(THESIS, realisations=5, threads=value)
+    with pytest.raises(ValueError, match="^realisation must be a whole number from 0"):
+        chassis_mc.simulate_log(ROOT / "studies" / "fit_log.toml", realisation=-1)
+    # a bool or a float is not a count
+    for value in [True, 2.5, "20"]:
+        with pytest.raises(TypeError, match="^realisations must be a whole number"):
+            chassis_mc.load(THESIS, realisations=value)
+    # the run goes on with the values in range, and a numpy integer is a whole number
+    numpy = pytest.importorskip("numpy")
+    assert chassis_mc.load(THESIS, realisations=numpy.int64(7), seed=2**63 - 1).seed == 2**63 - 1
+
+
+def fit_log_frame():
+    pandas = pytest.importorskip("pandas")
+    return pandas.read_csv(ROOT / "studies" / "data" / "fit_log.csv")
+
+
+def test_a_dataframe_log_column_that_cannot_be_converted_is_named():
+    frame = fit_log_frame()
+    frame.index = frame.index + 100  # index labels that are not positions
+    frame["speed_m_s"] = frame["speed_m_s"].astype(object)
+    frame.loc[105, "speed_m_s"] = "fast"
+    with pytest.raises(chassis_mc.StudyError) as bad:
+        chassis_mc.fit(FIT, log=frame)
+    assert bad.value.file == "the DataFrame given as log"
+    assert str(bad.value) == (
+        'the DataFrame given as log: column "speed_m_s", row 6 (position 5, index label '
+        "105): 'fast' (a str) is not a number"
+    )
+
+
+def test_errors_of_a_dataframe_log_name_the_dataframe_and_not_a_temporary_file():
+    import tempfile
+
+    frame = fit_log_frame()
+    frame.index = frame.index + 100
+    with_gap = frame.copy()
+    with_gap.loc[107, "speed_m_s"] = float("nan")
+    without_force = frame.drop(columns=["force_n"])
+    cases = [
+        (with_gap, "the DataFrame given as log",
+         'column "speed_m_s", row 8 (position 7, index label 107): the cell is empty'),
+        (without_force, "the DataFrame given as log", 'column "force_n", no such column'),
+        (pa.Table.from_pandas(with_gap, preserve_index=False), "the pyarrow Table given as log",
+         'column "speed_m_s", row 8 (position 7): the cell is empty'),
+    ]
+    for log, name, detail in cases:
+        with pytest.raises(chassis_mc.StudyError) as bad:
+            chassis_mc.fit(FIT, log=log)
+        # about the table given, not the fit file's log.file (which it replaces)
+        assert (bad.value.file, bad.value.key, bad.value.line) == (name, None, None)
+        assert str(bad.value).startswith(f"{name}: {detail}")
+        assert bad.value.reason.startswith(detail)
+        for text in [str(bad.value), bad.value.reason]:
+            assert tempfile.gettempdir() not in text and "log.parquet" not in text
