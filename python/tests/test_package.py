@@ -584,3 +584,40 @@ def test_errors_of_a_dataframe_log_name_the_dataframe_and_not_a_temporary_file()
         assert bad.value.reason.startswith(detail)
         for text in [str(bad.value), bad.value.reason]:
             assert tempfile.gettempdir() not in text and "log.parquet" not in text
+
+
+# Issue 43, item 10: the README's first Python example needs pandas, which the wheel does
+# not install: the package has a pandas extra and the README's install command names it;
+# and the README says how to make the .venv its commands run in before it first uses one.
+
+def readme_section(title: str) -> str:
+    text = (ROOT / "README.md").read_text()
+    start = text.index(f"\n## {title}\n")
+    end = text.find("\n## ", start + 1)
+    return text[start:end]
+
+
+def test_the_readme_installs_the_pandas_extra_its_python_example_needs():
+    tomllib = pytest.importorskip("tomllib")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    extra = project["optional-dependencies"]["pandas"]
+    assert any(requirement.split(">")[0].split("=")[0].strip() == "pandas"
+               for requirement in extra), extra
+    assert not any("pandas" in d for d in project["dependencies"]), "pandas is an extra"
+    python = readme_section("Python")
+    first_block = python[python.index("```sh"):python.index("```", python.index("```sh") + 5)]
+    assert "pip install '.[pandas]'" in first_block, first_block
+    assert ".to_pandas()" in first_block, "the example the extra is for"
+
+
+def test_the_readme_says_how_to_make_the_venv_before_it_uses_one():
+    import re
+
+    text = (ROOT / "README.md").read_text()
+    first_use = re.search(r"\.venv/bin/python [\w/]+\.py", text).start()  # a command
+    made = text.find("python3 -m venv .venv")
+    assert 0 <= made < first_use, "the README uses .venv/bin/python before making .venv"
+    # and with which requirements (analysis/ and benches/ scripts both run in it)
+    setup = text[made:made + 300]
+    assert ".venv/bin/pip install -r analysis/requirements.txt" in setup, setup
+    assert "benches/requirements.txt" in setup, setup
