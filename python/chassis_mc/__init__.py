@@ -303,6 +303,22 @@ class _Output:
             self.temporary.cleanup()
 
 
+def _cycles(study: "_core.Study", out: Optional[pathlib.Path]) -> Optional[pa.Table]:
+    """The cycles table of a run of `study`: ``out/cycles.parquet`` when it is there and
+    from a run of this study, else computed again from the study (the same table; a run's
+    cycles do not depend on its realisations or seed). None for a model without cycles."""
+    if out is not None:
+        path = out / "cycles.parquet"
+        if path.is_file():
+            footer = pq.read_metadata(path).metadata or {}
+            identity = footer.get(b"chassis_mc.identity", b"").decode()
+            if identity.startswith(study.identity()):
+                return pq.read_table(path, memory_map=False)
+    with tempfile.TemporaryDirectory(prefix="chassis-mc-cycles-") as tmp:
+        _core.write_cycles(study, tmp)
+        return _read(pathlib.Path(tmp) / "cycles.parquet")
+
+
 @dataclass
 class RunResult:
     """A finished run.
@@ -311,23 +327,44 @@ class RunResult:
         summary: summary.parquet: one row per condition × estimator × parameter (bias,
             EmpSE, bounds, MCSEs).
         realisations: realisations.parquet: one row per realisation × estimator.
-        cycles: cycles.parquet (the drive cycles), or None for a model without cycles.
+        cycles: cycles.parquet (the drive cycles), or None for a model without cycles:
+            read when first asked for (from ``out``, or computed again from the study),
+            then kept.
+        study: the study as run (overrides applied).
         report_path: report.html in ``out``, or None (no ``out``, or no report written).
         out: the output directory, or None when the run wrote to a temporary one.
         files: the files written (under ``out``; in the removed temporary directory
             otherwise).
         reused: realisations kept from an earlier, interrupted or smaller run in ``out``.
         computed: realisations computed by this call.
+
+    A result pickles (e.g. from a worker process) with its summary, realisations and
+    study, never its cycles (82 MB for the thesis study): the copy reads them when asked.
     """
 
     summary: pa.Table
     realisations: pa.Table
-    cycles: Optional[pa.Table]
+    study: "_core.Study" = field(repr=False, compare=False)
     report_path: Optional[pathlib.Path]
     out: Optional[pathlib.Path]
     files: List[pathlib.Path] = field(default_factory=list)
     reused: int = 0
     computed: int = 0
+    _cycles: Optional[pa.Table] = field(default=None, init=False, repr=False, compare=False)
+    _cycles_read: bool = field(default=False, init=False, repr=False, compare=False)
+
+    @property
+    def cycles(self) -> Optional[pa.Table]:
+        """cycles.parquet (the drive cycles), or None for a model without cycles."""
+        if not self._cycles_read:
+            self._cycles = _cycles(self.study, self.out)
+            self._cycles_read = True
+        return self._cycles
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_cycles"], state["_cycles_read"] = None, False
+        return state
 
 
 def run(
@@ -386,7 +423,7 @@ def run(
         return RunResult(
             summary=summary,
             realisations=table,
-            cycles=_read(output.path / "cycles.parquet"),
+            study=loaded,
             report_path=report if output.kept is not None and report.exists() else None,
             out=output.kept,
             files=[pathlib.Path(f) for f in files],

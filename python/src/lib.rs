@@ -18,6 +18,7 @@ use chassis_mc::check::StudyCheck;
 use chassis_mc::design::{DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence};
 use chassis_mc::fit::{FitError, FitSpec};
 use chassis_mc::montecarlo::Observer;
+use chassis_mc::output::{FileMetadata, ParquetSink};
 use chassis_mc::run::{RunError, RunOptions, run_study};
 use chassis_mc::study::{Study, StudyError};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
@@ -69,6 +70,30 @@ impl PyStudy {
     #[getter]
     fn dir(&self) -> PathBuf {
         self.0.dir().to_path_buf()
+    }
+
+    /// What makes two runs' realisations interchangeable (the study as run without its
+    /// realisation count, and the engine version): the start of the `chassis_mc.identity`
+    /// in the footer of every file a run of it writes.
+    fn identity(&self) -> String {
+        self.0.identity()
+    }
+
+    /// Pickled as its TOML as run, origin and directory; unpickling validates it again
+    /// (and reads its data files, e.g. a speed trace, from the same paths).
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, PathBuf))> {
+        let rebuild = py.import("chassis_mc._core")?.getattr("_study_from_toml")?;
+        Ok((
+            rebuild,
+            (
+                self.0.to_toml(),
+                self.0.origin().to_string(),
+                self.0.dir().to_path_buf(),
+            ),
+        ))
     }
 
     /// The same study with its realisations and seed overridden (its data paths kept).
@@ -373,6 +398,55 @@ fn load_study(
     Ok(PyStudy(study))
 }
 
+/// A study from its TOML as run, its origin and directory (how a pickled Study comes back).
+#[pyfunction]
+fn _study_from_toml(py: Python<'_>, text: &str, origin: &str, dir: PathBuf) -> PyResult<PyStudy> {
+    Study::from_toml_in(text, origin, &dir)
+        .map(PyStudy)
+        .map_err(|e| study_error(py, &e))
+}
+
+/// Why the model's tables could not be written.
+enum TablesError {
+    Run(RunError),
+    Batch(String),
+}
+
+impl<E: Into<RunError>> From<E> for TablesError {
+    fn from(e: E) -> Self {
+        TablesError::Run(e.into())
+    }
+}
+
+/// Write the tables a run of `study` writes besides its realisations and summary (the
+/// vehicle's cycles.parquet), computed again from the study, into the directory `dir`;
+/// returns the files written (none for a model without such tables).
+#[pyfunction]
+fn write_cycles(py: Python<'_>, study: &PyStudy, dir: PathBuf) -> PyResult<Vec<PathBuf>> {
+    let watch = Watch::default();
+    let written = supervise(py, &watch, None, None, || {
+        let model = chassis_mc::model::prepare(&study.0)?;
+        let meta = FileMetadata::of_study(&study.0, study.0.identity());
+        let mut files = Vec::new();
+        for (t, table) in model.extra_tables().iter().enumerate() {
+            let mut sink =
+                ParquetSink::create(&dir, table.file, table.schema.clone(), &meta, table.table)?;
+            for batch in (0..).map_while(|i| model.extra_batch(t, i)) {
+                let batch = batch.map_err(|e| {
+                    TablesError::Batch(format!("{}: {e}", dir.join(table.file).display()))
+                })?;
+                sink.write(&batch)?;
+            }
+            files.push(sink.finish()?.commit()?);
+        }
+        Ok::<_, TablesError>(files)
+    })?;
+    written.map_err(|e| match e {
+        TablesError::Run(e) => from_run_error(py, e),
+        TablesError::Batch(message) => run_error(py, message, false),
+    })
+}
+
 /// What a call in progress tells the waiting thread.
 #[derive(Default)]
 struct Watch {
@@ -641,6 +715,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyStudy>()?;
     m.add_function(wrap_pyfunction!(load_study, m)?)?;
     m.add_function(wrap_pyfunction!(parses_as_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(_study_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(write_cycles, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(check, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;

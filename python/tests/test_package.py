@@ -621,3 +621,54 @@ def test_the_readme_says_how_to_make_the_venv_before_it_uses_one():
     setup = text[made:made + 300]
     assert ".venv/bin/pip install -r analysis/requirements.txt" in setup, setup
     assert "benches/requirements.txt" in setup, setup
+
+
+# Issue 43, item 18: a RunResult carries its summary and realisations, and reads its cycles
+# only when asked (from out, or computed again from the study): pickling it (to send it from
+# a worker process) does not carry the cycles table (82 MB in memory for the thesis study).
+
+def test_a_run_result_pickles_without_its_cycles_and_reads_them_after(tmp_path):
+    import pickle
+
+    result = chassis_mc.run(THESIS, realisations=20, progress=False)
+    data = pickle.dumps(result)
+    # What it must carry: its two tables as pyarrow pickles them, the study as run (its
+    # TOML text, reloaded on unpickling), and a few paths and counts, for which 16 KiB is
+    # ample (the class and field names, the study's origin and directory, the file names).
+    # At R = 20 the two tables pickle to about 168 kB and the study's TOML is 1.5 kB, so the
+    # bound is about 185 kB; the thesis study's cycles alone pickle to 82 MB.
+    study_text = chassis_mc.load(THESIS, realisations=20).to_toml()
+    bound = (len(pickle.dumps(result.summary)) + len(pickle.dumps(result.realisations))
+             + len(study_text.encode()) + 16 * 1024)
+    assert len(data) <= bound, f"{len(data)} bytes pickled, more than {bound}"
+
+    back = pickle.loads(data)
+    assert_same_table(back.summary, result.summary)
+    assert_same_table(back.realisations, result.realisations)
+    assert (back.out, back.reused, back.computed) == (None, 0, 11 * 20)
+    # the cycles, computed again from the study, are those a run writes
+    kept = chassis_mc.run(THESIS, out=tmp_path / "out", realisations=20, progress=False)
+    written = pq.read_table(tmp_path / "out" / "cycles.parquet")
+    assert back.cycles is not None
+    assert_same_table(back.cycles, written)
+    assert_same_table(result.cycles, written)
+    # once read, the cycles still stay out of the pickle
+    assert len(pickle.dumps(result)) <= bound
+
+    # a result with `out` carries the path, and reads the cycles from it
+    data = pickle.dumps(kept)
+    assert len(data) <= bound + len(pickle.dumps(kept.files)), len(data)
+    back = pickle.loads(data)
+    assert back.out == tmp_path / "out" and back.report_path == kept.report_path
+    assert_same_table(back.cycles, written)
+
+
+def test_a_study_pickles_as_run_with_its_data_paths(tmp_path, monkeypatch):
+    import pickle
+
+    monkeypatch.chdir(tmp_path)  # the study's data file is relative to its own directory
+    study = chassis_mc.load(ROUTE, realisations=10, seed=5)
+    back = pickle.loads(pickle.dumps(study))
+    assert back.to_toml() == study.to_toml() and back.origin == study.origin
+    assert (back.realisations, back.seed, back.dir) == (10, 5, ROUTE.parent)
+    assert back.identity() == study.identity()
