@@ -28,9 +28,13 @@ directory.
     >>> result.summary.to_pandas()
 
 Errors: a study that cannot be run raises :class:`StudyError` (``file``, ``key``, ``line``,
-``reason``); a failure while running raises :class:`RunError`. Ctrl-C (KeyboardInterrupt)
-stops a run after the chunk it is writing; its completed parts stay in ``out`` and the same
-call resumes from them.
+``reason``), and so does an override out of range (``realisations``, ``seed``: ``key`` is
+the argument); ``threads`` out of range raises ValueError; a failure while running raises
+:class:`RunError`. Errors, a :class:`Study` and a :class:`RunResult` pickle (to and from
+worker processes), a result without its cycles table, which it reads again when asked for.
+
+Ctrl-C (KeyboardInterrupt) stops a run after the chunk it is writing; its completed parts
+stay in ``out`` and the same call resumes from them.
 """
 
 from __future__ import annotations
