@@ -14,9 +14,9 @@ Cd is `cd_hat` = M θ̂₂ with M weighed, Cr is θ̂₃; both read from realisa
     .venv/bin/python analysis/coastdown_vs_road.py results/coastdown_vs_road
 """
 
+import argparse
 import pathlib
 import subprocess
-import sys
 
 import duckdb
 
@@ -104,10 +104,11 @@ def print_table(frames, title, show):
 
 
 def main():
-    if len(sys.argv) != 2:
-        print(__doc__, file=sys.stderr)
-        sys.exit(2)
-    out = pathlib.Path(sys.argv[1])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out", type=pathlib.Path,
+                    help="directory of the two runs (run into it when not complete there)")
+    out = ap.parse_args().out
     run(out)
     frames = table(out)
     print_table(frames, "How often within 1 % of the truth (± MCSE), Cd | Cr:",

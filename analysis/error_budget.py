@@ -20,8 +20,8 @@ error on together.
     .venv/bin/python analysis/error_budget.py results/model_errors
 """
 
+import argparse
 import pathlib
-import sys
 
 import pandas as pd
 
@@ -52,9 +52,11 @@ def condition(summary, on):
 
 
 def main():
-    if len(sys.argv) != 2:
-        sys.exit(__doc__)
-    summary = pd.read_parquet(pathlib.Path(sys.argv[1]) / "summary.parquet")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run_dir", type=pathlib.Path,
+                    help="output directory of a run of studies/model_errors.toml")
+    summary = pd.read_parquet(ap.parse_args().run_dir / "summary.parquet")
     base = condition(summary, set())
     entries = [(axis, {axis}) for axis in OFF] + [("all", set(OFF))]
     for estimator in summary["estimator"].unique():

@@ -14,7 +14,7 @@ under the logged force, rows from its speed) and "simulated, log's rows" (what `
     python3 analysis/fit_bootstrap_world.py DIR/clean.csv DIR/log*.csv
 """
 
-import sys
+import argparse
 
 import numpy as np
 
@@ -107,4 +107,9 @@ def main(clean, logs):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2:])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("clean", help="the noise-free log (simulate-log of velocity_sd = [0.0])")
+    ap.add_argument("logs", nargs="+", help="noisy logs of the same study (simulate-log)")
+    args = ap.parse_args()
+    main(args.clean, args.logs)

@@ -18,15 +18,22 @@ Then runs gusts_check.py and coastdown_check.py: the engine's Monte Carlo under 
 and its road_load analysis of a coast-down under speed noise, each against an independent
 NumPy one (means and SDs within 4 MCSEs; see those scripts).
 
+First of all, every Python script in analysis/, benches/ and tools/ must answer `--help`
+with its usage and exit 0 at once, without running anything (check_help).
+
     cargo build --release && python analysis/test_analysis.py
 """
 
+import argparse
 import os
 import pathlib
+import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 import pandas as pd
 import pyarrow.parquet as pq
@@ -100,7 +107,73 @@ def refuses(run, what):
     print(f"  both scripts refuse a directory with {what}")
 
 
+# Python files of analysis/, benches/ and tools/ that are modules other scripts import, not
+# scripts; every other one is a script and must answer --help.
+MODULES = {"analysis/common.py"}
+# Seconds a script may take to answer --help: its imports (pandas, matplotlib, DuckDB) take
+# a second or two on a loaded 2-core machine; a script that starts a run takes minutes.
+HELP_SECONDS = 60
+
+
+def files_under(directory):
+    """(path, size, mtime) of every file under `directory`: what a script wrote there."""
+    return {(str(p), p.stat().st_size, p.stat().st_mtime_ns)
+            for p in pathlib.Path(directory).rglob("*") if p.is_file()}
+
+
+def check_help():
+    """Every script in analysis/, benches/ and tools/ answers --help with a usage line and
+    exit status 0 within HELP_SECONDS, writing nothing (in the repository's studies/ and
+    script folders, nor in the directory it is run from)."""
+    scripts = []
+    for folder in ["analysis", "benches", "tools"]:
+        for path in sorted((ROOT / folder).glob("*.py")):
+            name = f"{folder}/{path.name}"
+            text = path.read_text()
+            is_script = re.search(r"^if __name__ == .__main__.:", text, re.M) is not None
+            if name in MODULES:
+                assert not is_script, f"{name} is listed as a module but runs as a script"
+            else:
+                assert is_script, f"{name}: a script without `if __name__ == \"__main__\":`"
+                scripts.append((name, path))
+    watched = [ROOT / "studies", ROOT / "analysis", ROOT / "benches", ROOT / "tools"]
+    failures = []
+    with tempfile.TemporaryDirectory() as cwd:
+        for name, path in scripts:
+            before = set().union(*(files_under(d) for d in watched))
+            started = time.monotonic()
+            # its own session, so that a script that starts a run is stopped with its children
+            child = subprocess.Popen([sys.executable, str(path), "--help"], cwd=cwd,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                     start_new_session=True)
+            try:
+                out, err = child.communicate(timeout=HELP_SECONDS)
+            except subprocess.TimeoutExpired:
+                os.killpg(child.pid, signal.SIGKILL)
+                child.communicate()
+                failures.append(f"{name}: no answer to --help in {HELP_SECONDS} s")
+                continue
+            seconds = time.monotonic() - started
+            failed = len(failures)
+            if child.returncode != 0:
+                failures.append(f"{name}: exit {child.returncode} on --help: {err.strip()[-300:]}")
+            elif not re.search(rf"^usage: {re.escape(path.name)}", out, re.M):
+                failures.append(f"{name}: no usage line on --help: {out.strip()[:200]!r}")
+            wrote = set().union(*(files_under(d) for d in watched)) ^ before
+            if wrote or any(pathlib.Path(cwd).iterdir()):
+                failures.append(f"{name}: --help wrote files: "
+                                f"{sorted({w[0] for w in wrote} | set(os.listdir(cwd)))}")
+                shutil.rmtree(cwd)
+                os.mkdir(cwd)
+            if len(failures) == failed:
+                print(f"  {name} --help: usage in {seconds:.1f} s")
+    assert not failures, "scripts that do not answer --help:\n  " + "\n  ".join(failures)
+    print(f"all {len(scripts)} scripts answer --help with their usage, writing nothing")
+
+
 def main():
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args()
+    check_help()
     if not BINARY.exists():
         sys.exit(f"{BINARY} not found: run `cargo build --release` first")
     with tempfile.TemporaryDirectory() as tmp:

@@ -16,6 +16,7 @@ Usage: python3 tools/make_route_trace.py [--check]
   --check  exit 1 if the committed file differs from what this script writes.
 """
 
+import argparse
 import math
 import pathlib
 import sys
@@ -100,8 +101,12 @@ def text():
 
 
 def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true",
+                    help="exit 1 if the committed file differs from what this script writes")
+    check = ap.parse_args().check
     content = text()
-    if "--check" in sys.argv[1:]:
+    if check:
         if not OUT.is_file() or OUT.read_text() != content:
             print(f"{OUT} differs from what tools/make_route_trace.py writes; rerun it")
             sys.exit(1)

@@ -11,9 +11,14 @@ r solves X[256] = 0, i.e. the top layer closes exactly at the mode.
 Run (a development tool; needs mpmath, see tools/requirements.txt):
   python3 tools/ziggurat_tables.py   # prints the ZIG_X and ZIG_F arrays of src/noise/tables.rs
 """
-import mpmath as mp
+import argparse
+import sys
 
-mp.mp.dps = 60
+try:
+    import mpmath as mp
+except ImportError:  # --help answers without it; generating the tables needs it
+    mp = None
+
 N = 256
 
 
@@ -58,6 +63,12 @@ def tables(r):
 
 
 if __name__ == "__main__":
+    argparse.ArgumentParser(description=__doc__.splitlines()[0],
+                            epilog="Needs mpmath: pip install -r tools/requirements.txt"
+                            ).parse_args()
+    if mp is None:
+        sys.exit("tools/ziggurat_tables.py needs mpmath: pip install -r tools/requirements.txt")
+    mp.mp.dps = 60
     r = solve()
     v, xs, fs = tables(r)
     print(f"// r = {mp.nstr(r, 25)}, v = {mp.nstr(v, 25)}")

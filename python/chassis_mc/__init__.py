@@ -6,24 +6,43 @@ seed. Results come back as pyarrow Tables (``.to_pandas()`` for pandas; DuckDB r
 directly), read from the Parquet files the run wrote. The columns and units are in the
 README ("Outputs") and docs/model.md.
 
-A study (or a fit file) is given as a path (``str`` or ``os.PathLike``), as TOML text (a
-``str`` holding a newline or ``=``), or as a dict of the TOML's tables and keys; a dict is
-validated by the same code as a file, and its errors name the key (``vehicle.mass``).
+A study (or a fit file) is given as a path (``str`` or ``os.PathLike``), as TOML text, or
+as a dict of the TOML's tables and keys (e.g. from ``tomllib.load``); a dict is validated by
+the same code as a file, and its errors name the key (``vehicle.mass``). A ``str`` is read
+as follows:
+
+- a ``str`` that names an existing file is that file's path, whatever it holds
+  (``results/seed=3/thesis.toml``, a shard's ``shard=0/``);
+- otherwise a ``str`` holding a newline, or parsing as TOML, is TOML text;
+- any other ``str`` is a path to a file that does not exist: a :class:`StudyError` says so,
+  naming it.
+
+:func:`loads` takes TOML text explicitly (never a path). A study file's relative data paths
+(``drive.trace``, a terrain ``file``, a fit file's ``log.file``) resolve against the file's
+own directory; TOML text and a dict have none, so theirs resolve against ``base=`` (a
+directory, e.g. the one the TOML was read from) when given, else against the current
+directory.
 
     >>> import chassis_mc
     >>> result = chassis_mc.run("studies/thesis.toml", realisations=200)
     >>> result.summary.to_pandas()
 
 Errors: a study that cannot be run raises :class:`StudyError` (``file``, ``key``, ``line``,
-``reason``); a failure while running raises :class:`RunError`. Ctrl-C (KeyboardInterrupt)
-stops a run after the chunk it is writing; its completed parts stay in ``out`` and the same
-call resumes from them.
+``reason``), and so does an override out of range (``realisations``, ``seed``: ``key`` is
+the argument); ``threads`` out of range raises ValueError; a failure while running raises
+:class:`RunError`. Errors, a :class:`Study` and a :class:`RunResult` pickle (to and from
+worker processes), a result without its cycles table, which it reads again when asked for.
+
+Ctrl-C (KeyboardInterrupt) stops a run after the chunk it is writing; its completed parts
+stay in ``out`` and the same call resumes from them.
 """
 
 from __future__ import annotations
 
+import operator
 import os
 import pathlib
+import re
 import sys
 import tempfile
 import time
@@ -49,6 +68,7 @@ __all__ = [
     "design",
     "fit",
     "load",
+    "loads",
     "run",
     "simulate_log",
 ]
@@ -69,35 +89,136 @@ Progress = Union[bool, Callable[[int, int], None]]
 LINE_INTERVAL = 10.0
 
 
-def _kind(source: Any) -> Tuple[str, Any]:
-    """('path' | 'text' | 'dict', value) for a study or fit file given as any Source."""
+def _whole(name: str, value: Any, low: int, high: int) -> Tuple[int, Optional[str]]:
+    """`value` as an int and, when it is outside [low, high], why (for the caller's error).
+    A bool or a float is not a whole number (TypeError); a numpy integer is."""
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        number = operator.index(value)
+    except TypeError:
+        raise TypeError(
+            f"{name} must be a whole number from {low} to {high} (an int), not "
+            f"{type(value).__name__} {value!r}"
+        ) from None
+    if low <= number <= high:
+        return number, None
+    return number, f"must be a whole number from {low} to {high}, got {number}"
+
+
+def _override(name: str, value: Optional[int], low: int, high: int) -> Optional[int]:
+    """An override of the study's `realisations` or `seed`: a StudyError (file
+    ``<arguments>``, key `name`) outside the command line's range."""
+    if value is None:
+        return None
+    number, reason = _whole(name, value, low, high)
+    if reason is not None:
+        raise StudyError(f"{name} {reason}", "<arguments>", name, None, reason)
+    return number
+
+
+def _count(name: str, value: Optional[int], low: int, high: int) -> Optional[int]:
+    """A count that is no part of the study (``threads``): a ValueError outside its range."""
+    if value is None:
+        return None
+    number, reason = _whole(name, value, low, high)
+    if reason is not None:
+        raise ValueError(f"{name} {reason}")
+    return number
+
+
+def _threads(threads: Optional[int]) -> Optional[int]:
+    """Worker threads: 1 to 65535 as the command line's --threads, or None (every core)."""
+    return _count("threads", threads, 1, _core.MAX_THREADS)
+
+
+#: A directory: where the relative data paths of a study given as TOML text or a dict are.
+Base = Union[str, "os.PathLike[str]"]
+
+
+def _kind(source: Any, what: str = "study") -> Tuple[str, Any]:
+    """('path' | 'text' | 'dict', value) for a study or fit file given as any Source: a str
+    naming an existing file is a path; else one holding a newline or parsing as TOML is
+    text; any other str is a file that does not exist (a StudyError naming it)."""
     if isinstance(source, Mapping):
         return "dict", dict(source)
     if isinstance(source, os.PathLike):
         return "path", os.fspath(source)
     if isinstance(source, str):
-        if "\n" in source or "=" in source:
+        if os.path.exists(source):
+            return "path", source
+        if "\n" in source or _core.parses_as_toml(source):
             return "text", source
-        return "path", source
+        where = "" if os.path.isabs(source) else f" in the current directory, {os.getcwd()}"
+        hint = " (chassis_mc.loads takes TOML text)" if what == "study" else ""
+        reason = (
+            f"the file does not exist{where}: a str names a {what} file unless it holds "
+            f"TOML text, and this one is not TOML either{hint}"
+        )
+        raise StudyError(f"{source}: {reason}", source, None, None, reason)
     raise TypeError(
-        f"a study is a path, TOML text or a dict, not a {type(source).__name__}"
+        f"a {what} is a path, TOML text or a dict, not a {type(source).__name__}"
     )
 
 
+def _base(base: Optional[Base], kind: str, what: str = "study") -> Optional[str]:
+    """`base` as a directory for a study without a file of its own; refused for a file (its
+    relative paths resolve against its own directory)."""
+    if base is None:
+        return None
+    if kind == "path":
+        raise ValueError(
+            f"base= applies to a {what} given as TOML text or a dict: a {what} file's "
+            "relative paths resolve against the file's own directory"
+        )
+    directory = os.fspath(base)
+    if not os.path.isdir(directory):
+        raise ValueError(f"base: {directory!r} is not a directory")
+    return directory
+
+
 def load(
-    study: Source, *, realisations: Optional[int] = None, seed: Optional[int] = None
+    study: Source,
+    *,
+    realisations: Optional[int] = None,
+    seed: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> "_core.Study":
     """Read and validate a study (path, TOML text or dict) without running it.
 
     ``realisations`` and ``seed`` override the study's, as ``--realisations`` and
-    ``--seed`` do on the command line. Raises :class:`StudyError`.
+    ``--seed`` do on the command line. ``base`` is the directory that the relative data
+    paths of TOML text or a dict resolve against (default: the current directory; a study
+    file's resolve against its own). Raises :class:`StudyError`.
     """
+    realisations = _override("realisations", realisations, 1, _core.MAX_REALISATIONS)
+    seed = _override("seed", seed, 0, _core.MAX_SEED)
     if isinstance(study, _core.Study):
+        if base is not None:
+            raise ValueError("base= applies to a study given as TOML text or a dict, not "
+                             "to a Study (its data paths are already resolved)")
         if realisations is None and seed is None:
             return study
-        return _core.load_study("text", study.to_toml(), realisations, seed)
+        return study.with_overrides(realisations, seed)
     kind, value = _kind(study)
-    return _core.load_study(kind, value, realisations, seed)
+    return _core.load_study(kind, value, realisations, seed, _base(base, kind))
+
+
+def loads(
+    text: str,
+    *,
+    realisations: Optional[int] = None,
+    seed: Optional[int] = None,
+    base: Optional[Base] = None,
+) -> "_core.Study":
+    """Read and validate a study given as TOML text (never read as a path), as
+    :func:`load` does: its relative data paths resolve against ``base`` (default: the
+    current directory). Raises :class:`StudyError`."""
+    if not isinstance(text, str):
+        raise TypeError(f"loads takes TOML text (a str), not a {type(text).__name__}")
+    realisations = _override("realisations", realisations, 1, _core.MAX_REALISATIONS)
+    seed = _override("seed", seed, 0, _core.MAX_SEED)
+    return _core.load_study("text", text, realisations, seed, _base(base, "text"))
 
 
 class _Reporter:
@@ -186,6 +307,22 @@ class _Output:
             self.temporary.cleanup()
 
 
+def _cycles(study: "_core.Study", out: Optional[pathlib.Path]) -> Optional[pa.Table]:
+    """The cycles table of a run of `study`: ``out/cycles.parquet`` when it is there and
+    from a run of this study, else computed again from the study (the same table; a run's
+    cycles do not depend on its realisations or seed). None for a model without cycles."""
+    if out is not None:
+        path = out / "cycles.parquet"
+        if path.is_file():
+            footer = pq.read_metadata(path).metadata or {}
+            identity = footer.get(b"chassis_mc.identity", b"").decode()
+            if identity.startswith(study.identity()):
+                return pq.read_table(path, memory_map=False)
+    with tempfile.TemporaryDirectory(prefix="chassis-mc-cycles-") as tmp:
+        _core.write_cycles(study, tmp)
+        return _read(pathlib.Path(tmp) / "cycles.parquet")
+
+
 @dataclass
 class RunResult:
     """A finished run.
@@ -194,23 +331,44 @@ class RunResult:
         summary: summary.parquet: one row per condition × estimator × parameter (bias,
             EmpSE, bounds, MCSEs).
         realisations: realisations.parquet: one row per realisation × estimator.
-        cycles: cycles.parquet (the drive cycles), or None for a model without cycles.
+        cycles: cycles.parquet (the drive cycles), or None for a model without cycles:
+            read when first asked for (from ``out``, or computed again from the study),
+            then kept.
+        study: the study as run (overrides applied).
         report_path: report.html in ``out``, or None (no ``out``, or no report written).
         out: the output directory, or None when the run wrote to a temporary one.
         files: the files written (under ``out``; in the removed temporary directory
             otherwise).
         reused: realisations kept from an earlier, interrupted or smaller run in ``out``.
         computed: realisations computed by this call.
+
+    A result pickles (e.g. from a worker process) with its summary, realisations and
+    study, never its cycles (82 MB for the thesis study): the copy reads them when asked.
     """
 
     summary: pa.Table
     realisations: pa.Table
-    cycles: Optional[pa.Table]
+    study: "_core.Study" = field(repr=False, compare=False)
     report_path: Optional[pathlib.Path]
     out: Optional[pathlib.Path]
     files: List[pathlib.Path] = field(default_factory=list)
     reused: int = 0
     computed: int = 0
+    _cycles: Optional[pa.Table] = field(default=None, init=False, repr=False, compare=False)
+    _cycles_read: bool = field(default=False, init=False, repr=False, compare=False)
+
+    @property
+    def cycles(self) -> Optional[pa.Table]:
+        """cycles.parquet (the drive cycles), or None for a model without cycles."""
+        if not self._cycles_read:
+            self._cycles = _cycles(self.study, self.out)
+            self._cycles_read = True
+        return self._cycles
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_cycles"], state["_cycles_read"] = None, False
+        return state
 
 
 def run(
@@ -222,6 +380,7 @@ def run(
     threads: Optional[int] = None,
     progress: Progress = True,
     figures: Optional[bool] = None,
+    base: Optional[Base] = None,
 ) -> RunResult:
     """Run a study, as ``chassis-mc run STUDY --out OUT``, and return its tables.
 
@@ -230,18 +389,23 @@ def run(
         out: the output directory (created if missing; an interrupted or smaller run there
             is resumed or extended). Without it the run writes to a temporary directory,
             reads the tables into memory and removes it.
-        realisations: realisations per condition, overriding the study's.
-        seed: master seed, overriding the study's.
-        threads: worker threads (default: every core). Results do not depend on it.
+        realisations: realisations per condition, overriding the study's: a whole number
+            from 1 to 2^40 (out of range: :class:`StudyError` with ``key="realisations"``).
+        seed: master seed, overriding the study's: a whole number from 0 to 2^63 − 1.
+        threads: worker threads, 1 to 65535 as the command line's ``--threads`` (default:
+            every core; out of range: ValueError). Results do not depend on it.
         progress: True for a bar (tqdm) or a plain line, False for none, or a callable
             taking (done, total).
         figures: draw the SVG figures into ``out/figures`` (default: when ``out`` is given).
+        base: the directory the relative data paths of TOML text or a dict resolve against
+            (default: the current directory; see :func:`load`).
 
     Raises:
         StudyError: the study cannot be run. RunError: a failure while running.
         KeyboardInterrupt: Ctrl-C; the completed parts stay in ``out`` for the next call.
     """
-    loaded = load(study, realisations=realisations, seed=seed)
+    threads = _threads(threads)
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     reporter = _Reporter(progress)
     with _Output(out) as output:
         draw = output.kept is not None if figures is None else figures
@@ -263,7 +427,7 @@ def run(
         return RunResult(
             summary=summary,
             realisations=table,
-            cycles=_read(output.path / "cycles.parquet"),
+            study=loaded,
             report_path=report if output.kept is not None and report.exists() else None,
             out=output.kept,
             files=[pathlib.Path(f) for f in files],
@@ -299,10 +463,13 @@ def check(
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> CheckResult:
     """Validate a study and time a few realisations, as ``chassis-mc check``, without
-    running it. Raises :class:`StudyError` for a study that cannot be run."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    running it (``base`` as in :func:`load`). Raises :class:`StudyError` for a study that
+    cannot be run."""
+    threads = _threads(threads)
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     text, per, seconds, size = _core.check(loaded, threads)
     return CheckResult(text, list(per), seconds, size)
 
@@ -349,12 +516,14 @@ def design(
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
     threads: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> DesignResult:
     """The smallest duration (or scale, or largest noise) meeting a target precision, as
     ``chassis-mc design STUDY --vary KEY --from A --to B --target TARGET``; the keys and
-    targets are those of ``chassis-mc design --help``. Unlike the command, a range without
-    an answer is not an error: ``answer`` is None."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    targets are those of ``chassis-mc design --help`` (``base`` as in :func:`load`). Unlike
+    the command, a range without an answer is not an error: ``answer`` is None."""
+    threads = _threads(threads)
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     with _Output(out) as output:
         sentence, answer, sd, used, r, files = _core.design(
             loaded, vary, float(from_), float(to), target, os.fspath(output.path),
@@ -396,29 +565,107 @@ class FitResult:
         return self.text
 
 
-def _log_file(log: Any, directory: pathlib.Path) -> str:
-    """A log given as a path, a pandas DataFrame or a pyarrow Table, as a file the fit
-    reads: a table is written as Parquet with its numeric columns as float64 (the values
-    exactly as given)."""
+@dataclass
+class _LogTable:
+    """A log given as a table, written to `path` for the fit to read: `name` says what it
+    was in errors (never the temporary path), `index` holds a DataFrame's index labels."""
+
+    path: str
+    name: str
+    index: Any = None
+
+    def place(self, row: int) -> str:
+        """`row N` (1-based, as the engine counts a Parquet file's rows) with its position
+        in the table and, for a DataFrame, its index label."""
+        where = f"row {row} (position {row - 1}"
+        if self.index is not None and 0 <= row - 1 < len(self.index):
+            label = self.index[row - 1]
+            label = label.item() if hasattr(label, "item") else label
+            where += f", index label {label!r}"
+        return where + ")"
+
+    def renamed(self, error: ChassisMcError) -> ChassisMcError:
+        """`error` saying `name` where it names the temporary file."""
+
+        def rename(text: str) -> str:
+            text = text.replace(f"{self.path}: ", f"{self.name}: ").replace(self.path, self.name)
+            pattern = re.escape(self.name) + r': (column "[^"]*", )?row (\d+):'
+            return re.sub(
+                pattern,
+                lambda m: f"{self.name}: {m.group(1) or ''}{self.place(int(m.group(2)))}:",
+                text,
+            )
+
+        message = rename(str(error.args[0]) if error.args else "")
+        if isinstance(error, StudyError):
+            reason = rename(error.reason)
+            if error.key == "log.file" and reason.startswith(f"{self.name}: "):
+                # about the table, not the fit file's log.file (which the table replaces)
+                reason = reason[len(self.name) + 2 :]
+                return StudyError(f"{self.name}: {reason}", self.name, None, None, reason)
+            return StudyError(message, error.file, error.key, error.line, reason)
+        if isinstance(error, RunError):
+            return RunError(message, error.bad_input)
+        return type(error)(message)
+
+
+def _unconvertible(frame: Any, name: str) -> StudyError:
+    """The error of a DataFrame log whose columns pyarrow cannot convert: the first column
+    that fails, and its first cell that is not a number."""
+    import pandas as pd
+
+    for position, column_name in enumerate(frame.columns):
+        column = frame.iloc[:, position]
+        try:
+            pa.array(column, from_pandas=True)
+            continue
+        except (pa.ArrowInvalid, pa.ArrowTypeError) as e:
+            failure = str(e)
+        numbers = pd.to_numeric(column, errors="coerce")
+        odd = (column.notna() & numbers.isna()).to_numpy().nonzero()[0]
+        log = _LogTable("", name, frame.index)
+        if len(odd):
+            value = column.iloc[int(odd[0])]
+            reason = (
+                f'column "{column_name}", {log.place(int(odd[0]) + 1)}: {value!r} (a '
+                f"{type(value).__name__}) is not a number"
+            )
+        else:
+            reason = f'column "{column_name}": cannot be converted to a table column: {failure}'
+        return StudyError(f"{name}: {reason}", name, None, None, reason)
+    raise AssertionError("pyarrow converts each column alone but not the whole DataFrame")
+
+
+def _log_file(log: Any, directory: pathlib.Path) -> Union[str, _LogTable]:
+    """A log given as a path (returned as it is), a pandas DataFrame or a pyarrow Table: a
+    table is written as Parquet with its numeric columns as float64 (the values exactly as
+    given) to `directory`, and named in errors as what it was given as."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
+    index = None
     if isinstance(log, pa.Table):
         table = log
+        name = "the pyarrow Table given as log"
     elif hasattr(log, "to_parquet") and hasattr(log, "columns"):
-        table = pa.Table.from_pandas(log, preserve_index=False)
+        name = "the DataFrame given as log"
+        try:
+            table = pa.Table.from_pandas(log, preserve_index=False)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            raise _unconvertible(log, name) from None
+        index = log.index
     else:
         raise TypeError(
             f"log: a path, a pandas DataFrame or a pyarrow Table, not a {type(log).__name__}"
         )
     columns = []
-    for name, column in zip(table.column_names, table.columns):
+    for column_name, column in zip(table.column_names, table.columns):
         if pa.types.is_integer(column.type) or pa.types.is_floating(column.type):
             column = column.cast(pa.float64())
-        columns.append((name, column))
-    table = pa.table({name: column for name, column in columns})
+        columns.append((column_name, column))
+    table = pa.table({column_name: column for column_name, column in columns})
     path = directory / "log.parquet"
     pq.write_table(table, path, compression="zstd")
-    return os.fspath(path)
+    return _LogTable(os.fspath(path), name, index)
 
 
 def fit(
@@ -426,21 +673,34 @@ def fit(
     *,
     log: Any = None,
     out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    base: Optional[Base] = None,
 ) -> FitResult:
     """Estimate θ from a measured log, as ``chassis-mc fit FIT --out OUT``.
 
     Args:
         fit: the fit file: a path, TOML text or a dict.
         log: the log, replacing the fit file's ``log.file``: a path (CSV or Parquet), a
-            pandas DataFrame or a pyarrow Table with the columns ``[log]`` names.
+            pandas DataFrame or a pyarrow Table with the columns ``[log]`` names. An error
+            in a table names it (``the DataFrame given as log``), its column and its row
+            (1-based, with its position and index label).
         out: the output directory; without it a temporary one, removed after.
+        base: the directory a relative ``log.file`` of TOML text or a dict resolves against
+            (default: the current directory; a fit file's resolves against its own).
     """
     if isinstance(fit, _core.Study):
         raise TypeError("fit takes a fit file (path, TOML text or dict), not a Study")
-    kind, value = _kind(fit)
+    kind, value = _kind(fit, "fit")
+    directory = _base(base, kind, "fit")
     with _Output(out) as output, tempfile.TemporaryDirectory(prefix="chassis-mc-log-") as tmp:
-        log_path = None if log is None else _log_file(log, pathlib.Path(tmp))
-        text, files = _core.fit(kind, value, os.fspath(output.path), log_path)
+        given = None if log is None else _log_file(log, pathlib.Path(tmp))
+        log_path = given.path if isinstance(given, _LogTable) else given
+        try:
+            text, files = _core.fit(kind, value, os.fspath(output.path), log_path, directory)
+        except ChassisMcError as e:
+            if not isinstance(given, _LogTable):
+                raise
+            # the temporary file is no name the caller knows: name what they gave
+            raise given.renamed(e) from None
         table = _read(output.path / "fit.parquet")
         assert table is not None, "a fit writes fit.parquet"
         return FitResult(
@@ -459,11 +719,13 @@ def simulate_log(
     realisation: int = 0,
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
+    base: Optional[Base] = None,
 ) -> pa.Table:
     """One realisation of a one-condition study as a measured log, as ``chassis-mc
     simulate-log STUDY --out FILE``: written as CSV to ``out`` when given, and returned as a
-    pyarrow Table."""
-    loaded = load(study, realisations=realisations, seed=seed)
+    pyarrow Table (``base`` as in :func:`load`)."""
+    realisation = _count("realisation", realisation, 0, 2**64 - 1)
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
     import pyarrow.csv as pacsv
 
     if out is not None:

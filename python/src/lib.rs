@@ -18,6 +18,7 @@ use chassis_mc::check::StudyCheck;
 use chassis_mc::design::{DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence};
 use chassis_mc::fit::{FitError, FitSpec};
 use chassis_mc::montecarlo::Observer;
+use chassis_mc::output::{FileMetadata, ParquetSink};
 use chassis_mc::run::{RunError, RunOptions, run_study};
 use chassis_mc::study::{Study, StudyError};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
@@ -63,6 +64,51 @@ impl PyStudy {
     /// The study as run, as canonical TOML (overrides applied).
     fn to_toml(&self) -> String {
         self.0.to_toml()
+    }
+
+    /// The directory its relative data paths resolve against.
+    #[getter]
+    fn dir(&self) -> PathBuf {
+        self.0.dir().to_path_buf()
+    }
+
+    /// What makes two runs' realisations interchangeable (the study as run without its
+    /// realisation count, and the engine version): the start of the `chassis_mc.identity`
+    /// in the footer of every file a run of it writes.
+    fn identity(&self) -> String {
+        self.0.identity()
+    }
+
+    /// Pickled as its TOML as run, origin and directory; unpickling validates it again
+    /// (and reads its data files, e.g. a speed trace, from the same paths).
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, PathBuf))> {
+        let rebuild = py.import("chassis_mc._core")?.getattr("_study_from_toml")?;
+        Ok((
+            rebuild,
+            (
+                self.0.to_toml(),
+                self.0.origin().to_string(),
+                self.0.dir().to_path_buf(),
+            ),
+        ))
+    }
+
+    /// The same study with its realisations and seed overridden (its data paths kept).
+    #[pyo3(signature = (realisations=None, seed=None))]
+    fn with_overrides(
+        &self,
+        py: Python<'_>,
+        realisations: Option<u64>,
+        seed: Option<u64>,
+    ) -> PyResult<PyStudy> {
+        self.0
+            .clone()
+            .with_overrides(realisations, seed)
+            .map(PyStudy)
+            .map_err(|e| study_error(py, &e))
     }
 
     fn __repr__(&self) -> String {
@@ -235,47 +281,170 @@ fn dict_text(py: Python<'_>, dict: &Bound<'_, PyDict>) -> PyResult<String> {
     Ok(toml::to_string(&table).expect("a TOML table serialises"))
 }
 
-/// TOML text given as `text` or as a `dict`, as (text, origin, directory): relative paths
-/// in it resolve against the working directory. (A path is read by the library itself.)
+/// A study or fit file without a file of its own (TOML text or a dict): its text, the
+/// origin its errors name, the directory its relative data paths resolve against (`base`,
+/// else the working directory) and whether that is the working directory by default.
+struct Source {
+    what: &'static str,
+    text: String,
+    origin: String,
+    dir: PathBuf,
+    dir_is_default: bool,
+}
+
+/// TOML text given as `text` or as a `dict`. (A path is read by the library itself.)
 fn source_text(
     py: Python<'_>,
     kind: &str,
     value: &Bound<'_, PyAny>,
-    what: &str,
-) -> PyResult<(String, String, PathBuf)> {
-    let cwd = std::env::current_dir().unwrap_or_else(|_| PathBuf::from("."));
-    match kind {
-        "text" => Ok((value.extract()?, "<string>".into(), cwd)),
-        "dict" => Ok((dict_text(py, value.cast()?)?, DICT_ORIGIN.into(), cwd)),
-        other => Err(PyValueError::new_err(format!(
-            "{what}: unknown source kind {other:?}"
-        ))),
+    base: Option<PathBuf>,
+    what: &'static str,
+) -> PyResult<Source> {
+    let (text, origin) = match kind {
+        "text" => (value.extract()?, "<string>".to_string()),
+        "dict" => (dict_text(py, value.cast()?)?, DICT_ORIGIN.to_string()),
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "{what}: unknown source kind {other:?}"
+            )));
+        }
+    };
+    let dir_is_default = base.is_none();
+    let dir = base.unwrap_or_else(|| std::env::current_dir().unwrap_or_else(|_| ".".into()));
+    Ok(Source {
+        what,
+        text,
+        origin,
+        dir,
+        dir_is_default,
+    })
+}
+
+impl Source {
+    /// `e` with a hint when its key holds a relative path that does not exist in the
+    /// working directory, which the caller may not have meant (no `base` was given).
+    fn hint(&self, mut e: StudyError) -> StudyError {
+        if self.dir_is_default
+            && let Some(key) = &e.key
+            && let Some(toml::Value::String(path)) = value_at(&self.text, key)
+            && Path::new(&path).is_relative()
+            && !self.dir.join(&path).exists()
+        {
+            let given = if self.origin == DICT_ORIGIN {
+                "a dict"
+            } else {
+                "TOML text"
+            };
+            e.reason = format!(
+                "{} (a {} given as {given} resolves its relative paths against the current \
+                 directory, {}, unless base= names the directory they are relative to)",
+                e.reason,
+                self.what,
+                self.dir.display()
+            );
+        }
+        e
     }
 }
 
-/// Load and validate a study: `kind` is `path`, `text` or `dict`; `realisations` and `seed`
-/// override the study's, as `--realisations` and `--seed` do.
+/// The value at a dotted `key` (`drive.trace`, `terrain.profiles[1].file`) of TOML `text`.
+fn value_at(text: &str, key: &str) -> Option<toml::Value> {
+    let mut value = toml::Value::Table(text.parse::<toml::Table>().ok()?);
+    for part in key.split('.') {
+        let (name, indices) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        value = value.as_table()?.get(name)?.clone();
+        for index in indices.split(['[', ']']).filter(|s| !s.is_empty()) {
+            value = value.as_array()?.get(index.parse::<usize>().ok()?)?.clone();
+        }
+    }
+    Some(value)
+}
+
+/// Whether `text` parses as TOML (the package's test of a str that names no file).
 #[pyfunction]
-#[pyo3(signature = (kind, value, realisations=None, seed=None))]
+fn parses_as_toml(text: &str) -> bool {
+    text.parse::<toml::Table>().is_ok()
+}
+
+/// Load and validate a study: `kind` is `path`, `text` or `dict`; `realisations` and `seed`
+/// override the study's, as `--realisations` and `--seed` do; `base` is the directory the
+/// relative data paths of TOML text or a dict resolve against (default: the working
+/// directory).
+#[pyfunction]
+#[pyo3(signature = (kind, value, realisations=None, seed=None, base=None))]
 fn load_study(
     py: Python<'_>,
     kind: &str,
     value: &Bound<'_, PyAny>,
     realisations: Option<u64>,
     seed: Option<u64>,
+    base: Option<PathBuf>,
 ) -> PyResult<PyStudy> {
     let study = match kind {
         // the library's own reading of a file, with its errors
         "path" => Study::load(&value.extract::<PathBuf>()?),
         _ => {
-            let (text, origin, dir) = source_text(py, kind, value, "study")?;
-            Study::from_toml_in(&text, &origin, &dir)
+            let source = source_text(py, kind, value, base, "study")?;
+            Study::from_toml_in(&source.text, &source.origin, &source.dir)
+                .map_err(|e| source.hint(e))
         }
     };
     let study = study
         .and_then(|s| s.with_overrides(realisations, seed))
         .map_err(|e| study_error(py, &e))?;
     Ok(PyStudy(study))
+}
+
+/// A study from its TOML as run, its origin and directory (how a pickled Study comes back).
+#[pyfunction]
+fn _study_from_toml(py: Python<'_>, text: &str, origin: &str, dir: PathBuf) -> PyResult<PyStudy> {
+    Study::from_toml_in(text, origin, &dir)
+        .map(PyStudy)
+        .map_err(|e| study_error(py, &e))
+}
+
+/// Why the model's tables could not be written.
+enum TablesError {
+    Run(RunError),
+    Batch(String),
+}
+
+impl<E: Into<RunError>> From<E> for TablesError {
+    fn from(e: E) -> Self {
+        TablesError::Run(e.into())
+    }
+}
+
+/// Write the tables a run of `study` writes besides its realisations and summary (the
+/// vehicle's cycles.parquet), computed again from the study, into the directory `dir`;
+/// returns the files written (none for a model without such tables).
+#[pyfunction]
+fn write_cycles(py: Python<'_>, study: &PyStudy, dir: PathBuf) -> PyResult<Vec<PathBuf>> {
+    let watch = Watch::default();
+    let written = supervise(py, &watch, None, None, || {
+        let model = chassis_mc::model::prepare(&study.0)?;
+        let meta = FileMetadata::of_study(&study.0, study.0.identity());
+        let mut files = Vec::new();
+        for (t, table) in model.extra_tables().iter().enumerate() {
+            let mut sink =
+                ParquetSink::create(&dir, table.file, table.schema.clone(), &meta, table.table)?;
+            for batch in (0..).map_while(|i| model.extra_batch(t, i)) {
+                let batch = batch.map_err(|e| {
+                    TablesError::Batch(format!("{}: {e}", dir.join(table.file).display()))
+                })?;
+                sink.write(&batch)?;
+            }
+            files.push(sink.finish()?.commit()?);
+        }
+        Ok::<_, TablesError>(files)
+    })?;
+    written.map_err(|e| match e {
+        TablesError::Run(e) => from_run_error(py, e),
+        TablesError::Batch(message) => run_error(py, message, false),
+    })
 }
 
 /// What a call in progress tells the waiting thread.
@@ -483,22 +652,25 @@ fn design(
     ))
 }
 
-/// `fit`: a fit file (`kind` `path`, `text` or `dict`), its log read from `log` when given;
-/// returns (the tables the CLI prints, the files written).
+/// `fit`: a fit file (`kind` `path`, `text` or `dict`, its relative log path resolved
+/// against `base` as in [`load_study`]), its log read from `log` when given; returns (the
+/// tables the CLI prints, the files written).
 #[pyfunction]
-#[pyo3(signature = (kind, value, out, log=None))]
+#[pyo3(signature = (kind, value, out, log=None, base=None))]
 fn fit(
     py: Python<'_>,
     kind: &str,
     value: &Bound<'_, PyAny>,
     out: PathBuf,
     log: Option<PathBuf>,
+    base: Option<PathBuf>,
 ) -> PyResult<(String, Vec<PathBuf>)> {
     let spec = match kind {
         "path" => FitSpec::load_with_log(&value.extract::<PathBuf>()?, log.as_deref()),
         _ => {
-            let (text, origin, dir) = source_text(py, kind, value, "fit")?;
-            FitSpec::parse_with_log(&text, &origin, &dir, log.as_deref())
+            let source = source_text(py, kind, value, base, "fit file")?;
+            FitSpec::parse_with_log(&source.text, &source.origin, &source.dir, log.as_deref())
+                .map_err(|e| source.hint(e))
         }
     }
     .map_err(|e| study_error(py, &e))?;
@@ -543,6 +715,9 @@ fn main(py: Python<'_>, argv: Vec<String>) -> u8 {
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyStudy>()?;
     m.add_function(wrap_pyfunction!(load_study, m)?)?;
+    m.add_function(wrap_pyfunction!(parses_as_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(_study_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(write_cycles, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(check, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;
@@ -550,5 +725,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate_log, m)?)?;
     m.add_function(wrap_pyfunction!(main, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // The ranges of the arguments, as the command line's: --realisations, --seed (a study
+    // file's seed is a TOML integer, at most i64::MAX) and --threads (a u16 from 1).
+    m.add("MAX_REALISATIONS", chassis_mc::study::MAX_REALISATIONS)?;
+    m.add("MAX_SEED", i64::MAX as u64)?;
+    m.add("MAX_THREADS", u16::MAX)?;
     Ok(())
 }
