@@ -720,17 +720,20 @@ def simulate_log(
     realisations: Optional[int] = None,
     seed: Optional[int] = None,
     base: Optional[Base] = None,
+    force: bool = False,
 ) -> pa.Table:
     """One realisation of a one-condition study as a measured log, as ``chassis-mc
     simulate-log STUDY --out FILE``: written as CSV to ``out`` when given, and returned as a
-    pyarrow Table (``base`` as in :func:`load`)."""
+    pyarrow Table (``base`` as in :func:`load`). A file already at ``out`` is replaced only
+    when it is a log simulate-log wrote (its header row) or with ``force=True``: a measured
+    log is never overwritten by mistake (:class:`RunError` with ``bad_input``)."""
     realisation = _count("realisation", realisation, 0, 2**64 - 1)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     import pyarrow.csv as pacsv
 
     if out is not None:
         path = pathlib.Path(out)
-        _core.simulate_log(loaded, os.fspath(path), realisation)
+        _core.simulate_log(loaded, os.fspath(path), realisation, bool(force))
         return pacsv.read_csv(path)
     with tempfile.TemporaryDirectory(prefix="chassis-mc-") as tmp:
         path = pathlib.Path(tmp) / "log.csv"

@@ -231,6 +231,22 @@ def test_a_dataframe_log_fits_as_its_csv_does(tmp_path):
     assert_same_table(from_parquet.table, from_frame.table)
 
 
+def test_simulate_log_never_overwrites_a_measured_log(tmp_path):
+    # simulate_log(out=FILE) overwrote an existing file, a real measured log: it is now
+    # replaced only when simulate-log wrote it, or with force=True.
+    study = ROOT / "studies" / "fit_log.toml"
+    measured = tmp_path / "measured.csv"
+    measured.write_text("t,v\n0,1\n")
+    with pytest.raises(chassis_mc.RunError) as e:
+        chassis_mc.simulate_log(study, out=measured)
+    assert e.value.bad_input and "measured.csv" in str(e.value) and "force" in str(e.value)
+    assert measured.read_text() == "t,v\n0,1\n"
+    chassis_mc.simulate_log(study, out=tmp_path / "own.csv")
+    chassis_mc.simulate_log(study, out=tmp_path / "own.csv", realisation=1)
+    table = chassis_mc.simulate_log(study, out=measured, force=True)
+    assert table.num_rows > 0 and measured.read_text().startswith("time_s,")
+
+
 def test_simulate_log_returns_the_commands_csv(tmp_path):
     study = ROOT / "studies" / "fit_log.toml"
     table = chassis_mc.simulate_log(study, out=tmp_path / "py.csv")
