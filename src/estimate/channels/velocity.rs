@@ -145,11 +145,12 @@ impl ChannelTerms for Speed {
         (at.theta[1] * at.k).powi(2) * (4.0 * at.v2 * s2 + 2.0 * s2 * s2)
     }
 
-    /// White noise on rows that hold one sample each (a model acceleration): with s = 2Ve
-    /// + e², d = s − σ², the compensated ψ is kθ₂\[x d − k e₂ (s² − 6σ²s − E\[·\])\]
+    /// White noise on rows that hold one sample each (a model acceleration): with
+    /// s = 2Ve + e² and d = s − σ², the compensated ψ is kθ₂\[x d − k e₂ (s² − 6σ²s − E\[·\])\]
     /// (BCLS's unbiased Ṽ⁴ − 6σ²Ṽ² + 3σ⁴ and Ṽ² − σ²), so beyond x xᵀ Ω its own part has
     /// variance k²(kθ₂)²(32V⁴σ⁴ + 96V²σ⁶ + 24σ⁸) and covariance −k(kθ₂)²·8V²σ⁴ with x d;
-    /// Δ = −k d e₂, ε = kθ₂ d. Rows that share the noise (AR(1), differentiated): not derived.
+    /// Δ = −k d e₂, ε = kθ₂ d. Rows that share the noise (AR(1), differentiated): not
+    /// derived.
     fn second_order(sd: f64, noise: &NoiseLevels, at: &OmegaAt, x: &[f64; 3]) -> SecondOrder {
         if Channel::Velocity.shares_rows(noise) {
             return SecondOrder::NONE;

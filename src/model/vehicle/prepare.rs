@@ -154,7 +154,9 @@ fn drifted_away(
         truth.inertia_kg(vehicle, &sample)
     };
     let (start, then) = (at(0.0), at(time_s));
-    (!(then > 0.5 * start)).then(|| {
+    // (NaN, where the drift has made the state meaningless, counts as drifted away)
+    let kept = then > 0.5 * start;
+    (!kept).then(|| {
         format!(
             "the truth's mass drifts from {start:.1} kg to {then:.1} kg by t = {time_s:.2} s, \
              where the simulation failed; make |truth.mass_rate| smaller or the drive shorter \
