@@ -491,8 +491,17 @@ pub(super) fn write_summary(
         meta,
         "summary",
     )?;
-    let batch =
-        output::summary_batch(layout, infos, summary).map_err(|e| OutputError::arrow(dir, e))?;
-    sink.write(&batch)?;
+    // In row groups of SUMMARY_GROUP_ROWS, each built and written on its own: the writer
+    // holds one group's columns at a time, not the whole table's (120 MB for a grid of
+    // 10 000 conditions in one group).
+    for rows in summary.chunks(SUMMARY_GROUP_ROWS) {
+        let batch =
+            output::summary_batch(layout, infos, rows).map_err(|e| OutputError::arrow(dir, e))?;
+        sink.write(&batch)?;
+        sink.flush()?;
+    }
     Ok(vec![sink.finish()?])
 }
+
+/// Rows per row group of summary.parquet.
+const SUMMARY_GROUP_ROWS: usize = 4096;
