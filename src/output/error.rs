@@ -121,6 +121,15 @@ pub enum OutputError {
         /// Why it is not the engine's, and how to replace it anyway.
         reason: String,
     },
+    /// The output directory cannot be made or written (a read-only filesystem, no
+    /// permission, a place no directory can be made).
+    #[error("{dir}: cannot be used as the output directory: {source}")]
+    Unwritable {
+        /// The directory.
+        dir: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
     /// A file or directory given as an argument does not exist.
     #[error("{path}: no such file or directory")]
     Missing {
@@ -200,6 +209,7 @@ impl OutputError {
                 | OutputError::Unusable { .. }
                 | OutputError::ShardOfAnotherRun { .. }
                 | OutputError::NotEngines { .. }
+                | OutputError::Unwritable { .. }
                 | OutputError::Incomplete { .. }
         ) || self.io_kind().is_some_and(|kind| {
             use std::io::ErrorKind::*;

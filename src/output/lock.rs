@@ -41,16 +41,23 @@ impl DirLock {
     /// Create `dir` if needed and lock it; [`OutputError::Locked`] names the pid of the
     /// process holding it, [`OutputError::Unsafe`] a lock path that is not the engine's.
     pub fn acquire(dir: &Path) -> Result<DirLock, OutputError> {
+        let unwritable = |source| OutputError::Unwritable {
+            dir: dir.to_path_buf(),
+            source,
+        };
         let created = match dir.exists() {
             true => None,
             false => {
-                fs::create_dir_all(dir).map_err(|e| OutputError::io(dir, e))?;
+                fs::create_dir_all(dir).map_err(unwritable)?;
                 Some(dir.to_path_buf())
             }
         };
         let path = dir.join(LOCK);
         for _ in 0..ATTEMPTS {
-            if let Some(lock) = Self::try_once(dir, &path, &created)? {
+            if let Some(lock) = Self::try_once(dir, &path, &created).map_err(|e| match e {
+                OutputError::Io { source, .. } => unwritable(source),
+                e => e,
+            })? {
                 return Ok(lock);
             }
         }
