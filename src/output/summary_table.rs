@@ -12,7 +12,7 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Field, Float64Type, Int32Type, Int64Type, Schema, SchemaRef};
 
 use super::tables::{axis_column, axis_field, f64_field};
-use super::{OutputError, READ_ROWS, open_reader};
+use super::{OutputError, open_reader};
 use crate::model::{AxisKind, AxisValue, ConditionInfo, Layout};
 use crate::stats::columns::SummaryColumn;
 use crate::stats::measures::Estimate;
@@ -121,11 +121,15 @@ impl SummaryTable {
     }
 }
 
+/// Rows per batch when reading a summary back.
+const SUMMARY_READ_ROWS: usize = 4096;
+
 /// Read the summary at `path`, written for a model with `layout`.
 pub fn read_summary(path: &Path, layout: &Layout) -> Result<SummaryTable, OutputError> {
     let mut table = SummaryTable::default();
     let columns = SummaryColumn::all(layout);
-    for batch in open_reader(path, READ_ROWS)? {
+    // Small batches: a batch of the summary's ~300 columns decodes to about 750 bytes a row.
+    for batch in open_reader(path, SUMMARY_READ_ROWS)? {
         let batch = batch.map_err(|e| OutputError::arrow(path, e))?;
         decode(layout, &columns, &batch, path, &mut table)?;
     }

@@ -279,10 +279,11 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
     let infos = model.infos();
     let stride = layout.realisation_stride();
     let r = study.realisations();
-    // Every slot of every realisation is held at once: at most 2^28 (2 GiB).
+    // Every slot of every realisation of a block of conditions is held at once: at most
+    // 2^28 (2 GiB).
     let count = usize::try_from(r)
         .ok()
-        .and_then(|r| r.checked_mul(infos.len() * stride))
+        .and_then(|r| r.checked_mul(infos.len().min(IN_MEMORY_BLOCK) * stride))
         .filter(|&n| n <= 1 << 28)
         .ok_or_else(|| {
             RunError::Study(study.error_at(
@@ -298,35 +299,43 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
         path: PathBuf::from("(in memory)"),
         source,
     };
-    let all: Vec<usize> = (0..infos.len()).collect();
-    let slots = montecarlo::in_memory(model, study.seed(), &all, 0..r, &montecarlo::Silent);
-    debug_assert_eq!(slots.len(), count);
+    debug_assert!(count <= 1 << 28);
     let p = layout.parameters.len();
     let bounds = layout.bounds.len() * p;
-    let records = |i: usize| {
-        let s = &slots[i * stride..(i + 1) * stride];
-        (0..layout.estimators.len()).map(move |e| Record {
-            condition: i / r as usize,
-            realisation: (i % r as usize) as u64,
-            estimator: e,
-            ok: s[layout.status_at(e)] == Status::Ok as u8 as f64,
-            theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
-            bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
-            controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
-        })
-    };
-    let mut out = Vec::new();
-    for (c, info) in infos.iter().enumerate() {
-        let mut summarizer = ConditionSummarizer::new(layout, c, info, r, Z_95);
-        let rows = c * r as usize..(c + 1) * r as usize;
-        for rec in rows.clone().flat_map(records) {
-            summarizer.first_pass(&rec).map_err(inconsistent)?;
+    let mut out = Vec::with_capacity(infos.len() * layout.estimators.len() * p);
+    // A block of conditions at a time: the slots held do not grow with the grid (each
+    // realisation is a pure function of its seed, condition and index, so the blocks give
+    // what one call over every condition gives).
+    let all: Vec<usize> = (0..infos.len()).collect();
+    for block in all.chunks(IN_MEMORY_BLOCK) {
+        let slots = montecarlo::in_memory(model, study.seed(), block, 0..r, &montecarlo::Silent);
+        let records = |i: usize| {
+            let s = &slots[i * stride..(i + 1) * stride];
+            (0..layout.estimators.len()).map(move |e| Record {
+                condition: block[i / r as usize],
+                realisation: (i % r as usize) as u64,
+                estimator: e,
+                ok: s[layout.status_at(e)] == Status::Ok as u8 as f64,
+                theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
+                bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
+                controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
+            })
+        };
+        for (k, &c) in block.iter().enumerate() {
+            let mut summarizer = ConditionSummarizer::new(layout, c, &infos[c], r, Z_95);
+            let rows = k * r as usize..(k + 1) * r as usize;
+            for rec in rows.clone().flat_map(records) {
+                summarizer.first_pass(&rec).map_err(inconsistent)?;
+            }
+            summarizer.end_first_pass().map_err(inconsistent)?;
+            for rec in rows.flat_map(records) {
+                summarizer.second_pass(&rec).map_err(inconsistent)?;
+            }
+            out.extend(summarizer.finish());
         }
-        summarizer.end_first_pass().map_err(inconsistent)?;
-        for rec in rows.flat_map(records) {
-            summarizer.second_pass(&rec).map_err(inconsistent)?;
-        }
-        out.extend(summarizer.finish());
     }
     Ok(out)
 }
+
+/// Conditions an in-memory summary computes at once.
+const IN_MEMORY_BLOCK: usize = 256;
