@@ -29,7 +29,7 @@ fn reduce(lanes: [f64; LANES]) -> f64 {
 pub(crate) fn speed_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { simd::speed_sums::<false>(cols, e, sd_v, &mut []) };
         }
@@ -48,7 +48,7 @@ pub(crate) fn speed_sums_writing_w(
     assert_eq!(w.len(), cols.v.len(), "the block's w");
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { simd::speed_sums::<true>(cols, e, sd_v, w) };
         }
@@ -204,7 +204,7 @@ fn speed_sums_tail<const STORE: bool>(
 pub(crate) fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { simd::output_sums(cols, e, sd_v, eta) };
         }

@@ -74,7 +74,7 @@ impl MeasuredBlock {
     pub fn measure(&mut self, b: Block<'_>) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::numeric::simd::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { self.measure_avx2(b) };
             }

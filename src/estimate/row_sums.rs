@@ -42,7 +42,7 @@ pub fn segment_moments(
 ) -> Moments {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { segment_moments_avx2(rows, start, end, constant, grade) };
         }
@@ -580,7 +580,7 @@ impl SegmentScan {
         let (segments, constants) = reg.segments(SEGMENT_S);
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::numeric::simd::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { self.advance_avx2(rows, segments, constants, end) };
             }
@@ -816,7 +816,7 @@ impl RlsScan {
         let RlsScan { plan, run } = self;
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::numeric::simd::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { run.advance_avx2(plan, rows, end) };
             }

@@ -105,7 +105,7 @@ impl Weighting<'_> {
     fn total(&self) -> Option<Moments> {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if crate::numeric::simd::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { self.total_avx2() };
             }

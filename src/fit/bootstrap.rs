@@ -2,7 +2,11 @@
 //! on the log's rows, built in memory) and the estimates re-drawn in it
 //! (docs/model.md#fit).
 
+use std::convert::Infallible;
+
 use nalgebra::Vector3;
+
+use crate::numeric::ode::{Stage, rk4_step};
 
 use crate::estimate::channels::Acceleration;
 use crate::estimate::estimators::EstimatorRef;
@@ -62,11 +66,14 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
         let (f0, f1) = (c.f_prop_n[i], c.f_prop_n[i + 1]);
         let (g0, g1) = (c.grade_rad[i], c.grade_rad[i + 1]);
         let (fm, gm) = (0.5 * (f0 + f1), 0.5 * (g0 + g1));
-        let k1 = accel(v[i], f0, g0);
-        let k2 = accel(v[i] + 0.5 * h * k1, fm, gm);
-        let k3 = accel(v[i] + 0.5 * h * k2, fm, gm);
-        let k4 = accel(v[i] + h * k3, f1, g1);
-        v[i + 1] = v[i] + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        let step = rk4_step::<1, Infallible>([v[i]], h, [accel(v[i], f0, g0)], |stage, [vs]| {
+            Ok([match stage {
+                Stage::Half => accel(vs, fm, gm),
+                Stage::Full => accel(vs, f1, g1),
+            }])
+        });
+        let Ok([next]) = step;
+        v[i + 1] = next;
     }
     v
 }

@@ -15,10 +15,6 @@ use crate::noise::{BLOCK, NormalStream};
 use crate::numeric::linalg::{inverse_spd, solve_spd};
 use crate::study::{LineFitStudy, NoiseShape, Study, StudyError};
 
-/// The channel part of the stream key of the measurement noise (docs/model.md#streams);
-/// part of the study's numbers, never change it.
-const MEASUREMENT_STREAM: u64 = 5;
-
 const ASSUMED_SIGMA: usize = 0;
 const TRUE_SIGMA: usize = 1;
 
@@ -154,7 +150,8 @@ impl Model for LineFitModel {
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
         let cond = &self.conditions[c];
         let times = &self.study.times;
-        let mut source = NormalStream::for_realisation(seed, c as u64, MEASUREMENT_STREAM, r);
+        let mut source =
+            NormalStream::for_realisation(seed, c as u64, crate::noise::Stream::LineFit, r);
         let mut draws = [0.0; BLOCK];
         let (mut sy, mut sty) = (0.0, 0.0);
         for ts in times.chunks(BLOCK) {

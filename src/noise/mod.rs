@@ -16,10 +16,12 @@
 //! pinned by a value-stability test.
 
 mod chacha;
+mod streams;
 mod tables;
 mod ziggurat;
 
 pub use chacha::ChaCha8Words;
+pub use streams::Stream;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -30,20 +32,20 @@ use ziggurat::{candidate, candidates, under_density};
 /// Tag that separates chassis-mc keys from any other use of the same seed.
 const KEY_TAG: &[u8; 8] = b"chassmc1";
 
-/// The 256-bit ChaCha key of (seed, condition, channel). `channel` names the noise source
-/// within a model (each model numbers its own; see e.g. the vehicle model's channels).
-pub fn key(seed: u64, condition: u64, channel: u64) -> [u8; 32] {
+/// The 256-bit ChaCha key of (seed, condition, stream) (docs/model.md#streams).
+pub fn key(seed: u64, condition: u64, stream: Stream) -> [u8; 32] {
     let mut k = [0u8; 32];
     k[0..8].copy_from_slice(&seed.to_le_bytes());
     k[8..16].copy_from_slice(&condition.to_le_bytes());
-    k[16..24].copy_from_slice(&channel.to_le_bytes());
+    k[16..24].copy_from_slice(&stream.id().to_le_bytes());
     k[24..32].copy_from_slice(KEY_TAG);
     k
 }
 
-/// The random stream of one realisation on one channel.
-pub fn stream(seed: u64, condition: u64, channel: u64, realisation: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::from_seed(key(seed, condition, channel));
+/// The random stream of one realisation: `rand_chacha`'s, the reference the engine's own
+/// keystream is tested against.
+pub fn stream(seed: u64, condition: u64, stream: Stream, realisation: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::from_seed(key(seed, condition, stream));
     rng.set_stream(realisation);
     rng
 }
@@ -72,9 +74,9 @@ impl NormalStream {
         }
     }
 
-    /// The stream of (seed, condition, channel, realisation).
-    pub fn for_realisation(seed: u64, condition: u64, channel: u64, realisation: u64) -> Self {
-        Self::new(key(seed, condition, channel), realisation)
+    /// The stream `stream` of (seed, condition, realisation).
+    pub fn for_realisation(seed: u64, condition: u64, stream: Stream, realisation: u64) -> Self {
+        Self::new(key(seed, condition, stream), realisation)
     }
 
     /// Fill `out` (at most [`BLOCK`] values) with independent N(0, 1) variates.
@@ -172,10 +174,10 @@ pub struct NormalSequence {
 }
 
 impl NormalSequence {
-    /// The sequence of (seed, condition, channel, realisation) (see [`key`]).
-    pub fn for_realisation(seed: u64, condition: u64, channel: u64, realisation: u64) -> Self {
+    /// The sequence of stream `stream` of (seed, condition, realisation) (see [`key`]).
+    pub fn for_realisation(seed: u64, condition: u64, stream: Stream, realisation: u64) -> Self {
         NormalSequence {
-            stream: NormalStream::for_realisation(seed, condition, channel, realisation),
+            stream: NormalStream::for_realisation(seed, condition, stream, realisation),
             block: [0.0; BLOCK],
             pos: BLOCK,
         }
@@ -243,11 +245,11 @@ mod tests {
 
     #[test]
     fn a_sequence_is_the_same_whatever_lengths_are_read() {
-        let mut whole = NormalSequence::for_realisation(3, 1, 2, 5);
+        let mut whole = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Output, 5);
         let mut expected = vec![0.0; 1000];
         whole.fill(&mut expected);
         for lengths in [&[1000][..], &[1, 255, 256, 300, 188], &[97, 97, 97, 709]] {
-            let mut s = NormalSequence::for_realisation(3, 1, 2, 5);
+            let mut s = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Output, 5);
             let mut got = Vec::new();
             for &n in lengths {
                 let mut part = vec![0.0; n];
@@ -257,7 +259,7 @@ mod tests {
             assert_eq!(got, expected, "{lengths:?}");
         }
         // and it is the stream's whole blocks
-        let mut stream = NormalStream::for_realisation(3, 1, 2, 5);
+        let mut stream = NormalStream::for_realisation(3, 1, crate::noise::Stream::Output, 5);
         let mut blocks = vec![0.0; 4 * BLOCK];
         for b in blocks.chunks_mut(BLOCK) {
             stream.fill_block(b);
@@ -315,22 +317,22 @@ mod tests {
 
     #[test]
     fn keys_differ_by_seed_condition_and_channel() {
-        let a = key(1, 2, 1);
-        assert_ne!(a, key(2, 2, 1));
-        assert_ne!(a, key(1, 3, 1));
-        assert_ne!(a, key(1, 2, 2));
+        let a = key(1, 2, Stream::Velocity);
+        assert_ne!(a, key(2, 2, Stream::Velocity));
+        assert_ne!(a, key(1, 3, Stream::Velocity));
+        assert_ne!(a, key(1, 2, Stream::Output));
     }
 
     #[test]
     fn streams_are_independent_of_how_they_are_created() {
-        let mut a = NormalStream::for_realisation(7, 1, 1, 42);
-        let mut b = NormalStream::for_realisation(7, 1, 1, 42);
+        let mut a = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 42);
+        let mut b = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 42);
         let mut x = [0.0; 300];
         let mut y = [0.0; 300];
         a.fill(&mut x);
         b.fill(&mut y);
         assert_eq!(x, y);
-        let mut c = NormalStream::for_realisation(7, 1, 1, 43);
+        let mut c = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 43);
         c.fill(&mut y);
         assert_ne!(x, y);
     }

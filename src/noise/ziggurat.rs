@@ -78,11 +78,11 @@ pub(super) fn candidates_body(words: &[u64], out: &mut [f64], outside: &mut [u64
 pub(super) fn candidates(words: &[u64], out: &mut [f64], outside: &mut [u64; BLOCK / 64]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
+        if crate::numeric::simd::avx512f() {
             // SAFETY: the CPU supports AVX-512F, checked just above.
             return unsafe { simd::candidates_avx512(words, out, outside) };
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { simd::candidates(words, out, outside) };
         }

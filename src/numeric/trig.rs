@@ -91,7 +91,7 @@ pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     );
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             // SAFETY: the CPU supports AVX2, checked just above.
             return unsafe { sin_cos_slice_avx2(x, sin, cos) };
         }

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use super::truth::TruthSample;
 use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
+use crate::numeric::ode::{Stage, rk4_step};
 use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::GradeTable;
 
@@ -343,16 +344,13 @@ fn coast(
         cycle.run.push(k as u32);
         // Classical RK4 on (X, V): dX/dt = heading·V, dV/dt = accel(t, X, V), as the torque
         // mode integrates (the full step's time is the next sample's, (i+1)·Δt).
-        let k1x = heading * v;
-        let k1v = a;
-        let k2x = heading * (v + 0.5 * h * k1v);
-        let k2v = accel(t + 0.5 * h, x + 0.5 * h * k1x, v + 0.5 * h * k1v)?;
-        let k3x = heading * (v + 0.5 * h * k2v);
-        let k3v = accel(t + 0.5 * h, x + 0.5 * h * k2x, v + 0.5 * h * k2v)?;
-        let k4x = heading * (v + h * k3v);
-        let k4v = accel((i + 1) as f64 * h, x + h * k3x, v + h * k3v)?;
-        let x_next = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let v_next = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        let [x_next, v_next] = rk4_step([x, v], h, [heading * v, a], |stage, [xs, vs]| {
+            let ts = match stage {
+                Stage::Half => t + 0.5 * h,
+                Stage::Full => (i + 1) as f64 * h,
+            };
+            Ok([heading * vs, accel(ts, xs, vs)?])
+        })?;
         if !(x_next.is_finite() && v_next.is_finite()) {
             return Err(SimulationError::NonFinite {
                 time_s: (i + 1) as f64 * h,

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use super::truth::TruthSample;
 use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
+use crate::numeric::ode::{Stage, rk4_step};
 use crate::settings::{KeyError, Params};
 use crate::terrain::GradeTable;
 
@@ -208,16 +209,13 @@ fn simulate_truth(
         // time the cycle records), which can differ from t + Δt in the last bit.
         let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
         let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
-        let k1x = v;
-        let k1v = cycle.accel_m_s2[i];
-        let k2x = v + 0.5 * h * k1v;
-        let k2v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k1x, k2x)?;
-        let k3x = v + 0.5 * h * k2v;
-        let k3v = accel(t + 0.5 * h, f_mid, x + 0.5 * h * k2x, k3x)?;
-        let k4x = v + h * k3v;
-        let k4v = accel(t + h, f_end, x + h * k3x, k4x)?;
-        x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        [x, v] = rk4_step([x, v], h, [v, cycle.accel_m_s2[i]], |stage, [xs, vs]| {
+            let (ts, fs) = match stage {
+                Stage::Half => (t + 0.5 * h, f_mid),
+                Stage::Full => (t + h, f_end),
+            };
+            Ok([vs, accel(ts, fs, xs, vs)?])
+        })?;
         f = f_end;
     }
     Ok(cycle)

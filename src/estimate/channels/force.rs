@@ -19,7 +19,7 @@ impl ChannelTerms for ForceNoise {
     const UNIT: &'static str = "N";
     const DESCRIPTION: &'static str = "propulsion-force measurement noise σ_F";
     const DEFAULT_LEVELS: Option<&'static [f64]> = Some(&[0.0]);
-    const STREAM: u64 = 4;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Force;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::F];
     const PARTS: &'static [Part] = &[Part::F];

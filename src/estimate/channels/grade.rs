@@ -18,7 +18,7 @@ impl ChannelTerms for GradeNoise {
     const UNIT: &'static str = "rad";
     const DESCRIPTION: &'static str = "grade-measurement noise σ_θ";
     const DEFAULT_LEVELS: Option<&'static [f64]> = Some(&[0.0]);
-    const STREAM: u64 = 3;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Grade;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::C, Column::Y];
     const PARTS: &'static [Part] = &[Part::C, Part::S];

@@ -55,7 +55,7 @@ pub trait ChannelTerms {
     const DEFAULT_LEVELS: Option<&'static [f64]>;
     /// The channel's part of the ChaCha key of its stream (docs/model.md#streams). Part of
     /// every study's numbers: never change or reuse one.
-    const STREAM: u64;
+    const STREAM: crate::noise::Stream;
     /// True when the noise enters a regressor (so OLS is biased), not only the output.
     const IN_REGRESSORS: bool;
     /// The measured columns of the regression its noise enters.
@@ -190,7 +190,7 @@ macro_rules! channels {
             }
 
             /// The channel's part of the ChaCha key of its stream (docs/model.md#streams).
-            pub const fn stream(self) -> u64 {
+            pub const fn stream(self) -> crate::noise::Stream {
                 match self { $(Channel::$variant => <$terms>::STREAM,)* }
             }
 

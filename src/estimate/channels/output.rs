@@ -18,7 +18,7 @@ impl ChannelTerms for OutputNoise {
     const UNIT: &'static str = "m/s^2";
     const DESCRIPTION: &'static str = "additive noise σ_y on the regression output (acceleration)";
     const DEFAULT_LEVELS: Option<&'static [f64]> = None;
-    const STREAM: u64 = 2;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Output;
     const IN_REGRESSORS: bool = false;
     const COLUMNS: &'static [Column] = &[Column::Y];
     const PARTS: &'static [Part] = &[Part::O];

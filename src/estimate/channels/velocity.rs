@@ -125,7 +125,7 @@ impl ChannelTerms for Speed {
     const UNIT: &'static str = "m/s";
     const DESCRIPTION: &'static str = "speed-measurement noise σ_v";
     const DEFAULT_LEVELS: Option<&'static [f64]> = None;
-    const STREAM: u64 = 1;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Velocity;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::W];
     const PARTS: &'static [Part] = &[Part::W, Part::D];
@@ -466,7 +466,7 @@ mod tests {
         let expected = neighbour_covariance(v, sd, &ar1, 1, inv_dt);
         let n = 400_000;
         let mut z = vec![0.0; 3 * n];
-        NormalStream::for_realisation(3, 0, 7, 0).fill(&mut z);
+        NormalStream::for_realisation(3, 0, crate::noise::Stream::ForceCalibration, 0).fill(&mut z);
         let values: Vec<f64> = z
             .chunks_exact(3)
             .map(|z| {

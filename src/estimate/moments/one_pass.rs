@@ -240,12 +240,12 @@ impl MeasuredBlock {
     pub fn measure_and_sum(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
         #[cfg(target_arch = "x86_64")]
         {
-            use std::arch::is_x86_feature_detected as has;
-            if has!("avx512f") && has!("avx512vl") {
+            use crate::numeric::simd;
+            if simd::avx512vl() {
                 // SAFETY: the CPU supports AVX-512F and VL (so AVX2), checked just above.
                 return unsafe { self.measure_and_sum_avx512(b, wanted) };
             }
-            if has!("avx2") {
+            if simd::avx2() {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { self.measure_and_sum_avx2(b, wanted) };
             }

@@ -14,10 +14,6 @@ use crate::study::VehicleStudy;
 use crate::terrain::{GRID_STEP_M, GradeTable};
 use crate::vehicle::{DriveCycle, Prefix, Road, Truth};
 
-/// The ChaCha stream of the elevation map's error (docs/model.md#streams). Part of every
-/// study's numbers: never change or reuse it.
-const GRADE_MAP_STREAM: u64 = 8;
-
 /// The elevation map's error: a stationary AR(1) process along the distance on the terrain
 /// grid (σ_h \[m\], correlation length L \[m\]); the measured grade is the forward
 /// difference of the erroneous elevation.
@@ -188,7 +184,8 @@ impl World {
             cycle.v_m_s = air;
         }
         if let Some(map) = &self.grade_map {
-            let mut normals = NormalSequence::for_realisation(seed, key, GRADE_MAP_STREAM, r);
+            let mut normals =
+                NormalSequence::for_realisation(seed, key, crate::noise::Stream::GradeMap, r);
             // The map reaches as far as the rows the regression uses.
             let end = cycle
                 .x_m
@@ -231,7 +228,7 @@ mod tests {
             sd_m: 0.5,
             length_m: 50.0,
         };
-        let mut normals = NormalSequence::for_realisation(7, 0, GRADE_MAP_STREAM, 0);
+        let mut normals = NormalSequence::for_realisation(7, 0, crate::noise::Stream::GradeMap, 0);
         let d = map.differences(&mut normals, 400_000.0);
         let n = d.len() as f64;
         let var = d.iter().map(|x| x * x).sum::<f64>() / n;

@@ -136,11 +136,11 @@ impl ChaCha8Words {
 fn blocks(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_PER_CALL]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx512f") {
+        if crate::numeric::simd::avx512f() {
             // SAFETY: the CPU supports AVX-512F, checked just above.
             return unsafe { avx512::blocks(key, stream, counter, out) };
         }
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::numeric::simd::avx2() {
             for (pass, chunk) in out.chunks_exact_mut(WORDS_PER_PASS).enumerate() {
                 let chunk = chunk.try_into().expect("pass length");
                 let start = counter.wrapping_add((pass * LANES) as u64);

@@ -48,7 +48,7 @@ impl Gust {
 impl ModelError for Gust {
     fn drawn(&self) -> Option<Drawn> {
         Some(Drawn {
-            stream: 6,
+            stream: crate::noise::Stream::Gusts,
             moves_the_vehicle: true,
         })
     }
@@ -147,7 +147,7 @@ pub struct ForceScaleDrawn {
 impl ModelError for ForceScaleDrawn {
     fn drawn(&self) -> Option<Drawn> {
         Some(Drawn {
-            stream: 7,
+            stream: crate::noise::Stream::ForceCalibration,
             moves_the_vehicle: false,
         })
     }
@@ -233,11 +233,11 @@ mod tests {
         };
         let times: Vec<f64> = (0..50).map(|i| i as f64 * 0.1).collect();
         let realised = |runs: &[Vec<f64>]| {
-            let mut normals = NormalSequence::for_realisation(3, 1, 6, 9);
+            let mut normals = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Gusts, 9);
             gust.realise(&mut normals, runs)
         };
         let two = realised(&[times.clone(), times.clone()]);
-        let mut normals = NormalSequence::for_realisation(3, 1, 6, 9);
+        let mut normals = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Gusts, 9);
         let first = gust.series(&mut normals, &times);
         let second = gust.series(&mut normals, &times);
         let sample = |run: usize, t: f64| TruthSample {
@@ -256,7 +256,7 @@ mod tests {
         // With τ = 10⁶ s a carried-over series would start run 1 where run 0 ended.
         assert_ne!(second.wind_m_s[0], first.wind_m_s[49]);
         assert_eq!(second.wind_m_s[0] / 1.5, {
-            let mut n = NormalSequence::for_realisation(3, 1, 6, 9);
+            let mut n = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Gusts, 9);
             let mut z = [0.0; 51];
             n.fill(&mut z);
             z[50]

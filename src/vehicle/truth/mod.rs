@@ -67,9 +67,8 @@ pub struct TruthSample {
 /// truth's motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Drawn {
-    /// The entry's part of the ChaCha key of its stream (docs/model.md#streams). Part of
-    /// every study's numbers: never change or reuse one.
-    pub stream: u64,
+    /// Its random stream (docs/model.md#streams).
+    pub stream: crate::noise::Stream,
     /// Whether it changes the force the truth needs (a drive mode that integrates the
     /// motion integrates each realisation again; one that prescribes it logs another
     /// force), not only how the log records the force.
