@@ -1,7 +1,12 @@
-//! The block sums of the kernel's fast path (speed and output noise only): a portable
-//! version in four lanes and an AVX2 version that is lane for lane the same, bit for bit.
+//! The block sums of the kernel's fast path (speed and output noise only), written once
+//! over the four lanes of `numeric::simd` (portable or AVX2, the same bits); the measured
+//! speed is the speed channel's own arithmetic (`channels::measured_speed`).
 
+use super::channels::measured_speed;
 use crate::noise::BLOCK;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::{Lanes4, Quad, Scalar};
 
 /// Zero draws for a channel that is off.
 pub(crate) const ZEROS: [f64; BLOCK] = [0.0; BLOCK];
@@ -23,18 +28,16 @@ fn reduce(lanes: [f64; LANES]) -> f64 {
     (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
 }
 
-/// Σw, ΣwF, Σwc, Σw², Σwy over a block, w = (V + σ_v e)². On x86-64 with AVX2 the four
-/// lanes are one 256-bit register each; the results are bit-identical to the portable code
-/// (the same operations per lane in the same order: no FMA, no reassociation).
+/// Σw, ΣwF, Σwc, Σw², Σwy over a block, w = (V + σ_v e)², sample i into lane i mod 4: one
+/// definition ([`speed_sums_lanes`]) in the portable lanes or, on x86-64 with AVX2, in one
+/// 256-bit register, bit for bit the same.
 pub(crate) fn speed_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64) -> [f64; 5] {
     #[cfg(target_arch = "x86_64")]
-    {
-        if crate::numeric::simd::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { simd::speed_sums::<false>(cols, e, sd_v, &mut []) };
-        }
+    if let Some(avx2) = Avx2::detect() {
+        // SAFETY: the token proves the CPU has AVX2.
+        return unsafe { speed_sums_avx2::<false>(avx2, cols, e, sd_v, &mut []) };
     }
-    speed_sums_body::<false>(cols, e, sd_v, &mut [])
+    speed_sums_lanes::<_, false>(Quad, cols, e, sd_v, &mut [])
 }
 
 /// [`speed_sums`] that also writes each sample's w into `w` (as long as the block): the
@@ -47,128 +50,52 @@ pub(crate) fn speed_sums_writing_w(
 ) -> [f64; 5] {
     assert_eq!(w.len(), cols.v.len(), "the block's w");
     #[cfg(target_arch = "x86_64")]
-    {
-        if crate::numeric::simd::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { simd::speed_sums::<true>(cols, e, sd_v, w) };
-        }
+    if let Some(avx2) = Avx2::detect() {
+        // SAFETY: the token proves the CPU has AVX2.
+        return unsafe { speed_sums_avx2::<true>(avx2, cols, e, sd_v, w) };
     }
-    speed_sums_body::<true>(cols, e, sd_v, w)
+    speed_sums_lanes::<_, true>(Quad, cols, e, sd_v, w)
 }
 
 #[cfg(target_arch = "x86_64")]
-mod simd {
-    //! AVX2 versions of the per-block sums, lane for lane the portable code.
-
-    use std::arch::x86_64::*;
-
-    use super::{Columns, LANES, output_sums_tail, reduce, speed_sums_tail};
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lanes(v: __m256d) -> [f64; LANES] {
-        let mut out = [0.0; LANES];
-        // SAFETY: writes four f64 into an array of four.
-        unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
-        out
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn load(x: &[f64], i: usize) -> __m256d {
-        assert!(i + LANES <= x.len());
-        // SAFETY: bounds checked just above.
-        unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
-    }
-
-    /// With `STORE`, w is written into `w_out` (as long as the block).
-    #[target_feature(enable = "avx2")]
-    pub(super) fn speed_sums<const STORE: bool>(
-        cols: &Columns<'_>,
-        e: &[f64],
-        sd_v: f64,
-        w_out: &mut [f64],
-    ) -> [f64; 5] {
-        let n = cols.v.len();
-        assert!(cols.f.len() == n && cols.c.len() == n && cols.y.len() == n && e.len() >= n);
-        assert!(!STORE || w_out.len() == n);
-        let whole = n - n % LANES;
-        let sd = _mm256_set1_pd(sd_v);
-        let mut acc = [_mm256_setzero_pd(); 5];
-        let mut i = 0;
-        while i < whole {
-            let vt = _mm256_add_pd(load(cols.v, i), _mm256_mul_pd(sd, load(e, i)));
-            let w = _mm256_mul_pd(vt, vt);
-            if STORE {
-                // SAFETY: i + 4 <= whole <= n = w_out.len() (checked above).
-                unsafe { _mm256_storeu_pd(w_out.as_mut_ptr().add(i), w) };
-            }
-            acc[0] = _mm256_add_pd(acc[0], w);
-            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(w, load(cols.f, i)));
-            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(w, load(cols.c, i)));
-            acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(w, w));
-            acc[4] = _mm256_add_pd(acc[4], _mm256_mul_pd(w, load(cols.y, i)));
-            i += LANES;
-        }
-        let mut acc = acc.map(|a| lanes(a));
-        speed_sums_tail::<STORE>(cols, e, sd_v, whole, &mut acc, w_out);
-        acc.map(reduce)
-    }
-
-    #[target_feature(enable = "avx2")]
-    pub(super) fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
-        let n = cols.v.len();
-        assert!(cols.f.len() == n && cols.c.len() == n && e.len() >= n && eta.len() >= n);
-        let whole = n - n % LANES;
-        let sd = _mm256_set1_pd(sd_v);
-        let mut acc = [_mm256_setzero_pd(); 4];
-        let mut i = 0;
-        while i < whole {
-            let vt = _mm256_add_pd(load(cols.v, i), _mm256_mul_pd(sd, load(e, i)));
-            let eta_i = load(eta, i);
-            acc[0] = _mm256_add_pd(acc[0], eta_i);
-            acc[1] = _mm256_add_pd(acc[1], _mm256_mul_pd(load(cols.f, i), eta_i));
-            acc[2] = _mm256_add_pd(acc[2], _mm256_mul_pd(load(cols.c, i), eta_i));
-            acc[3] = _mm256_add_pd(acc[3], _mm256_mul_pd(_mm256_mul_pd(vt, vt), eta_i));
-            i += LANES;
-        }
-        let mut acc = acc.map(|a| lanes(a));
-        output_sums_tail(cols, e, sd_v, eta, whole, &mut acc);
-        acc.map(reduce)
-    }
-}
-
-/// The portable [`speed_sums`]; with `STORE`, w is written into `w_out`.
-#[inline(always)]
-fn speed_sums_body<const STORE: bool>(
+#[target_feature(enable = "avx2")]
+fn speed_sums_avx2<const STORE: bool>(
+    avx2: Avx2,
     cols: &Columns<'_>,
     e: &[f64],
     sd_v: f64,
     w_out: &mut [f64],
 ) -> [f64; 5] {
-    let mut acc = [[0.0; LANES]; 5];
+    speed_sums_lanes::<_, STORE>(avx2, cols, e, sd_v, w_out)
+}
+
+/// [`speed_sums`] in the lanes of `l`; with `STORE`, w is written into `w_out`.
+#[inline(always)]
+fn speed_sums_lanes<L: Lanes4, const STORE: bool>(
+    l: L,
+    cols: &Columns<'_>,
+    e: &[f64],
+    sd_v: f64,
+    w_out: &mut [f64],
+) -> [f64; 5] {
     let n = cols.v.len();
+    assert!(cols.f.len() == n && cols.c.len() == n && cols.y.len() == n && e.len() >= n);
+    assert!(!STORE || w_out.len() == n);
     let whole = n - n % LANES;
-    let lanes = cols.v[..whole]
-        .chunks_exact(LANES)
-        .zip(cols.f[..whole].chunks_exact(LANES))
-        .zip(cols.c[..whole].chunks_exact(LANES))
-        .zip(cols.y[..whole].chunks_exact(LANES))
-        .zip(e[..whole].chunks_exact(LANES));
-    for (g, ((((v, f), c), y), e)) in lanes.enumerate() {
-        for l in 0..LANES {
-            let vt = v[l] + sd_v * e[l];
-            let w = vt * vt;
-            if STORE {
-                w_out[g * LANES + l] = w;
-            }
-            acc[0][l] += w;
-            acc[1][l] += w * f[l];
-            acc[2][l] += w * c[l];
-            acc[3][l] += w * w;
-            acc[4][l] += w * y[l];
+    let mut acc = [l.splat(0.0); 5];
+    for i in (0..whole).step_by(LANES) {
+        let vt = measured_speed(l, l.load(cols.v, i), sd_v, l.load(e, i));
+        let w = vt * vt;
+        if STORE {
+            l.store(w, w_out, i);
         }
+        acc[0] = acc[0] + w;
+        acc[1] = acc[1] + w * l.load(cols.f, i);
+        acc[2] = acc[2] + w * l.load(cols.c, i);
+        acc[3] = acc[3] + w * w;
+        acc[4] = acc[4] + w * l.load(cols.y, i);
     }
+    let mut acc = acc.map(|a| l.lanes(a));
     speed_sums_tail::<STORE>(cols, e, sd_v, whole, &mut acc, w_out);
     acc.map(reduce)
 }
@@ -186,7 +113,7 @@ fn speed_sums_tail<const STORE: bool>(
     w_out: &mut [f64],
 ) {
     for i in whole..cols.v.len() {
-        let vt = cols.v[i] + sd_v * e[i];
+        let vt = measured_speed(Scalar, cols.v[i], sd_v, e[i]);
         let w = vt * vt;
         if STORE {
             w_out[i] = w;
@@ -200,38 +127,44 @@ fn speed_sums_tail<const STORE: bool>(
 }
 
 /// Ση, ΣFη, Σcη, Σwη over a block, w = (V + σ_v e)²; sample i goes to lane i mod 4. Like
-/// [`speed_sums`], the AVX2 path is bit-identical to the portable code.
+/// [`speed_sums`], one definition ([`output_sums_lanes`]) for the portable and AVX2 code.
 pub(crate) fn output_sums(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
     #[cfg(target_arch = "x86_64")]
-    {
-        if crate::numeric::simd::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { simd::output_sums(cols, e, sd_v, eta) };
-        }
+    if let Some(avx2) = Avx2::detect() {
+        // SAFETY: the token proves the CPU has AVX2.
+        return unsafe { output_sums_avx2(avx2, cols, e, sd_v, eta) };
     }
-    output_sums_body(cols, e, sd_v, eta)
+    output_sums_lanes(Quad, cols, e, sd_v, eta)
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn output_sums_avx2(avx2: Avx2, cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
+    output_sums_lanes(avx2, cols, e, sd_v, eta)
+}
+
+/// [`output_sums`] in the lanes of `l`.
 #[inline(always)]
-fn output_sums_body(cols: &Columns<'_>, e: &[f64], sd_v: f64, eta: &[f64]) -> [f64; 4] {
-    let mut acc = [[0.0; LANES]; 4];
+fn output_sums_lanes<L: Lanes4>(
+    l: L,
+    cols: &Columns<'_>,
+    e: &[f64],
+    sd_v: f64,
+    eta: &[f64],
+) -> [f64; 4] {
     let n = cols.v.len();
+    assert!(cols.f.len() == n && cols.c.len() == n && e.len() >= n && eta.len() >= n);
     let whole = n - n % LANES;
-    let lanes = cols.v[..whole]
-        .chunks_exact(LANES)
-        .zip(cols.f[..whole].chunks_exact(LANES))
-        .zip(cols.c[..whole].chunks_exact(LANES))
-        .zip(e[..whole].chunks_exact(LANES))
-        .zip(eta[..whole].chunks_exact(LANES));
-    for ((((v, f), c), e), eta) in lanes {
-        for l in 0..LANES {
-            let vt = v[l] + sd_v * e[l];
-            acc[0][l] += eta[l];
-            acc[1][l] += f[l] * eta[l];
-            acc[2][l] += c[l] * eta[l];
-            acc[3][l] += vt * vt * eta[l];
-        }
+    let mut acc = [l.splat(0.0); 4];
+    for i in (0..whole).step_by(LANES) {
+        let vt = measured_speed(l, l.load(cols.v, i), sd_v, l.load(e, i));
+        let eta_i = l.load(eta, i);
+        acc[0] = acc[0] + eta_i;
+        acc[1] = acc[1] + l.load(cols.f, i) * eta_i;
+        acc[2] = acc[2] + l.load(cols.c, i) * eta_i;
+        acc[3] = acc[3] + vt * vt * eta_i;
     }
+    let mut acc = acc.map(|a| l.lanes(a));
     output_sums_tail(cols, e, sd_v, eta, whole, &mut acc);
     acc.map(reduce)
 }
@@ -248,7 +181,7 @@ fn output_sums_tail(
 ) {
     for i in whole..cols.v.len() {
         let l = i % LANES;
-        let vt = cols.v[i] + sd_v * e[i];
+        let vt = measured_speed(Scalar, cols.v[i], sd_v, e[i]);
         acc[0][l] += eta[i];
         acc[1][l] += cols.f[i] * eta[i];
         acc[2][l] += cols.c[i] * eta[i];
@@ -277,13 +210,13 @@ mod tests {
                 c: &reg.c[start..start + len],
                 y: &reg.y[start..start + len],
             };
-            let portable = speed_sums_body::<false>(&cols, &e[..len], 0.8, &mut []);
+            let portable = speed_sums_lanes::<_, false>(Quad, &cols, &e[..len], 0.8, &mut []);
             let dispatched = speed_sums(&cols, &e[..len], 0.8);
             assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));
             // Writing w changes no sum, and writes the w of each sample, every one of them
             // (the two writers start from values no w can take).
             let (mut w_portable, mut w_dispatched) = (vec![-1.0; len], vec![-2.0; len]);
-            let writing = speed_sums_body::<true>(&cols, &e[..len], 0.8, &mut w_portable);
+            let writing = speed_sums_lanes::<_, true>(Quad, &cols, &e[..len], 0.8, &mut w_portable);
             assert_eq!(writing.map(f64::to_bits), portable.map(f64::to_bits));
             let writing = speed_sums_writing_w(&cols, &e[..len], 0.8, &mut w_dispatched);
             assert_eq!(writing.map(f64::to_bits), portable.map(f64::to_bits));
@@ -294,7 +227,7 @@ mod tests {
                     ((vt * vt).to_bits(), (vt * vt).to_bits())
                 );
             }
-            let portable = output_sums_body(&cols, &e[..len], 0.8, &eta[..len]);
+            let portable = output_sums_lanes(Quad, &cols, &e[..len], 0.8, &eta[..len]);
             let dispatched = output_sums(&cols, &e[..len], 0.8, &eta[..len]);
             assert_eq!(portable.map(f64::to_bits), dispatched.map(f64::to_bits));
         }

@@ -6,13 +6,14 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
-#[cfg(test)]
-use super::channels::Samples;
-use super::channels::{BlockNoise, Channel, NoiseLevels, Quantity, SampleColumns};
+use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 use super::regression::Regression;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::Quad;
 
 mod one_pass;
 pub use one_pass::Wanted;
@@ -38,14 +39,15 @@ pub struct Block<'a> {
 
 /// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
 /// s̃ = g sin θ̃ — built from the block's draws by each channel's
-/// [`perturb`](Channel::perturb) (the general path; docs/model.md#sufficient-statistics).
+/// [`measure`](Channel::measure) (the general path; docs/model.md#sufficient-statistics).
 /// A column no channel moved is the regression's own (see [`MeasuredBlock::view`]).
 #[derive(Debug, Clone)]
 pub struct MeasuredBlock {
-    columns: SampleColumns,
     start: usize,
     len: usize,
+    force_moved: bool,
     grade_moved: bool,
+    f: [f64; BLOCK],
     w: [f64; BLOCK],
     c: [f64; BLOCK],
     y: [f64; BLOCK],
@@ -56,10 +58,11 @@ impl MeasuredBlock {
     /// An empty block (on the heap: a dozen columns of [`BLOCK`]).
     pub fn new() -> Box<Self> {
         Box::new(MeasuredBlock {
-            columns: SampleColumns::default(),
             start: 0,
             len: 0,
+            force_moved: false,
             grade_moved: false,
+            f: [0.0; BLOCK],
             w: [0.0; BLOCK],
             c: [0.0; BLOCK],
             y: [0.0; BLOCK],
@@ -67,89 +70,27 @@ impl MeasuredBlock {
         })
     }
 
-    /// Measure the samples of `b` with its draws, in one pass over the samples. Compiled for
-    /// AVX2 where the CPU has it: the same operations (no FMA, no reassociation), so the
-    /// same bits, which are those of the channels' [`perturb`](Channel::perturb) column by
-    /// column.
+    /// Measure the samples of `b` with its draws, in one pass over the samples, four at a
+    /// time in the portable lanes or an AVX2 register (the same bits).
     pub fn measure(&mut self, b: Block<'_>) {
         #[cfg(target_arch = "x86_64")]
-        {
-            if crate::numeric::simd::avx2() {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.measure_avx2(b) };
-            }
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves the CPU has AVX2.
+            return unsafe { self.measure_avx2(avx2, b) };
         }
-        self.measure_one_pass::<false>(b);
+        self.measure_one_pass(Quad, b);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn measure_avx2(&mut self, b: Block<'_>) {
-        self.measure_one_pass::<true>(b);
-    }
-
-    /// The block measured channel by channel, each channel's
-    /// [`perturb`](Channel::perturb) on the whole block and then the columns pass by pass:
-    /// the definition [`measure`](Self::measure) keeps bit for bit.
-    #[cfg(test)]
-    fn measure_by_channels(&mut self, b: Block<'_>) {
-        let Block {
-            reg,
-            levels,
-            start,
-            len,
-            draws,
-            derivative,
-        } = b;
-        let mut samples = Samples::new(reg, start, len, &mut self.columns);
-        for (c, sd) in levels.iter() {
-            if let Some(d) = draws[c] {
-                c.perturb(&mut samples, *sd, &d[..len]);
-            }
-        }
-        (self.start, self.len) = (start, len);
-        let g = reg.g;
-        let range = start..start + len;
-        for (w, v) in self.w[..len].iter_mut().zip(samples.get(Quantity::Speed)) {
-            *w = v * v;
-        }
-        self.grade_moved = samples.moved(Quantity::SinGrade);
-        let grade = if self.grade_moved {
-            let (sin, cos) = (
-                samples.get(Quantity::SinGrade),
-                samples.get(Quantity::CosGrade),
-            );
-            for j in 0..len {
-                self.c[j] = -g * cos[j];
-                self.s[j] = g * sin[j];
-            }
-            &self.s[..len]
-        } else {
-            &reg.g_sin[range.clone()]
-        };
-        let accel = &reg.accel[range];
-        let y = &mut self.y[..len];
-        if samples.moved(Quantity::OutputNoise) {
-            let noise = samples.get(Quantity::OutputNoise);
-            for j in 0..len {
-                y[j] = accel[j] + grade[j] + noise[j];
-            }
-        } else {
-            for j in 0..len {
-                y[j] = accel[j] + grade[j];
-            }
-        }
-        if let Some(d) = derivative {
-            for (y, d) in y.iter_mut().zip(d) {
-                *y += d;
-            }
-        }
+    fn measure_avx2(&mut self, avx2: Avx2, b: Block<'_>) {
+        self.measure_one_pass(avx2, b);
     }
 
     /// The block's rows on `reg` (the regression it was measured on).
     pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
         let (len, range) = (self.len, self.start..self.start + self.len);
-        let f = self.columns.moved(Quantity::Force, len);
+        let f = self.force_moved.then(|| &self.f[..len]);
         let (c, s) = match self.grade_moved {
             true => (&self.c[..len], &self.s[..len]),
             false => (&reg.c[range.clone()], &reg.g_sin[range.clone()]),
@@ -876,10 +817,10 @@ mod tests {
 
     #[test]
     fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
-        // The block measured channel by channel (each channel's `perturb`, then the columns
-        // pass by pass), in one portable pass, and in one pass as dispatched (AVX2 where the
-        // CPU has it), and its moments summed in that pass: the same operations, so the same
-        // bits. Each channel on or off, the grade noise with speed noise alone (the
+        // The block measured one sample at a time (each channel's `measure` on one
+        // number), in one pass in the portable lanes, and in one pass as dispatched (AVX2
+        // where the CPU has it), and its moments summed in that pass: the same operations,
+        // so the same bits. Each channel on or off, the grade noise with speed noise alone (the
         // grade-noise study), grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in
         // every block),
         // with and without a derivative's noise, whole and partial blocks.
@@ -916,8 +857,8 @@ mod tests {
                         draws: block_noise,
                         derivative: d,
                     };
-                    blocks[0].measure_by_channels(b);
-                    blocks[1].measure_one_pass::<false>(b);
+                    blocks[0].measure_by_samples(b);
+                    blocks[1].measure_one_pass(Quad, b);
                     blocks[2].measure(b);
                     let want = blocks[0].view(&reg);
                     for got in &blocks[1..] {
@@ -944,14 +885,17 @@ mod tests {
                         let mut got = vec![
                             kept,
                             block.measure_and_sum(b, wanted(false)),
-                            block.measure_and_sum_portable(b, wanted(true)),
+                            block.measure_and_sum_in(Quad, b, wanted(true)),
+                            block.measure_and_sum_in(Quad, b, wanted(false)),
                         ];
                         // The AVX2 build too where the dispatch takes the AVX-512VL one.
                         #[cfg(target_arch = "x86_64")]
-                        if std::arch::is_x86_feature_detected!("avx2") {
+                        if let Some(avx2) = Avx2::detect() {
                             for rows in [true, false] {
-                                // SAFETY: the CPU supports AVX2, checked just above.
-                                got.push(unsafe { block.measure_and_sum_avx2(b, wanted(rows)) });
+                                // SAFETY: the token proves the CPU has AVX2.
+                                got.push(unsafe {
+                                    block.measure_and_sum_avx2(avx2, b, wanted(rows))
+                                });
                             }
                         }
                         let bits = |m: &Moments| {

@@ -1,7 +1,7 @@
 //! Sums over a realisation's measured rows for the estimators that read them: the moments
-//! of consecutive segments (`wbcls`) and the running normal equations of `rls`. Both in
-//! four lanes like the kernel's block sums, compiled for AVX2 where the CPU has it; the
-//! two builds run the same operations in the same order, so they agree bit for bit.
+//! of consecutive segments (`wbcls`) and the running normal equations of `rls`. Both written
+//! once over the four lanes of `numeric::simd` (portable, or AVX2 where the CPU has it: the
+//! same operations in the same order, so the same bits).
 
 use std::sync::Arc;
 
@@ -10,17 +10,15 @@ use nalgebra::{Matrix3, Vector3};
 use super::moments::{GradeSums, Moments, RowsView};
 use super::regression::Regression;
 use super::wbcls::SEGMENT_S;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::{Lanes4, Quad, Real};
 
 const LANES: usize = 4;
 
 #[inline(always)]
 fn reduce(l: [f64; LANES]) -> f64 {
     (l[0] + l[1]) + (l[2] + l[3])
-}
-
-#[inline(always)]
-fn mul(a: [f64; LANES], b: [f64; LANES]) -> [f64; LANES] {
-    [a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3]]
 }
 
 /// Least time between two checks of the running `rls` estimate \[s\]: the settle time is
@@ -41,25 +39,24 @@ pub fn segment_moments(
     grade: bool,
 ) -> Moments {
     #[cfg(target_arch = "x86_64")]
-    {
-        if crate::numeric::simd::avx2() {
-            // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { segment_moments_avx2(rows, start, end, constant, grade) };
-        }
+    if let Some(avx2) = Avx2::detect() {
+        // SAFETY: the token proves the CPU has AVX2.
+        return unsafe { segment_moments_avx2(avx2, rows, start, end, constant, grade) };
     }
-    segment_moments_body::<false>(rows, start, end, constant, grade)
+    segment_moments_lanes(Quad, rows, start, end, constant, grade)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn segment_moments_avx2(
+    avx2: Avx2,
     rows: RowsView<'_>,
     start: usize,
     end: usize,
     constant: Option<&Moments>,
     grade: bool,
 ) -> Moments {
-    segment_moments_body::<true>(rows, start, end, constant, grade)
+    segment_moments_lanes(avx2, rows, start, end, constant, grade)
 }
 
 /// A product of columns summed in lanes: columns `.0` and `.1` of the four given, or column
@@ -70,236 +67,31 @@ type Term = (usize, usize);
 const ALONE: usize = usize::MAX;
 
 /// Each term summed over rows `0..whole` (a multiple of four) of `cols`, row i into lane
-/// i mod 4: the portable code, and on x86-64 with `AVX2` the same operations per lane in
-/// 256-bit registers (no FMA, no reassociation), so the two agree bit for bit. `AVX2` is
-/// true only where this is inlined into a function compiled for AVX2 (the `*_avx2`
-/// functions of this module, called only after the CPU is checked), as for every
-/// `<const AVX2: bool>` function here.
+/// i mod 4, in the lanes of `l` (portable, or one AVX2 register: the same bits). Always
+/// inlined, so that the terms are constants of the loop.
 #[inline(always)]
-fn lane_sums<const AVX2: bool, const K: usize>(
+fn lane_sums<L: Lanes4, const K: usize>(
+    l: L,
     cols: [&[f64]; 4],
     terms: [Term; K],
     whole: usize,
 ) -> [[f64; LANES]; K] {
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are called
-        // only where the CPU has it.
-        return unsafe { simd::lane_sums(cols, terms, whole) };
+    let used = |c: usize| terms.iter().any(|&(x, z)| x == c || z == c);
+    for (c, col) in cols.iter().enumerate() {
+        assert!(!used(c) || col.len() >= whole);
     }
-    let mut acc = [[0.0; LANES]; K];
+    let mut acc = [l.splat(0.0); K];
     for i in (0..whole).step_by(LANES) {
         for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-            for l in 0..LANES {
-                a[l] += if z == ALONE {
-                    cols[x][i + l]
-                } else {
-                    cols[x][i + l] * cols[z][i + l]
-                };
-            }
-        }
-    }
-    acc
-}
-
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    //! AVX2 builds of the lane sums, lane for lane the portable code.
-
-    use std::arch::x86_64::*;
-
-    use super::{ALONE, LANES, PENDING, Term};
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn lanes(v: __m256d) -> [f64; LANES] {
-        let mut out = [0.0; LANES];
-        store(&mut out, v);
-        out
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn load(x: &[f64], i: usize) -> __m256d {
-        assert!(i + LANES <= x.len());
-        // SAFETY: bounds checked just above.
-        unsafe { _mm256_loadu_pd(x.as_ptr().add(i)) }
-    }
-
-    /// The lane sums of `terms` (see [`super::lane_sums`]): always inlined, so that the
-    /// terms are constants of the loop (a function compiled for AVX2 cannot be forced
-    /// inline, and out of line the terms would be read at run time).
-    ///
-    /// # Safety
-    /// The CPU supports AVX2; called only from a function compiled for it.
-    #[inline(always)]
-    pub(super) unsafe fn lane_sums<const K: usize>(
-        cols: [&[f64]; 4],
-        terms: [Term; K],
-        whole: usize,
-    ) -> [[f64; LANES]; K] {
-        let used = |c: usize| terms.iter().any(|&(x, z)| x == c || z == c);
-        for (c, col) in cols.iter().enumerate() {
-            assert!(!used(c) || col.len() >= whole);
-        }
-        // SAFETY: the CPU supports AVX2, as the caller promises.
-        unsafe {
-            let mut acc = [_mm256_setzero_pd(); K];
-            let mut i = 0;
-            while i < whole {
-                for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-                    let t = if z == ALONE {
-                        load(cols[x], i)
-                    } else {
-                        _mm256_mul_pd(load(cols[x], i), load(cols[z], i))
-                    };
-                    *a = _mm256_add_pd(*a, t);
-                }
-                i += LANES;
-            }
-            acc.map(|a| lanes(a))
-        }
-    }
-
-    /// [`RlsScan`](super::RlsScan)'s groups of four rows in 256-bit registers, lane for
-    /// lane, the lanes kept in registers between checks; only the terms the realisation
-    /// sums under `FREE` ([`super::summed`]). The lanes at each check are put aside and the
-    /// checks taken [`PENDING`] at a time by [`checks`] (in order, the same operations).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn rls_groups<const FORGET: bool, const FREE: u8>(
-        run: &mut super::RlsRun,
-        plan: &super::RlsPlan,
-        cols: [&[f64]; 4],
-        start: usize,
-        to: usize,
-    ) {
-        let [f, w, c, y] = cols;
-        let minus_k = _mm256_set1_pd(-run.k);
-        let age = _mm256_set1_pd(run.age);
-        let entry = load(&run.entry, 0);
-        let mut acc = run.lanes.map(|l| load(&l, 0));
-        let row_of = |check: usize| plan.checks.get(check).copied().unwrap_or(usize::MAX);
-        let mut count = 0;
-        let mut next_row = row_of(run.next_check);
-        let mut start = start;
-        while start < to {
-            let x1 = load(f, start);
-            let x2 = _mm256_mul_pd(minus_k, load(w, start));
-            let x3 = load(c, start);
-            let y = load(y, start);
-            let terms = [
-                _mm256_mul_pd(x1, x1),
-                _mm256_mul_pd(x1, x2),
-                _mm256_mul_pd(x1, x3),
-                _mm256_mul_pd(x2, x2),
-                _mm256_mul_pd(x2, x3),
-                _mm256_mul_pd(x3, x3),
-                _mm256_mul_pd(x1, y),
-                _mm256_mul_pd(x2, y),
-                _mm256_mul_pd(x3, y),
-            ];
-            for (k, (a, t)) in acc.iter_mut().zip(terms).enumerate() {
-                if !super::summed(FREE, k) {
-                    continue;
-                }
-                *a = if FORGET {
-                    _mm256_add_pd(_mm256_mul_pd(age, *a), _mm256_mul_pd(entry, t))
-                } else {
-                    _mm256_add_pd(*a, t)
-                };
-            }
-            if start + LANES - 1 == next_row {
-                for (k, a) in acc.iter().enumerate() {
-                    if super::summed(FREE, k) {
-                        store(&mut run.pending[count][k], *a);
-                    }
-                }
-                count += 1;
-                if count == PENDING {
-                    checks::<FREE>(run, plan, count);
-                    count = 0;
-                }
-                next_row = row_of(run.next_check + count);
-            }
-            start += LANES;
-        }
-        if count > 0 {
-            checks::<FREE>(run, plan, count);
-        }
-        for (lane, a) in run.lanes.iter_mut().zip(acc) {
-            store(lane, a);
-        }
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn store(to: &mut [f64; LANES], v: __m256d) {
-        // SAFETY: writes four f64 into an array of four.
-        unsafe { _mm256_storeu_pd(to.as_mut_ptr(), v) };
-    }
-
-    /// The plan's next `count` checks (at most [`PENDING`]), the run's `pending` holding
-    /// each one's lanes of the terms it sums under `FREE`: side by side, check c in lane c,
-    /// the operations of [`super::RlsRun::check_group`] (each state (l₀ + l₁) + (l₂ + l₃)
-    /// of its lanes or the plan's, then [`super::settled`]'s), then the checks in order.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn checks<const FREE: u8>(run: &mut super::RlsRun, plan: &super::RlsPlan, count: usize) {
-        debug_assert!((1..=PENDING).contains(&count));
-        let j = run.next_check;
-        let pending = &run.pending;
-        let mut states = [_mm256_setzero_pd(); 9];
-        for (k, state) in states.iter_mut().enumerate() {
-            *state = if super::summed(FREE, k) {
-                // Lane c: check c's (l₀ + l₁) + (l₂ + l₃) (lanes past `count` go unread).
-                let pairs = _mm256_hadd_pd(load(&pending[0][k], 0), load(&pending[1][k], 0));
-                let more = _mm256_hadd_pd(load(&pending[2][k], 0), load(&pending[3][k], 0));
-                _mm256_add_pd(
-                    _mm256_permute2f128_pd::<0x20>(pairs, more),
-                    _mm256_permute2f128_pd::<0x31>(pairs, more),
-                )
+            let t = if z == ALONE {
+                l.load(cols[x], i)
             } else {
-                // The plan's states of checks j .. j + 4 (past its last check, copies of
-                // the last).
-                let slot = super::PLANNED.iter().position(|&p| p == k);
-                load(&plan.fixed[slot.expect("a planned term")], j)
+                l.load(cols[x], i) * l.load(cols[z], i)
             };
+            *a = *a + t;
         }
-        let [p, q, e, s, u, v, b1, b2, b3] = states;
-        let (mul, sub, add) = (_mm256_mul_pd, _mm256_sub_pd, _mm256_add_pd);
-        let c11 = sub(mul(s, v), mul(u, u));
-        let det = add(
-            sub(mul(p, c11), mul(q, sub(mul(q, v), mul(u, e)))),
-            mul(e, sub(mul(q, u), mul(s, e))),
-        );
-        let num = add(
-            sub(mul(b1, c11), mul(q, sub(mul(b2, v), mul(u, b3)))),
-            mul(e, sub(mul(b2, u), mul(s, b3))),
-        );
-        let magnitude = _mm256_set1_pd(f64::from_bits(!(1u64 << 63)));
-        let off = _mm256_and_pd(sub(num, mul(_mm256_set1_pd(run.target), det)), magnitude);
-        let within = _mm256_cmp_pd::<_CMP_LE_OQ>(
-            off,
-            mul(_mm256_set1_pd(run.band), _mm256_and_pd(det, magnitude)),
-        );
-        let nonzero = _mm256_cmp_pd::<_CMP_NEQ_UQ>(det, _mm256_setzero_pd());
-        let settled = _mm256_movemask_pd(_mm256_and_pd(within, nonzero));
-        let mut each = [[0.0; LANES]; 9];
-        for (each, state) in each.iter_mut().zip(states) {
-            store(each, state);
-        }
-        if let Some(record) = &mut run.record {
-            record.extend((0..count).map(|c| super::PLANNED.map(|k| each[k][c])));
-        }
-        for (state, each) in run.state.iter_mut().zip(&each) {
-            *state = each[count - 1];
-        }
-        for c in 0..count {
-            run.settle_at(settled & (1 << c) != 0, plan.checks[j + c]);
-        }
-        run.next_check += count;
     }
+    acc.map(|a| l.lanes(a))
 }
 
 /// Each term summed over all rows of `cols` (`n` rows): [`lane_sums`] of the groups of
@@ -307,13 +99,14 @@ mod simd {
 /// below are this with their lists of terms; a term's lanes are summed apart from the
 /// others', so a term has the same bits in any list.
 #[inline(always)]
-fn sums<const AVX2: bool, const K: usize>(
+fn sums<L: Lanes4, const K: usize>(
+    l: L,
     cols: [&[f64]; 4],
     terms: [Term; K],
     n: usize,
 ) -> [f64; K] {
     let whole = n - n % LANES;
-    let mut acc = lane_sums::<AVX2, K>(cols, terms, whole);
+    let mut acc = lane_sums(l, cols, terms, whole);
     #[allow(clippy::needless_range_loop)] // row i of each of the columns a term names
     for i in whole..n {
         for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
@@ -329,7 +122,7 @@ fn sums<const AVX2: bool, const K: usize>(
 
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
 #[inline(always)]
-fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
+fn noisy_sums<L: Lanes4>(l: L, f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 8] {
     // Columns 0..4: x̃₁, w, x̃₃, ỹ.
     let terms = [
         (0, 3),
@@ -341,15 +134,15 @@ fn noisy_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [
         (1, ALONE),
         (3, ALONE),
     ];
-    sums::<AVX2, 8>([f, w, c, y], terms, f.len())
+    sums(l, [f, w, c, y], terms, f.len())
 }
 
 /// The sums that involve w: [Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw] (those of [`noisy_sums`]).
 #[inline(always)]
-fn w_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 5] {
+fn w_sums<L: Lanes4>(l: L, f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 5] {
     // Columns 0..4: x̃₁, w, x̃₃, ỹ.
     let terms = [(0, 1), (2, 1), (1, 1), (1, 3), (1, ALONE)];
-    sums::<AVX2, 5>([f, w, c, y], terms, f.len())
+    sums(l, [f, w, c, y], terms, f.len())
 }
 
 /// The sums of ỹ without w: [Σx̃₁ỹ, Σx̃₃ỹ, Σỹ] of rows `f`, `c`, `y`, the same bits as
@@ -357,22 +150,22 @@ fn w_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64;
 /// For the regression's noise-free sums over each segment (`Regression::segments`).
 pub(crate) fn output_sums(f: &[f64], c: &[f64], y: &[f64]) -> [f64; 3] {
     // Columns 0..4: x₁, (none), x₃, y.
-    sums::<false, 3>([f, &[], c, y], [(0, 3), (2, 3), (3, ALONE)], f.len())
+    sums(Quad, [f, &[], c, y], [(0, 3), (2, 3), (3, ALONE)], f.len())
 }
 
 /// The sums of x̃₁ and x̃₃ alone: [Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃].
 #[inline(always)]
-fn regressor_sums<const AVX2: bool>(f: &[f64], c: &[f64]) -> [f64; 5] {
+fn regressor_sums<L: Lanes4>(l: L, f: &[f64], c: &[f64]) -> [f64; 5] {
     let terms = [(0, 0), (0, 2), (2, 2), (0, ALONE), (2, ALONE)];
-    sums::<AVX2, 5>([f, &[], c, &[]], terms, f.len())
+    sums(l, [f, &[], c, &[]], terms, f.len())
 }
 
 /// The sums of the grade term s̃: [Σs̃, Σx̃₁s̃, Σx̃₃s̃, Σws̃].
 #[inline(always)]
-fn grade_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
+fn grade_sums<L: Lanes4>(l: L, f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> GradeSums {
     // Columns 0..4: x̃₁, w, x̃₃, s̃.
     let terms = [(3, ALONE), (0, 3), (2, 3), (1, 3)];
-    let [s_s, s_1s, s_3s, s_ws] = sums::<AVX2, 4>([f, w, c, s], terms, f.len());
+    let [s_s, s_1s, s_3s, s_ws] = sums(l, [f, w, c, s], terms, f.len());
     GradeSums {
         s_s,
         s_1s,
@@ -382,7 +175,8 @@ fn grade_sums<const AVX2: bool>(f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> G
 }
 
 #[inline(always)]
-fn segment_moments_body<const AVX2: bool>(
+pub(crate) fn segment_moments_lanes<L: Lanes4>(
+    l: L,
     rows: RowsView<'_>,
     start: usize,
     end: usize,
@@ -397,21 +191,21 @@ fn segment_moments_body<const AVX2: bool>(
     );
     // An `if`, not a closure: a closure is not inlined into the AVX2 functions with it.
     let grade = if grade {
-        Some(grade_sums::<AVX2>(f, w, c, &rows.s[start..end]))
+        Some(grade_sums(l, f, w, c, &rows.s[start..end]))
     } else {
         None
     };
     let [s_1y, s_3y, s_1w, s_3w, s_ww, s_wy, s_w, s_y] = match constant {
         // ỹ the regression's: its sums without w are the segment's noise-free ones.
         Some(m) if rows.noise_free_y => {
-            let [s_1w, s_3w, s_ww, s_wy, s_w] = w_sums::<AVX2>(f, w, c, y);
+            let [s_1w, s_3w, s_ww, s_wy, s_w] = w_sums(l, f, w, c, y);
             [m.s_1y, m.s_3y, s_1w, s_3w, s_ww, s_wy, s_w, m.s_y]
         }
-        _ => noisy_sums::<AVX2>(f, w, c, y),
+        _ => noisy_sums(l, f, w, c, y),
     };
     let [s_11, s_13, s_33, s_1, s_3] = match constant {
         Some(m) => [m.s_11, m.s_13, m.s_33, m.s_1, m.s_3],
-        None => regressor_sums::<AVX2>(f, c),
+        None => regressor_sums(l, f, c),
     };
     Moments {
         s_11,
@@ -579,33 +373,33 @@ impl SegmentScan {
     fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
         let (segments, constants) = reg.segments(SEGMENT_S);
         #[cfg(target_arch = "x86_64")]
-        {
-            if crate::numeric::simd::avx2() {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.advance_avx2(rows, segments, constants, end) };
-            }
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves the CPU has AVX2.
+            return unsafe { self.advance_avx2(avx2, rows, segments, constants, end) };
         }
-        self.advance_body::<false>(rows, segments, constants, end);
+        self.advance_lanes(Quad, rows, segments, constants, end);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn advance_avx2(
         &mut self,
+        avx2: Avx2,
         rows: RowsView<'_>,
         segments: &[(usize, usize)],
         constants: &[Moments],
         end: usize,
     ) {
-        self.advance_body::<true>(rows, segments, constants, end);
+        self.advance_lanes(avx2, rows, segments, constants, end);
     }
 
     /// The segments that end by `end`, each [`segment_moments`] of its rows, written into
     /// `done` by the function that sums them (compiled for AVX2, the copy of a segment's
     /// moments is a few register stores rather than a call of `memcpy`).
     #[inline(always)]
-    fn advance_body<const AVX2: bool>(
+    fn advance_lanes<L: Lanes4>(
         &mut self,
+        l: L,
         rows: RowsView<'_>,
         segments: &[(usize, usize)],
         constants: &[Moments],
@@ -616,9 +410,8 @@ impl SegmentScan {
                 break;
             }
             let constant = rows.noise_free_f_c.then_some(&constants[self.done.len()]);
-            self.done.push(segment_moments_body::<AVX2>(
-                rows, a, b, constant, self.grade,
-            ));
+            self.done
+                .push(segment_moments_lanes(l, rows, a, b, constant, self.grade));
         }
     }
 }
@@ -772,13 +565,12 @@ struct RlsRun {
     /// The next row to take, and the row count.
     next: usize,
     n: usize,
-    /// The lanes of the summed terms at the checks not yet taken (the AVX2 build takes
-    /// them several at a time).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    /// The lanes of the summed terms at the checks not yet taken (taken several at a
+    /// time).
     pending: [[[f64; LANES]; 9]; PENDING],
 }
 
-/// The checks the AVX2 build of [`RlsScan`] puts aside before it takes them side by side.
+/// The checks [`RlsScan`] puts aside before it takes them side by side.
 const PENDING: usize = 4;
 
 impl RlsScan {
@@ -815,13 +607,11 @@ impl RlsScan {
         );
         let RlsScan { plan, run } = self;
         #[cfg(target_arch = "x86_64")]
-        {
-            if crate::numeric::simd::avx2() {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { run.advance_avx2(plan, rows, end) };
-            }
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves the CPU has AVX2.
+            return unsafe { run.advance_avx2(avx2, plan, rows, end) };
         }
-        run.advance_by::<false>(plan, rows, end);
+        run.advance_by(Quad, plan, rows, end);
     }
 
     /// The normal equations of all rows and the settle row (all rows taken).
@@ -833,14 +623,14 @@ impl RlsScan {
 impl RlsRun {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn advance_avx2(&mut self, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
-        self.advance_by::<true>(plan, rows, end);
+    fn advance_avx2(&mut self, avx2: Avx2, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
+        self.advance_by(avx2, plan, rows, end);
     }
 
     /// [`RlsScan::advance`] by the loop compiled for λ = 1 or not and for the columns of
     /// the regression's own the rows read.
     #[inline(always)]
-    fn advance_by<const AVX2: bool>(&mut self, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
+    fn advance_by<L: Lanes4>(&mut self, l: L, plan: &RlsPlan, rows: RowsView<'_>, end: usize) {
         let planned = !plan.fixed[0].is_empty();
         let free = match (planned, rows.noise_free_f_c, rows.noise_free_y) {
             (true, true, true) => FREE_F_C_Y,
@@ -848,12 +638,12 @@ impl RlsRun {
             _ => FREE_NONE,
         };
         match (self.lambda == 1.0, free) {
-            (true, FREE_F_C_Y) => self.advance_body::<AVX2, false, FREE_F_C_Y>(plan, rows, end),
-            (true, FREE_F_C) => self.advance_body::<AVX2, false, FREE_F_C>(plan, rows, end),
-            (true, _) => self.advance_body::<AVX2, false, FREE_NONE>(plan, rows, end),
-            (false, FREE_F_C_Y) => self.advance_body::<AVX2, true, FREE_F_C_Y>(plan, rows, end),
-            (false, FREE_F_C) => self.advance_body::<AVX2, true, FREE_F_C>(plan, rows, end),
-            (false, _) => self.advance_body::<AVX2, true, FREE_NONE>(plan, rows, end),
+            (true, FREE_F_C_Y) => self.advance_body::<_, false, FREE_F_C_Y>(l, plan, rows, end),
+            (true, FREE_F_C) => self.advance_body::<_, false, FREE_F_C>(l, plan, rows, end),
+            (true, _) => self.advance_body::<_, false, FREE_NONE>(l, plan, rows, end),
+            (false, FREE_F_C_Y) => self.advance_body::<_, true, FREE_F_C_Y>(l, plan, rows, end),
+            (false, FREE_F_C) => self.advance_body::<_, true, FREE_F_C>(l, plan, rows, end),
+            (false, _) => self.advance_body::<_, true, FREE_NONE>(l, plan, rows, end),
         }
     }
 
@@ -873,35 +663,10 @@ impl RlsRun {
         }
     }
 
-    /// The plan's next check, at `row` (the last of a group): the state of each term the
-    /// realisation sums from its lanes (`sum(k)`, the lanes' (l₀ + l₁) + (l₂ + l₃)), of
-    /// the others from the plan; then the check.
     #[inline(always)]
-    fn check_group<const FREE: u8>(
+    fn advance_body<L: Lanes4, const FORGET: bool, const FREE: u8>(
         &mut self,
-        plan: &RlsPlan,
-        sum: impl Fn(usize) -> f64,
-        row: usize,
-    ) {
-        let j = self.next_check;
-        for k in 0..9 {
-            self.state[k] = if summed(FREE, k) {
-                sum(k)
-            } else {
-                let slot = PLANNED.iter().position(|&p| p == k);
-                plan.fixed[slot.expect("a planned term")][j]
-            };
-        }
-        if let Some(record) = &mut self.record {
-            record.push(PLANNED.map(|k| self.state[k]));
-        }
-        self.next_check += 1;
-        self.check(row);
-    }
-
-    #[inline(always)]
-    fn advance_body<const AVX2: bool, const FORGET: bool, const FREE: u8>(
-        &mut self,
+        l: L,
         plan: &RlsPlan,
         rows: RowsView<'_>,
         end: usize,
@@ -910,7 +675,7 @@ impl RlsRun {
         let whole = n - n % LANES;
         let k = self.k;
         let (f, w, c, y) = (rows.f, rows.w, rows.c, rows.y);
-        self.groups::<AVX2, FORGET, FREE>(plan, [f, w, c, y], self.next, end.min(whole));
+        self.groups::<_, FORGET, FREE>(l, plan, [f, w, c, y], self.next, end.min(whole));
         self.next = self.next.max(end.min(whole));
         if end == n {
             for i in whole.max(self.next)..n {
@@ -924,61 +689,111 @@ impl RlsRun {
         }
     }
 
-    /// Add the groups of four rows `start .. to` into the lanes (the terms `FREE` leaves to
-    /// be summed), checking the estimate at the end of each group the plan checks.
+    /// Add the groups of four rows `start .. to` into the lanes of `l` (the terms `FREE`
+    /// leaves to be summed), the lanes kept in registers between checks. The lanes at each
+    /// check the plan makes are put aside and the checks taken [`PENDING`] at a time by
+    /// [`checks`](Self::checks) (in order, the same operations as one at a time).
     #[inline(always)]
-    fn groups<const AVX2: bool, const FORGET: bool, const FREE: u8>(
+    fn groups<L: Lanes4, const FORGET: bool, const FREE: u8>(
         &mut self,
+        l: L,
         plan: &RlsPlan,
         cols: [&[f64]; 4],
         start: usize,
         to: usize,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are
-            // called only where the CPU has it.
-            return unsafe { simd::rls_groups::<FORGET, FREE>(self, plan, cols, start, to) };
-        }
         let [f, w, c, y] = cols;
-        let (k, age, entry) = (self.k, self.age, self.entry);
-        let mut lanes = self.lanes;
+        let minus_k = l.splat(-self.k);
+        let age = l.splat(self.age);
+        let entry = l.load(&self.entry, 0);
+        let mut acc = self.lanes.map(|a| l.load(&a, 0));
+        let row_of = |check: usize| plan.checks.get(check).copied().unwrap_or(usize::MAX);
+        let mut count = 0;
+        let mut next_row = row_of(self.next_check);
         for start in (start..to).step_by(LANES) {
-            let x1: [f64; LANES] = f[start..start + LANES].try_into().unwrap();
-            let w: [f64; LANES] = w[start..start + LANES].try_into().unwrap();
-            let x2 = w.map(|w| -k * w);
-            let x3: [f64; LANES] = c[start..start + LANES].try_into().unwrap();
-            let y: [f64; LANES] = y[start..start + LANES].try_into().unwrap();
+            let x1 = l.load(f, start);
+            let x2 = minus_k * l.load(w, start);
+            let x3 = l.load(c, start);
+            let y = l.load(y, start);
             let terms = [
-                mul(x1, x1),
-                mul(x1, x2),
-                mul(x1, x3),
-                mul(x2, x2),
-                mul(x2, x3),
-                mul(x3, x3),
-                mul(x1, y),
-                mul(x2, y),
-                mul(x3, y),
+                x1 * x1,
+                x1 * x2,
+                x1 * x3,
+                x2 * x2,
+                x2 * x3,
+                x3 * x3,
+                x1 * y,
+                x2 * y,
+                x3 * y,
             ];
-            for (kk, (lane, t)) in lanes.iter_mut().zip(terms).enumerate() {
-                if !summed(FREE, kk) {
+            for (k, (a, t)) in acc.iter_mut().zip(terms).enumerate() {
+                if !summed(FREE, k) {
                     continue;
                 }
-                for l in 0..LANES {
-                    // λ = 1: the factors are exactly 1, so this is the same sum.
-                    lane[l] = if FORGET {
-                        age * lane[l] + entry[l] * t[l]
-                    } else {
-                        lane[l] + t[l]
-                    };
-                }
+                // λ = 1: the factors are exactly 1, so this is the same sum.
+                *a = if FORGET { age * *a + entry * t } else { *a + t };
             }
-            let last = start + LANES - 1;
-            if plan.checks.get(self.next_check) == Some(&last) {
-                self.check_group::<FREE>(plan, |kk| reduce(lanes[kk]), last);
+            if start + LANES - 1 == next_row {
+                for (k, a) in acc.iter().enumerate() {
+                    if summed(FREE, k) {
+                        l.store(*a, &mut self.pending[count][k], 0);
+                    }
+                }
+                count += 1;
+                if count == PENDING {
+                    self.checks::<_, FREE>(l, plan, count);
+                    count = 0;
+                }
+                next_row = row_of(self.next_check + count);
             }
         }
-        self.lanes = lanes;
+        if count > 0 {
+            self.checks::<_, FREE>(l, plan, count);
+        }
+        for (lane, a) in self.lanes.iter_mut().zip(acc) {
+            l.store(a, lane, 0);
+        }
+    }
+
+    /// The plan's next `count` checks (at most [`PENDING`]), `pending` holding each one's
+    /// lanes of the terms it sums under `FREE`: side by side, check c in lane c, each
+    /// state (l₀ + l₁) + (l₂ + l₃) of its lanes or the plan's, then [`settled`]'s
+    /// operations; then the checks in order.
+    #[inline(always)]
+    fn checks<L: Lanes4, const FREE: u8>(&mut self, l: L, plan: &RlsPlan, count: usize) {
+        debug_assert!((1..=PENDING).contains(&count));
+        let j = self.next_check;
+        let mut states = [l.splat(0.0); 9];
+        for (k, state) in states.iter_mut().enumerate() {
+            *state = if summed(FREE, k) {
+                // Lane c: check c's sum of its lanes (lanes past `count` go unread).
+                l.reduce4([0, 1, 2, 3].map(|c| l.load(&self.pending[c][k], 0)))
+            } else {
+                // The plan's states of checks j .. j + 4 (past its last check, copies of
+                // the last).
+                let slot = PLANNED.iter().position(|&p| p == k);
+                l.load(&plan.fixed[slot.expect("a planned term")], j)
+            };
+        }
+        let [p, q, e, s, u, v, b1, b2, b3] = states;
+        let c11 = s * v - u * u;
+        let det = p * c11 - q * (q * v - u * e) + e * (q * u - s * e);
+        let num = b1 * c11 - q * (b2 * v - u * b3) + e * (b2 * u - s * b3);
+        let off = (num - l.splat(self.target) * det).abs();
+        let within = l.le(off, l.splat(self.band) * det.abs());
+        let nonzero = l.ne(det, l.splat(0.0));
+        let settled = l.movemask(l.and(within, nonzero));
+        let each = states.map(|state| l.lanes(state));
+        if let Some(record) = &mut self.record {
+            record.extend((0..count).map(|c| PLANNED.map(|k| each[k][c])));
+        }
+        for (state, each) in self.state.iter_mut().zip(&each) {
+            *state = each[count - 1];
+        }
+        for c in 0..count {
+            self.settle_at(settled & (1 << c) != 0, plan.checks[j + c]);
+        }
+        self.next_check += count;
     }
 
     /// [`RlsScan::finish`].
@@ -1163,7 +978,7 @@ mod tests {
         let plan = Arc::new(RlsPlan::new(t, own, lambda));
         let mut scan = RlsScan::new(3.3, Arc::clone(&plan), 5e-4, 1e-5, n);
         scan.run
-            .advance_body::<false, FORGET, FREE>(&plan, view(cols), n);
+            .advance_body::<_, FORGET, FREE>(Quad, &plan, view(cols), n);
         scan.finish()
     }
 
@@ -1192,7 +1007,7 @@ mod tests {
             for grade in [false, true] {
                 assert_eq!(
                     segment_moments(view(&cols), a, b, None, grade),
-                    segment_moments_body::<false>(view(&cols), a, b, None, grade)
+                    segment_moments_lanes(Quad, view(&cols), a, b, None, grade)
                 );
             }
         }

@@ -40,6 +40,8 @@ mod fdlibm {
 }
 use fdlibm::*;
 
+use super::simd::{Lanes, Real, Scalar};
+
 /// Whether x is evaluated by the polynomials (|x| ≤ π/4, so never NaN or ±∞); every other
 /// argument goes to `f64::sin_cos`.
 #[inline(always)]
@@ -47,7 +49,16 @@ fn in_kernel_range(x: f64) -> bool {
     x.abs() <= FRAC_PI_4
 }
 
-/// sin x and cos x for |x| ≤ π/4 by the fdlibm kernels, without a branch.
+/// sin x and cos x for |x| ≤ π/4 by the fdlibm kernels, without a branch: [`kernel_lanes`]
+/// of one value.
+#[inline(always)]
+fn kernel(x: f64) -> (f64, f64) {
+    kernel_lanes(Scalar, x)
+}
+
+/// sin x and cos x for |x| ≤ π/4 by the fdlibm kernels, without a branch, lane by lane in
+/// the number type of `l` (one definition for the scalar and the vector code, so the same
+/// bits).
 ///
 /// Tiny arguments need no special case: once x² underflows (|x| < 2⁻⁵³⁸ or so) the
 /// correction terms are zero and the results are x and 1 exactly; before that they are far
@@ -55,22 +66,60 @@ fn in_kernel_range(x: f64) -> bool {
 /// (−0 + +0 = +0), so the sign of x is put back on the sine, which changes nothing else:
 /// on this range sin x has the sign of x.
 #[inline(always)]
-fn kernel(x: f64) -> (f64, f64) {
+pub fn kernel_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
+    let c = |v: f64| l.splat(v);
     let z = x * x;
     let w = z * z;
 
     // __sin(x, 0, 0)
-    let r = S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6);
+    let r = c(S2) + z * (c(S3) + z * c(S4)) + z * w * (c(S5) + z * c(S6));
     let v = z * x;
-    let sin = (x + v * (S1 + z * r)).copysign(x);
+    let sin = (x + v * (c(S1) + z * r)).copysign(x);
 
     // __cos(x, 0): 1 − z/2 is split into w + ((1 − w) − z/2), whose second part is the
     // rounding error of w, so the sum keeps the result within one ulp.
-    let r = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6));
-    let hz = 0.5 * z;
-    let w = 1.0 - hz;
-    let cos = w + (((1.0 - w) - hz) + z * r);
+    let r = z * (c(C1) + z * (c(C2) + z * c(C3))) + w * w * (c(C4) + z * (c(C5) + z * c(C6)));
+    let hz = c(0.5) * z;
+    let w = c(1.0) - hz;
+    let cos = w + (((c(1.0) - w) - hz) + z * r);
     (sin, cos)
+}
+
+/// sin and cos of each lane of `x`: the kernels where |x| ≤ π/4, otherwise (and for NaN,
+/// ±∞) `f64::sin_cos`, lane for lane the bits [`sin_cos`] gives.
+#[inline(always)]
+pub fn sin_cos_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
+    let (sin, cos) = kernel_lanes(l, x);
+    match outside_kernel_range(l, x) {
+        0 => (sin, cos),
+        outside => outside_lanes(l, x, (sin, cos), outside),
+    }
+}
+
+/// `(sin, cos)` with the lanes in the mask `outside` replaced by `f64::sin_cos` of `x`'s.
+#[cold]
+#[inline(never)]
+fn outside_lanes<L: Lanes>(
+    l: L,
+    x: L::F64,
+    (sin, cos): (L::F64, L::F64),
+    outside: u32,
+) -> (L::F64, L::F64) {
+    let (mut xs, mut s, mut c) = ([0.0; 8], [0.0; 8], [0.0; 8]);
+    l.store(x, &mut xs, 0);
+    l.store(sin, &mut s, 0);
+    l.store(cos, &mut c, 0);
+    for lane in (0..L::WIDTH).filter(|lane| outside >> lane & 1 == 1) {
+        (s[lane], c[lane]) = xs[lane].sin_cos();
+    }
+    (l.load(&s, 0), l.load(&c, 0))
+}
+
+/// The mask of the lanes of `x` outside the kernels' range (bit l for lane l: |x| > π/4 or
+/// NaN, as `!in_kernel_range`), whose results a caller replaces by `f64::sin_cos`.
+#[inline(always)]
+pub fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
+    l.not_le_mask(x.abs(), FRAC_PI_4)
 }
 
 /// sin and cos of every `x[i]` into `sin[i]`, `cos[i]` (slices of equal length).
@@ -113,62 +162,6 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
 #[target_feature(enable = "avx2")]
 fn sin_cos_slice_avx2(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     sin_cos_slice_body(x, sin, cos);
-}
-
-/// The kernels of four arguments at once in 256-bit registers: lane for lane the IEEE
-/// operations of [`kernel`] in its order (no FMA), so the same bits; and which lanes lie
-/// outside the kernel's range (bit l of the mask for lane l: |x| > π/4 or NaN), whose
-/// results the caller replaces by `f64::sin_cos`, as [`sin_cos_slice`] does. For a pass
-/// that keeps the small angles in registers (the general kernel's grade noise).
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod simd {
-    use std::arch::x86_64::*;
-
-    use super::FRAC_PI_4;
-    use super::fdlibm::*;
-
-    /// sin x and cos x of each lane (see [`kernel`](super::kernel)), and the mask of the
-    /// lanes outside |x| ≤ π/4. Always inlined, so that the caller's registers hold the
-    /// values (a function compiled for AVX2 cannot be forced inline).
-    ///
-    /// # Safety
-    /// The CPU supports AVX2: call it only from a function compiled for AVX2.
-    #[inline(always)]
-    pub(crate) unsafe fn kernel4(x: __m256d) -> (__m256d, __m256d, i32) {
-        // SAFETY: the caller runs on a CPU with AVX2.
-        unsafe {
-            let c = _mm256_set1_pd;
-            let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
-            let z = mul(x, x);
-            let w = mul(z, z);
-
-            // S2 + z (S3 + z S4) + z w (S5 + z S6)
-            let r = add(
-                add(c(S2), mul(z, add(c(S3), mul(z, c(S4))))),
-                mul(mul(z, w), add(c(S5), mul(z, c(S6)))),
-            );
-            let v = mul(z, x);
-            let t = add(x, mul(v, add(c(S1), mul(z, r))));
-            // copysign: the magnitude of t, the sign of x
-            let sign = c(-0.0);
-            let sin = _mm256_or_pd(_mm256_andnot_pd(sign, t), _mm256_and_pd(sign, x));
-
-            // z (C1 + z (C2 + z C3)) + w w (C4 + z (C5 + z C6))
-            let r = add(
-                mul(z, add(c(C1), mul(z, add(c(C2), mul(z, c(C3)))))),
-                mul(mul(w, w), add(c(C4), mul(z, add(c(C5), mul(z, c(C6)))))),
-            );
-            let hz = mul(c(0.5), z);
-            let one = c(1.0);
-            let w = sub(one, hz);
-            let cos = add(w, add(sub(sub(one, w), hz), mul(z, r)));
-
-            // not (|x| <= π/4): NaN included, as the portable `!in_kernel_range`
-            let abs = _mm256_andnot_pd(sign, x);
-            let outside = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_NLE_UQ>(abs, c(FRAC_PI_4)));
-            (sin, cos, outside)
-        }
-    }
 }
 
 /// The polynomials for every element (a loop the compiler vectorises, noting on the way
@@ -380,31 +373,31 @@ mod tests {
         }
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn the_four_lane_kernel_is_the_kernel_bit_for_bit() {
-        use std::arch::x86_64::*;
-        if !std::arch::is_x86_feature_detected!("avx2") {
-            return;
-        }
+    /// Every four-lane token's kernel is the scalar kernel lane by lane.
+    fn four_lanes_are_the_kernel<L: crate::numeric::simd::Lanes4>(l: L) {
         let x = mixed(4 * 1000, 17);
         for group in x.chunks_exact(4) {
-            let mut got = ([0.0; 4], [0.0; 4]);
-            // SAFETY: the CPU supports AVX2, checked above; four values are read and written.
-            let outside = unsafe {
-                let (s, c, outside) = simd::kernel4(_mm256_loadu_pd(group.as_ptr()));
-                _mm256_storeu_pd(got.0.as_mut_ptr(), s);
-                _mm256_storeu_pd(got.1.as_mut_ptr(), c);
-                outside
-            };
-            for (l, &x) in group.iter().enumerate() {
-                assert_eq!(outside >> l & 1 == 1, !in_kernel_range(x), "{x:e}");
+            let v = l.load(group, 0);
+            let (s, c) = kernel_lanes(l, v);
+            let outside = outside_kernel_range(l, v);
+            let got = (l.lanes(s), l.lanes(c));
+            for (i, &x) in group.iter().enumerate() {
+                assert_eq!(outside >> i & 1 == 1, !in_kernel_range(x), "{x:e}");
                 if in_kernel_range(x) {
                     let (s, c) = kernel(x);
-                    assert_eq!(got.0[l].to_bits(), s.to_bits(), "sin {x:e}");
-                    assert_eq!(got.1[l].to_bits(), c.to_bits(), "cos {x:e}");
+                    assert_eq!(got.0[i].to_bits(), s.to_bits(), "sin {x:e}");
+                    assert_eq!(got.1[i].to_bits(), c.to_bits(), "cos {x:e}");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn the_four_lane_kernel_is_the_kernel_bit_for_bit() {
+        four_lanes_are_the_kernel(crate::numeric::simd::Quad);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = crate::numeric::simd::Avx2::detect() {
+            four_lanes_are_the_kernel(avx2);
         }
     }
 

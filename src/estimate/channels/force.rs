@@ -4,11 +4,12 @@ use super::covariance::gaussian_moment;
 use nalgebra::{Matrix3, Vector3};
 
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity, Samples,
-    SecondOrder, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, SecondOrder,
+    TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
+use crate::numeric::simd::Lanes;
 
 /// The force-noise channel.
 #[derive(Debug, Clone, Copy)]
@@ -24,12 +25,10 @@ impl ChannelTerms for ForceNoise {
     const COLUMNS: &'static [Column] = &[Column::F];
     const PARTS: &'static [Part] = &[Part::F];
 
+    /// F̃ = F + σe.
     #[inline(always)]
-    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
-        let (f, out) = s.moving(Quantity::Force);
-        for ((out, f), e) in out.iter_mut().zip(f).zip(e) {
-            *out = f + sd * e;
-        }
+    fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
+        x.force = x.force + l.splat(sd) * e;
     }
 
     /// (F̃ − F)θ₁.

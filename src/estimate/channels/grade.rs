@@ -2,12 +2,13 @@
 //! x̃₃ = −g cos θ̃ and the output's grade term g sin θ̃ (docs/model.md#noise-channels).
 
 use super::{
-    Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers,
-    Samples, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers, Sample,
+    TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::sums::Column;
-use crate::numeric::trig::sin_cos_slice;
+use crate::numeric::simd::Lanes;
+use crate::numeric::trig::sin_cos_lanes;
 
 /// The grade-noise channel.
 #[derive(Debug, Clone, Copy)]
@@ -23,22 +24,22 @@ impl ChannelTerms for GradeNoise {
     const COLUMNS: &'static [Column] = &[Column::C, Column::Y];
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
+    /// sin and cos of θ + δ, δ = σe, from those of θ and δ (angle addition), the small
+    /// angle's by the vectorised sin/cos (docs/model.md#sensors); then x̃₃ = −g cos θ̃ and
+    /// s̃ = g sin θ̃.
     #[inline(always)]
-    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
-        if sd > 0.0 {
-            // sin/cos of θ + δ from those of θ and δ (angle addition), the small angle's
-            // by the vectorised sin/cos (docs/model.md#sensors)
-            let n = s.len();
-            let ([sin0, cos0], [sin, cos], [delta, sin_d, cos_d]) = s.moving_grade();
-            for (d, e) in delta[..n].iter_mut().zip(e) {
-                *d = sd * e;
-            }
-            sin_cos_slice(&delta[..n], &mut sin_d[..n], &mut cos_d[..n]);
-            for j in 0..n {
-                sin[j] = sin0[j] * cos_d[j] + cos0[j] * sin_d[j];
-                cos[j] = cos0[j] * cos_d[j] - sin0[j] * sin_d[j];
-            }
-        }
+    fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
+        let (sin_d, cos_d) = sin_cos_lanes(l, l.splat(sd) * e);
+        let (sin0, cos0) = (x.sin_grade, x.cos_grade);
+        let sin = sin0 * cos_d + cos0 * sin_d;
+        let cos = cos0 * cos_d - sin0 * sin_d;
+        x.c = l.splat(-x.g) * cos;
+        x.s = l.splat(x.g) * sin;
+    }
+
+    /// σ_θ = 0 moves nothing: the regression's own x̃₃ and s̃ stand.
+    fn moves_at(sd: f64) -> bool {
+        sd > 0.0
     }
 
     /// d/dθ \[g sin θ + θ₃ g cos θ\] = g (cos θ − θ₃ sin θ).

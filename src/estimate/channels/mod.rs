@@ -23,7 +23,7 @@ use std::ops::{Index, IndexMut};
 use super::moments::Moments;
 use super::regression::Regression;
 use super::sums::{Column, Sum};
-use crate::noise::BLOCK;
+use crate::numeric::simd::Lanes;
 
 mod covariance;
 mod expect;
@@ -40,6 +40,7 @@ pub use covariance::{
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance, SecondOrder};
+pub use velocity::measured_speed;
 
 /// One noise channel's terms, implemented by a unit struct in the channel's own file and
 /// registered by one line of `channels!` (docs/model.md#noise-channels). The defaults
@@ -63,10 +64,17 @@ pub trait ChannelTerms {
     /// True when the vectorised kernel handles the channel.
     const ON_FAST_PATH: bool = false;
 
-    /// Apply the draws `e` ~ N(0, 1) at standard deviation `sd` to a block of measured
-    /// samples (`e[j]` to sample j; as many draws as samples), column by column so that
-    /// the loop vectorises.
-    fn perturb(s: &mut Samples, sd: f64, e: &[f64]);
+    /// Move one sample's measured quantities (or those of `L::WIDTH` consecutive samples in
+    /// lanes) by its draw `e` ~ N(0, 1) at standard deviation `sd`: the per-sample
+    /// arithmetic of its noise, written once for every number type and run by every path
+    /// that measures rows (the general path's pass, its scalar tail, the fast path's speed).
+    fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64);
+
+    /// Whether its noise at SD `sd` moves the sample at all (`false`: its draws are not
+    /// read, and the columns it moves stay the regression's own).
+    fn moves_at(_sd: f64) -> bool {
+        true
+    }
 
     /// Its term of the first-order equation-error variance Ω of u = ỹ − x̃ᵀθ at SD `sd`
     /// (docs/model.md#bounds).
@@ -211,12 +219,18 @@ macro_rules! channels {
                 match self { $(Channel::$variant => <$terms>::ON_FAST_PATH,)* }
             }
 
-            /// Apply this channel's draws `e` ~ N(0, 1) at standard deviation `sd` to a
-            /// block of measured samples (the general kernel; see
-            /// docs/model.md#noise-channels).
+            /// Move one sample's measured quantities (or `L::WIDTH` samples' in lanes) by
+            /// this channel's draw `e` ~ N(0, 1) at standard deviation `sd`
+            /// ([`ChannelTerms::measure`]; docs/model.md#noise-channels).
             #[inline(always)]
-            pub fn perturb(self, s: &mut Samples, sd: f64, e: &[f64]) {
-                match self { $(Channel::$variant => <$terms>::perturb(s, sd, e),)* }
+            pub fn measure<L: Lanes>(self, l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
+                match self { $(Channel::$variant => <$terms>::measure(l, x, sd, e),)* }
+            }
+
+            /// Whether this channel's noise at SD `sd` moves the samples at all
+            /// ([`ChannelTerms::moves_at`]).
+            pub fn moves_at(self, sd: f64) -> bool {
+                match self { $(Channel::$variant => <$terms>::moves_at(sd),)* }
             }
 
             /// This channel's term of the first-order equation-error variance Ω at SD `sd`
@@ -352,163 +366,28 @@ impl Channel {
     }
 }
 
-/// A measured quantity of a sample that a channel's noise moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Quantity {
-    /// The propulsion force \[N\].
-    Force,
-    /// The speed \[m/s\].
-    Speed,
-    /// sin of the grade.
-    SinGrade,
-    /// cos of the grade.
-    CosGrade,
-    /// The noise added to the output \[m/s²\] (none: 0).
-    OutputNoise,
+/// One sample's measured quantities in the number type `R` (one sample, or lanes of
+/// consecutive samples), as the channels' [`ChannelTerms::measure`] move them from the
+/// noise-free ones (docs/model.md#noise-channels).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample<R> {
+    /// The propulsion force x̃₁ \[N\].
+    pub force: R,
+    /// The speed Ṽ \[m/s\].
+    pub speed: R,
+    /// The noise-free sin θ of the grade (what a channel that moves the grade starts from).
+    pub sin_grade: R,
+    /// The noise-free cos θ of the grade.
+    pub cos_grade: R,
+    /// Gravity g \[m/s²\].
+    pub g: f64,
+    /// x̃₃ = −g cos θ̃ \[m/s²\] (the noise-free one until a channel moves the grade).
+    pub c: R,
+    /// The grade term s̃ = g sin θ̃ of the output \[m/s²\] (likewise).
+    pub s: R,
+    /// The noise added to the output \[m/s²\] (`None`: none).
+    pub output_noise: Option<R>,
 }
-
-/// Number of [`Quantity`] variants.
-const QUANTITIES: usize = 5;
-
-/// The columns of a block of samples that the channels' noise moved, with room for each
-/// (memory a kernel keeps from block to block).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SampleColumns {
-    moved: [bool; QUANTITIES],
-    data: [[f64; BLOCK]; QUANTITIES],
-    /// Scratch for a channel's work on a block.
-    pub scratch: [[f64; BLOCK]; 3],
-}
-
-impl SampleColumns {
-    /// The first `len` measured values of `q` when a channel moved it in the last block.
-    pub fn moved(&self, q: Quantity, len: usize) -> Option<&[f64]> {
-        self.moved[q as usize].then(|| &self.data[q as usize][..len])
-    }
-
-    /// Start a block measured without [`Samples`] (the general kernel's one pass): nothing
-    /// moved yet.
-    pub fn clear(&mut self) {
-        self.moved = [false; QUANTITIES];
-    }
-
-    /// The column to write the measured values of `q` to, recording whether a channel
-    /// moved it (`false`: the column is scratch, and the noise-free values stand).
-    pub fn write(&mut self, q: Quantity, moved: bool) -> &mut [f64; BLOCK] {
-        self.moved[q as usize] = moved;
-        &mut self.data[q as usize]
-    }
-}
-
-impl Default for SampleColumns {
-    fn default() -> Self {
-        SampleColumns {
-            moved: [false; QUANTITIES],
-            data: [[0.0; BLOCK]; QUANTITIES],
-            scratch: [[0.0; BLOCK]; 3],
-        }
-    }
-}
-
-/// A block of measured samples of the cycle as the general kernel builds them, quantity by
-/// quantity: samples `start .. start + len` of a regression, each quantity the
-/// regression's noise-free one until a channel's [`Channel::perturb`] moves it (each
-/// quantity is moved by one channel: [`ChannelTerms::COLUMNS`] are disjoint).
-#[derive(Debug)]
-pub struct Samples<'a> {
-    reg: &'a Regression,
-    start: usize,
-    len: usize,
-    columns: &'a mut SampleColumns,
-}
-
-impl<'a> Samples<'a> {
-    /// Samples `start .. start + len` of `reg` (`len` ≤ [`BLOCK`]), none moved yet.
-    pub fn new(
-        reg: &'a Regression,
-        start: usize,
-        len: usize,
-        columns: &'a mut SampleColumns,
-    ) -> Self {
-        columns.moved = [false; QUANTITIES];
-        Samples {
-            reg,
-            start,
-            len,
-            columns,
-        }
-    }
-
-    /// Number of samples.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// True when there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// The noise-free values of `q` (the regression's; no noise: zeros).
-    fn noise_free(&self, q: Quantity) -> &'a [f64] {
-        let range = self.start..self.start + self.len;
-        let reg: &'a Regression = self.reg;
-        match q {
-            Quantity::Force => &reg.f[range],
-            Quantity::Speed => &reg.v[range],
-            Quantity::SinGrade => &reg.sin_grade[range],
-            Quantity::CosGrade => &reg.cos_grade[range],
-            Quantity::OutputNoise => &ZEROS[..self.len],
-        }
-    }
-
-    /// The measured values of `q`: moved by a channel, or the noise-free ones.
-    pub fn get(&self, q: Quantity) -> &[f64] {
-        match self.columns.moved[q as usize] {
-            true => &self.columns.data[q as usize][..self.len],
-            false => self.noise_free(q),
-        }
-    }
-
-    /// Whether a channel moved `q`.
-    pub fn moved(&self, q: Quantity) -> bool {
-        self.columns.moved[q as usize]
-    }
-
-    /// Move `q`: its noise-free values, and the column its measured values are written to.
-    pub fn moving(&mut self, q: Quantity) -> (&'a [f64], &mut [f64]) {
-        debug_assert!(!self.moved(q), "{q:?} moved by two channels");
-        self.columns.moved[q as usize] = true;
-        (
-            self.noise_free(q),
-            &mut self.columns.data[q as usize][..self.len],
-        )
-    }
-
-    /// Move the grade's sin and cos together: their noise-free values, their columns, and
-    /// the scratch columns.
-    #[allow(clippy::type_complexity)]
-    pub fn moving_grade(&mut self) -> ([&'a [f64]; 2], [&mut [f64]; 2], &mut [[f64; BLOCK]; 3]) {
-        let base = [
-            self.noise_free(Quantity::SinGrade),
-            self.noise_free(Quantity::CosGrade),
-        ];
-        for q in [Quantity::SinGrade, Quantity::CosGrade] {
-            debug_assert!(!self.moved(q), "{q:?} moved by two channels");
-            self.columns.moved[q as usize] = true;
-        }
-        let n = self.len;
-        let [_, _, sin, cos, _] = &mut self.columns.data;
-        (
-            base,
-            [&mut sin[..n], &mut cos[..n]],
-            &mut self.columns.scratch,
-        )
-    }
-}
-
-/// Zeros: the output noise of a block without it.
-static ZEROS: [f64; BLOCK] = [0.0; BLOCK];
 
 /// A value per channel, indexed by [`Channel`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -559,21 +438,27 @@ mod tests {
 
     #[test]
     fn a_zero_draw_leaves_the_samples_unchanged() {
+        use crate::numeric::simd::Scalar;
         let reg = crate::estimate::regression::test_regression();
-        let quantities = [
-            Quantity::Force,
-            Quantity::Speed,
-            Quantity::SinGrade,
-            Quantity::CosGrade,
-            Quantity::OutputNoise,
-        ];
-        let mut columns = SampleColumns::default();
-        for c in Channel::ALL {
-            let mut s = Samples::new(&reg, 100, 37, &mut columns);
-            let before: Vec<Vec<f64>> = quantities.iter().map(|&q| s.get(q).to_vec()).collect();
-            c.perturb(&mut s, 0.0, &[0.0; 37]);
-            let after: Vec<Vec<f64>> = quantities.iter().map(|&q| s.get(q).to_vec()).collect();
-            assert_eq!(after, before, "{c:?}");
+        for j in [0, 100, reg.len() - 1] {
+            let noise_free = Sample {
+                force: reg.f[j],
+                speed: reg.v[j],
+                sin_grade: reg.sin_grade[j],
+                cos_grade: reg.cos_grade[j],
+                g: reg.g,
+                c: reg.c[j],
+                s: reg.g_sin[j],
+                output_noise: None,
+            };
+            // A channel whose noise at σ = 0 moves nothing is not run (`moves_at`).
+            for c in Channel::ALL.into_iter().filter(|c| c.moves_at(0.0)) {
+                let mut x = noise_free;
+                c.measure(Scalar, &mut x, 0.0, 0.0);
+                assert_eq!(x.output_noise.unwrap_or(0.0), 0.0, "{c:?}");
+                x.output_noise = None;
+                assert_eq!(x, noise_free, "{c:?}");
+            }
         }
     }
 }

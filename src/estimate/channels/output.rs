@@ -3,11 +3,11 @@
 
 use super::covariance::gaussian_moment;
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity, Samples,
-    TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
+use crate::numeric::simd::Lanes;
 
 /// The output-noise channel.
 #[derive(Debug, Clone, Copy)]
@@ -24,12 +24,10 @@ impl ChannelTerms for OutputNoise {
     const PARTS: &'static [Part] = &[Part::O];
     const ON_FAST_PATH: bool = true;
 
+    /// The output's noise σe.
     #[inline(always)]
-    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
-        let (_, out) = s.moving(Quantity::OutputNoise);
-        for (out, e) in out.iter_mut().zip(e) {
-            *out = sd * e;
-        }
+    fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
+        x.output_noise = Some(l.splat(sd) * e);
     }
 
     /// σ_y².

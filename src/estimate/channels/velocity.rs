@@ -12,12 +12,13 @@ use super::covariance::{
     AcrossRows, ColumnPowers, gaussian_moment, hermite_coefficients, packed, powers_of,
 };
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Quantity,
-    RowCovariance, RowMoments, Samples, SecondOrder, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, RowCovariance,
+    RowMoments, Sample, SecondOrder, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::{Column, Sum};
+use crate::numeric::simd::Lanes;
 
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
 /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
@@ -120,6 +121,26 @@ fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64
 #[derive(Debug, Clone, Copy)]
 pub struct Speed;
 
+/// The measured speed Ṽ of noise-free speeds `v` with draws `e` at SD `sd`: [`Speed`]'s
+/// [`measure`](ChannelTerms::measure) of the speed alone (the fast path, which moves
+/// nothing else).
+#[inline(always)]
+pub fn measured_speed<L: Lanes>(l: L, v: L::F64, sd: f64, e: L::F64) -> L::F64 {
+    let zero = l.splat(0.0);
+    let mut x = Sample {
+        force: zero,
+        speed: v,
+        sin_grade: zero,
+        cos_grade: zero,
+        g: 0.0,
+        c: zero,
+        s: zero,
+        output_noise: None,
+    };
+    Speed::measure(l, &mut x, sd, e);
+    x.speed
+}
+
 impl ChannelTerms for Speed {
     const KEY: &'static str = "velocity_sd";
     const UNIT: &'static str = "m/s";
@@ -131,12 +152,10 @@ impl ChannelTerms for Speed {
     const PARTS: &'static [Part] = &[Part::W, Part::D];
     const ON_FAST_PATH: bool = true;
 
+    /// Ṽ = V + σe.
     #[inline(always)]
-    fn perturb(s: &mut Samples, sd: f64, e: &[f64]) {
-        let (v, out) = s.moving(Quantity::Speed);
-        for ((out, v), e) in out.iter_mut().zip(v).zip(e) {
-            *out = v + sd * e;
-        }
+    fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
+        x.speed = x.speed + l.splat(sd) * e;
     }
 
     /// Ṽ² − V² = 2Ve + e² has variance 4V²σ² + 2σ⁴ and enters through −kθ₂.

@@ -1,46 +1,66 @@
-//! The general path's block measured in one pass: every channel's perturbation of a sample,
-//! the grade's small-angle sine and cosine and the angle addition, and the columns w, x̃₃,
-//! s̃, ỹ (and x̃₁ under force noise), four samples at a time in registers; with AVX2 the
-//! block's sums are added in the same pass, in the lanes `segment_moments` (`row_sums.rs`)
-//! uses. The same IEEE operations in the same order as the channels'
-//! [`perturb`](crate::estimate::channels::Channel::perturb) column by column, the column
-//! passes of `MeasuredBlock::measure_by_channels` and `segment_moments` over the rows, so
-//! the same bits (docs/model.md#sufficient-statistics); only the memory traffic between
-//! the passes is gone.
+//! The general path's block measured in one pass: each sample built from the regression's
+//! noise-free quantities and moved by every channel that is on (each channel's
+//! [`measure`](crate::estimate::channels::Channel::measure), the one definition of its
+//! arithmetic), its w and ỹ formed, and, when asked, its terms added to the block's sums in
+//! the lanes `segment_moments` (`row_sums.rs`) uses, so the same bits
+//! (docs/model.md#sufficient-statistics). Written once over the number types of
+//! `numeric::simd`: four samples at a time in the portable lanes or in an AVX2 register, the
+//! samples after the last group one at a time.
 
 use super::{Block, GradeSums, MeasuredBlock, Moments};
-use crate::estimate::channels::{Channel, Quantity};
-use crate::estimate::row_sums::segment_moments;
-use crate::numeric::trig::sin_cos;
+use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
+use crate::estimate::sums::Column;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::{Lanes, Lanes4, Quad, Real, Scalar};
 
-/// One channel's draws of the block and its standard deviation.
-#[derive(Clone, Copy)]
-struct Draw<'a> {
-    e: &'a [f64],
-    sd: f64,
+/// The bit of a channel in the set `CH` of those that move a block (`1 << index`); the
+/// differentiated acceleration's noise has the bit after the channels'.
+const fn bit(c: Channel) -> u32 {
+    1 << c.index()
 }
 
-/// What a block is measured from: the regression's noise-free samples of the block and
-/// each channel's draws (`None`: off).
+/// The bit of a differentiated acceleration's noise in `CH`.
+const DERIVATIVE: u32 = 1 << CHANNEL_COUNT;
+
+/// `CH` for a loop that reads which channels are on at run time.
+const RUNTIME: u32 = u32::MAX;
+
+/// Whether the source `bit` is on: a constant of the loop, or, for [`RUNTIME`], read from
+/// the inputs (`present`).
+#[inline(always)]
+fn on<const CH: u32>(bit: u32, present: bool) -> bool {
+    if CH == RUNTIME {
+        present
+    } else {
+        CH & bit != 0
+    }
+}
+
+/// What a block is measured from, as pointers to `len` values each, checked once per block:
+/// the regression's noise-free samples of the block, each channel's draws (null: off, or
+/// at a level that moves nothing) and standard deviation, and a differentiated
+/// acceleration's noise (null: none).
 #[derive(Clone, Copy)]
-struct Inputs<'a> {
-    f: &'a [f64],
-    v: &'a [f64],
-    sin: &'a [f64],
-    cos: &'a [f64],
-    c: &'a [f64],
-    g_sin: &'a [f64],
-    accel: &'a [f64],
+struct Flat {
+    len: usize,
+    f: *const f64,
+    v: *const f64,
+    sin: *const f64,
+    cos: *const f64,
+    c: *const f64,
+    g_sin: *const f64,
+    accel: *const f64,
     g: f64,
-    force: Option<Draw<'a>>,
-    speed: Option<Draw<'a>>,
-    grade: Option<Draw<'a>>,
-    output: Option<Draw<'a>>,
-    derivative: Option<&'a [f64]>,
+    e: [*const f64; CHANNEL_COUNT],
+    sd: [f64; CHANNEL_COUNT],
+    d: *const f64,
 }
 
-impl<'a> Inputs<'a> {
-    fn new(b: Block<'a>) -> Self {
+// SAFETY: the pointers are read only, from slices that outlive the pass (a `Flat` lives in
+// one call of `MeasuredBlock::pass`).
+impl Flat {
+    fn new(b: Block<'_>) -> Self {
         let Block {
             reg,
             levels,
@@ -50,76 +70,91 @@ impl<'a> Inputs<'a> {
             derivative,
         } = b;
         let range = start..start + len;
-        let mut inputs = Inputs {
-            f: &reg.f[range.clone()],
-            v: &reg.v[range.clone()],
-            sin: &reg.sin_grade[range.clone()],
-            cos: &reg.cos_grade[range.clone()],
-            c: &reg.c[range.clone()],
-            g_sin: &reg.g_sin[range.clone()],
-            accel: &reg.accel[range],
+        let ptr = |s: &[f64]| {
+            assert_eq!(s.len(), len, "a column of the block");
+            s.as_ptr()
+        };
+        let mut flat = Flat {
+            len,
+            f: ptr(&reg.f[range.clone()]),
+            v: ptr(&reg.v[range.clone()]),
+            sin: ptr(&reg.sin_grade[range.clone()]),
+            cos: ptr(&reg.cos_grade[range.clone()]),
+            c: ptr(&reg.c[range.clone()]),
+            g_sin: ptr(&reg.g_sin[range.clone()]),
+            accel: ptr(&reg.accel[range]),
             g: reg.g,
-            force: None,
-            speed: None,
-            grade: None,
-            output: None,
-            derivative: derivative.map(|d| &d[..len]),
+            e: [std::ptr::null(); CHANNEL_COUNT],
+            sd: [0.0; CHANNEL_COUNT],
+            d: derivative.map_or(std::ptr::null(), |d| ptr(&d[..len])),
         };
         for (channel, &sd) in levels.iter() {
-            let Some(e) = draws[channel] else { continue };
-            let draw = Some(Draw { e: &e[..len], sd });
-            // Each channel's `perturb`, written out here: a new channel fails to compile
-            // until its perturbation is added to the pass.
-            match channel {
-                Channel::Velocity => inputs.speed = draw,
-                Channel::Output => inputs.output = draw,
-                // σ_θ = 0 moves nothing (GradeNoise::perturb).
-                Channel::Grade => inputs.grade = draw.filter(|_| sd > 0.0),
-                Channel::Force => inputs.force = draw,
+            if let Some(e) = draws[channel].filter(|_| channel.moves_at(sd)) {
+                flat.e[channel.index()] = ptr(&e[..len]);
+                flat.sd[channel.index()] = sd;
             }
         }
-        inputs
+        flat
     }
-}
 
-/// One measured sample: x̃₁, w, x̃₃, s̃, ỹ.
-type Row = [f64; 5];
+    /// The bits of the sources that move the block.
+    fn channels(&self) -> u32 {
+        let channels = Channel::ALL
+            .into_iter()
+            .filter(|c| !self.e[c.index()].is_null())
+            .fold(0, |bits, c| bits | bit(c));
+        channels | if self.d.is_null() { 0 } else { DERIVATIVE }
+    }
 
-/// Sample `j` measured by the scalar operations (the portable pass, the rows after the
-/// last group of four, and a group with a grade angle outside the polynomials' range).
-#[inline(always)]
-fn row(x: &Inputs<'_>, j: usize) -> Row {
-    let f = match x.force {
-        Some(d) => x.f[j] + d.sd * d.e[j],
-        None => x.f[j],
-    };
-    let v = match x.speed {
-        Some(d) => x.v[j] + d.sd * d.e[j],
-        None => x.v[j],
-    };
-    let (c, s) = match x.grade {
-        Some(d) => {
-            let (sin_d, cos_d) = sin_cos(d.sd * d.e[j]);
-            let (sin0, cos0) = (x.sin[j], x.cos[j]);
-            let sin = sin0 * cos_d + cos0 * sin_d;
-            let cos = cos0 * cos_d - sin0 * sin_d;
-            (-x.g * cos, x.g * sin)
+    /// Whether a channel that is on moves the measured column `column`.
+    fn moves(&self, column: Column) -> bool {
+        Channel::ALL
+            .into_iter()
+            .any(|c| !self.e[c.index()].is_null() && c.columns().contains(&column))
+    }
+
+    /// Samples `i .. i + L::WIDTH` measured: `[x̃₁, w, x̃₃, s̃, ỹ]`. Each channel on (of
+    /// `CH`, or of the inputs for [`RUNTIME`]) moves the sample in the order of
+    /// [`Channel::ALL`] (each moves its own quantities, so the order changes no value).
+    ///
+    /// # Safety
+    /// `i + L::WIDTH <= self.len`, and a channel `CH` says is on has its pointer.
+    #[inline(always)]
+    unsafe fn measure<L: Lanes, const CH: u32>(&self, l: L, i: usize) -> [L::F64; 5] {
+        // SAFETY: every pointer read holds `len` ≥ `i + L::WIDTH` values.
+        unsafe {
+            let mut x = Sample {
+                force: l.load_ptr(self.f, i),
+                speed: l.load_ptr(self.v, i),
+                sin_grade: l.load_ptr(self.sin, i),
+                cos_grade: l.load_ptr(self.cos, i),
+                g: self.g,
+                c: l.load_ptr(self.c, i),
+                s: l.load_ptr(self.g_sin, i),
+                output_noise: None,
+            };
+            for c in Channel::ALL {
+                let k = c.index();
+                if on::<CH>(bit(c), !self.e[k].is_null()) {
+                    c.measure(l, &mut x, self.sd[k], l.load_ptr(self.e[k], i));
+                }
+            }
+            let w = x.speed * x.speed;
+            let mut y = l.load_ptr(self.accel, i) + x.s;
+            if let Some(noise) = x.output_noise {
+                y = y + noise;
+            }
+            if on::<CH>(DERIVATIVE, !self.d.is_null()) {
+                y = y + l.load_ptr(self.d, i);
+            }
+            [x.force, w, x.c, x.s, y]
         }
-        None => (x.c[j], x.g_sin[j]),
-    };
-    let mut y = x.accel[j] + s;
-    if let Some(d) = x.output {
-        y += d.sd * d.e[j];
     }
-    if let Some(d) = x.derivative {
-        y += d[j];
-    }
-    [f, v * v, c, s, y]
 }
 
-/// Lanes of the block's sums, accumulator k of the terms of [`terms`]: sample i into lane
+/// The block's lane sums, accumulator k of the terms of [`terms`]: sample i into lane
 /// i mod 4 (the lanes of `row_sums.rs`).
-type Lanes = [[f64; LANES]; TERMS];
+type LaneSums = [[f64; LANES]; TERMS];
 
 const LANES: usize = 4;
 
@@ -130,7 +165,7 @@ const TERMS: usize = 17;
 /// (`row_sums.rs`): those of w or ỹ [x̃₁ỹ, x̃₃ỹ, x̃₁w, x̃₃w, w², wỹ, w, ỹ], those of x̃₁ and
 /// x̃₃ alone [x̃₁², x̃₁x̃₃, x̃₃², x̃₁, x̃₃], and the grade term's [s̃, x̃₁s̃, x̃₃s̃, ws̃].
 #[inline(always)]
-fn terms([f, w, c, s, y]: Row) -> [f64; TERMS] {
+fn terms<R: Real>([f, w, c, s, y]: [R; 5]) -> [R; TERMS] {
     [
         f * y,
         c * y,
@@ -160,7 +195,7 @@ const GRADE_TERMS: usize = 13;
 /// The moments of the lanes as `segment_moments` forms them: each sum (l₀ + l₁) + (l₂ + l₃);
 /// without `regressors` the sums of x̃₁ and x̃₃ alone are zero (left to
 /// `MomentAccumulator::finish`), without `grade` there are no grade sums.
-fn moments(lanes: &Lanes, len: usize, regressors: bool, grade: bool) -> Moments {
+fn moments(lanes: &LaneSums, len: usize, regressors: bool, grade: bool) -> Moments {
     let sums = lanes.map(|l| (l[0] + l[1]) + (l[2] + l[3]));
     let [
         s_1y,
@@ -223,57 +258,41 @@ pub struct Wanted {
 }
 
 impl MeasuredBlock {
-    /// [`measure`](Self::measure) in one pass over the samples; with `AVX2` (true only
-    /// inside a function compiled for AVX2, called where the CPU has it) four samples per
-    /// 256-bit register, lane for lane the portable operations.
+    /// [`measure`](Self::measure) in one pass over the samples in the lanes of `l`.
     #[inline(always)]
-    pub(super) fn measure_one_pass<const AVX2: bool>(&mut self, b: Block<'_>) {
-        self.pass::<AVX2, false, false, false>(b, true);
+    pub(super) fn measure_one_pass<L: Lanes4>(&mut self, l: L, b: Block<'_>) {
+        self.pass::<L, false, false, false>(l, b, true);
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
     /// `segment_moments` (`row_sums.rs`) takes them from the measured rows, bit for bit;
     /// `wanted` says which sums besides those of w and ỹ, and whether the rows are kept.
-    /// On x86-64 with AVX2 the sums are added in the pass, in the registers the samples are
-    /// measured in (with AVX-512VL where the CPU has it: the same operations, more
+    /// The sums are added in the pass, in the lanes the samples are measured in (on x86-64
+    /// one AVX2 register, with AVX-512VL where the CPU has it: the same operations, more
     /// registers).
     pub fn measure_and_sum(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
         #[cfg(target_arch = "x86_64")]
-        {
-            use crate::numeric::simd;
-            if simd::avx512vl() {
-                // SAFETY: the CPU supports AVX-512F and VL (so AVX2), checked just above.
-                return unsafe { self.measure_and_sum_avx512(b, wanted) };
-            }
-            if simd::avx2() {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { self.measure_and_sum_avx2(b, wanted) };
-            }
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves AVX2; the CPU has AVX-512F and VL where asked.
+            return unsafe {
+                match crate::numeric::simd::avx512vl() {
+                    true => self.measure_and_sum_avx512(avx2, b, wanted),
+                    false => self.measure_and_sum_avx2(avx2, b, wanted),
+                }
+            };
         }
-        self.measure_and_sum_portable(b, wanted)
-    }
-
-    /// [`measure_and_sum`](Self::measure_and_sum) as two steps: the block measured
-    /// ([`measure`](Self::measure)'s portable pass), then `segment_moments` of its rows.
-    #[inline(always)]
-    pub(super) fn measure_and_sum_portable(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
-        self.measure_one_pass::<false>(b);
-        // Zero sums of x̃₁ and x̃₃ alone where they are not wanted; the block's view never
-        // says ỹ is the regression's, so its sums are always summed.
-        let none = Moments::default();
-        segment_moments(
-            self.view(b.reg),
-            0,
-            b.len,
-            (!wanted.regressors).then_some(&none),
-            wanted.grade,
-        )
+        self.measure_and_sum_in(Quad, b, wanted)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    pub(super) fn measure_and_sum_avx2(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
-        self.measure_and_sum_simd(b, wanted)
+    pub(super) fn measure_and_sum_avx2(
+        &mut self,
+        avx2: Avx2,
+        b: Block<'_>,
+        wanted: Wanted,
+    ) -> Moments {
+        self.measure_and_sum_in(avx2, b, wanted)
     }
 
     /// The AVX2 pass compiled with AVX-512VL as well: the same 256-bit operations (no FMA:
@@ -281,74 +300,125 @@ impl MeasuredBlock {
     /// seventeen lane sums and the constants of the pass (fewer of them on the stack).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    fn measure_and_sum_avx512(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
-        self.measure_and_sum_simd(b, wanted)
+    fn measure_and_sum_avx512(&mut self, avx2: Avx2, b: Block<'_>, wanted: Wanted) -> Moments {
+        self.measure_and_sum_in(avx2, b, wanted)
     }
 
-    /// The pass of the AVX2 builds (always inlined into a function compiled for AVX2).
-    #[cfg(target_arch = "x86_64")]
+    /// [`measure_and_sum`](Self::measure_and_sum) in the lanes of `l`.
     #[inline(always)]
-    fn measure_and_sum_simd(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+    pub(super) fn measure_and_sum_in<L: Lanes4>(
+        &mut self,
+        l: L,
+        b: Block<'_>,
+        wanted: Wanted,
+    ) -> Moments {
         let rows = wanted.rows;
         let lanes = match (wanted.regressors, wanted.grade) {
-            (true, true) => self.pass::<true, true, true, true>(b, rows),
-            (true, false) => self.pass::<true, true, true, false>(b, rows),
-            (false, true) => self.pass::<true, true, false, true>(b, rows),
-            (false, false) => self.pass::<true, true, false, false>(b, rows),
+            (true, true) => self.pass::<L, true, true, true>(l, b, rows),
+            (true, false) => self.pass::<L, true, true, false>(l, b, rows),
+            (false, true) => self.pass::<L, true, false, true>(l, b, rows),
+            (false, false) => self.pass::<L, true, false, false>(l, b, rows),
         };
         moments(&lanes, b.len, wanted.regressors, wanted.grade)
     }
 
-    /// The pass: the block measured (without `rows`, the vectorised pass writes no
-    /// columns), and with `SUMS` (AVX2 only) the lanes of its sums of the terms that
-    /// `REGRESSORS` and `GRADE` ask for (the others stay zero).
+    /// The pass: the block measured (without `rows`, the groups write no columns), and
+    /// with `SUMS` the lanes of its sums of the terms that `REGRESSORS` and `GRADE` ask for
+    /// (the others stay zero). With every sum, a loop is compiled for each combination of
+    /// the sources the general path meets (force or grade noise, with speed noise, output
+    /// noise and a differentiated acceleration each on or off); otherwise one loop reads
+    /// them at run time.
     #[inline(always)]
-    fn pass<const AVX2: bool, const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
+    fn pass<L: Lanes4, const SUMS: bool, const REGRESSORS: bool, const GRADE: bool>(
         &mut self,
+        l: L,
         b: Block<'_>,
         rows: bool,
-    ) -> Lanes {
-        let (start, len) = (b.start, b.len);
-        let x = Inputs::new(b);
-        (self.start, self.len) = (start, len);
-        self.grade_moved = x.grade.is_some();
-        self.columns.clear();
-        let force = x.force.is_some();
-        let f = self.columns.write(Quantity::Force, force);
-        let mut out = [
-            &mut f[..len],
+    ) -> LaneSums {
+        let x = Flat::new(b);
+        (self.start, self.len) = (b.start, b.len);
+        self.grade_moved = x.moves(Column::C);
+        self.force_moved = x.moves(Column::F);
+        if !(SUMS && REGRESSORS) {
+            return self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows);
+        }
+        macro_rules! by_channels {
+            ($($ch:literal)*) => {
+                match x.channels() {
+                    $($ch => self.groups::<L, SUMS, REGRESSORS, GRADE, $ch>(l, &x, rows),)*
+                    _ => self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows),
+                }
+            };
+        }
+        // Every value with the grade (4) or force (8) channel's bit set, below 32.
+        by_channels!(4 5 6 7 8 9 10 11 12 13 14 15 20 21 22 23 24 25 26 27 28 29 30 31)
+    }
+
+    /// [`pass`](Self::pass) with the sources `CH` ([`Flat::channels`] or [`RUNTIME`]):
+    /// the groups of four samples, then the samples after them one at a time (into lane 0
+    /// of the sums, as `segment_moments` adds them).
+    #[inline(always)]
+    fn groups<
+        L: Lanes4,
+        const SUMS: bool,
+        const REGRESSORS: bool,
+        const GRADE: bool,
+        const CH: u32,
+    >(
+        &mut self,
+        l: L,
+        x: &Flat,
+        rows: bool,
+    ) -> LaneSums {
+        assert!(CH == RUNTIME || CH == x.channels(), "the pass's channels");
+        let len = x.len;
+        let (force, grade) = (self.force_moved, self.grade_moved);
+        let [f_out, w_out, c_out, s_out, y_out] = [
+            &mut self.f[..len],
             &mut self.w[..len],
             &mut self.c[..len],
             &mut self.s[..len],
             &mut self.y[..len],
         ];
-        let mut lanes = [[0.0; LANES]; TERMS];
-        #[allow(unused_mut)] // written on x86-64 only
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            // SAFETY: `AVX2` is set only inside functions compiled for AVX2, which are called
-            // only where the CPU has it.
-            (done, lanes) = unsafe {
-                match (SUMS, REGRESSORS) {
-                    (true, true) => simd::summed_groups::<GRADE>(&x, &mut out, len, rows),
-                    _ => simd::groups::<SUMS, REGRESSORS, GRADE, { simd::RUNTIME }>(
-                        &x, &mut out, len, rows,
-                    ),
+        let wanted = |k: usize| {
+            k < REGRESSOR_TERMS || (REGRESSORS && k < GRADE_TERMS) || (GRADE && k >= GRADE_TERMS)
+        };
+        let whole = len - len % LANES;
+        let mut acc = [l.splat(0.0); TERMS];
+        for i in (0..whole).step_by(LANES) {
+            // SAFETY: i + 4 <= len; `CH` is the inputs' channels or RUNTIME (checked).
+            let values = unsafe { x.measure::<L, CH>(l, i) };
+            let [f, w, c, s, y] = values;
+            if rows {
+                if force {
+                    l.store(f, f_out, i);
                 }
-            };
-        }
-        let [f, w, c, s, y] = out;
-        for j in done..len {
-            let r = row(&x, j);
-            (f[j], w[j], c[j], s[j], y[j]) = (r[0], r[1], r[2], r[3], r[4]);
+                if grade {
+                    l.store(c, c_out, i);
+                    l.store(s, s_out, i);
+                }
+                l.store(w, w_out, i);
+                l.store(y, y_out, i);
+            }
             if SUMS {
-                // The samples after the last group, into lane 0 as `segment_moments` adds them.
+                for (k, t) in terms(values).into_iter().enumerate() {
+                    if wanted(k) {
+                        acc[k] = acc[k] + t;
+                    }
+                }
+            }
+        }
+        let mut lanes = [[0.0; LANES]; TERMS];
+        if SUMS {
+            lanes = acc.map(|a| l.lanes(a));
+        }
+        for j in whole..len {
+            // SAFETY: j < len; `CH` as above.
+            let r = unsafe { x.measure::<Scalar, CH>(Scalar, j) };
+            (f_out[j], w_out[j], c_out[j], s_out[j], y_out[j]) = (r[0], r[1], r[2], r[3], r[4]);
+            if SUMS {
                 for (k, t) in terms(r).into_iter().enumerate() {
-                    let wanted = k < REGRESSOR_TERMS
-                        || (REGRESSORS && k < GRADE_TERMS)
-                        || (GRADE && k >= GRADE_TERMS);
-                    if wanted {
+                    if wanted(k) {
                         lanes[k][0] += t;
                     }
                 }
@@ -356,319 +426,19 @@ impl MeasuredBlock {
         }
         lanes
     }
-}
 
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    //! The pass in 256-bit registers, four samples per group.
-    //!
-    //! Which channels move the block is a constant of the loop ([`Inputs::channels`]), so
-    //! each combination the general path meets is compiled on its own, without a test of a
-    //! channel per group; the inputs are read through pointers checked once per block.
-
-    use std::arch::x86_64::*;
-
-    use super::{Inputs, Lanes, TERMS, row};
-    use crate::numeric::trig::simd::kernel4;
-
-    /// Bits of the channels that move a block (the `CH` parameter of [`groups`]).
-    pub(super) const FORCE: u8 = 1;
-    pub(super) const SPEED: u8 = 2;
-    pub(super) const GRADE_NOISE: u8 = 4;
-    pub(super) const OUTPUT: u8 = 8;
-    pub(super) const DERIVATIVE: u8 = 16;
-    /// `CH` for a loop that reads which channels are on at run time.
-    pub(super) const RUNTIME: u8 = u8::MAX;
-
-    impl Inputs<'_> {
-        /// The bits of the channels that move the block.
-        pub(super) fn channels(&self) -> u8 {
-            [
-                (self.force.is_some(), FORCE),
-                (self.speed.is_some(), SPEED),
-                (self.grade.is_some(), GRADE_NOISE),
-                (self.output.is_some(), OUTPUT),
-                (self.derivative.is_some(), DERIVATIVE),
-            ]
-            .into_iter()
-            .filter(|(on, _)| *on)
-            .fold(0, |bits, (_, bit)| bits | bit)
+    /// The block measured one sample at a time ([`Scalar`]): what the lanes must agree with.
+    #[cfg(test)]
+    pub(super) fn measure_by_samples(&mut self, b: Block<'_>) {
+        let x = Flat::new(b);
+        (self.start, self.len) = (b.start, b.len);
+        self.grade_moved = x.moves(Column::C);
+        self.force_moved = x.moves(Column::F);
+        for j in 0..x.len {
+            // SAFETY: j < len.
+            let r = unsafe { x.measure::<Scalar, RUNTIME>(Scalar, j) };
+            (self.f[j], self.w[j], self.c[j], self.s[j], self.y[j]) =
+                (r[0], r[1], r[2], r[3], r[4]);
         }
-    }
-
-    /// Whether the channel `bit` is on: a constant of the loop, or, for [`RUNTIME`], read
-    /// from the inputs (`present`).
-    #[inline(always)]
-    fn on<const CH: u8>(bit: u8, present: bool) -> bool {
-        if CH == RUNTIME {
-            present
-        } else {
-            CH & bit != 0
-        }
-    }
-
-    /// The block's inputs as pointers to `len` values each (null: the channel is off) and
-    /// the standard deviations, read once before the loop.
-    #[derive(Clone, Copy)]
-    struct Flat {
-        f: *const f64,
-        v: *const f64,
-        sin: *const f64,
-        cos: *const f64,
-        c: *const f64,
-        g_sin: *const f64,
-        accel: *const f64,
-        g: f64,
-        e_f: *const f64,
-        e_v: *const f64,
-        e_g: *const f64,
-        e_o: *const f64,
-        d: *const f64,
-        sd_f: f64,
-        sd_v: f64,
-        sd_g: f64,
-        sd_o: f64,
-    }
-
-    impl Flat {
-        /// The pointers of `x`, whose slices all hold `len` values (checked).
-        fn new(x: &Inputs<'_>, len: usize) -> Self {
-            let ptr = |s: &[f64]| {
-                assert_eq!(s.len(), len, "a column of the block");
-                s.as_ptr()
-            };
-            let draw = |d: Option<super::Draw<'_>>| match d {
-                Some(d) => (ptr(d.e), d.sd),
-                None => (std::ptr::null(), 0.0),
-            };
-            let ((e_f, sd_f), (e_v, sd_v), (e_g, sd_g), (e_o, sd_o)) =
-                (draw(x.force), draw(x.speed), draw(x.grade), draw(x.output));
-            Flat {
-                f: ptr(x.f),
-                v: ptr(x.v),
-                sin: ptr(x.sin),
-                cos: ptr(x.cos),
-                c: ptr(x.c),
-                g_sin: ptr(x.g_sin),
-                accel: ptr(x.accel),
-                g: x.g,
-                e_f,
-                e_v,
-                e_g,
-                e_o,
-                d: x.derivative.map_or(std::ptr::null(), ptr),
-                sd_f,
-                sd_v,
-                sd_g,
-                sd_o,
-            }
-        }
-    }
-
-    /// Four values from `p + i`.
-    ///
-    /// # Safety
-    /// `p` points at least at `i + 4` values; the CPU supports AVX2.
-    #[inline(always)]
-    unsafe fn load(p: *const f64, i: usize) -> __m256d {
-        // SAFETY: as the caller promises.
-        unsafe { _mm256_loadu_pd(p.add(i)) }
-    }
-
-    /// Four values to `p + i`.
-    ///
-    /// # Safety
-    /// `p` points at least at `i + 4` values; the CPU supports AVX2.
-    #[inline(always)]
-    unsafe fn store(p: *mut f64, i: usize, v: __m256d) {
-        // SAFETY: as the caller promises.
-        unsafe { _mm256_storeu_pd(p.add(i), v) }
-    }
-
-    /// The measured values `[x̃₁, w, x̃₃, s̃, ỹ]` of the group of samples `i..i + 4`, and
-    /// the mask of its grade angles outside the polynomials' range (whose values the
-    /// caller replaces).
-    ///
-    /// # Safety
-    /// The CPU supports AVX2, `i + 4 <= len` of [`Flat::new`], and a channel `CH` says is
-    /// on has its pointer (called only from [`groups`]).
-    #[inline(always)]
-    unsafe fn measure4<const CH: u8>(x: &Flat, i: usize) -> ([__m256d; 5], i32) {
-        // SAFETY: the CPU supports AVX2; every pointer read holds `i + 4` values.
-        unsafe {
-            let (add, mul, set) = (_mm256_add_pd, _mm256_mul_pd, _mm256_set1_pd);
-            let v = match on::<CH>(SPEED, !x.e_v.is_null()) {
-                true => add(load(x.v, i), mul(set(x.sd_v), load(x.e_v, i))),
-                false => load(x.v, i),
-            };
-            let w = mul(v, v);
-            let f = match on::<CH>(FORCE, !x.e_f.is_null()) {
-                true => add(load(x.f, i), mul(set(x.sd_f), load(x.e_f, i))),
-                false => load(x.f, i),
-            };
-            let (c, s, outside) = match on::<CH>(GRADE_NOISE, !x.e_g.is_null()) {
-                true => {
-                    let (sin_d, cos_d, outside) = kernel4(mul(set(x.sd_g), load(x.e_g, i)));
-                    let (sin0, cos0) = (load(x.sin, i), load(x.cos, i));
-                    let sin = add(mul(sin0, cos_d), mul(cos0, sin_d));
-                    let cos = _mm256_sub_pd(mul(cos0, cos_d), mul(sin0, sin_d));
-                    (mul(set(-x.g), cos), mul(set(x.g), sin), outside)
-                }
-                false => (load(x.c, i), load(x.g_sin, i), 0),
-            };
-            let mut y = add(load(x.accel, i), s);
-            if on::<CH>(OUTPUT, !x.e_o.is_null()) {
-                y = add(y, mul(set(x.sd_o), load(x.e_o, i)));
-            }
-            if on::<CH>(DERIVATIVE, !x.d.is_null()) {
-                y = add(y, load(x.d, i));
-            }
-            ([f, w, c, s, y], outside)
-        }
-    }
-
-    /// The group `i..i + 4` measured by the scalar [`row`] into the columns `out` (a group
-    /// with a grade angle outside the polynomials' range), and its values.
-    ///
-    /// # Safety
-    /// The CPU supports AVX2; each of `out` points at `i + 4` values.
-    #[cold]
-    #[inline(never)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn scalar4(x: &Inputs<'_>, out: [*mut f64; 5], i: usize) -> [__m256d; 5] {
-        // SAFETY: each column holds `i + 4` values.
-        unsafe {
-            for j in i..i + 4 {
-                for (column, value) in out.iter().zip(row(x, j)) {
-                    *column.add(j) = value;
-                }
-            }
-            // The scalar rows' values (x̃₁, x̃₃, s̃ written there whether moved or not).
-            out.map(|column| load(column, i))
-        }
-    }
-
-    /// The groups of four samples of `0..len` into the columns `[x̃₁, w, x̃₃, s̃, ỹ]`
-    /// (with `rows` only; x̃₁ written under force noise only, x̃₃ and s̃ under grade noise
-    /// only) and, with
-    /// `SUMS`, their terms into the lanes (those `REGRESSORS` and `GRADE` ask for); returns
-    /// the first sample not done (a multiple of four) and the lanes. `CH` is
-    /// [`Inputs::channels`] or [`RUNTIME`]. A group with a grade angle outside the
-    /// polynomials' range is measured by the scalar [`row`] instead, as `sin_cos_slice`
-    /// hands such an angle to `f64::sin_cos`.
-    ///
-    /// # Safety
-    /// The CPU supports AVX2; always inlined into a function compiled for it (a function
-    /// compiled for AVX2 cannot be forced inline), whose features the loop is compiled with.
-    #[inline(always)]
-    pub(super) unsafe fn groups<
-        const SUMS: bool,
-        const REGRESSORS: bool,
-        const GRADE: bool,
-        const CH: u8,
-    >(
-        x: &Inputs<'_>,
-        out: &mut [&mut [f64]; 5],
-        len: usize,
-        rows: bool,
-    ) -> (usize, Lanes) {
-        assert!(CH == RUNTIME || CH == x.channels(), "the pass's channels");
-        let p = Flat::new(x, len);
-        let columns = out.each_mut().map(|column| {
-            assert_eq!(column.len(), len, "a measured column");
-            column.as_mut_ptr()
-        });
-        let [f_out, w_out, c_out, s_out, y_out] = columns;
-        let (force, grade) = (
-            on::<CH>(FORCE, !p.e_f.is_null()),
-            on::<CH>(GRADE_NOISE, !p.e_g.is_null()),
-        );
-        let whole = len - len % 4;
-        // SAFETY (here and below): the CPU supports AVX2, as the caller promises.
-        let mut acc = [unsafe { _mm256_setzero_pd() }; TERMS];
-        for i in (0..whole).step_by(4) {
-            // SAFETY: i + 4 <= len, the length of every input (checked by `Flat::new`) and
-            // column.
-            unsafe {
-                let (mut values, outside) = measure4::<CH>(&p, i);
-                if rows {
-                    if force {
-                        store(f_out, i, values[0]);
-                    }
-                    if grade {
-                        store(c_out, i, values[2]);
-                        store(s_out, i, values[3]);
-                    }
-                    store(w_out, i, values[1]);
-                    store(y_out, i, values[4]);
-                }
-                if outside != 0 {
-                    values = scalar4(x, columns, i);
-                }
-                if SUMS {
-                    let [f, w, c, s, y] = values;
-                    let (add, mul) = (_mm256_add_pd, _mm256_mul_pd);
-                    let mut term = |k: usize, t: __m256d| acc[k] = add(acc[k], t);
-                    term(0, mul(f, y));
-                    term(1, mul(c, y));
-                    term(2, mul(f, w));
-                    term(3, mul(c, w));
-                    term(4, mul(w, w));
-                    term(5, mul(w, y));
-                    term(6, w);
-                    term(7, y);
-                    if REGRESSORS {
-                        term(8, mul(f, f));
-                        term(9, mul(f, c));
-                        term(10, mul(c, c));
-                        term(11, f);
-                        term(12, c);
-                    }
-                    if GRADE {
-                        term(13, s);
-                        term(14, mul(f, s));
-                        term(15, mul(c, s));
-                        term(16, mul(w, s));
-                    }
-                }
-            }
-        }
-        let mut lanes = [[0.0; 4]; TERMS];
-        if SUMS {
-            for (l, a) in lanes.iter_mut().zip(acc) {
-                // SAFETY: writes four f64 into an array of four.
-                unsafe { _mm256_storeu_pd(l.as_mut_ptr(), a) };
-            }
-        }
-        (whole, lanes)
-    }
-
-    /// [`groups`] with the sums of the general path's kernel (`REGRESSORS` set), compiled
-    /// for the block's channels: one loop per combination of force or grade noise (one is
-    /// on on the general path) with speed noise, output noise and a differentiated
-    /// acceleration, each on or off.
-    ///
-    /// # Safety
-    /// As [`groups`].
-    #[inline(always)]
-    pub(super) unsafe fn summed_groups<const GRADE: bool>(
-        x: &Inputs<'_>,
-        out: &mut [&mut [f64]; 5],
-        len: usize,
-        rows: bool,
-    ) -> (usize, Lanes) {
-        macro_rules! by_channels {
-            ($($ch:literal)*) => {
-                // SAFETY: as the caller promises.
-                unsafe {
-                    match x.channels() {
-                        $($ch => groups::<true, true, GRADE, $ch>(x, out, len, rows),)*
-                        _ => groups::<true, true, GRADE, RUNTIME>(x, out, len, rows),
-                    }
-                }
-            };
-        }
-        // Every value with FORCE (1) or GRADE_NOISE (4) set, below 32.
-        by_channels!(1 3 4 5 6 7 9 11 12 13 14 15 17 19 20 21 22 23 25 27 28 29 30 31)
     }
 }

@@ -1,9 +1,19 @@
-//! Which vector instructions the engine's fast paths may use: the one place every dispatch
-//! asks. The environment variable [`PORTABLE`] set to anything but `0` or empty forces the
+//! The engine's vector arithmetic: the number types kernels are written over once
+//! ([`Real`], [`Lanes`]: one `f64`, four portable lanes, AVX2's register), the only code that
+//! names an intrinsic, and which vector instructions the fast paths may use, the one place
+//! every dispatch asks. The environment variable [`PORTABLE`] set to anything but `0` or empty forces the
 //! portable code everywhere; the fast paths give the same bits as it (each is tested against
 //! it), and CI runs the whole suite under the switch with the same pinned hashes.
 
 use std::sync::OnceLock;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+mod lanes;
+
+#[cfg(target_arch = "x86_64")]
+pub use avx2::{Avx2, F64x4};
+pub use lanes::{F64x4Portable, Lanes, Lanes4, Quad, Real, Scalar};
 
 /// The environment variable that forces the portable code.
 pub const PORTABLE: &str = "CHASSIS_MC_PORTABLE";
