@@ -95,7 +95,7 @@ fn speed_sums_lanes<L: Lanes4, const STORE: bool>(
         acc[3] = acc[3] + w * w;
         acc[4] = acc[4] + w * l.load(cols.y, i);
     }
-    let mut acc = acc.map(|a| l.lanes(a));
+    let mut acc = l.lanes_each(acc);
     speed_sums_tail::<STORE>(cols, e, sd_v, whole, &mut acc, w_out);
     acc.map(reduce)
 }
@@ -164,7 +164,7 @@ fn output_sums_lanes<L: Lanes4>(
         acc[2] = acc[2] + l.load(cols.c, i) * eta_i;
         acc[3] = acc[3] + vt * vt * eta_i;
     }
-    let mut acc = acc.map(|a| l.lanes(a));
+    let mut acc = l.lanes_each(acc);
     output_sums_tail(cols, e, sd_v, eta, whole, &mut acc);
     acc.map(reduce)
 }

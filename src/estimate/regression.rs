@@ -28,7 +28,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::kernels::{Columns, ZEROS, speed_sums};
 use super::moments::{GradeSums, Moments};
-use super::row_sums::{RlsPlan, output_sums};
+use super::rls::scan::RlsPlan;
+use super::row_sums::output_sums;
 use super::sums::{Column as Factor, Sum};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;

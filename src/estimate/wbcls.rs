@@ -14,7 +14,12 @@ use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::moments::Moments;
-use super::row_sums::RowRead;
+use super::moments::RowsView;
+use super::regression::Regression;
+use super::row_sums::{RowRead, segment_moments_lanes};
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::{Lanes4, Quad};
 
 /// Length of the segments that share one weight \[s\] (a segment holds at least one row).
 pub const SEGMENT_S: f64 = 0.5;
@@ -201,6 +206,74 @@ fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels)
         v2,
         grade: GradeLoading::MeanSquare(c2),
     })
+}
+
+/// The moments of each weight segment of `wbcls` ([`SEGMENT_S`] long,
+/// [`Regression::segments`]), each taken by [`segment_moments`](super::row_sums::segment_moments) once the rows have reached
+/// its end.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SegmentScan {
+    grade: bool,
+    pub(crate) done: Vec<Moments>,
+}
+
+impl SegmentScan {
+    pub(crate) fn new(grade: bool) -> Self {
+        SegmentScan {
+            grade,
+            done: Vec::new(),
+        }
+    }
+
+    pub(crate) fn reset(&mut self, grade: bool) {
+        self.grade = grade;
+        self.done.clear();
+    }
+
+    pub(crate) fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
+        let (segments, constants) = reg.segments(SEGMENT_S);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves the CPU has AVX2.
+            return unsafe { self.advance_avx2(avx2, rows, segments, constants, end) };
+        }
+        self.advance_lanes(Quad, rows, segments, constants, end);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn advance_avx2(
+        &mut self,
+        avx2: Avx2,
+        rows: RowsView<'_>,
+        segments: &[(usize, usize)],
+        constants: &[Moments],
+        end: usize,
+    ) {
+        self.advance_lanes(avx2, rows, segments, constants, end);
+    }
+
+    /// The segments that end by `end`, each [`segment_moments`](super::row_sums::segment_moments) of its rows, written into
+    /// `done` by the function that sums them (compiled for AVX2, the copy of a segment's
+    /// moments is a few register stores rather than a call of `memcpy`).
+    #[inline(always)]
+    fn advance_lanes<L: Lanes4>(
+        &mut self,
+        l: L,
+        rows: RowsView<'_>,
+        segments: &[(usize, usize)],
+        constants: &[Moments],
+        end: usize,
+    ) {
+        while let Some(&(a, b)) = segments.get(self.done.len()) {
+            if b > end {
+                break;
+            }
+            let constant = rows.noise_free_f_c.then_some(&constants[self.done.len()]);
+            self.done
+                .push(segment_moments_lanes(l, rows, a, b, constant, self.grade));
+        }
+    }
 }
 
 #[cfg(test)]

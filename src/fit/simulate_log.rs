@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::estimate::channels::Channel;
+use crate::estimate::channels::{Channel, Signal};
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
 use crate::output::OutputError;
@@ -53,32 +53,38 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
             .into());
     }
     let cycle = model.cycles().remove(0);
-    let noise = model.noise_levels(0);
+    let noise_levels = model.noise_levels(0);
     let n = cycle.t_s.len();
-    let draws = |c: Channel| -> Vec<f64> {
-        let mut out = vec![0.0; n];
-        if noise.is_on(c) {
-            model.standard_draws(study.seed(), 0, c, r, &mut out);
-            out.iter_mut().for_each(|z| *z *= noise[c]);
+    // Each channel that is on adds its draws times its SD to the signal it moves
+    // (`Channel::signal`); a signal no channel moves is logged as the truth plus zero.
+    let mut noise: [Option<Vec<f64>>; 4] = Default::default();
+    for c in Channel::ALL.into_iter().filter(|&c| noise_levels.is_on(c)) {
+        let mut z = vec![0.0; n];
+        model.standard_draws(study.seed(), 0, c, r, &mut z);
+        let sd = noise_levels[c];
+        let column = &mut noise[signal_index(c.signal())];
+        match column {
+            Some(sum) => sum.iter_mut().zip(&z).for_each(|(s, z)| *s += z * sd),
+            None => *column = Some(z.iter().map(|z| z * sd).collect()),
         }
-        out
-    };
-    let (ev, ey, eg, ef) = (
-        draws(Channel::Velocity),
-        draws(Channel::Output),
-        draws(Channel::Grade),
-        draws(Channel::Force),
-    );
+    }
+    let truth = [
+        &cycle.v_m_s,
+        &cycle.f_prop_n,
+        &cycle.grade_rad,
+        &cycle.accel_m_s2,
+    ];
+    let logged = |k: usize, i: usize| truth[k][i] + noise[k].as_ref().map_or(0.0, |e| e[i]);
     let mut csv = format!("{LOG_HEADER}\n");
     for i in 0..n {
         let _ = writeln!(
             csv,
             "{},{},{},{},{}",
             cycle.t_s[i],
-            cycle.v_m_s[i] + ev[i],
-            cycle.f_prop_n[i] + ef[i],
-            cycle.grade_rad[i] + eg[i],
-            cycle.accel_m_s2[i] + ey[i]
+            logged(0, i),
+            logged(1, i),
+            logged(2, i),
+            logged(3, i)
         );
     }
     let name = path
@@ -90,6 +96,14 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
     std::fs::write(&tmp, csv).map_err(|e| OutputError::io(&tmp, e))?;
     pending.commit()?;
     Ok(n)
+}
+
+/// The column of `signal` in the log after the time (the order of [`LOG_HEADER`]).
+fn signal_index(signal: Signal) -> usize {
+    Signal::ALL
+        .iter()
+        .position(|&s| s == signal)
+        .expect("every signal is listed")
 }
 
 /// Fail unless the file at `path` (if any) is a log the engine wrote: a user's file there

@@ -97,8 +97,9 @@ pub fn sin_cos_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
 }
 
 /// `(sin, cos)` with the lanes in the mask `outside` replaced by `f64::sin_cos` of `x`'s.
-#[cold]
-#[inline(never)]
+/// Inlined: returned from a call, the pair would pass through memory on the common path
+/// too.
+#[inline(always)]
 fn outside_lanes<L: Lanes>(
     l: L,
     x: L::F64,

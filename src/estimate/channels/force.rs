@@ -5,7 +5,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, SecondOrder,
-    TrueRow,
+    Signal, TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
@@ -23,6 +23,7 @@ impl ChannelTerms for ForceNoise {
     const STREAM: crate::noise::Stream = crate::noise::Stream::Force;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::F];
+    const SIGNAL: Signal = Signal::Force;
     const PARTS: &'static [Part] = &[Part::F];
 
     /// F̃ = F + σe.

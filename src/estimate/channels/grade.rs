@@ -3,7 +3,7 @@
 
 use super::{
     Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers, Sample,
-    TrueRow,
+    Signal, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::sums::Column;
@@ -22,6 +22,7 @@ impl ChannelTerms for GradeNoise {
     const STREAM: crate::noise::Stream = crate::noise::Stream::Grade;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::C, Column::Y];
+    const SIGNAL: Signal = Signal::Grade;
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
     /// sin and cos of θ + δ, δ = σe, from those of θ and δ (angle addition), the small

@@ -61,6 +61,9 @@ pub trait ChannelTerms {
     const IN_REGRESSORS: bool;
     /// The measured columns of the regression its noise enters.
     const COLUMNS: &'static [Column];
+    /// The logged signal its noise is added to, at its SD times its draw (the column of a
+    /// log `simulate-log` writes).
+    const SIGNAL: Signal;
     /// True when the vectorised kernel handles the channel.
     const ON_FAST_PATH: bool = false;
 
@@ -214,6 +217,11 @@ macro_rules! channels {
                 match self { $(Channel::$variant => <$terms>::COLUMNS,)* }
             }
 
+            /// The logged signal its noise is added to ([`ChannelTerms::SIGNAL`]).
+            pub const fn signal(self) -> Signal {
+                match self { $(Channel::$variant => <$terms>::SIGNAL,)* }
+            }
+
             /// True when the vectorised kernel handles the channel.
             pub const fn on_fast_path(self) -> bool {
                 match self { $(Channel::$variant => <$terms>::ON_FAST_PATH,)* }
@@ -225,6 +233,20 @@ macro_rules! channels {
             #[inline(always)]
             pub fn measure<L: Lanes>(self, l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
                 match self { $(Channel::$variant => <$terms>::measure(l, x, sd, e),)* }
+            }
+
+            /// Every channel for which `draw` gives (SD, draw) moves the sample, in the
+            /// order of [`Channel::ALL`]: one `if` per channel, not a loop, so that a pass
+            /// compiled for a set of channels holds their arithmetic alone.
+            #[inline(always)]
+            pub fn measure_each<L: Lanes>(
+                l: L,
+                x: &mut Sample<L::F64>,
+                mut draw: impl FnMut(Channel) -> Option<(f64, L::F64)>,
+            ) {
+                $(if let Some((sd, e)) = draw(Channel::$variant) {
+                    <$terms>::measure(l, x, sd, e);
+                })*
             }
 
             /// Whether this channel's noise at SD `sd` moves the samples at all
@@ -364,6 +386,29 @@ impl Channel {
     pub const fn index(self) -> usize {
         self as usize
     }
+}
+
+/// A signal of a vehicle's log, as a sensor records it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Signal {
+    /// The speed \[m/s\].
+    Speed,
+    /// The propulsion force \[N\].
+    Force,
+    /// The grade angle \[rad\].
+    Grade,
+    /// The acceleration \[m/s²\] (an accelerometer's).
+    Acceleration,
+}
+
+impl Signal {
+    /// Every signal, in the order of a log's columns after the time.
+    pub const ALL: [Signal; 4] = [
+        Signal::Speed,
+        Signal::Force,
+        Signal::Grade,
+        Signal::Acceleration,
+    ];
 }
 
 /// One sample's measured quantities in the number type `R` (one sample, or lanes of

@@ -3,7 +3,8 @@
 
 use super::covariance::gaussian_moment;
 use super::{
-    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, TrueRow,
+    Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, Signal,
+    TrueRow,
 };
 use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
@@ -21,6 +22,7 @@ impl ChannelTerms for OutputNoise {
     const STREAM: crate::noise::Stream = crate::noise::Stream::Output;
     const IN_REGRESSORS: bool = false;
     const COLUMNS: &'static [Column] = &[Column::Y];
+    const SIGNAL: Signal = Signal::Acceleration;
     const PARTS: &'static [Part] = &[Part::O];
     const ON_FAST_PATH: bool = true;
 

@@ -13,7 +13,7 @@ use super::covariance::{
 };
 use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, RowCovariance,
-    RowMoments, Sample, SecondOrder, TrueRow,
+    RowMoments, Sample, SecondOrder, Signal, TrueRow,
 };
 use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::Regression;
@@ -149,6 +149,7 @@ impl ChannelTerms for Speed {
     const STREAM: crate::noise::Stream = crate::noise::Stream::Velocity;
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::W];
+    const SIGNAL: Signal = Signal::Speed;
     const PARTS: &'static [Part] = &[Part::W, Part::D];
     const ON_FAST_PATH: bool = true;
 

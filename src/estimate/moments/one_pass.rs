@@ -114,8 +114,9 @@ impl Flat {
     }
 
     /// Samples `i .. i + L::WIDTH` measured: `[x̃₁, w, x̃₃, s̃, ỹ]`. Each channel on (of
-    /// `CH`, or of the inputs for [`RUNTIME`]) moves the sample in the order of
-    /// [`Channel::ALL`] (each moves its own quantities, so the order changes no value).
+    /// `CH`, or of the inputs for [`RUNTIME`]) moves the sample, in the order of
+    /// [`Channel::ALL`] ([`Channel::measure_each`]; each moves its own quantities, so the
+    /// order changes no value).
     ///
     /// # Safety
     /// `i + L::WIDTH <= self.len`, and a channel `CH` says is on has its pointer.
@@ -133,12 +134,12 @@ impl Flat {
                 s: l.load_ptr(self.g_sin, i),
                 output_noise: None,
             };
-            for c in Channel::ALL {
+            Channel::measure_each(l, &mut x, |c| {
                 let k = c.index();
-                if on::<CH>(bit(c), !self.e[k].is_null()) {
-                    c.measure(l, &mut x, self.sd[k], l.load_ptr(self.e[k], i));
-                }
-            }
+                // A channel that is on has its pointer, of `len` values (the block above).
+                on::<CH>(bit(c), !self.e[k].is_null())
+                    .then(|| (self.sd[k], l.load_ptr(self.e[k], i)))
+            });
             let w = x.speed * x.speed;
             let mut y = l.load_ptr(self.accel, i) + x.s;
             if let Some(noise) = x.output_noise {
@@ -410,7 +411,7 @@ impl MeasuredBlock {
         }
         let mut lanes = [[0.0; LANES]; TERMS];
         if SUMS {
-            lanes = acc.map(|a| l.lanes(a));
+            lanes = l.lanes_each(acc);
         }
         for j in whole..len {
             // SAFETY: j < len; `CH` as above.

@@ -64,6 +64,25 @@ pub trait Lanes: Copy {
 pub trait Lanes4: Lanes {
     /// The four lanes of `v`.
     fn lanes(self, v: Self::F64) -> [f64; 4];
+    /// The four lanes of each of `v`. A loop: the closure of an array's `map` is not
+    /// compiled with the caller's target features, so its intrinsics would be calls.
+    #[inline(always)]
+    fn lanes_each<const K: usize>(self, v: [Self::F64; K]) -> [[f64; 4]; K] {
+        let mut out = [[0.0; 4]; K];
+        for (out, v) in out.iter_mut().zip(v) {
+            *out = self.lanes(v);
+        }
+        out
+    }
+    /// Each of `lanes` loaded (a loop, as [`lanes_each`](Self::lanes_each)).
+    #[inline(always)]
+    fn load_each<const K: usize>(self, lanes: &[[f64; 4]; K]) -> [Self::F64; K] {
+        let mut out = [self.splat(0.0); K];
+        for (out, lane) in out.iter_mut().zip(lanes) {
+            *out = self.load(lane, 0);
+        }
+        out
+    }
     /// Lane c: (l₀ + l₁) + (l₂ + l₃) of `v[c]`, the reduction of four numbers at once.
     fn reduce4(self, v: [Self::F64; 4]) -> Self::F64;
     /// `a & b` bit by bit, lane by lane (a mask's lanes are all ones or all zeros).

@@ -13,7 +13,11 @@
 use super::bounds::{Bound, BoundKind};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::parameters::Parameters;
-use super::row_sums::{RlsTarget, RowRead};
+use super::row_sums::RowRead;
+
+pub mod scan;
+
+use scan::RlsTarget;
 
 /// The band around the true 1/M within which the `rls` estimate counts as settled
 /// (relative).
