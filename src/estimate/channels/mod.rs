@@ -467,43 +467,4 @@ impl<T> IndexMut<Channel> for PerChannel<T> {
 pub type BlockNoise<'a> = PerChannel<Option<&'a [f64]>>;
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn channels_are_listed_in_index_order_with_distinct_keys_and_streams() {
-        for (i, c) in Channel::ALL.into_iter().enumerate() {
-            assert_eq!(c.index(), i);
-            for d in &Channel::ALL[i + 1..] {
-                assert_ne!(c.key(), d.key());
-                assert_ne!(c.stream(), d.stream());
-            }
-        }
-    }
-
-    #[test]
-    fn a_zero_draw_leaves_the_samples_unchanged() {
-        use crate::numeric::simd::Scalar;
-        let reg = crate::estimate::regression::test_regression();
-        for j in [0, 100, reg.len() - 1] {
-            let noise_free = Sample {
-                force: reg.f[j],
-                speed: reg.v[j],
-                sin_grade: reg.sin_grade[j],
-                cos_grade: reg.cos_grade[j],
-                g: reg.g,
-                c: reg.c[j],
-                s: reg.g_sin[j],
-                output_noise: None,
-            };
-            // A channel whose noise at σ = 0 moves nothing is not run (`moves_at`).
-            for c in Channel::ALL.into_iter().filter(|c| c.moves_at(0.0)) {
-                let mut x = noise_free;
-                c.measure(Scalar, &mut x, 0.0, 0.0);
-                assert_eq!(x.output_noise.unwrap_or(0.0), 0.0, "{c:?}");
-                x.output_noise = None;
-                assert_eq!(x, noise_free, "{c:?}");
-            }
-        }
-    }
-}
+mod tests;
