@@ -4,7 +4,9 @@
 
 use nalgebra::Matrix3;
 
-use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance, SecondOrder};
+use super::channels::{
+    Channel, GradeLoading, NoiseLevels, OmegaAt, RowCovariance, SecondOrder, Signal,
+};
 use super::parameters::Parameters;
 use super::regression::Regression;
 use crate::numeric::linalg::SolveError;
@@ -204,8 +206,8 @@ pub fn thesis_bound(
     noise: &NoiseLevels,
     parameters: Parameters,
 ) -> Option<[f64; 3]> {
-    if noise.is_on(Channel::Velocity) {
-        scaled_inverse_sd(noisy_xtx, noise[Channel::Velocity], parameters).ok()
+    if noise.measures_noisy(Signal::Speed) {
+        scaled_inverse_sd(noisy_xtx, noise.sd_of(Signal::Speed), parameters).ok()
     } else {
         None
     }
@@ -287,7 +289,7 @@ pub static BOUNDS: [Bound; 4] = [
         kind: BoundKind::Thesis,
         name: "thesis_bound",
         description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
-        applies: |n| n.is_on(Channel::Velocity),
+        applies: |n| n.measures_noisy(Signal::Speed),
         value: BoundValue::PerRealisation(thesis_bound),
         not_valid: Some(
             " under speed noise: the noise is in the regressors, not in the output, and σ_v \
@@ -300,7 +302,7 @@ pub static BOUNDS: [Bound; 4] = [
         description: "sqrt(diag(σ_y² (XᵀX)⁻¹)), noise-free X: the Cramér–Rao bound when output noise is the only noise",
         applies: NoiseLevels::output_only,
         value: BoundValue::Constant(|reg, _, n, p, _| {
-            scaled_inverse_sd(&reg.xtx, n[Channel::Output], p).ok()
+            scaled_inverse_sd(&reg.xtx, n.sd_of(Signal::Acceleration), p).ok()
         }),
         not_valid: None,
     },

@@ -11,7 +11,7 @@ use std::ops::Deref;
 use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::{Bound, Spread};
-use super::channels::{BlockNoise, Channel, NoiseLevels};
+use super::channels::{BlockNoise, Channel, NoiseLevels, Signal};
 use super::moments::{Moments, Rows, RowsView};
 use super::parameters::Parameters;
 use super::regression::Regression;
@@ -309,7 +309,7 @@ pub fn estimates_without_draws(
     });
     let scans = rows.as_ref().map(|rows| {
         let mut scans = RowScans::default();
-        let grade = noise.is_on(Channel::Grade);
+        let grade = noise.measures_noisy(Signal::Grade);
         // One scan of these rows: nothing to share with others.
         scans.reset(reads, reg, grade, rls_target(settings, truth), false);
         scans.advance(rows.view(reg), reg, reg.len());

@@ -6,314 +6,17 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
-use super::channels::{BlockNoise, Channel, NoiseLevels};
+use super::channels::{BlockNoise, NoiseLevels};
 use super::kernels::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 use super::regression::Regression;
+use super::sums::Column;
 pub use super::sums::{GradeSums, Moments};
-use crate::noise::BLOCK;
-#[cfg(target_arch = "x86_64")]
-use crate::numeric::simd::Avx2;
-use crate::numeric::simd::Quad;
+use block::{OUTPUT, SPEED};
 
-mod one_pass;
-pub use one_pass::Wanted;
-
-/// What a block is measured from: samples `start .. start + len` of the regression `reg`,
-/// the noise levels, each channel's standard-normal draws of the block (a channel that is
-/// off has none) and the noise of a differentiated acceleration \[m/s²\] where there is one.
-#[derive(Clone, Copy)]
-pub struct Block<'a> {
-    /// The regression measured.
-    pub reg: &'a Regression,
-    /// The channels' standard deviations.
-    pub levels: &'a NoiseLevels,
-    /// The block's first sample.
-    pub start: usize,
-    /// The block's number of samples (at most [`BLOCK`]).
-    pub len: usize,
-    /// Each channel's draws of the block.
-    pub draws: BlockNoise<'a>,
-    /// A differentiated acceleration's noise of each sample \[m/s²\].
-    pub derivative: Option<&'a [f64]>,
-}
-
-/// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
-/// s̃ = g sin θ̃ — built from the block's draws by each channel's
-/// [`measure`](Channel::measure) (the general path; docs/model.md#sufficient-statistics).
-/// A column no channel moved is the regression's own (see [`MeasuredBlock::view`]).
-#[derive(Debug, Clone)]
-pub struct MeasuredBlock {
-    start: usize,
-    len: usize,
-    force_moved: bool,
-    grade_moved: bool,
-    f: [f64; BLOCK],
-    w: [f64; BLOCK],
-    c: [f64; BLOCK],
-    y: [f64; BLOCK],
-    s: [f64; BLOCK],
-}
-
-impl MeasuredBlock {
-    /// An empty block (on the heap: a dozen columns of [`BLOCK`]).
-    pub fn new() -> Box<Self> {
-        Box::new(MeasuredBlock {
-            start: 0,
-            len: 0,
-            force_moved: false,
-            grade_moved: false,
-            f: [0.0; BLOCK],
-            w: [0.0; BLOCK],
-            c: [0.0; BLOCK],
-            y: [0.0; BLOCK],
-            s: [0.0; BLOCK],
-        })
-    }
-
-    /// Measure the samples of `b` with its draws, in one pass over the samples, four at a
-    /// time in the portable lanes or an AVX2 register (the same bits).
-    pub fn measure(&mut self, b: Block<'_>) {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = Avx2::detect() {
-            // SAFETY: the token proves the CPU has AVX2.
-            return unsafe { self.measure_avx2(avx2, b) };
-        }
-        self.measure_one_pass(Quad, b);
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn measure_avx2(&mut self, avx2: Avx2, b: Block<'_>) {
-        self.measure_one_pass(avx2, b);
-    }
-
-    /// The block's rows on `reg` (the regression it was measured on).
-    pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
-        let (len, range) = (self.len, self.start..self.start + self.len);
-        let f = self.force_moved.then(|| &self.f[..len]);
-        let (c, s) = match self.grade_moved {
-            true => (&self.c[..len], &self.s[..len]),
-            false => (&reg.c[range.clone()], &reg.g_sin[range.clone()]),
-        };
-        RowsView {
-            f: f.unwrap_or(&reg.f[range]),
-            w: &self.w[..len],
-            c,
-            y: &self.y[..len],
-            s,
-            noise_free_f_c: f.is_none() && !self.grade_moved,
-            noise_free_y: false,
-        }
-    }
-}
-
-/// The measured rows of one realisation, for estimators that need more than the sums
-/// (weighted and recursive ones). A column the noise does not touch is not copied: the
-/// regression's own column stands in for it (see [`Rows::view`]).
-#[derive(Debug, Clone, Default)]
-pub struct Rows {
-    /// w = Ṽ² \[m²/s²\] (column 2 is −k w) of the first `len` rows; as long as the
-    /// regression, the values after `len` from an earlier realisation or zero (so that a
-    /// block's w is written in place, without first zeroing or growing the column).
-    w: Vec<f64>,
-    /// The rows taken so far.
-    len: usize,
-    /// The length of the room for w handed out by [`Rows::w_room`] and not yet taken by
-    /// [`Rows::push_block`].
-    w_ahead: Option<usize>,
-    /// x̃₁ = F̃ \[N\] (`None`: noise-free).
-    f: Option<Vec<f64>>,
-    /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
-    c: Option<Vec<f64>>,
-    /// ỹ \[m/s²\] (`None`: noise-free).
-    y: Option<Vec<f64>>,
-    /// s̃ = g sin θ̃ \[m/s²\] (`None`: noise-free).
-    s: Option<Vec<f64>>,
-    /// Whether f, c, y and s are copied in this realisation (else the regression's stand in).
-    copies: [bool; 4],
-    /// Whether the rows are measured on the fast path (only Ṽ and ỹ carry noise).
-    fast: bool,
-}
-
-/// The measured rows as columns: x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ, s̃ = g sin θ̃.
-#[derive(Debug, Clone, Copy)]
-pub struct RowsView<'a> {
-    /// x̃₁ = F̃ \[N\].
-    pub f: &'a [f64],
-    /// w = Ṽ² \[m²/s²\].
-    pub w: &'a [f64],
-    /// x̃₃ = −g cos θ̃ \[m/s²\].
-    pub c: &'a [f64],
-    /// ỹ \[m/s²\].
-    pub y: &'a [f64],
-    /// s̃ = g sin θ̃, the grade term of ỹ \[m/s²\].
-    pub s: &'a [f64],
-    /// True when x̃₁ and x̃₃ are the regression's noise-free columns.
-    pub noise_free_f_c: bool,
-    /// True when ỹ is the regression's noise-free column.
-    pub noise_free_y: bool,
-}
-
-impl RowsView<'_> {
-    /// Number of rows.
-    pub fn len(&self) -> usize {
-        self.w.len()
-    }
-
-    /// True when there are none.
-    pub fn is_empty(&self) -> bool {
-        self.w.is_empty()
-    }
-}
-
-impl Rows {
-    /// Empty rows of `reg` under `noise`, with room for all of them.
-    pub fn new(reg: &Regression, noise: &NoiseLevels) -> Self {
-        let mut rows = Rows::default();
-        rows.reset(reg, noise);
-        rows
-    }
-
-    /// Empty these rows for a realisation of `reg` under `noise`, keeping their memory
-    /// (a thread reuses one `Rows` for all its realisations).
-    pub fn reset(&mut self, reg: &Regression, noise: &NoiseLevels) {
-        let n = reg.len();
-        let general = !noise.fast_path();
-        self.fast = !general;
-        let column = |v: &mut Option<Vec<f64>>, copied: bool| {
-            if copied {
-                let v = v.get_or_insert_with(Vec::new);
-                v.clear();
-                v.reserve(n);
-            } else if let Some(v) = v {
-                // Keep the memory for a later condition that copies it.
-                v.clear();
-            }
-        };
-        self.len = 0;
-        self.w_ahead = None;
-        self.w.resize(n, 0.0);
-        // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
-        let force = general && noise.is_on(Channel::Force);
-        let grade = general && noise.is_on(Channel::Grade);
-        let output = general || noise.is_on(Channel::Output) || noise.speed_noise_differentiated();
-        column(&mut self.f, force);
-        column(&mut self.c, grade);
-        column(&mut self.y, output);
-        column(&mut self.s, grade);
-        self.copies = [force, grade, output, grade];
-    }
-
-    /// The columns, with `reg`'s (the regression the rows were measured on) where the noise
-    /// left one untouched.
-    pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
-        let pick = |own: &'a Option<Vec<f64>>, copied: bool, theirs: &'a [f64]| match own {
-            Some(v) if copied => v.as_slice(),
-            _ => theirs,
-        };
-        RowsView {
-            f: pick(&self.f, self.copies[0], &reg.f),
-            w: &self.w[..self.len],
-            c: pick(&self.c, self.copies[1], &reg.c),
-            y: pick(&self.y, self.copies[2], &reg.y),
-            s: pick(&self.s, self.copies[3], &reg.g_sin),
-            noise_free_f_c: !self.copies[0] && !self.copies[1],
-            noise_free_y: !self.copies[2],
-        }
-    }
-
-    /// On the fast path, room for the w of the next block's `len` rows, for the fast
-    /// path's sums to write as they take them
-    /// ([`MomentAccumulator::add_block_writing_w`]); that block's
-    /// [`push_block`](Self::push_block) then takes w as written there.
-    pub fn w_room(&mut self, len: usize) -> &mut [f64] {
-        assert!(self.fast, "w is written ahead on the fast path only");
-        assert!(self.w_ahead.is_none(), "room for w handed out twice");
-        self.w_ahead = Some(len);
-        &mut self.w[self.len..self.len + len]
-    }
-
-    /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
-    /// derivative noise (the same the moments of the block are summed from, with the same
-    /// arithmetic); their w as written in the room [`Self::w_room`] handed out for them, if
-    /// it did.
-    pub fn push_block(
-        &mut self,
-        reg: &Regression,
-        levels: &NoiseLevels,
-        start: usize,
-        len: usize,
-        draws: BlockNoise<'_>,
-        derivative: Option<&[f64]>,
-    ) {
-        let range = start..start + len;
-        let w_written = match self.w_ahead.take() {
-            Some(room) => {
-                assert_eq!(room, len, "the room for w is the block's");
-                true
-            }
-            None => false,
-        };
-        if self.fast {
-            // Fast path: only Ṽ and ỹ carry noise.
-            let sd_v = levels[Channel::Velocity];
-            let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
-            if !w_written {
-                let room = &mut self.w[self.len..self.len + len];
-                for ((w, v), e) in room.iter_mut().zip(&reg.v[range.clone()]).zip(e) {
-                    let vt = v + sd_v * e;
-                    *w = vt * vt;
-                }
-            }
-            self.len += len;
-            if let (Some(y), true) = (&mut self.y, self.copies[2]) {
-                let from = y.len();
-                match draws[Channel::Output] {
-                    Some(eta) => {
-                        let sd_y = levels[Channel::Output];
-                        y.extend(reg.y[range].iter().zip(eta).map(|(y, eta)| y + sd_y * eta));
-                    }
-                    None => y.extend_from_slice(&reg.y[range]),
-                }
-                if let Some(d) = derivative {
-                    for (y, d) in y[from..].iter_mut().zip(d) {
-                        *y += d;
-                    }
-                }
-            }
-            return;
-        }
-        let mut block = MeasuredBlock::new();
-        block.measure(Block {
-            reg,
-            levels,
-            start,
-            len,
-            draws,
-            derivative,
-        });
-        self.push_measured(reg, &block);
-    }
-
-    /// Append the rows of a block measured on the general path (the columns the noise
-    /// moves; the regression's stand in for the others).
-    pub fn push_measured(&mut self, reg: &Regression, block: &MeasuredBlock) {
-        let rows = block.view(reg);
-        let len = rows.w.len();
-        self.w[self.len..self.len + len].copy_from_slice(rows.w);
-        self.len += len;
-        for (own, copied, theirs) in [
-            (&mut self.f, self.copies[0], rows.f),
-            (&mut self.c, self.copies[1], rows.c),
-            (&mut self.y, self.copies[2], rows.y),
-            (&mut self.s, self.copies[3], rows.s),
-        ] {
-            if let (Some(own), true) = (own, copied) {
-                own.extend_from_slice(theirs);
-            }
-        }
-    }
-}
+mod block;
+mod rows;
+pub use block::{Block, MeasuredBlock, RowsView, Wanted};
+pub use rows::Rows;
 
 /// Partial sums of the fast path (speed and output noise only): everything that the noise
 /// touches, accumulated per block.
@@ -361,16 +64,16 @@ impl<'r> MomentAccumulator<'r> {
     /// Start a realisation of `reg` with noise levels `noise`.
     pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
         let mut fast = SpeedOutputSums::default();
-        if !noise.is_on(Channel::Velocity) {
+        if !noise.is_on(SPEED) {
             [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = reg.speed_sums_noise_free;
         }
         MomentAccumulator {
             reg,
             noise,
             use_fast_path: noise.fast_path(),
-            sum_grade: noise.is_on(Channel::Grade),
+            sum_grade: noise.moves(Column::C),
             keep_rows: true,
-            noise_free_f_c: !noise.is_on(Channel::Force) && !noise.is_on(Channel::Grade),
+            noise_free_f_c: !noise.moves(Column::F) && !noise.moves(Column::C),
             fast,
             general: Moments::default(),
             block: None,
@@ -430,7 +133,7 @@ impl<'r> MomentAccumulator<'r> {
     /// Whether [`add_block_writing_w`](Self::add_block_writing_w) writes w: on the fast
     /// path with speed noise (elsewhere w is not computed there).
     pub fn writes_w(&self) -> bool {
-        self.use_fast_path && self.noise[Channel::Velocity] != 0.0
+        self.use_fast_path && self.noise[SPEED] != 0.0
     }
 
     /// [`add_block`](Self::add_block) that, where [`writes_w`](Self::writes_w), also writes
@@ -470,9 +173,9 @@ impl<'r> MomentAccumulator<'r> {
             c: &reg.c[range.clone()],
             y: &reg.y[range],
         };
-        let sd_v = self.noise[Channel::Velocity];
+        let sd_v = self.noise[SPEED];
         let s = &mut self.fast;
-        let e = draws[Channel::Velocity].unwrap_or(&ZEROS[..len]);
+        let e = draws[SPEED].unwrap_or(&ZEROS[..len]);
         // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
         if sd_v != 0.0 {
             let [s_w, s_wf, s_wc, s_ww, s_wy] = match w {
@@ -485,7 +188,7 @@ impl<'r> MomentAccumulator<'r> {
             s.s_ww += s_ww;
             s.s_wy += s_wy;
         }
-        if let Some(eta) = draws[Channel::Output] {
+        if let Some(eta) = draws[OUTPUT] {
             let [s_eta, s_f_eta, s_c_eta, s_w_eta] = output_sums(&cols, e, sd_v, eta);
             s.s_eta += s_eta;
             s.s_f_eta += s_f_eta;
@@ -558,7 +261,7 @@ impl<'r> MomentAccumulator<'r> {
             return m;
         }
         let s = &self.fast;
-        let sd_y = self.noise[Channel::Output];
+        let sd_y = self.noise[OUTPUT];
         Moments {
             s_11: reg.xtx[(0, 0)],
             s_13: reg.xtx[(0, 2)],

@@ -11,7 +11,7 @@
 //! them.
 
 use super::bounds::{Bound, BoundKind};
-use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt};
+use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, Signal};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::moments::Moments;
 use super::moments::RowsView;
@@ -54,7 +54,7 @@ impl Estimator for Wbcls {
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let (k, g) = (r.regression.k, r.regression.g);
-        let sd = r.noise[Channel::Velocity];
+        let sd = r.noise.sd_of(Signal::Speed);
         let mut theta = match r.settings.solve(&r.moments.bcls_system(k, g, r.noise)) {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),

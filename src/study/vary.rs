@@ -6,7 +6,7 @@ use std::sync::LazyLock;
 
 use super::validate::validate;
 use super::{Study, StudyError};
-use crate::estimate::channels::Channel;
+use crate::estimate::channels::{Channel, Signal};
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
 use crate::vehicle::{DRIVE_MODES, RUN_PAIR};
 
@@ -82,7 +82,7 @@ impl VariedKey {
             VariedKey::Duration => "s",
             VariedKey::Runs => "runs",
             VariedKey::Scale => "-",
-            VariedKey::VelocitySd => Channel::Velocity.unit(),
+            VariedKey::VelocitySd => Channel::of(Signal::Speed).unit(),
             VariedKey::Truth(t) => match t.entry().unit {
                 "" => "-",
                 unit => unit,
@@ -218,7 +218,7 @@ impl Study {
             VariedKey::VelocitySd => match raw.noise.as_mut() {
                 Some(noise) => {
                     noise.0.insert(
-                        Channel::Velocity.key().into(),
+                        Channel::of(Signal::Speed).key().into(),
                         toml::Value::Array(vec![toml::Value::Float(value)]),
                     );
                 }

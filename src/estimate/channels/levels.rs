@@ -3,7 +3,7 @@
 
 use std::ops::{Index, IndexMut};
 
-use super::{Channel, OmegaAt, PerChannel};
+use super::{Channel, OmegaAt, PerChannel, Signal};
 use crate::estimate::sums::Column;
 
 /// Where the acceleration in the regression output comes from (`estimation.acceleration`).
@@ -66,7 +66,7 @@ impl NoiseLevels {
     /// speed noise then enters the output as well, and rows share noise with their
     /// neighbours.
     pub fn speed_noise_differentiated(&self) -> bool {
-        self.acceleration == Acceleration::Differentiated && self.is_on(Channel::Velocity)
+        self.acceleration == Acceleration::Differentiated && self.measures_noisy(Signal::Speed)
     }
 
     /// True when the rows' equation errors are independent: no channel's noise is shared
@@ -78,12 +78,23 @@ impl NoiseLevels {
 
     /// True when the speed noise is on and correlated in time.
     pub fn velocity_correlated(&self) -> bool {
-        self.is_on(Channel::Velocity) && self.velocity_correlation_s > 0.0
+        self.measures_noisy(Signal::Speed) && self.velocity_correlation_s > 0.0
     }
 
     /// Whether `channel` is on.
     pub fn is_on(&self, channel: Channel) -> bool {
         self[channel] > 0.0
+    }
+
+    /// The standard deviation of the noise on `signal` ([`Channel::of`]), in its channel's
+    /// unit.
+    pub fn sd_of(&self, signal: Signal) -> f64 {
+        self[Channel::of(signal)]
+    }
+
+    /// Whether `signal` carries noise ([`Channel::of`]).
+    pub fn measures_noisy(&self, signal: Signal) -> bool {
+        self.is_on(Channel::of(signal))
     }
 
     /// Ω at `at`: every channel's [`Channel::omega_term`], added in
@@ -110,7 +121,7 @@ impl NoiseLevels {
 
     /// True when the output is noisy and nothing else is.
     pub fn output_only(&self) -> bool {
-        self.is_on(Channel::Output) && !self.in_regressors()
+        self.measures_noisy(Signal::Acceleration) && !self.in_regressors()
     }
 
     /// True when every channel that is on is handled by the vectorised kernel: the

@@ -386,6 +386,28 @@ impl Channel {
     pub const fn index(self) -> usize {
         self as usize
     }
+
+    /// The channel whose noise is added to `signal` ([`ChannelTerms::SIGNAL`]): what the
+    /// rest of the crate names a channel by where a path treats one specially (the fast
+    /// path's speed and output noise, the AR(1) filter and differentiation of the speed
+    /// noise, the bounds that read σ_v or σ_y). Each signal has one channel (a test checks
+    /// it); a signal with none, or several, panics.
+    pub const fn of(signal: Signal) -> Channel {
+        let mut found = None;
+        let mut i = 0;
+        while i < CHANNEL_COUNT {
+            let c = Channel::ALL[i];
+            if c.signal() as usize == signal as usize {
+                assert!(found.is_none(), "two channels measure one signal");
+                found = Some(c);
+            }
+            i += 1;
+        }
+        match found {
+            Some(c) => c,
+            None => panic!("no channel measures the signal"),
+        }
+    }
 }
 
 /// A signal of a vehicle's log, as a sensor records it.

@@ -36,3 +36,14 @@ fn a_zero_draw_leaves_the_samples_unchanged() {
         }
     }
 }
+
+#[test]
+fn each_signal_has_one_channel_and_each_channel_one_signal() {
+    for signal in Signal::ALL {
+        let measuring: Vec<Channel> = Channel::ALL
+            .into_iter()
+            .filter(|c| c.signal() == signal)
+            .collect();
+        assert_eq!(measuring, [Channel::of(signal)], "{signal:?}");
+    }
+}

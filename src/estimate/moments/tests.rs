@@ -1,8 +1,12 @@
 use super::*;
+use crate::estimate::channels::Channel;
 use crate::estimate::regression::test_regression as regression;
 use crate::estimate::row_sums::segment_moments;
 use crate::estimate::sums::Sum;
 use crate::noise::{BLOCK, NormalStream};
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::Quad;
 
 fn moments(reg: &Regression, noise: NoiseLevels, general: bool) -> Moments {
     let mut acc = if general {

@@ -4,9 +4,13 @@
 //! axis columns and every condition's axis values are derived from the same list.
 
 use super::super::{Axis, AxisValue};
-use crate::estimate::channels::{Channel, NoiseLevels};
+use crate::estimate::channels::{Channel, NoiseLevels, Signal};
 use crate::study::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, VehicleStudy};
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
+
+/// The speed's channel: with the air speed measured, its level is the air-speed sensor's
+/// (the sensor in the drag regressor), set by the air-speed axis.
+const SPEED: Channel = Channel::of(Signal::Speed);
 
 /// A condition axis of the vehicle model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,7 +106,7 @@ impl VehicleAxis {
             VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
             VehicleAxis::Acceleration => Axis::text("acceleration"),
             VehicleAxis::GradeMap => Axis::number(GRADE_MAP_SD, "m"),
-            VehicleAxis::AirSpeed => Axis::number(AIR_SPEED_SD, Channel::Velocity.unit()),
+            VehicleAxis::AirSpeed => Axis::number(AIR_SPEED_SD, SPEED.unit()),
             VehicleAxis::Truth(i) => Axis::number(MODEL_ERRORS[i].key, MODEL_ERRORS[i].unit),
         }
     }
@@ -139,7 +143,7 @@ impl VehicleAxis {
             // The speed channel's level is then 0 (validated): the sensor in the drag
             // regressor is the air-speed sensor.
             VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => {
-                point.noise[Channel::Velocity] = study.air_speed_sd[i]
+                point.noise[SPEED] = study.air_speed_sd[i]
             }
             VehicleAxis::AirSpeed => {}
             VehicleAxis::Truth(e) => point.truth_levels[e] = i,
@@ -155,12 +159,10 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Runs => study.drive.runs().map_or(1, |r| r[point.runs_index]) as f64,
-            VehicleAxis::Noise(Channel::Velocity) if study.air_speed == AirSpeed::Measured => 0.0,
+            VehicleAxis::Noise(SPEED) if study.air_speed == AirSpeed::Measured => 0.0,
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::GradeMap => point.grade_map_sd,
-            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => {
-                point.noise[Channel::Velocity]
-            }
+            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => point.noise[SPEED],
             VehicleAxis::AirSpeed => 0.0,
             VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
             VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 
 use super::VehicleModel;
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
-use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel};
+use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel, Signal};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
@@ -16,6 +16,10 @@ use crate::estimate::row_sums::RowScans;
 use crate::model::SINGLE_BATCH;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalSequence, NormalStream};
+
+/// The speed's channel: its noise is drawn by the kernel itself where it is correlated in
+/// time (AR(1)) or differentiated into the output.
+const SPEED: Channel = Channel::of(Signal::Speed);
 
 impl VehicleModel {
     /// The standard normal draws of `channel` in realisation `r` of condition `c`, in the
@@ -107,7 +111,7 @@ impl VehicleModel {
         // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
         // thread's buffer (kept from one realisation to the next).
         let mut span_buffer = SPAN_NOISE.take();
-        let velocity = &mut streams[Channel::Velocity];
+        let velocity = &mut streams[SPEED];
         let span_noise = match (&reg.differentiation, velocity, span) {
             (Some(d), Some(_), Some(span)) if noise.speed_noise_differentiated() => Some((d, span)),
             (Some(d), Some(stream), None) if noise.speed_noise_differentiated() => {
@@ -131,8 +135,8 @@ impl VehicleModel {
             let len = BLOCK.min(n - start);
             if let Some((d, e)) = &span_noise {
                 // Each row's own sample's noise, and σ_v (e_{s+1} − e_{s−1}) / Δt in ỹ.
-                let sd = noise[Channel::Velocity];
-                let buffer = &mut buffers[Channel::Velocity][..len];
+                let sd = noise[SPEED];
+                let buffer = &mut buffers[SPEED][..len];
                 let (first, last) = (d.sample[start], d.sample[start + len - 1]);
                 let inv_dt = &d.inv_dt[start..start + len];
                 if last - first == len - 1 {
@@ -149,8 +153,8 @@ impl VehicleModel {
                         derivative[j] = sd * (e[s + 1] - e[s - 1]) * inv_dt[j];
                     }
                 }
-            } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[Channel::Velocity]) {
-                let buffer = &mut buffers[Channel::Velocity][..len];
+            } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[SPEED]) {
+                let buffer = &mut buffers[SPEED][..len];
                 stream.fill(buffer);
                 for (z, step) in buffer.iter_mut().zip(&ar1[start..start + len]) {
                     ar1_step(&mut previous, z, *step);
@@ -164,7 +168,7 @@ impl VehicleModel {
                 .zip(streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0))
             {
                 *draw = stream.as_mut().map(|s| {
-                    if !(channel == Channel::Velocity && speed_drawn) {
+                    if !(channel == SPEED && speed_drawn) {
                         s.fill(&mut buffer[..len]);
                     }
                     &buffer[..len]
@@ -306,7 +310,7 @@ impl VehicleModel {
         let (reg, ar1) = self.rows_of(c, &world);
         if self.reads.any() {
             rows.reset(reg, &cond.noise);
-            let grade = cond.noise.is_on(Channel::Grade);
+            let grade = cond.noise.measures_noisy(Signal::Grade);
             let rls = rls_target(&self.study.settings, &self.truth);
             // A realisation's own regression (drawn entries) serves it alone.
             scans.reset(self.reads, reg, grade, rls, world.is_none());
@@ -353,7 +357,6 @@ impl VehicleModel {
         cond.world.is_none()
             && cond.ar1.is_some()
             && cond.regression.differentiation.is_some()
-            && cond.noise.is_on(Channel::Velocity)
             && cond.noise.speed_noise_differentiated()
     }
 
@@ -379,7 +382,7 @@ impl VehicleModel {
         out.resize(count * len, 0.0);
         let key = self.stream_key(c);
         for (i, e) in out.chunks_exact_mut(len).enumerate() {
-            Draws::new(self.shared, seed, key, Channel::Velocity, first + i as u64).fill(e);
+            Draws::new(self.shared, seed, key, SPEED, first + i as u64).fill(e);
         }
         let mut spans: Vec<&mut [f64]> = out.chunks_exact_mut(len).collect();
         filter_side_by_side(&mut spans, |s| &mut **s, &mut vec![0.0; count], &ar1[..len]);
@@ -454,12 +457,7 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                filter_side_by_side(
-                    &mut buffers,
-                    |b| &mut b[Channel::Velocity][..],
-                    &mut previous,
-                    rows,
-                );
+                filter_side_by_side(&mut buffers, |b| &mut b[SPEED][..], &mut previous, rows);
             }
             for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
                 let len = BLOCK.min(n - start);

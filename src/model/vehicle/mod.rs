@@ -28,7 +28,7 @@ pub use layout::layout;
 
 use super::{ConditionInfo, Layout, ModelErrorValue};
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
-use crate::estimate::channels::{Channel, NoiseLevels, sum_covariances};
+use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::conversions::EXTRAS;
 use crate::estimate::estimators::BiasPrediction;
@@ -346,7 +346,7 @@ impl VehicleModel {
             return (bias, se);
         }
         let reg = &*cond.regression;
-        let s2 = cond.noise[Channel::Velocity].powi(2);
+        let s2 = cond.noise.sd_of(Signal::Speed).powi(2);
         let m = reg.noise_free_moments();
         // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
         let expected = Moments {
@@ -426,7 +426,11 @@ fn uneven_differentiation(
     error_at: &ErrorAt<'_>,
 ) -> Result<(), StudyError> {
     let correlated = vs.velocity_correlation_s.iter().any(|&t| t > 0.0)
-        && vs.noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0);
+        && vs
+            .noise
+            .levels(Channel::of(Signal::Speed))
+            .iter()
+            .any(|&s| s > 0.0);
     let spans = segments
         .iter()
         .flat_map(|s| s.regressions.iter().flatten())

@@ -7,9 +7,10 @@
 //! `numeric::simd`: four samples at a time in the portable lanes or in an AVX2 register, the
 //! samples after the last group one at a time.
 
-use super::{Block, GradeSums, MeasuredBlock, Moments};
+use super::{Block, MeasuredBlock, Wanted};
 use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
 use crate::estimate::sums::Column;
+use crate::estimate::sums::{GradeSums, Moments};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes, Lanes4, Quad, Real, Scalar};
@@ -245,23 +246,10 @@ fn moments(lanes: &LaneSums, len: usize, regressors: bool, grade: bool) -> Momen
     }
 }
 
-/// What [`MeasuredBlock::measure_and_sum`] gives besides the sums that involve w or ỹ.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Wanted {
-    /// The sums of x̃₁ and x̃₃ alone (zero without: `MomentAccumulator::finish` takes the
-    /// regression's where those columns are noise-free).
-    pub regressors: bool,
-    /// The grade term's sums ([`GradeSums`]).
-    pub grade: bool,
-    /// The measured rows, for [`MeasuredBlock::view`]: without, the vectorised pass writes
-    /// no columns and the block's rows are not to be read.
-    pub rows: bool,
-}
-
 impl MeasuredBlock {
     /// [`measure`](Self::measure) in one pass over the samples in the lanes of `l`.
     #[inline(always)]
-    pub(super) fn measure_one_pass<L: Lanes4>(&mut self, l: L, b: Block<'_>) {
+    pub(in crate::estimate::moments) fn measure_one_pass<L: Lanes4>(&mut self, l: L, b: Block<'_>) {
         self.pass::<L, false, false, false>(l, b, true);
     }
 
@@ -287,7 +275,7 @@ impl MeasuredBlock {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    pub(super) fn measure_and_sum_avx2(
+    pub(in crate::estimate::moments) fn measure_and_sum_avx2(
         &mut self,
         avx2: Avx2,
         b: Block<'_>,
@@ -307,7 +295,7 @@ impl MeasuredBlock {
 
     /// [`measure_and_sum`](Self::measure_and_sum) in the lanes of `l`.
     #[inline(always)]
-    pub(super) fn measure_and_sum_in<L: Lanes4>(
+    pub(in crate::estimate::moments) fn measure_and_sum_in<L: Lanes4>(
         &mut self,
         l: L,
         b: Block<'_>,
@@ -430,7 +418,7 @@ impl MeasuredBlock {
 
     /// The block measured one sample at a time ([`Scalar`]): what the lanes must agree with.
     #[cfg(test)]
-    pub(super) fn measure_by_samples(&mut self, b: Block<'_>) {
+    pub(in crate::estimate::moments) fn measure_by_samples(&mut self, b: Block<'_>) {
         let x = Flat::new(b);
         (self.start, self.len) = (b.start, b.len);
         self.grade_moved = x.moves(Column::C);

@@ -1,0 +1,149 @@
+//! One block of a realisation's measured rows: what it is measured from ([`Block`]), the
+//! general path's measured columns ([`MeasuredBlock`], measured and summed in one pass in
+//! `one_pass.rs`) and the view of measured rows as columns ([`RowsView`]).
+
+use crate::estimate::channels::{BlockNoise, Channel, NoiseLevels, Signal};
+use crate::estimate::regression::Regression;
+use crate::noise::BLOCK;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::numeric::simd::Quad;
+
+mod one_pass;
+
+/// The channels the fast path carries: the speed's noise and the output's.
+pub(super) const SPEED: Channel = Channel::of(Signal::Speed);
+pub(super) const OUTPUT: Channel = Channel::of(Signal::Acceleration);
+
+/// What a block is measured from: samples `start .. start + len` of the regression `reg`,
+/// the noise levels, each channel's standard-normal draws of the block (a channel that is
+/// off has none) and the noise of a differentiated acceleration \[m/s²\] where there is one.
+#[derive(Clone, Copy)]
+pub struct Block<'a> {
+    /// The regression measured.
+    pub reg: &'a Regression,
+    /// The channels' standard deviations.
+    pub levels: &'a NoiseLevels,
+    /// The block's first sample.
+    pub start: usize,
+    /// The block's number of samples (at most [`BLOCK`]).
+    pub len: usize,
+    /// Each channel's draws of the block.
+    pub draws: BlockNoise<'a>,
+    /// A differentiated acceleration's noise of each sample \[m/s²\].
+    pub derivative: Option<&'a [f64]>,
+}
+
+/// One block of measured rows as columns — x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ and
+/// s̃ = g sin θ̃ — built from the block's draws by each channel's
+/// [`measure`](Channel::measure) (the general path; docs/model.md#sufficient-statistics).
+/// A column no channel moved is the regression's own (see [`MeasuredBlock::view`]).
+#[derive(Debug, Clone)]
+pub struct MeasuredBlock {
+    start: usize,
+    len: usize,
+    force_moved: bool,
+    grade_moved: bool,
+    f: [f64; BLOCK],
+    w: [f64; BLOCK],
+    c: [f64; BLOCK],
+    y: [f64; BLOCK],
+    s: [f64; BLOCK],
+}
+
+impl MeasuredBlock {
+    /// An empty block (on the heap: a dozen columns of [`BLOCK`]).
+    pub fn new() -> Box<Self> {
+        Box::new(MeasuredBlock {
+            start: 0,
+            len: 0,
+            force_moved: false,
+            grade_moved: false,
+            f: [0.0; BLOCK],
+            w: [0.0; BLOCK],
+            c: [0.0; BLOCK],
+            y: [0.0; BLOCK],
+            s: [0.0; BLOCK],
+        })
+    }
+
+    /// Measure the samples of `b` with its draws, in one pass over the samples, four at a
+    /// time in the portable lanes or an AVX2 register (the same bits).
+    pub fn measure(&mut self, b: Block<'_>) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = Avx2::detect() {
+            // SAFETY: the token proves the CPU has AVX2.
+            return unsafe { self.measure_avx2(avx2, b) };
+        }
+        self.measure_one_pass(Quad, b);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn measure_avx2(&mut self, avx2: Avx2, b: Block<'_>) {
+        self.measure_one_pass(avx2, b);
+    }
+
+    /// The block's rows on `reg` (the regression it was measured on).
+    pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
+        let (len, range) = (self.len, self.start..self.start + self.len);
+        let f = self.force_moved.then(|| &self.f[..len]);
+        let (c, s) = match self.grade_moved {
+            true => (&self.c[..len], &self.s[..len]),
+            false => (&reg.c[range.clone()], &reg.g_sin[range.clone()]),
+        };
+        RowsView {
+            f: f.unwrap_or(&reg.f[range]),
+            w: &self.w[..len],
+            c,
+            y: &self.y[..len],
+            s,
+            noise_free_f_c: f.is_none() && !self.grade_moved,
+            noise_free_y: false,
+        }
+    }
+}
+
+/// The measured rows as columns: x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃, ỹ, s̃ = g sin θ̃.
+#[derive(Debug, Clone, Copy)]
+pub struct RowsView<'a> {
+    /// x̃₁ = F̃ \[N\].
+    pub f: &'a [f64],
+    /// w = Ṽ² \[m²/s²\].
+    pub w: &'a [f64],
+    /// x̃₃ = −g cos θ̃ \[m/s²\].
+    pub c: &'a [f64],
+    /// ỹ \[m/s²\].
+    pub y: &'a [f64],
+    /// s̃ = g sin θ̃, the grade term of ỹ \[m/s²\].
+    pub s: &'a [f64],
+    /// True when x̃₁ and x̃₃ are the regression's noise-free columns.
+    pub noise_free_f_c: bool,
+    /// True when ỹ is the regression's noise-free column.
+    pub noise_free_y: bool,
+}
+
+impl RowsView<'_> {
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.w.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.w.is_empty()
+    }
+}
+
+/// What [`MeasuredBlock::measure_and_sum`] gives besides the sums that involve w or ỹ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wanted {
+    /// The sums of x̃₁ and x̃₃ alone (zero without: `MomentAccumulator::finish` takes the
+    /// regression's where those columns are noise-free).
+    pub regressors: bool,
+    /// The grade term's sums ([`GradeSums`]).
+    pub grade: bool,
+    /// The measured rows, for [`MeasuredBlock::view`]: without, the vectorised pass writes
+    /// no columns and the block's rows are not to be read.
+    pub rows: bool,
+}

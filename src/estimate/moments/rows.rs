@@ -1,0 +1,185 @@
+//! The measured rows of one realisation, kept for the estimators that read rows ([`Rows`]):
+//! the columns the noise moves, block by block, the regression's standing in for the rest.
+
+use super::block::{Block, MeasuredBlock, OUTPUT, RowsView, SPEED};
+use crate::estimate::channels::{BlockNoise, NoiseLevels};
+use crate::estimate::kernels::ZEROS;
+use crate::estimate::regression::Regression;
+use crate::estimate::sums::Column;
+
+/// The measured rows of one realisation, for estimators that need more than the sums
+/// (weighted and recursive ones). A column the noise does not touch is not copied: the
+/// regression's own column stands in for it (see [`Rows::view`]).
+#[derive(Debug, Clone, Default)]
+pub struct Rows {
+    /// w = Ṽ² \[m²/s²\] (column 2 is −k w) of the first `len` rows; as long as the
+    /// regression, the values after `len` from an earlier realisation or zero (so that a
+    /// block's w is written in place, without first zeroing or growing the column).
+    w: Vec<f64>,
+    /// The rows taken so far.
+    len: usize,
+    /// The length of the room for w handed out by [`Rows::w_room`] and not yet taken by
+    /// [`Rows::push_block`].
+    w_ahead: Option<usize>,
+    /// x̃₁ = F̃ \[N\] (`None`: noise-free).
+    f: Option<Vec<f64>>,
+    /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
+    c: Option<Vec<f64>>,
+    /// ỹ \[m/s²\] (`None`: noise-free).
+    y: Option<Vec<f64>>,
+    /// s̃ = g sin θ̃ \[m/s²\] (`None`: noise-free).
+    s: Option<Vec<f64>>,
+    /// Whether f, c, y and s are copied in this realisation (else the regression's stand in).
+    copies: [bool; 4],
+    /// Whether the rows are measured on the fast path (only Ṽ and ỹ carry noise).
+    fast: bool,
+}
+
+impl Rows {
+    /// Empty rows of `reg` under `noise`, with room for all of them.
+    pub fn new(reg: &Regression, noise: &NoiseLevels) -> Self {
+        let mut rows = Rows::default();
+        rows.reset(reg, noise);
+        rows
+    }
+
+    /// Empty these rows for a realisation of `reg` under `noise`, keeping their memory
+    /// (a thread reuses one `Rows` for all its realisations).
+    pub fn reset(&mut self, reg: &Regression, noise: &NoiseLevels) {
+        let n = reg.len();
+        let general = !noise.fast_path();
+        self.fast = !general;
+        let column = |v: &mut Option<Vec<f64>>, copied: bool| {
+            if copied {
+                let v = v.get_or_insert_with(Vec::new);
+                v.clear();
+                v.reserve(n);
+            } else if let Some(v) = v {
+                // Keep the memory for a later condition that copies it.
+                v.clear();
+            }
+        };
+        self.len = 0;
+        self.w_ahead = None;
+        self.w.resize(n, 0.0);
+        // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
+        let force = general && noise.moves(Column::F);
+        let grade = general && noise.moves(Column::C);
+        let output = general || noise.moves(Column::Y);
+        column(&mut self.f, force);
+        column(&mut self.c, grade);
+        column(&mut self.y, output);
+        column(&mut self.s, grade);
+        self.copies = [force, grade, output, grade];
+    }
+
+    /// The columns, with `reg`'s (the regression the rows were measured on) where the noise
+    /// left one untouched.
+    pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
+        let pick = |own: &'a Option<Vec<f64>>, copied: bool, theirs: &'a [f64]| match own {
+            Some(v) if copied => v.as_slice(),
+            _ => theirs,
+        };
+        RowsView {
+            f: pick(&self.f, self.copies[0], &reg.f),
+            w: &self.w[..self.len],
+            c: pick(&self.c, self.copies[1], &reg.c),
+            y: pick(&self.y, self.copies[2], &reg.y),
+            s: pick(&self.s, self.copies[3], &reg.g_sin),
+            noise_free_f_c: !self.copies[0] && !self.copies[1],
+            noise_free_y: !self.copies[2],
+        }
+    }
+
+    /// On the fast path, room for the w of the next block's `len` rows, for the fast
+    /// path's sums to write as they take them
+    /// ([`MomentAccumulator::add_block_writing_w`]); that block's
+    /// [`push_block`](Self::push_block) then takes w as written there.
+    pub fn w_room(&mut self, len: usize) -> &mut [f64] {
+        assert!(self.fast, "w is written ahead on the fast path only");
+        assert!(self.w_ahead.is_none(), "room for w handed out twice");
+        self.w_ahead = Some(len);
+        &mut self.w[self.len..self.len + len]
+    }
+
+    /// Append the measured rows `start .. start + len` of `reg` with the block's draws and
+    /// derivative noise (the same the moments of the block are summed from, with the same
+    /// arithmetic); their w as written in the room [`Self::w_room`] handed out for them, if
+    /// it did.
+    pub fn push_block(
+        &mut self,
+        reg: &Regression,
+        levels: &NoiseLevels,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+    ) {
+        let range = start..start + len;
+        let w_written = match self.w_ahead.take() {
+            Some(room) => {
+                assert_eq!(room, len, "the room for w is the block's");
+                true
+            }
+            None => false,
+        };
+        if self.fast {
+            // Fast path: only Ṽ and ỹ carry noise.
+            let sd_v = levels[SPEED];
+            let e = draws[SPEED].unwrap_or(&ZEROS[..len]);
+            if !w_written {
+                let room = &mut self.w[self.len..self.len + len];
+                for ((w, v), e) in room.iter_mut().zip(&reg.v[range.clone()]).zip(e) {
+                    let vt = v + sd_v * e;
+                    *w = vt * vt;
+                }
+            }
+            self.len += len;
+            if let (Some(y), true) = (&mut self.y, self.copies[2]) {
+                let from = y.len();
+                match draws[OUTPUT] {
+                    Some(eta) => {
+                        let sd_y = levels[OUTPUT];
+                        y.extend(reg.y[range].iter().zip(eta).map(|(y, eta)| y + sd_y * eta));
+                    }
+                    None => y.extend_from_slice(&reg.y[range]),
+                }
+                if let Some(d) = derivative {
+                    for (y, d) in y[from..].iter_mut().zip(d) {
+                        *y += d;
+                    }
+                }
+            }
+            return;
+        }
+        let mut block = MeasuredBlock::new();
+        block.measure(Block {
+            reg,
+            levels,
+            start,
+            len,
+            draws,
+            derivative,
+        });
+        self.push_measured(reg, &block);
+    }
+
+    /// Append the rows of a block measured on the general path (the columns the noise
+    /// moves; the regression's stand in for the others).
+    pub fn push_measured(&mut self, reg: &Regression, block: &MeasuredBlock) {
+        let rows = block.view(reg);
+        let len = rows.w.len();
+        self.w[self.len..self.len + len].copy_from_slice(rows.w);
+        self.len += len;
+        for (own, copied, theirs) in [
+            (&mut self.f, self.copies[0], rows.f),
+            (&mut self.c, self.copies[1], rows.c),
+            (&mut self.y, self.copies[2], rows.y),
+            (&mut self.s, self.copies[3], rows.s),
+        ] {
+            if let (Some(own), true) = (own, copied) {
+                own.extend_from_slice(theirs);
+            }
+        }
+    }
+}
