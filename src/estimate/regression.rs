@@ -11,8 +11,6 @@
 //!
 //! Noise channels and what they do to OLS (each a condition axis, σ = 0 means off):
 //!
-//! Noise channels and what they do to OLS (each a condition axis, σ = 0 means off):
-//!
 //! | channel | enters | effect on OLS | bounds that apply |
 //! |---|---|---|---|
 //! | speed, σ_v \[m/s\] | Ṽ² in column 2 | errors-in-variables: Cd/M biased low (attenuation), Cr biased high (the lost drag is absorbed by the constant-like column 3) | `thesis_bound` (not a real bound), `eiv_sandwich`, `eiv_crlb_linearized` |
@@ -34,6 +32,9 @@ use super::sums::{Column as Factor, Sum};
 use crate::noise::BLOCK;
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
+
+mod differentiation;
+pub use differentiation::{Differentiation, ar1_coefficients};
 
 /// A column of a regression: the first `len` values of storage shared with the regression
 /// of a longer duration of the same cycle, whose rows begin with these
@@ -187,17 +188,7 @@ impl Regression {
             cos_grade: self.cos_grade.prefix(n),
         };
         let mut reg = Self::with_sums(columns, self.k, self.g);
-        reg.differentiation = self.differentiation.as_ref().map(|d| {
-            // The span runs to the sample after the last row.
-            let span = d.sample[n - 1] + 2;
-            Differentiation {
-                span_t: d.span_t.prefix(span),
-                span_run: d.span_run.prefix(span),
-                sample: d.sample.prefix(n),
-                inv_dt: d.inv_dt.prefix(n),
-                spans: OnceLock::new(),
-            }
-        });
+        reg.differentiation = self.differentiation.as_ref().map(|d| d.prefix(n));
         reg
     }
 
@@ -384,107 +375,6 @@ impl Regression {
     }
 }
 
-/// Where a differentiated acceleration takes its speeds: the logged samples from the one
-/// before the first row to the one after the last (the *span*; rows left out of the
-/// regression in between are logged too), and each row's place in it. Row i's output is
-/// (Ṽ_{s+1} − Ṽ_{s−1}) / (t_{s+1} − t_{s−1}) + g sin θ̃ with s = `sample[i]`.
-#[derive(Debug, Clone)]
-pub struct Differentiation {
-    /// Times of the span's samples \[s\].
-    pub span_t: Column,
-    /// The run of each of the span's samples.
-    pub span_run: Column<u32>,
-    /// Each row's sample in the span (its neighbours are the samples before and after).
-    pub sample: Column<usize>,
-    /// 1 / (t_{s+1} − t_{s−1}) of each row \[1/s\].
-    pub inv_dt: Column,
-    /// [`Differentiation::mean_spans`] of the segments first asked for.
-    spans: OnceLock<Segments<f64>>,
-}
-
-impl PartialEq for Differentiation {
-    /// The same samples (the kept spans are derived from them).
-    fn eq(&self, other: &Self) -> bool {
-        self.span_t == other.span_t
-            && self.span_run == other.span_run
-            && self.sample == other.sample
-            && self.inv_dt == other.inv_dt
-    }
-}
-
-impl Differentiation {
-    /// The mean central-difference span t_{s+1} − t_{s−1} of the rows of each of
-    /// `segments` \[s\] (rows a..b), summed in row order; kept for the segments first asked
-    /// for (`wbcls` asks for the same ones in every realisation).
-    pub fn mean_spans(&self, segments: &[(usize, usize)]) -> std::borrow::Cow<'_, [f64]> {
-        let compute = || -> Vec<f64> {
-            segments
-                .iter()
-                .map(|&(a, b)| {
-                    let span: f64 = (a..b)
-                        .map(|i| self.span_t[self.sample[i] + 1] - self.span_t[self.sample[i] - 1])
-                        .sum();
-                    span / (b - a) as f64
-                })
-                .collect()
-        };
-        let (kept, spans) = self.spans.get_or_init(|| (segments.to_vec(), compute()));
-        match kept.as_slice() == segments {
-            true => std::borrow::Cow::Borrowed(spans),
-            false => std::borrow::Cow::Owned(compute()),
-        }
-    }
-}
-
-impl Regression {
-    /// The regression of the samples of `cycle` marked in `used` (none of them the first or
-    /// last sample of its run: a speed is differenced within a run, never across two) with
-    /// the acceleration differentiated from the speed: the noise-free output is the central
-    /// difference of the true speed, and [`Differentiation`] tells the kernel where each
-    /// row's speed noise comes from.
-    pub fn differentiated(
-        cycle: &DriveCycle,
-        used: &[bool],
-        grade_offset: f64,
-        vehicle: &VehicleParams,
-    ) -> Regression {
-        let (t, v) = (&cycle.t_s, &cycle.v_m_s);
-        let rows: Vec<usize> = (0..used.len()).filter(|&i| used[i]).collect();
-        assert!(
-            !rows.is_empty() && rows.iter().all(|&i| !cycle.at_run_edge(i)),
-            "a differentiated row needs a sample of its run on each side"
-        );
-        let inv_dt: Vec<f64> = rows.iter().map(|&i| 1.0 / (t[i + 1] - t[i - 1])).collect();
-        let mut selected = cycle.select(used);
-        selected.accel_m_s2 = rows
-            .iter()
-            .zip(&inv_dt)
-            .map(|(&i, q)| (v[i + 1] - v[i - 1]) * q)
-            .collect();
-        selected
-            .grade_rad
-            .iter_mut()
-            .for_each(|g| *g += grade_offset);
-        let start = rows[0] - 1;
-        let end = rows[rows.len() - 1] + 1;
-        let mut reg = Regression::new(&selected, vehicle);
-        reg.differentiation = Some(Differentiation {
-            span_t: t[start..=end].to_vec().into(),
-            span_run: cycle.run[start..=end].to_vec().into(),
-            sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
-            inv_dt: inv_dt.into(),
-            spans: OnceLock::new(),
-        });
-        reg
-    }
-
-    /// The times of the samples that carry speed noise: the span for a differentiated
-    /// acceleration, else the rows.
-    pub fn noise_times(&self) -> &[f64] {
-        self.differentiation.as_ref().map_or(&self.t, |d| &d.span_t)
-    }
-}
-
 /// The per-row columns of a regression, before its sums.
 struct RowColumns {
     t: Column,
@@ -497,24 +387,6 @@ struct RowColumns {
     g_sin: Column,
     sin_grade: Column,
     cos_grade: Column,
-}
-
-/// The AR(1) coefficients of noise with correlation time `tau_s` \[s\] at samples `t` of
-/// runs `run`: φ_i = exp(−(t_i − t_{i−1})/τ) and √(1 − φ_i²), so that
-/// e_i = φ_i e_{i−1} + √(1 − φ_i²) z_i is stationary with unit variance for any steps. At the
-/// first sample and at each run's first sample the process restarts, \[0, 1\] (e_i = z_i):
-/// runs are independent (docs/model.md#coastdown).
-pub fn ar1_coefficients(t: &[f64], run: &[u32], tau_s: f64) -> Vec<[f64; 2]> {
-    assert_eq!(t.len(), run.len(), "a run per sample");
-    (0..t.len())
-        .map(|i| match i > 0 && run[i] == run[i - 1] {
-            true => {
-                let phi = (-(t[i] - t[i - 1]) / tau_s).exp();
-                [phi, (1.0 - phi * phi).sqrt()]
-            }
-            false => [0.0, 1.0],
-        })
-        .collect()
 }
 
 /// A short thesis-like cycle (60 s over a sinusoidal grade) for unit tests.
@@ -538,72 +410,4 @@ pub(crate) fn test_regression() -> Regression {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Two runs of five samples on one clock (t = 0, 1, …, 9 s), run 1 slower.
-    fn two_runs() -> DriveCycle {
-        let v = vec![30.0, 29.0, 28.2, 27.5, 27.0, 20.0, 19.6, 19.1, 18.8, 18.6];
-        DriveCycle {
-            t_s: (0..10).map(f64::from).collect(),
-            x_m: (0..10).map(|i| 30.0 * f64::from(i)).collect(),
-            v_m_s: v,
-            grade_rad: vec![0.0; 10],
-            f_prop_n: vec![0.0; 10],
-            accel_m_s2: vec![-0.5; 10],
-            run: vec![0, 0, 0, 0, 0, 1, 1, 1, 1, 1],
-            run_heading: vec![1.0, -1.0],
-        }
-    }
-
-    #[test]
-    fn ar1_noise_restarts_at_each_run_s_first_sample() {
-        // φ = 0 and a unit innovation where a run begins: its first sample's noise is a
-        // fresh draw, independent of every earlier run's.
-        let t = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5];
-        let ar1 = ar1_coefficients(&t, &[0, 0, 0, 1, 1, 2], 2.0);
-        for i in [0, 3, 5] {
-            assert_eq!(ar1[i], [0.0, 1.0], "{i}");
-        }
-        for i in [1, 2, 4] {
-            let phi = (-(t[i] - t[i - 1]) / 2.0f64).exp();
-            assert_eq!(ar1[i], [phi, (1.0 - phi * phi).sqrt()], "{i}");
-        }
-        // The regression's rows carry their runs: the same at the first row of run 1.
-        let reg = Regression::new(&two_runs(), &VehicleParams::thesis());
-        let ar1 = reg.ar1_coefficients(2.0);
-        assert_eq!(ar1[5], [0.0, 1.0]);
-        assert!(ar1[4][0] > 0.0 && ar1[6][0] > 0.0);
-        assert_eq!(reg.prefix(7).row_ar1_coefficients(2.0), ar1[..7]);
-    }
-
-    #[test]
-    fn a_differentiated_acceleration_differences_within_each_run() {
-        let cycle = two_runs();
-        // Every sample but each run's first and last.
-        let used: Vec<bool> = (0..cycle.len()).map(|i| !cycle.at_run_edge(i)).collect();
-        assert_eq!(used.iter().filter(|u| **u).count(), 6);
-        let reg = Regression::differentiated(&cycle, &used, 0.0, &VehicleParams::thesis());
-        let rows = [1, 2, 3, 6, 7, 8];
-        for (r, &i) in rows.iter().enumerate() {
-            assert_eq!(cycle.run[i - 1], cycle.run[i + 1]);
-            let central = (cycle.v_m_s[i + 1] - cycle.v_m_s[i - 1]) / 2.0;
-            assert_eq!(reg.accel[r], central, "row {r}");
-        }
-        // The span runs from sample 0 to 9; its noise restarts at run 1's first sample.
-        let d = reg.differentiation.as_ref().unwrap();
-        assert_eq!(&*d.span_run, &cycle.run[..]);
-        assert_eq!(reg.ar1_coefficients(2.0)[5], [0.0, 1.0]);
-    }
-
-    #[test]
-    #[should_panic(expected = "a sample of its run on each side")]
-    fn a_differentiated_row_at_a_run_edge_is_refused() {
-        // Sample 4 is run 0's last: its central difference would reach into run 1.
-        let cycle = two_runs();
-        let mut used = vec![false; cycle.len()];
-        used[3] = true;
-        used[4] = true;
-        Regression::differentiated(&cycle, &used, 0.0, &VehicleParams::thesis());
-    }
-}
+mod tests;
