@@ -5,6 +5,7 @@
 use nalgebra::Vector3;
 
 use super::VehicleModel;
+use super::draws::{Draws, OwnRegression, SPAN_NOISE, ar1_step, filter_side_by_side};
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel, Signal};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
@@ -13,9 +14,8 @@ use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::rls::rls_target;
 use crate::estimate::row_sums::RowScans;
-use crate::model::SINGLE_BATCH;
 use crate::model::Status;
-use crate::noise::{BLOCK, NormalSequence, NormalStream};
+use crate::noise::{BLOCK, NormalStream};
 
 /// The speed's channel: its noise is drawn by the kernel itself where it is correlated in
 /// time (AR(1)) or differentiated into the output.
@@ -194,97 +194,6 @@ impl VehicleModel {
         }
         SPAN_NOISE.set(span_buffer);
         acc.finish()
-    }
-}
-
-/// One step of the AR(1) filter of correlated speed noise (docs/model.md#noise-channels):
-/// z ← φ·previous + scale·z with `[φ, scale]` the row's coefficients, then previous ← z.
-/// Every filter of the kernel takes this step, one realisation alone or several side by
-/// side, so a realisation's noise has the same bits however it is batched.
-#[inline(always)]
-fn ar1_step(previous: &mut f64, z: &mut f64, [phi, scale]: [f64; 2]) {
-    *z = phi * *previous + scale * *z;
-    *previous = *z;
-}
-
-/// The AR(1) filter ([`ar1_step`] with the rows' coefficients `ar1`) of the noise of
-/// realisations side by side (realisation i's noise `pick(&mut noise[i])`): sample j of
-/// every one, then j + 1, each from its `previous` value (left at its last). A batch of the
-/// executor's size keeps each realisation's previous value in a register (in a list in
-/// memory, each step waits for the store of the step before).
-fn filter_side_by_side<T>(
-    noise: &mut [T],
-    pick: impl Fn(&mut T) -> &mut [f64],
-    previous: &mut [f64],
-    ar1: &[[f64; 2]],
-) {
-    assert_eq!(
-        noise.len(),
-        previous.len(),
-        "a previous value per realisation"
-    );
-    if let Ok(previous) = <&mut [f64; SINGLE_BATCH]>::try_from(&mut *previous) {
-        let mut each = noise.iter_mut().map(&pick);
-        let mut noise: [&mut [f64]; SINGLE_BATCH] =
-            std::array::from_fn(|_| each.next().expect("a noise per previous value"));
-        let mut last = *previous;
-        for (j, step) in ar1.iter().enumerate() {
-            for (e, last) in noise.iter_mut().zip(&mut last) {
-                ar1_step(last, &mut e[j], *step);
-            }
-        }
-        *previous = last;
-        return;
-    }
-    for (j, step) in ar1.iter().enumerate() {
-        for (e, previous) in noise.iter_mut().zip(previous.iter_mut()) {
-            ar1_step(previous, &mut pick(e)[j], *step);
-        }
-    }
-}
-
-thread_local! {
-    /// The speed noise of a differentiated acceleration's span (memory reused by the
-    /// thread's next realisation).
-    static SPAN_NOISE: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
-}
-
-/// A realisation's own regression and the AR(1) coefficients of its correlated speed noise.
-type OwnRegression = (Regression, Option<Vec<[f64; 2]>>);
-
-/// One channel's normals in a realisation: read straight from its stream in the blocks the
-/// kernel asks for, or, shared between conditions, as a [`NormalSequence`] whose values do
-/// not depend on the lengths read.
-#[allow(clippy::large_enum_variant)] // on the stack for one realisation; a box would allocate
-enum Draws {
-    Blocks(NormalStream),
-    Sequence(NormalSequence),
-}
-
-impl Draws {
-    fn new(shared: bool, seed: u64, key: u64, channel: Channel, r: u64) -> Self {
-        match shared {
-            false => Draws::Blocks(NormalStream::for_realisation(
-                seed,
-                key,
-                channel.stream(),
-                r,
-            )),
-            true => Draws::Sequence(NormalSequence::for_realisation(
-                seed,
-                key,
-                channel.stream(),
-                r,
-            )),
-        }
-    }
-
-    #[inline]
-    fn fill(&mut self, out: &mut [f64]) {
-        match self {
-            Draws::Blocks(s) => s.fill(out),
-            Draws::Sequence(s) => s.fill(out),
-        }
     }
 }
 

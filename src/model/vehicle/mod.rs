@@ -16,6 +16,7 @@ use rayon::prelude::*;
 mod axes;
 mod bias_model;
 mod cycles_table;
+mod draws;
 mod kernel;
 mod layout;
 mod prepare;
