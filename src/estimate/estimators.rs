@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::{Bound, Spread};
 use super::channels::{BlockNoise, Channel, NoiseLevels, Signal};
-use super::moments::{Moments, Rows, RowsView};
+use super::moments::{Moments, Rows, RowsView, noise_free_moments};
 use super::parameters::Parameters;
 use super::regression::Regression;
 use super::rls::scan::RlsResult;
@@ -296,7 +296,7 @@ pub fn estimates_without_draws(
     settings: &EstimatorSettings,
     truth: &[f64; 3],
 ) -> Vec<Estimate> {
-    let moments = reg.noise_free_moments();
+    let moments = noise_free_moments(reg);
     let reads = RowReads::of(estimators.iter().map(|e| e.reads()));
     let rows = reads.any().then(|| {
         let mut rows = Rows::new(reg, rows_noise);
@@ -312,7 +312,7 @@ pub fn estimates_without_draws(
         let grade = noise.measures_noisy(Signal::Grade);
         // One scan of these rows: nothing to share with others.
         scans.reset(reads, reg, grade, rls_target(settings, truth), false);
-        scans.advance(rows.view(reg), reg, reg.len());
+        scans.advance(rows.view(reg), reg.len());
         scans
     });
     estimators

@@ -11,12 +11,65 @@ use super::kernels::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing
 use super::regression::Regression;
 use super::sums::Column;
 pub use super::sums::{GradeSums, Moments};
+use crate::noise::BLOCK;
 use block::{OUTPUT, SPEED};
 
 mod block;
 mod rows;
 pub use block::{Block, MeasuredBlock, RowsView, Wanted};
 pub use rows::Rows;
+
+/// The sums of w = V² without speed noise — Σw, ΣwF, Σwc, Σw², Σwy — block by block in
+/// the lanes of the fast path, exactly as a realisation without speed noise would sum them:
+/// such a realisation starts from these instead of recomputing them. Made once per
+/// regression ([`Regression::derived`]).
+#[derive(Debug)]
+struct NoiseFreeSpeedSums([f64; 5]);
+
+impl NoiseFreeSpeedSums {
+    fn of(reg: &Regression) -> std::sync::Arc<NoiseFreeSpeedSums> {
+        reg.derived(|reg| {
+            let mut sums = [0.0; 5];
+            for start in (0..reg.len()).step_by(BLOCK) {
+                let range = start..(start + BLOCK).min(reg.len());
+                let cols = Columns {
+                    v: &reg.v[range.clone()],
+                    f: &reg.f[range.clone()],
+                    c: &reg.c[range.clone()],
+                    y: &reg.y[range.clone()],
+                };
+                let block = speed_sums(&cols, &ZEROS[..range.len()], 0.0);
+                for (total, b) in sums.iter_mut().zip(block) {
+                    *total += b;
+                }
+            }
+            NoiseFreeSpeedSums(sums)
+        })
+    }
+}
+
+/// The [`Moments`] of `reg`'s rows as they are (no noise added): what a realisation without
+/// noise sums, and the sums of a measured log taken as it is.
+pub fn noise_free_moments(reg: &Regression) -> Moments {
+    let [s_w, s_1w, s_3w, s_ww, s_wy] = NoiseFreeSpeedSums::of(reg).0;
+    Moments {
+        s_11: reg.xtx[(0, 0)],
+        s_13: reg.xtx[(0, 2)],
+        s_33: reg.xtx[(2, 2)],
+        s_1y: reg.xty[0],
+        s_3y: reg.xty[2],
+        s_1w,
+        s_3w,
+        s_ww,
+        s_wy,
+        s_w,
+        s_1: reg.sum_f,
+        s_3: reg.sum_c,
+        s_y: reg.sum_y,
+        n: reg.len() as f64,
+        grade: Some(reg.grade_sums_noise_free),
+    }
+}
 
 /// Partial sums of the fast path (speed and output noise only): everything that the noise
 /// touches, accumulated per block.
@@ -65,7 +118,7 @@ impl<'r> MomentAccumulator<'r> {
     pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
         let mut fast = SpeedOutputSums::default();
         if !noise.is_on(SPEED) {
-            [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = reg.speed_sums_noise_free;
+            [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = NoiseFreeSpeedSums::of(reg).0;
         }
         MomentAccumulator {
             reg,

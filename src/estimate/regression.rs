@@ -18,22 +18,20 @@
 //! | grade, σ_θ \[rad\] | sin θ̃ in y, cos θ̃ in column 3 | mostly output-like (y gets ≈ g σ_θ of noise); E cos θ̃ = cos θ e^(−σ_θ²/2) shrinks column 3, so Cr is biased up by ≈ σ_θ²/2 relative | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 //! | force, σ_F \[N\] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
+use std::any::Any;
 use std::fmt;
 use std::ops::Deref;
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::kernels::{Columns, ZEROS, speed_sums};
-use super::moments::{GradeSums, Moments};
-use super::rls::scan::RlsPlan;
-use super::row_sums::output_sums;
-use super::sums::{Column as Factor, Sum};
-use crate::noise::BLOCK;
+use super::sums::{GradeSums, Moments};
 use crate::numeric::sum::exact_sum;
 use crate::vehicle::{DriveCycle, VehicleParams};
 
+mod derived;
 mod differentiation;
+use derived::Derived;
 pub use differentiation::{Differentiation, ar1_coefficients};
 
 /// A column of a regression: the first `len` values of storage shared with the regression
@@ -80,7 +78,7 @@ impl<T: fmt::Debug> fmt::Debug for Column<T> {
 }
 
 /// Row ranges a..b and a value of each: the weight segments and their noise-free sums
-/// without w (see [`Regression::segments`]), or the spans of a differentiated acceleration.
+/// without w (`wbcls::WeightSegments`), or the spans of a differentiated acceleration.
 type Segments<T = Moments> = (Vec<(usize, usize)>, Vec<T>);
 
 /// The noise-free regression of one drive cycle and its constant sums.
@@ -121,20 +119,14 @@ pub struct Regression {
     pub sum_c: f64,
     /// Σ y.
     pub sum_y: f64,
-    /// Σw, ΣwF, Σwc, Σw², Σwy with w = V², summed per block of [`BLOCK`] samples and then
-    /// over blocks, exactly as a realisation without speed noise would sum them: such a
-    /// realisation starts from these instead of recomputing them.
-    pub(crate) speed_sums_noise_free: [f64; 5],
     /// The sums of the grade term s = g sin θ: Σs, ΣFs, Σcs, ΣV²s, exactly rounded.
-    grade_sums_noise_free: GradeSums,
+    pub(crate) grade_sums_noise_free: GradeSums,
     /// The logged speed samples a differentiated acceleration reads (`None`: the
     /// regression's output holds the model acceleration).
     pub differentiation: Option<Differentiation>,
-    /// The weight segments of `wbcls` and the noise-free sums without w over each
-    /// (those of x₁ and x₃ alone, Σx₁y, Σx₃y, Σy), computed when first asked for.
-    segments: OnceLock<Segments>,
-    /// What the `rls` scans of the realisations share, computed when first asked for.
-    rls: OnceLock<Arc<RlsPlan>>,
+    /// What estimators derive from the noise-free rows and share between realisations
+    /// (the weight segments of `wbcls`, the plan of `rls`), each made on first use.
+    derived: Derived,
 }
 
 impl Regression {
@@ -224,27 +216,11 @@ impl Regression {
             s_3s: dot(&c, &g_sin),
             s_ws: exact_sum(v.iter().zip(g_sin.iter()).map(|(v, s)| v * v * s)),
         };
-        let mut speed_sums_noise_free = [0.0; 5];
-        for start in (0..v.len()).step_by(BLOCK) {
-            let range = start..(start + BLOCK).min(v.len());
-            let cols = Columns {
-                v: &v[range.clone()],
-                f: &f[range.clone()],
-                c: &c[range.clone()],
-                y: &y[range.clone()],
-            };
-            let block = speed_sums(&cols, &ZEROS[..range.len()], 0.0);
-            for (total, b) in speed_sums_noise_free.iter_mut().zip(block) {
-                *total += b;
-            }
-        }
         Regression {
             differentiation: None,
-            segments: OnceLock::new(),
-            rls: OnceLock::new(),
+            derived: Derived::default(),
             t,
             run,
-            speed_sums_noise_free,
             grade_sums_noise_free,
             sum_f: sum(&f),
             sum_c: sum(&c),
@@ -264,88 +240,11 @@ impl Regression {
         }
     }
 
-    /// What the `rls` scans of this regression's rows share under forgetting factor
-    /// `lambda` ([`RlsPlan`]); computed on first use, `lambda` must be the same at every
-    /// call.
-    pub fn rls_plan(&self, lambda: f64) -> Arc<RlsPlan> {
-        let plan = self.rls.get_or_init(|| {
-            let columns = [&self.f[..], &self.c[..], &self.y[..]];
-            Arc::new(RlsPlan::new(&self.t, Some(columns), lambda))
-        });
-        assert_eq!(
-            plan.lambda().to_bits(),
-            lambda.to_bits(),
-            "one forgetting factor per regression"
-        );
-        Arc::clone(plan)
-    }
-
-    /// Consecutive row ranges of at least `segment_s` \[s\] each (the last may be shorter;
-    /// a range holds at least one row), and over each the noise-free sums of the terms
-    /// without w: those of x₁ and x₃ alone (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃), and Σx₁y, Σx₃y,
-    /// Σy in four lanes as `row_sums.rs` sums a segment (so a segment whose ỹ is y takes
-    /// them to the same bits); the rest zero. Computed on first use; `segment_s` must be the
-    /// same at every call.
-    pub fn segments(&self, segment_s: f64) -> (&[(usize, usize)], &[Moments]) {
-        let (ranges, sums) = self.segments.get_or_init(|| {
-            let t = &self.t;
-            let mut ranges = Vec::new();
-            let mut start = 0;
-            for i in 1..t.len() {
-                if t[i] - t[start] >= segment_s {
-                    ranges.push((start, i));
-                    start = i;
-                }
-            }
-            if !t.is_empty() {
-                ranges.push((start, t.len()));
-            }
-            let sums = ranges
-                .iter()
-                .map(|&(a, b)| {
-                    let mut m = Moments::default();
-                    for s in Sum::ALL.into_iter().filter(|s| s.regressors_only()) {
-                        let column = |c: &Factor| match c {
-                            Factor::F => &self.f[a..b],
-                            _ => &self.c[a..b],
-                        };
-                        m[s] = match s.factors() {
-                            [x] => column(x).iter().sum(),
-                            [x, z] => column(x).iter().zip(column(z)).map(|(x, z)| x * z).sum(),
-                            _ => unreachable!("a sum has one or two factors"),
-                        };
-                    }
-                    [m.s_1y, m.s_3y, m.s_y] =
-                        output_sums(&self.f[a..b], &self.c[a..b], &self.y[a..b]);
-                    m
-                })
-                .collect();
-            (ranges, sums)
-        });
-        (ranges, sums)
-    }
-
-    /// The [`Moments`] of the rows as they are (no noise added): what a realisation without
-    /// noise sums, and the sums of a measured log taken as it is.
-    pub fn noise_free_moments(&self) -> Moments {
-        let [s_w, s_1w, s_3w, s_ww, s_wy] = self.speed_sums_noise_free;
-        Moments {
-            s_11: self.xtx[(0, 0)],
-            s_13: self.xtx[(0, 2)],
-            s_33: self.xtx[(2, 2)],
-            s_1y: self.xty[0],
-            s_3y: self.xty[2],
-            s_1w,
-            s_3w,
-            s_ww,
-            s_wy,
-            s_w,
-            s_1: self.sum_f,
-            s_3: self.sum_c,
-            s_y: self.sum_y,
-            n: self.len() as f64,
-            grade: Some(self.grade_sums_noise_free),
-        }
+    /// The value of type `T` derived from this regression's rows by `make`, made on the
+    /// first call and shared by every later one (and by the regression's clones): what an
+    /// estimator that reads rows computes once per regression, not per realisation.
+    pub fn derived<T: Any + Send + Sync>(&self, make: impl FnOnce(&Regression) -> T) -> Arc<T> {
+        self.derived.get_or_make(|| make(self))
     }
 
     /// Number of samples N.

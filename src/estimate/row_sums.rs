@@ -24,7 +24,7 @@ fn reduce(l: [f64; LANES]) -> f64 {
 /// The moments of rows `start..end` (N = the row count). With `constant`, the sums of
 /// x̃₁ and x̃₃ alone (Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃) are taken from it instead of being
 /// summed: the caller passes them where those columns are noise-free (the segment's of
-/// `Regression::segments`); where `rows.noise_free_y` says ỹ is noise-free too, so are
+/// `wbcls::WeightSegments`); where `rows.noise_free_y` says ỹ is noise-free too, so are
 /// Σx̃₁ỹ, Σx̃₃ỹ and Σỹ. With `grade`, the
 /// sums of the grade term ([`GradeSums`]) as well (`None` without).
 pub fn segment_moments(
@@ -143,7 +143,7 @@ fn w_sums<L: Lanes4>(l: L, f: &[f64], w: &[f64], c: &[f64], y: &[f64]) -> [f64; 
 
 /// The sums of ỹ without w: [Σx̃₁ỹ, Σx̃₃ỹ, Σỹ] of rows `f`, `c`, `y`, the same bits as
 /// [`segment_moments`] sums them (the portable build; the AVX2 build agrees bit for bit).
-/// For the regression's noise-free sums over each segment (`Regression::segments`).
+/// For the regression's noise-free sums over each segment (`wbcls::WeightSegments`).
 pub(crate) fn output_sums(f: &[f64], c: &[f64], y: &[f64]) -> [f64; 3] {
     // Columns 0..4: x₁, (none), x₃, y.
     sums(Quad, [f, &[], c, y], [(0, 3), (2, 3), (3, ALONE)], f.len())
@@ -281,7 +281,7 @@ impl RowScans {
     /// Empty scans of `reg`'s rows for what `reads` asks (`grade`: the segments sum the
     /// grade term too), keeping the memory of earlier realisations. `shared`: `reg` serves
     /// many realisations (a condition's), so RLS takes what they share from its plan
-    /// ([`Regression::rls_plan`], made once); otherwise (a realisation's own regression)
+    /// ([`RlsPlan::shared`], made once); otherwise (a realisation's own regression)
     /// RLS sums every term itself, the same bits without a plan to make per realisation.
     pub fn reset(
         &mut self,
@@ -293,15 +293,15 @@ impl RowScans {
     ) {
         self.segments = match (reads.segments, self.segments.take()) {
             (true, Some(mut scan)) => {
-                scan.reset(grade);
+                scan.reset(reg, grade);
                 Some(scan)
             }
-            (true, None) => Some(SegmentScan::new(grade)),
+            (true, None) => Some(SegmentScan::new(reg, grade)),
             (false, _) => None,
         };
         self.rls = reads.rls.then(|| {
             let plan = match shared {
-                true => reg.rls_plan(rls.lambda),
+                true => RlsPlan::shared(reg, rls.lambda),
                 false => Arc::new(RlsPlan::new(&reg.t, None, rls.lambda)),
             };
             RlsScan::new(reg.k, plan, rls.target, rls.band, reg.len())
@@ -309,9 +309,9 @@ impl RowScans {
     }
 
     /// Take the measured rows up to `end` (exclusive; a multiple of four or the row count).
-    pub fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
+    pub fn advance(&mut self, rows: RowsView<'_>, end: usize) {
         if let Some(scan) = &mut self.segments {
-            scan.advance(rows, reg, end);
+            scan.advance(rows, end);
         }
         if let Some(scan) = &mut self.rls {
             scan.advance(rows, end);

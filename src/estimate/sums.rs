@@ -40,11 +40,11 @@ impl Column {
 /// `every_compensated_sum_has_its_noise_free_expectation` checks), the hand-vectorised
 /// sums of the fast path (`MomentAccumulator::finish` over `kernels.rs`) and of the general
 /// path and the segments (`row_sums.rs`), and the regression's noise-free sums
-/// (`Regression::noise_free_moments`): each builds [`Moments`] with every field named (a new
+/// (`moments::noise_free_moments`): each builds [`Moments`] with every field named (a new
 /// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments`,
 /// `the_vectorised_general_path_keeps_the_row_by_row_sums_within_rounding` and
 /// `every_hand_written_list_sums_each_sum_by_its_factors` check the values against
-/// [`Sum::factors`]. The noise-free segment sums (`Regression::segments`) are derived from
+/// [`Sum::factors`]. The noise-free segment sums (`wbcls::WeightSegments`) are derived from
 /// [`Sum::regressors_only`].
 macro_rules! sums {
     ($( $variant:ident $field:ident [$first:ident $(* $second:ident)?]
@@ -282,7 +282,7 @@ mod tests {
     use crate::estimate::moments::RowsView;
     use crate::estimate::regression::test_regression;
     use crate::estimate::row_sums::segment_moments;
-    use crate::estimate::wbcls::SEGMENT_S;
+    use crate::estimate::wbcls::WeightSegments;
 
     /// The hand-written lists of sums against their definition: for every [`Sum`], the
     /// regression's noise-free moments, its noise-free segment sums (the sums without w,
@@ -320,7 +320,7 @@ mod tests {
         };
         check(
             "noise_free_moments",
-            &reg.noise_free_moments(),
+            &crate::estimate::moments::noise_free_moments(&reg),
             0,
             reg.len(),
             false,
@@ -334,7 +334,8 @@ mod tests {
             noise_free_f_c: true,
             noise_free_y: true,
         };
-        let (ranges, constant) = reg.segments(SEGMENT_S);
+        let segments = WeightSegments::of(&reg);
+        let (ranges, constant) = (&segments.ranges, &segments.sums);
         assert!(ranges.len() > 3);
         // Every seventh segment and the last (shorter).
         let last = ranges.len() - 1;

@@ -10,13 +10,16 @@
 //! moments of each segment are summed once per realisation; each iteration only reweights
 //! them.
 
+use std::sync::Arc;
+
 use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, Signal};
 use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
 use super::moments::Moments;
 use super::moments::RowsView;
 use super::regression::Regression;
-use super::row_sums::{RowRead, segment_moments_lanes};
+use super::row_sums::{RowRead, output_sums, segment_moments_lanes};
+use super::sums::{Column as Factor, Sum};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad};
@@ -59,7 +62,8 @@ impl Estimator for Wbcls {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),
         };
-        let (segments, _) = r.regression.segments(SEGMENT_S);
+        let weight_segments = WeightSegments::of(r.regression);
+        let segments = &weight_segments.ranges[..];
         let moments = r.segment_moments();
         let local = neighbour_means(moments, sd * sd, segments_left_out(r.noise));
         let derivative = derivative_variance(r, segments);
@@ -208,30 +212,92 @@ fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels)
     })
 }
 
+/// The weight segments of `wbcls`: consecutive row ranges of at least [`SEGMENT_S`] each
+/// (the last may be shorter; a range holds at least one row), and over each the noise-free
+/// sums of the terms without w: those of x₁ and x₃ alone (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃), and
+/// Σx₁y, Σx₃y, Σy in four lanes as [`segment_moments`](super::row_sums::segment_moments) sums a segment (so a segment whose ỹ
+/// is y takes them to the same bits); the rest zero. Made once per regression
+/// ([`Regression::derived`]).
+#[derive(Debug)]
+pub(crate) struct WeightSegments {
+    /// Row ranges a..b.
+    pub(crate) ranges: Vec<(usize, usize)>,
+    /// The noise-free sums without w over each.
+    pub(crate) sums: Vec<Moments>,
+}
+
+impl WeightSegments {
+    /// `reg`'s weight segments.
+    pub(crate) fn of(reg: &Regression) -> Arc<WeightSegments> {
+        reg.derived(|reg| {
+            let t = &reg.t;
+            let mut ranges = Vec::new();
+            let mut start = 0;
+            for i in 1..t.len() {
+                if t[i] - t[start] >= SEGMENT_S {
+                    ranges.push((start, i));
+                    start = i;
+                }
+            }
+            if !t.is_empty() {
+                ranges.push((start, t.len()));
+            }
+            let sums = ranges
+                .iter()
+                .map(|&(a, b)| {
+                    let mut m = Moments::default();
+                    for s in Sum::ALL.into_iter().filter(|s| s.regressors_only()) {
+                        let column = |c: &Factor| match c {
+                            Factor::F => &reg.f[a..b],
+                            _ => &reg.c[a..b],
+                        };
+                        m[s] = match s.factors() {
+                            [x] => column(x).iter().sum(),
+                            [x, z] => column(x).iter().zip(column(z)).map(|(x, z)| x * z).sum(),
+                            _ => unreachable!("a sum has one or two factors"),
+                        };
+                    }
+                    [m.s_1y, m.s_3y, m.s_y] = output_sums(&reg.f[a..b], &reg.c[a..b], &reg.y[a..b]);
+                    m
+                })
+                .collect();
+            WeightSegments { ranges, sums }
+        })
+    }
+}
+
 /// The moments of each weight segment of `wbcls` ([`SEGMENT_S`] long,
-/// [`Regression::segments`]), each taken by [`segment_moments`](super::row_sums::segment_moments) once the rows have reached
+/// [`WeightSegments`]), each taken by [`segment_moments`](super::row_sums::segment_moments) once the rows have reached
 /// its end.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SegmentScan {
     grade: bool,
+    segments: Option<Arc<WeightSegments>>,
     pub(crate) done: Vec<Moments>,
 }
 
 impl SegmentScan {
-    pub(crate) fn new(grade: bool) -> Self {
+    pub(crate) fn new(reg: &Regression, grade: bool) -> Self {
         SegmentScan {
             grade,
+            segments: Some(WeightSegments::of(reg)),
             done: Vec::new(),
         }
     }
 
-    pub(crate) fn reset(&mut self, grade: bool) {
+    pub(crate) fn reset(&mut self, reg: &Regression, grade: bool) {
         self.grade = grade;
+        self.segments = Some(WeightSegments::of(reg));
         self.done.clear();
     }
 
-    pub(crate) fn advance(&mut self, rows: RowsView<'_>, reg: &Regression, end: usize) {
-        let (segments, constants) = reg.segments(SEGMENT_S);
+    pub(crate) fn advance(&mut self, rows: RowsView<'_>, end: usize) {
+        let shared = Arc::clone(
+            self.segments
+                .as_ref()
+                .expect("a scan is reset with its regression"),
+        );
+        let (segments, constants) = (&shared.ranges[..], &shared.sums[..]);
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = Avx2::detect() {
             // SAFETY: the token proves the CPU has AVX2.

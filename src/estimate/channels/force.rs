@@ -7,8 +7,8 @@ use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, SecondOrder,
     Signal, TrueRow,
 };
-use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
+use crate::estimate::sums::Moments;
 use crate::numeric::simd::Lanes;
 
 /// The force-noise channel.

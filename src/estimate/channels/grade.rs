@@ -5,8 +5,8 @@ use super::{
     Channel, ChannelTerms, ColumnMoments, GradeLoading, NoiseLevels, OmegaAt, Part, Powers, Sample,
     Signal, TrueRow,
 };
-use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::sums::Column;
+use crate::estimate::sums::{GradeSums, Moments};
 use crate::numeric::simd::Lanes;
 use crate::numeric::trig::sin_cos_lanes;
 

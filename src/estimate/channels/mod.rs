@@ -20,8 +20,8 @@
 
 use std::ops::{Index, IndexMut};
 
-use super::moments::Moments;
 use super::regression::Regression;
+use super::sums::Moments;
 use super::sums::{Column, Sum};
 use crate::numeric::simd::Lanes;
 

@@ -6,8 +6,8 @@ use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, Sample, Signal,
     TrueRow,
 };
-use crate::estimate::moments::Moments;
 use crate::estimate::sums::Column;
+use crate::estimate::sums::Moments;
 use crate::numeric::simd::Lanes;
 
 /// The output-noise channel.

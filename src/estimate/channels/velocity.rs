@@ -15,9 +15,9 @@ use super::{
     Channel, ChannelTerms, ColumnMoments, NoiseLevels, OmegaAt, Part, Powers, RowCovariance,
     RowMoments, Sample, SecondOrder, Signal, TrueRow,
 };
-use crate::estimate::moments::{GradeSums, Moments};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::{Column, Sum};
+use crate::estimate::sums::{GradeSums, Moments};
 use crate::numeric::simd::Lanes;
 
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::estimate::moments::RowsView;
+use crate::estimate::regression::Regression;
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad, Real};
@@ -78,6 +79,22 @@ pub struct RlsPlan {
 const PLAN_PADDING: usize = LANES - 1;
 
 impl RlsPlan {
+    /// The plan of the `rls` scans of `reg`'s rows under forgetting factor `lambda`, made
+    /// on first use and kept with the regression ([`Regression::derived`]); `lambda` must
+    /// be the same at every call.
+    pub fn shared(reg: &Regression, lambda: f64) -> Arc<RlsPlan> {
+        let plan = reg.derived(|reg| {
+            let columns = [&reg.f[..], &reg.c[..], &reg.y[..]];
+            RlsPlan::new(&reg.t, Some(columns), lambda)
+        });
+        assert_eq!(
+            plan.lambda().to_bits(),
+            lambda.to_bits(),
+            "one forgetting factor per regression"
+        );
+        plan
+    }
+
     /// The checks of rows at times `t` (see [`rls_scan`]) and, with `columns` (x₁, x₃, y of
     /// the regression), the states of the [`PLANNED`] terms at each under forgetting factor
     /// `lambda`.

@@ -189,7 +189,7 @@ impl VehicleModel {
                     None => rows.push_block(reg, &noise, start, len, draws, derivative),
                 }
                 // The sums the estimators read over the rows, while the block is in cache.
-                scans.advance(rows.view(reg), reg, start + len);
+                scans.advance(rows.view(reg), start + len);
             }
         }
         SPAN_NOISE.set(span_buffer);

@@ -348,7 +348,7 @@ impl VehicleModel {
         }
         let reg = &*cond.regression;
         let s2 = cond.noise.sd_of(Signal::Speed).powi(2);
-        let m = reg.noise_free_moments();
+        let m = crate::estimate::moments::noise_free_moments(reg);
         // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
         let expected = Moments {
             s_1w: m.s_1w + s2 * m.s_1,
