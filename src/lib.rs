@@ -48,14 +48,17 @@
 //! Each kind of extension is one typed entry; the study keys, the layout, the output columns,
 //! the summary and the figures are derived from the entries.
 //!
-//! - **an estimator**: one [`estimate::estimators::Estimator`] impl (its estimate from a
-//!   realisation's moments, or also from its measured rows when it says it needs them;
-//!   which bounds it reports), listed in [`estimate::estimators::ESTIMATORS`] (its own file
-//!   in `estimate/` when it is more than normal equations, as `wbcls.rs` and `rls.rs`).
-//!   Study files can then name it and every realisation runs it on the same draws.
+//! - **an estimator**: one [`estimate::estimator::Estimator`] impl (its estimate from a
+//!   realisation's moments, or also from its measured rows when it says it reads them or
+//!   from its own [`estimate::estimator::RowScan`] of them; its own columns of the
+//!   realisation table; its first-order bias; which bounds it reports), in its own file in
+//!   `estimate/` when it is more than normal equations (as `wbcls.rs`, `rls/`,
+//!   `road_load.rs`), and one line of [`estimate::estimators::ESTIMATORS`]. Study files can
+//!   then name it and every realisation runs it on the same draws.
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
-//! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`].
+//! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`] (every
+//!   estimator's row), or an estimator's own ([`estimate::estimator::Estimator::columns`]).
 //! - **a noise channel**: one file in `estimate/channels/` with a unit struct implementing
 //!   [`estimate::channels::ChannelTerms`] (its study key and column, unit, default, stream,
 //!   the measured columns it moves, how its draw perturbs a sample, its term of the
@@ -69,8 +72,8 @@
 //! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`
 //!   ([`estimate::sums::Sum`]); [`estimate::sums::Moments`], the general kernel's sums and
 //!   the control variates follow; the hand-written lists (the fast path's in
-//!   `estimate/moments.rs`, the segments' in `estimate/row_sums.rs`, the noise-free ones in
-//!   `estimate/regression.rs`) name every field, so the compiler lists them, and
+//!   `estimate/moments.rs`, the segments' in `estimate/row_sums.rs` and `estimate/wbcls.rs`,
+//!   the noise-free ones in `estimate/regression.rs`) name every field, so the compiler lists them, and
 //!   `every_hand_written_list_sums_each_sum_by_its_factors` checks their values.
 //! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
 //!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys

@@ -44,10 +44,6 @@ pub struct ExtraInputs<'a> {
     pub fisher_condition: f64,
     /// The realisation's thesis bound, where it applies.
     pub thesis_bound: Option<&'a [f64; 3]>,
-    /// The estimator's settle time, where it reports one.
-    pub settle_time_s: Option<f64>,
-    /// The estimator's road-load coefficients A, B, C, where it fits them.
-    pub road_load: Option<&'a [f64; 3]>,
 }
 
 /// A derived quantity stored next to every estimate: one entry of [`EXTRAS`].
@@ -61,41 +57,28 @@ pub struct Extra {
     pub description: &'static str,
     /// Its value for one row.
     pub value: fn(&ExtraInputs<'_>) -> f64,
-    /// The estimator whose results it holds when only one has them: the column is in a
-    /// study's tables only when the study lists that estimator (`None`: always).
-    pub only_with: Option<&'static str>,
 }
 
-impl Extra {
-    /// Whether a study running `estimators` (their names) has this column.
-    pub fn in_study<'a>(&self, mut estimators: impl Iterator<Item = &'a str>) -> bool {
-        self.only_with
-            .is_none_or(|name| estimators.any(|e| e == name))
-    }
-}
-
-/// Every per-row extra of the vehicle model, in column order.
-pub static EXTRAS: [Extra; 9] = [
+/// Every per-row extra of the vehicle model that every estimate has, in column order (an
+/// estimator's own columns follow: `Estimator::columns`).
+pub static EXTRAS: [Extra; 5] = [
     Extra {
         name: "mass_hat",
         unit: "kg",
         description: "M̂ = 1/θ̂₁ (thesis eq. 38)",
         value: |x| mass_and_drag(x.theta).0,
-        only_with: None,
     },
     Extra {
         name: "cd_hat",
         unit: "1",
         description: "Ĉd = M̂ θ̂₂ (thesis eq. 39)",
         value: |x| mass_and_drag(x.theta).1,
-        only_with: None,
     },
     Extra {
         name: "fisher_condition",
         unit: "1",
         description: "2-norm condition number of the noisy X̃ᵀX̃ (the thesis's cond(FI))",
         value: |x| x.fisher_condition,
-        only_with: None,
     },
     Extra {
         name: "mass_sd_thesis",
@@ -105,7 +88,6 @@ pub static EXTRAS: [Extra; 9] = [
             x.thesis_bound
                 .map_or(f64::NAN, |b| thesis_error_conversions(x.theta, b).0)
         },
-        only_with: None,
     },
     Extra {
         name: "cd_sd_thesis",
@@ -115,34 +97,5 @@ pub static EXTRAS: [Extra; 9] = [
             x.thesis_bound
                 .map_or(f64::NAN, |b| thesis_error_conversions(x.theta, b).1)
         },
-        only_with: None,
-    },
-    Extra {
-        name: "rls_settle_time",
-        unit: "s",
-        description: "rls only: time from the first row after which the 1/M estimate stays within ±2 % of its truth (null if never)",
-        value: |x| x.settle_time_s.unwrap_or(f64::NAN),
-        only_with: None,
-    },
-    Extra {
-        name: "road_load_a",
-        unit: "N",
-        description: "road_load only: A of the fitted road-load force A + B·V + C·V²",
-        value: |x| x.road_load.map_or(f64::NAN, |c| c[0]),
-        only_with: Some("road_load"),
-    },
-    Extra {
-        name: "road_load_b",
-        unit: "N·s/m",
-        description: "road_load only: B of the fitted road-load force A + B·V + C·V²",
-        value: |x| x.road_load.map_or(f64::NAN, |c| c[1]),
-        only_with: Some("road_load"),
-    },
-    Extra {
-        name: "road_load_c",
-        unit: "N·s²/m²",
-        description: "road_load only: C of the fitted road-load force A + B·V + C·V²",
-        value: |x| x.road_load.map_or(f64::NAN, |c| c[2]),
-        only_with: Some("road_load"),
     },
 ];

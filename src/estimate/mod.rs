@@ -6,9 +6,12 @@
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
 //!   (the kernel), with the block sums of `kernels`;
 //! - [`controls`]: the control variates, each moment minus its expectation;
-//! - [`estimators`]: the estimator trait, OLS and BCLS normal equations from the moments;
-//!   [`wbcls`] (weighted BCLS), [`rls`] (recursive LS with forgetting) and [`road_load`]
-//!   (the coast-down's A + B·V + C·V² fit) from the rows;
+//! - [`systems`]: the OLS and BCLS normal equations of the moments;
+//! - [`estimator`]: what an estimator is (the trait, what it reads of a realisation, its own
+//!   scan of the rows and columns, its first-order bias);
+//! - [`estimators`]: OLS, BCLS and the registry; [`wbcls`] (weighted BCLS), [`rls`]
+//!   (recursive LS with forgetting) and [`road_load`] (the coast-down's A + B·V + C·V² fit)
+//!   from the rows, with [`row_sums`] the lane sums they share;
 //! - [`parameters`]: which components of θ are fitted (all, or all but a known 1/M);
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
@@ -21,6 +24,7 @@ pub mod bounds;
 pub mod channels;
 pub mod controls;
 pub mod conversions;
+pub mod estimator;
 pub mod estimators;
 mod kernels;
 pub mod moments;
@@ -30,4 +34,5 @@ pub mod rls;
 pub mod road_load;
 pub mod row_sums;
 pub mod sums;
+pub mod systems;
 pub mod wbcls;

@@ -17,10 +17,33 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::{Bound, BoundKind};
-use super::estimators::{BiasPrediction, Estimate, Estimator, EstimatorSettings, Realisation};
+use super::estimator::{
+    Estimate, EstimateColumn, Estimator, EstimatorSettings, FirstOrder, Realisation,
+};
 use super::parameters::Parameters;
-use super::row_sums::RowRead;
 use crate::numeric::linalg::solve_spd;
+
+/// Its own columns: the fitted A, B, C (NaN where the fit failed).
+static COLUMNS: [EstimateColumn; 3] = [
+    EstimateColumn {
+        name: "road_load_a",
+        unit: "N",
+        description: "road_load only: A of the fitted road-load force A + B·V + C·V²",
+        in_every_study: false,
+    },
+    EstimateColumn {
+        name: "road_load_b",
+        unit: "N·s/m",
+        description: "road_load only: B of the fitted road-load force A + B·V + C·V²",
+        in_every_study: false,
+    },
+    EstimateColumn {
+        name: "road_load_c",
+        unit: "N·s²/m²",
+        description: "road_load only: C of the fitted road-load force A + B·V + C·V²",
+        in_every_study: false,
+    },
+];
 
 /// The coast-down's road-load fit A + B·V + C·V².
 #[derive(Debug, Clone, Copy)]
@@ -35,8 +58,12 @@ impl Estimator for RoadLoad {
         "the coast-down analysis (SAE J2263): the road-load force F − M(1 + δ̂)a − M g sin θ fitted as A + B·V + C·V² over all rows (known mass), reported as Cd/M = C/(kM) and Cr = A/(Mg)"
     }
 
-    fn reads(&self) -> RowRead {
-        RowRead::Rows
+    fn reads_rows(&self) -> bool {
+        true
+    }
+
+    fn columns(&self) -> &'static [EstimateColumn] {
+        &COLUMNS
     }
 
     fn needs_known_mass(&self) -> bool {
@@ -47,8 +74,11 @@ impl Estimator for RoadLoad {
         true
     }
 
-    fn bias_prediction(&self) -> BiasPrediction {
-        BiasPrediction::ModelErrors
+    /// Its estimate on the noise-free rows: what the model errors and the deterministic
+    /// measurement effects (a hill's cos θ in its A) make it estimate; what the noise adds
+    /// is not predicted.
+    fn first_order_bias(&self, at: &FirstOrder<'_>) -> [f64; 3] {
+        at.noise_free_bias
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
@@ -83,11 +113,8 @@ impl Estimator for RoadLoad {
                 abc[0] / (mass * r.regression.g),
             )
         });
-        Estimate {
-            theta,
-            settle_time_s: None,
-            road_load: fit.ok().map(|abc| [abc[0], abc[1], abc[2]]),
-        }
+        let abc = fit.map_or([f64::NAN; 3], |abc| [abc[0], abc[1], abc[2]]);
+        Estimate::with_columns(theta, &abc)
     }
 
     fn reports(&self, bound: &Bound, _settings: &EstimatorSettings) -> bool {

@@ -4,12 +4,7 @@
 //! same bits), and the scans the kernel runs as it measures the rows (`wbcls`'s segments,
 //! `rls`'s running normal equations, in `rls/scan.rs`).
 
-use std::sync::Arc;
-
 use super::moments::{GradeSums, Moments, RowsView};
-use super::regression::Regression;
-use super::rls::scan::{RlsPlan, RlsResult, RlsScan, RlsTarget};
-use super::wbcls::SegmentScan;
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad};
@@ -219,112 +214,5 @@ pub(crate) fn segment_moments_lanes<L: Lanes4>(
         s_y,
         n: (end - start) as f64,
         grade,
-    }
-}
-
-/// What an estimator reads from the measured rows beyond their sums
-/// ([`Estimator::reads`](super::estimators::Estimator::reads)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RowRead {
-    /// Nothing: the moments suffice.
-    Nothing,
-    /// The moments of each weight segment of `wbcls` (`wbcls::SegmentScan`).
-    Segments,
-    /// The running normal equations of `rls` ([`RlsScan`]).
-    Rls,
-    /// The rows themselves.
-    Rows,
-}
-
-/// The union of what a study's estimators read from the rows.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct RowReads {
-    /// Some estimator reads the segments' moments.
-    pub segments: bool,
-    /// Some estimator reads the running normal equations.
-    pub rls: bool,
-    /// Some estimator reads the rows themselves.
-    pub rows: bool,
-}
-
-impl RowReads {
-    /// What `reads` ask for together.
-    pub fn of(reads: impl IntoIterator<Item = RowRead>) -> Self {
-        let mut all = RowReads::default();
-        for read in reads {
-            match read {
-                RowRead::Nothing => {}
-                RowRead::Segments => all.segments = true,
-                RowRead::Rls => all.rls = true,
-                RowRead::Rows => all.rows = true,
-            }
-        }
-        all
-    }
-
-    /// Whether the measured rows are kept at all (every scan reads them).
-    pub fn any(&self) -> bool {
-        self.segments || self.rls || self.rows
-    }
-}
-
-/// The sums over the rows that the estimators read, taken by the kernel as it measures the
-/// rows (block by block, while they are in cache): the same values, bit for bit, as one
-/// pass over all rows after the last.
-#[derive(Debug, Clone, Default)]
-pub struct RowScans {
-    segments: Option<SegmentScan>,
-    rls: Option<RlsScan>,
-}
-
-impl RowScans {
-    /// Empty scans of `reg`'s rows for what `reads` asks (`grade`: the segments sum the
-    /// grade term too), keeping the memory of earlier realisations. `shared`: `reg` serves
-    /// many realisations (a condition's), so RLS takes what they share from its plan
-    /// ([`RlsPlan::shared`], made once); otherwise (a realisation's own regression)
-    /// RLS sums every term itself, the same bits without a plan to make per realisation.
-    pub fn reset(
-        &mut self,
-        reads: RowReads,
-        reg: &Regression,
-        grade: bool,
-        rls: RlsTarget,
-        shared: bool,
-    ) {
-        self.segments = match (reads.segments, self.segments.take()) {
-            (true, Some(mut scan)) => {
-                scan.reset(reg, grade);
-                Some(scan)
-            }
-            (true, None) => Some(SegmentScan::new(reg, grade)),
-            (false, _) => None,
-        };
-        self.rls = reads.rls.then(|| {
-            let plan = match shared {
-                true => RlsPlan::shared(reg, rls.lambda),
-                false => Arc::new(RlsPlan::new(&reg.t, None, rls.lambda)),
-            };
-            RlsScan::new(reg.k, plan, rls.target, rls.band, reg.len())
-        });
-    }
-
-    /// Take the measured rows up to `end` (exclusive; a multiple of four or the row count).
-    pub fn advance(&mut self, rows: RowsView<'_>, end: usize) {
-        if let Some(scan) = &mut self.segments {
-            scan.advance(rows, end);
-        }
-        if let Some(scan) = &mut self.rls {
-            scan.advance(rows, end);
-        }
-    }
-
-    /// The moments of each weight segment of [`SEGMENT_S`] (`None`: not asked for).
-    pub fn segments(&self) -> Option<&[Moments]> {
-        self.segments.as_ref().map(|s| s.done.as_slice())
-    }
-
-    /// The running normal equations' result (`None`: not asked for).
-    pub fn rls(&self) -> Option<RlsResult> {
-        self.rls.as_ref().map(RlsScan::finish)
     }
 }

@@ -14,11 +14,14 @@ use std::sync::Arc;
 
 use super::bounds::{Bound, BoundKind};
 use super::channels::{Channel, GradeLoading, NoiseLevels, OmegaAt, Signal};
-use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
+use super::estimator::{
+    Estimate, Estimator, EstimatorSettings, FirstOrder, Realisation, RowScan, ScanStart,
+    compensated_bias,
+};
 use super::moments::Moments;
 use super::moments::RowsView;
 use super::regression::Regression;
-use super::row_sums::{RowRead, output_sums, segment_moments_lanes};
+use super::row_sums::{output_sums, segment_moments_lanes};
 use super::sums::{Column as Factor, Sum};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
@@ -47,12 +50,20 @@ impl Estimator for Wbcls {
         "weighted BCLS: BCLS, then weights 1/Ω̂ from that estimate and the locally averaged measured speed, then BCLS with the weights (twice)"
     }
 
-    fn reads(&self) -> RowRead {
-        RowRead::Segments
+    fn scan(&self) -> Option<Box<dyn RowScan>> {
+        Some(Box::new(SegmentScan::default()))
     }
 
-    fn compensates_speed_noise(&self) -> bool {
+    fn reads_grade_sums(&self) -> bool {
         true
+    }
+
+    fn needs_even_differentiation(&self) -> bool {
+        true
+    }
+
+    fn first_order_bias(&self, at: &FirstOrder<'_>) -> [f64; 3] {
+        compensated_bias(at)
     }
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
@@ -64,7 +75,7 @@ impl Estimator for Wbcls {
         };
         let weight_segments = WeightSegments::of(r.regression);
         let segments = &weight_segments.ranges[..];
-        let moments = r.segment_moments();
+        let moments = &r.scan::<SegmentScan>().done[..];
         let local = neighbour_means(moments, sd * sd, segments_left_out(r.noise));
         let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
@@ -276,22 +287,14 @@ pub(crate) struct SegmentScan {
     pub(crate) done: Vec<Moments>,
 }
 
-impl SegmentScan {
-    pub(crate) fn new(reg: &Regression, grade: bool) -> Self {
-        SegmentScan {
-            grade,
-            segments: Some(WeightSegments::of(reg)),
-            done: Vec::new(),
-        }
-    }
-
-    pub(crate) fn reset(&mut self, reg: &Regression, grade: bool) {
-        self.grade = grade;
+impl RowScan for SegmentScan {
+    fn reset(&mut self, reg: &Regression, start: &ScanStart<'_>) {
+        self.grade = start.noise.measures_noisy(Signal::Grade);
         self.segments = Some(WeightSegments::of(reg));
         self.done.clear();
     }
 
-    pub(crate) fn advance(&mut self, rows: RowsView<'_>, end: usize) {
+    fn advance(&mut self, rows: RowsView<'_>, end: usize) {
         let shared = Arc::clone(
             self.segments
                 .as_ref()
@@ -305,7 +308,9 @@ impl SegmentScan {
         }
         self.advance_lanes(Quad, rows, segments, constants, end);
     }
+}
 
+impl SegmentScan {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn advance_avx2(

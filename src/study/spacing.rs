@@ -35,7 +35,7 @@ pub fn uneven_differentiation<'a>(
     estimators: &[EstimatorRef],
     spans: impl IntoIterator<Item = &'a [f64]>,
 ) -> Option<EstimatorRef> {
-    let compensating = estimators.iter().find(|e| e.compensates_speed_noise())?;
+    let compensating = estimators.iter().find(|e| e.needs_even_differentiation())?;
     (correlated && spans.into_iter().any(|t| !evenly_spaced(t))).then_some(*compensating)
 }
 

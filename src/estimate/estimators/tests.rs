@@ -1,6 +1,8 @@
 use super::*;
 use crate::estimate::channels::BlockNoise;
+use crate::estimate::channels::Channel;
 use crate::estimate::moments::MomentAccumulator;
+use crate::estimate::moments::Moments;
 use crate::noise::{BLOCK, NormalStream};
 
 /// A 60 s thesis-like cycle on a grade of 0.05 ± 0.04 rad: mostly uphill, so that the

@@ -10,14 +10,19 @@
 //! division, checked every 0.25 s of the cycle, or every four rows where they are further
 //! apart (the sums run in four lanes).
 
+use std::sync::Arc;
+
 use super::bounds::{Bound, BoundKind};
-use super::estimators::{Estimate, Estimator, EstimatorSettings, Realisation};
+use super::estimator::{
+    Estimate, EstimateColumn, Estimator, EstimatorSettings, Realisation, RowScan, ScanStart,
+};
+use super::moments::RowsView;
 use super::parameters::Parameters;
-use super::row_sums::RowRead;
+use super::regression::Regression;
 
 pub mod scan;
 
-use scan::RlsTarget;
+use scan::{RlsPlan, RlsScan, RlsTarget};
 
 /// The band around the true 1/M within which the `rls` estimate counts as settled
 /// (relative).
@@ -30,6 +35,56 @@ pub fn rls_target(settings: &EstimatorSettings, truth: &[f64; 3]) -> RlsTarget {
         lambda: settings.forgetting,
         target: truth[0],
         band: SETTLE_BAND * truth[0].abs(),
+    }
+}
+
+/// Its own column: the settle time (in every study's tables, NaN in other estimators'
+/// rows).
+static COLUMNS: [EstimateColumn; 1] = [EstimateColumn {
+    name: "rls_settle_time",
+    unit: "s",
+    description: "rls only: time from the first row after which the 1/M estimate stays within ±2 % of its truth (null if never)",
+    in_every_study: true,
+}];
+
+/// The kernel's scan of the rows for `rls` ([`RlsScan`]), made anew for each realisation.
+#[derive(Debug)]
+struct RlsRowScan(Option<RlsScan>);
+
+impl RlsRowScan {
+    fn finish(&self) -> scan::RlsResult {
+        self.0
+            .as_ref()
+            .expect("the scan is reset before it is read")
+            .finish()
+    }
+}
+
+impl RowScan for RlsRowScan {
+    /// Where `reg` serves many realisations (a condition's), the scan takes what they share
+    /// from its plan ([`RlsPlan::shared`], made once); otherwise (a realisation's own
+    /// regression) it sums every term itself, the same bits without a plan to make per
+    /// realisation.
+    fn reset(&mut self, reg: &Regression, start: &ScanStart<'_>) {
+        let target = rls_target(start.settings, start.truth);
+        let plan = match start.shared {
+            true => RlsPlan::shared(reg, target.lambda),
+            false => Arc::new(RlsPlan::new(&reg.t, None, target.lambda)),
+        };
+        self.0 = Some(RlsScan::new(
+            reg.k,
+            plan,
+            target.target,
+            target.band,
+            reg.len(),
+        ));
+    }
+
+    fn advance(&mut self, rows: RowsView<'_>, end: usize) {
+        self.0
+            .as_mut()
+            .expect("the scan is reset before it advances")
+            .advance(rows, end);
     }
 }
 
@@ -46,8 +101,12 @@ impl Estimator for Rls {
         "recursive least squares with forgetting λ run along the cycle: the estimate after the last row, and the time its 1/M settles within ±2 % of the truth"
     }
 
-    fn reads(&self) -> RowRead {
-        RowRead::Rls
+    fn scan(&self) -> Option<Box<dyn RowScan>> {
+        Some(Box::new(RlsRowScan(None)))
+    }
+
+    fn columns(&self) -> &'static [EstimateColumn] {
+        &COLUMNS
     }
 
     fn reads_forgetting(&self) -> bool {
@@ -56,15 +115,12 @@ impl Estimator for Rls {
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let t = &r.regression.t;
-        let (system, settle) = r.rls();
-        Estimate {
-            theta: r.settings.solve(&system),
-            // With the mass known there is no 1/M estimate to settle.
-            settle_time_s: settle
-                .filter(|_| r.settings.parameters == Parameters::All)
-                .map(|i| t[i] - t[0]),
-            road_load: None,
-        }
+        let (system, settle) = r.scan::<RlsRowScan>().finish();
+        // With the mass known there is no 1/M estimate to settle.
+        let settle_time_s = settle
+            .filter(|_| r.settings.parameters == Parameters::All)
+            .map_or(f64::NAN, |i| t[i] - t[0]);
+        Estimate::with_columns(r.settings.solve(&system), &[settle_time_s])
     }
 
     fn reports(&self, bound: &Bound, settings: &EstimatorSettings) -> bool {

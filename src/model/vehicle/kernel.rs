@@ -8,12 +8,11 @@ use super::VehicleModel;
 use super::draws::{Draws, OwnRegression, SPAN_NOISE, ar1_step, filter_side_by_side};
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel, Signal};
-use crate::estimate::conversions::{EXTRAS, ExtraInputs};
+use crate::estimate::conversions::ExtraInputs;
+use crate::estimate::estimator::{RowScans, ScanStart};
 use crate::estimate::estimators::Realisation;
 use crate::estimate::moments::{MomentAccumulator, Moments, Rows};
 use crate::estimate::regression::Regression;
-use crate::estimate::rls::rls_target;
-use crate::estimate::row_sums::RowScans;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalStream};
 
@@ -217,12 +216,16 @@ impl VehicleModel {
             Err(_) => return self.unsimulated(slots),
         };
         let (reg, ar1) = self.rows_of(c, &world);
-        if self.reads.any() {
+        if self.reads_rows {
             rows.reset(reg, &cond.noise);
-            let grade = cond.noise.measures_noisy(Signal::Grade);
-            let rls = rls_target(&self.study.settings, &self.truth);
-            // A realisation's own regression (drawn entries) serves it alone.
-            scans.reset(self.reads, reg, grade, rls, world.is_none());
+            let start = ScanStart {
+                noise: &cond.noise,
+                settings: &self.study.settings,
+                truth: &self.truth,
+                // A realisation's own regression (drawn entries) serves it alone.
+                shared: world.is_none(),
+            };
+            scans.reset(&self.study.estimators, reg, &start);
             let kept = Some((&mut *rows, &mut *scans));
             let moments = self.measure(seed, c, r, reg, ar1, kept, span);
             self.conclude(c, reg, &moments, Some((rows, scans)), slots);
@@ -248,7 +251,7 @@ impl VehicleModel {
     /// each realisation of each condition is computed on its own (from the same draws).
     pub(super) fn one_draw_serves(&self, conditions: &[usize]) -> bool {
         (self.shared || conditions.len() == 1)
-            && !self.reads.any()
+            && !self.reads_rows
             && conditions.iter().all(|&c| {
                 let cond = &self.conditions[c];
                 (cond.ar1.is_none() || conditions.len() == 1)
@@ -447,11 +450,9 @@ impl VehicleModel {
                 theta: &theta,
                 fisher_condition,
                 thesis_bound: thesis_bound.as_ref(),
-                settle_time_s: estimate.settle_time_s,
-                road_load: estimate.road_load.as_ref(),
             };
-            for (x, &j) in self.extras.iter().enumerate() {
-                slots[layout.extra_at(ei, x)] = (EXTRAS[j].value)(&inputs);
+            for (x, extra) in self.extras.iter().enumerate() {
+                slots[layout.extra_at(ei, x)] = extra.value(&inputs, *est, &estimate);
             }
         }
         let centred = cond.expected.centre(moments);

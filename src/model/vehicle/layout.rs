@@ -8,14 +8,13 @@ use arrow::error::ArrowError;
 
 use super::prepare::used_samples;
 use super::{
-    PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema, study_controls,
-    study_extras,
+    ExtraColumn, PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema,
+    study_controls, study_extras,
 };
 use crate::estimate::bounds::BOUNDS;
 use crate::estimate::controls::CONTROLS;
-use crate::estimate::conversions::EXTRAS;
+use crate::estimate::estimator::RowScans;
 use crate::estimate::moments::Rows;
-use crate::estimate::row_sums::RowScans;
 use crate::model::{
     BoundInfo, ConditionInfo, ExtraInfo, ExtraTable, FigureX, Layout, Model, ParameterInfo,
     realise_one_by_one,
@@ -58,7 +57,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
         estimators: estimators.iter().map(|e| e.name()).collect(),
         extras: study_extras(study)
             .into_iter()
-            .map(|x| ExtraInfo::from(&EXTRAS[x]))
+            .map(ExtraColumn::info)
             .collect(),
         bounds: BOUNDS
             .iter()

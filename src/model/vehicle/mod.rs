@@ -27,15 +27,13 @@ pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
-use super::{ConditionInfo, Layout, ModelErrorValue};
+use super::{ConditionInfo, ExtraInfo, Layout, ModelErrorValue};
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
-use crate::estimate::conversions::EXTRAS;
-use crate::estimate::estimators::BiasPrediction;
-use crate::estimate::moments::Moments;
+use crate::estimate::conversions::{EXTRAS, ExtraInputs};
+use crate::estimate::estimators::{ESTIMATORS, Estimate, EstimatorRef, FirstOrder, reads_rows};
 use crate::estimate::regression::Regression;
-use crate::estimate::row_sums::RowReads;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
 use crate::vehicle::DriveCycle;
@@ -85,13 +83,14 @@ pub struct VehicleModel {
     conditions: Vec<Condition>,
     /// One cycle per terrain scale and truth (kept for cycles.parquet and figures).
     cycles: Vec<ScaleCycle>,
-    /// What the study's estimators read from the measured rows beyond their sums.
-    reads: RowReads,
-    /// Whether an estimator compensates the noise (BCLS and its kin): only the compensation
-    /// of grade noise reads the kernel's sums of the grade term.
+    /// Whether an estimator of the study reads the measured rows or scans them (the kernel
+    /// keeps them only then).
+    reads_rows: bool,
+    /// Whether an estimator reads the kernel's sums of the grade term (the compensation of
+    /// grade noise).
     grade_sums: bool,
-    /// The per-row extras its tables carry (indices into [`EXTRAS`]).
-    extras: Vec<usize>,
+    /// The per-row extras its tables carry.
+    extras: Vec<ExtraColumn>,
     /// The sums whose control variates the layout carries (indices into [`CONTROLS`]).
     controls: Vec<usize>,
     /// `noise.share_across_scales`: conditions differing only in scale and duration read
@@ -291,8 +290,8 @@ impl VehicleModel {
             layout,
             conditions,
             cycles,
-            reads: RowReads::of(vs.estimators.iter().map(|e| e.reads())),
-            grade_sums: vs.estimators.iter().any(|e| e.compensates_speed_noise()),
+            reads_rows: reads_rows(&vs.estimators),
+            grade_sums: vs.estimators.iter().any(|e| e.reads_grade_sums()),
             extras: study_extras(&vs),
             controls,
             shared: vs.share_across_scales,
@@ -313,14 +312,12 @@ impl VehicleModel {
     /// The first-order prediction of estimator `e`'s (index in the study's list) bias and
     /// standard error in condition `c`, per parameter, and the SE of the first bound the
     /// estimator reports among `crlb_output`, `eiv_sandwich` and `eiv_crlb_linearized` (NaN
-    /// where none applies). The bias is that of the ratio of expectations: the normal
-    /// equations' expected sums under the condition's speed noise, solved, for an estimator
-    /// that does not compensate the noise (other channels' biases are not predicted); for
-    /// one that compensates it (every channel's), the compensated sums' expectations are the
-    /// noise-free sums, so its bias is the condition's `bias_model`, what the model errors
-    /// alone make it estimate, and zero without model errors (docs/model.md#design);
-    /// `road_load`'s is its `bias_model` (what the noise adds is not predicted). The
-    /// noise-free sums are those of the truth's logged rows, so the model errors are in both.
+    /// where none applies). The bias is the estimator's own prediction
+    /// ([`Estimator::first_order_bias`](crate::estimate::estimator::Estimator::first_order_bias):
+    /// the ratio of expectations for one that does not compensate the noise, the model
+    /// errors' effect for one that does; docs/model.md#design), from the condition's
+    /// `bias_model`, its estimate on the truth's logged rows, which have the model errors in
+    /// them.
     pub fn first_order(&self, c: usize, e: usize) -> ([f64; 3], [f64; 3]) {
         let cond = &self.conditions[c];
         let est = &self.study.estimators[e];
@@ -335,33 +332,18 @@ impl VehicleModel {
         .map(BoundKind::index)
         .find(|&b| cond.info.applies[e][b] && cond.constant_bounds[e][b][first].is_finite())
         .map_or([f64::NAN; 3], |b| cond.constant_bounds[e][b]);
-        if est.bias_prediction() == BiasPrediction::ModelErrors {
-            let mut bias = [0.0; 3];
-            // A compensating estimator's noise-free estimate is the truth without model
-            // errors (to rounding); `road_load`'s is not (a hill's cos θ in its A).
-            if !cond.info.model_errors.is_empty() || !est.compensates_speed_noise() {
-                for (p, &i) in parameters.free().iter().enumerate() {
-                    bias[i] = cond.info.bias_model[e][p];
-                }
-            }
-            return (bias, se);
+        let mut noise_free_bias = [0.0; 3];
+        for (p, &i) in parameters.free().iter().enumerate() {
+            noise_free_bias[i] = cond.info.bias_model[e][p];
         }
-        let reg = &*cond.regression;
-        let s2 = cond.noise.sd_of(Signal::Speed).powi(2);
-        let m = crate::estimate::moments::noise_free_moments(reg);
-        // E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴ (docs/model.md#bcls, read backwards).
-        let expected = Moments {
-            s_1w: m.s_1w + s2 * m.s_1,
-            s_3w: m.s_3w + s2 * m.s_3,
-            s_ww: m.s_ww + 6.0 * s2 * m.s_w + 3.0 * s2 * s2 * m.n,
-            s_wy: m.s_wy + s2 * m.s_y,
-            s_w: m.s_w + s2 * m.n,
-            ..m
-        };
-        let bias = match parameters.solve(&expected.ols_system(reg.k)) {
-            Ok(theta) => [0, 1, 2].map(|p| theta[p] - self.truth[p]),
-            Err(_) => [f64::NAN; 3],
-        };
+        let bias = est.first_order_bias(&FirstOrder {
+            regression: &cond.regression,
+            noise: &cond.noise,
+            parameters,
+            truth: &self.truth,
+            noise_free_bias,
+            model_errors: !cond.info.model_errors.is_empty(),
+        });
         (bias, se)
     }
 
@@ -449,12 +431,55 @@ fn uneven_differentiation(
     }
 }
 
-/// The per-row extras (indices into [`EXTRAS`]) the tables of `study` carry: those of every
-/// study and those of an estimator it lists.
-fn study_extras(study: &VehicleStudy) -> Vec<usize> {
-    (0..EXTRAS.len())
-        .filter(|&x| EXTRAS[x].in_study(study.estimators.iter().map(|e| e.name())))
-        .collect()
+/// A per-row extra column of the tables: one that every estimate has (an index into
+/// [`EXTRAS`]) or an estimator's own (its [`Estimator::columns`](crate::estimate::estimator::Estimator::columns)`[k]`, NaN in the other
+/// estimators' rows).
+#[derive(Debug, Clone, Copy)]
+enum ExtraColumn {
+    Every(usize),
+    Own(EstimatorRef, usize),
+}
+
+impl ExtraColumn {
+    /// Its entry in the layout.
+    fn info(self) -> ExtraInfo {
+        match self {
+            ExtraColumn::Every(j) => ExtraInfo::from(&EXTRAS[j]),
+            ExtraColumn::Own(e, k) => {
+                let column = &e.columns()[k];
+                ExtraInfo {
+                    name: column.name,
+                    unit: column.unit,
+                    description: column.description,
+                }
+            }
+        }
+    }
+
+    /// Its value in the row of `estimator`, whose estimate is `estimate`.
+    fn value(self, inputs: &ExtraInputs<'_>, estimator: EstimatorRef, estimate: &Estimate) -> f64 {
+        match self {
+            ExtraColumn::Every(j) => (EXTRAS[j].value)(inputs),
+            ExtraColumn::Own(e, k) if e == estimator => estimate.columns[k],
+            ExtraColumn::Own(..) => f64::NAN,
+        }
+    }
+}
+
+/// The per-row extras the tables of `study` carry: those of every estimate, then each
+/// registered estimator's own (in the order of [`ESTIMATORS`]) that are in every study or
+/// whose estimator the study lists.
+fn study_extras(study: &VehicleStudy) -> Vec<ExtraColumn> {
+    let every = (0..EXTRAS.len()).map(ExtraColumn::Every);
+    let own = ESTIMATORS.iter().flat_map(|&e| {
+        let e = EstimatorRef(e);
+        let listed = study.estimators.contains(&e);
+        let columns = e.columns().iter().enumerate();
+        columns
+            .filter(move |(_, c)| c.in_every_study || listed)
+            .map(move |(k, _)| ExtraColumn::Own(e, k))
+    });
+    every.chain(own).collect()
 }
 
 /// The sums (indices into [`CONTROLS`]) that are control variates in some condition of
