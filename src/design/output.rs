@@ -7,7 +7,6 @@ use std::sync::Arc;
 use arrow::array::{ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 
-use super::search::Search;
 use super::{
     ANSWER_KEY, DESIGN_FILE, DesignError, DesignKey, DesignPoint, DesignRequest, DesignResult,
     largest,
@@ -23,7 +22,7 @@ use crate::study::Study;
 pub(super) fn finish(
     study: &Study,
     request: &DesignRequest,
-    search: &Search<'_>,
+    estimator: &str,
     mut points: Vec<DesignPoint>,
     answer: Option<DesignPoint>,
     neighbour: Option<f64>,
@@ -39,7 +38,7 @@ pub(super) fn finish(
         answer.map_or(String::new(), |a| a.value.to_string()),
     );
     let mut pending = vec![write_points(out, request, &points, answer, &meta)?];
-    pending.push(draw(out, request, search, &points)?);
+    pending.push(draw(out, request, estimator, &points)?);
     pending.push(write_report(
         out,
         study,
@@ -68,9 +67,7 @@ pub(super) fn finish(
         answer,
         answer_sd,
         neighbour,
-        estimator: study.vehicle().map_or(String::new(), |v| {
-            v.estimators[search.estimator].name().to_string()
-        }),
+        estimator: estimator.to_string(),
         realisations: study.realisations(),
         files,
     })
@@ -125,7 +122,7 @@ fn write_points(
 fn draw(
     out: &Path,
     request: &DesignRequest,
-    search: &Search<'_>,
+    estimator: &str,
     points: &[DesignPoint],
 ) -> Result<PendingFile, DesignError> {
     let staging = out.join(output::temporary_name(figures::FIGURES));
@@ -144,10 +141,7 @@ fn draw(
         "{} of {} ({}) against {}",
         request.target.measure.name(),
         PARAMETERS[request.target.parameter],
-        search
-            .base
-            .vehicle()
-            .map_or("", |v| v.estimators[search.estimator].name()),
+        estimator,
         request.key.name()
     );
     let x_label = format!("{} [{}]", request.key.name(), request.key.unit());

@@ -25,12 +25,12 @@ struct Variant {
 }
 
 /// One search: the study it varies, what it looks for, and the index of the estimator.
-pub(super) struct Search<'a> {
+struct Search<'a> {
     /// The study as given.
-    pub(super) base: &'a Study,
+    base: &'a Study,
     request: &'a DesignRequest,
     /// Index of the estimator in the study's list.
-    pub(super) estimator: usize,
+    estimator: usize,
     /// The target parameter's index among the fitted ones (its summary rows).
     parameter: usize,
     truth: f64,
@@ -39,7 +39,14 @@ pub(super) struct Search<'a> {
     step: Option<f64>,
 }
 
-impl Search<'_> {
+impl<'a> Search<'a> {
+    /// The name of the estimator searched.
+    fn estimator_name(&self) -> &'a str {
+        self.base
+            .vehicle()
+            .map_or("", |v| v.estimators[self.estimator].name())
+    }
+
     /// `value` made valid for the key: a duration a whole number of time steps, a number
     /// of runs a positive even number.
     fn snap(&self, value: f64) -> f64 {
@@ -226,7 +233,7 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         bad = Some(good);
         good = search.snap(end);
         if !holds(evaluate(good, &mut points)?) {
-            return finish(study, request, &search, points, None, None);
+            return finish(study, request, search.estimator_name(), points, None, None);
         }
     }
     if let Some(b) = bad
@@ -278,5 +285,5 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         }
     }
     let answer = points.iter().find(|p| p.value == good).copied();
-    finish(study, request, &search, points, answer, bad)
+    finish(study, request, search.estimator_name(), points, answer, bad)
 }
