@@ -53,8 +53,9 @@
 //!   from its own [`estimate::estimator::RowScan`] of them; its own columns of the
 //!   realisation table; its first-order bias; which bounds it reports), in its own file in
 //!   `estimate/` when it is more than normal equations (as `wbcls.rs`, `rls/`,
-//!   `road_load.rs`), and one line of [`estimate::estimators::ESTIMATORS`]. Study files can
-//!   then name it and every realisation runs it on the same draws.
+//!   `road_load.rs`), and one line of the `estimators!` registry in `estimate/mod.rs`
+//!   ([`estimate::ESTIMATORS`]). Study files can then name it and every realisation runs it
+//!   on the same draws.
 //! - **a bound**: one entry of [`estimate::bounds::BOUNDS`] (name, description, when it
 //!   applies, how its standard errors are computed), in `estimate/bounds.rs`.
 //! - **a per-row extra column**: one entry of [`estimate::conversions::EXTRAS`] (every

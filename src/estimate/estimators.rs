@@ -1,12 +1,15 @@
-//! The estimators of the vehicle regression: each builds its normal equations from a
-//! realisation's [`Moments`] (see docs/model.md#estimators).
+//! OLS and BCLS, the estimators that need only a realisation's moments, and what every
+//! estimator is reached by: [`EstimatorRef`] by name, and the estimates on rows without
+//! draws (see docs/model.md#estimators).
 //!
-//! An estimator is one [`Estimator`] impl listed in [`ESTIMATORS`]: the study file names it,
-//! the model runs every listed one on the same draws, the output and the summary take its
-//! name from the layout. Nothing else matches on it.
+//! An estimator is one [`Estimator`] impl with one line in the `estimators!` registry of
+//! `estimate/mod.rs` ([`ESTIMATORS`]): the study file names it, the model runs every listed
+//! one on the same draws, the output and the summary take its name from the layout. Nothing
+//! else matches on it.
 
 use super::bounds::Spread;
 use super::channels::{BlockNoise, NoiseLevels};
+pub use super::ESTIMATORS;
 pub use super::estimator::{
     ESTIMATE_COLUMNS, Estimate, EstimateColumn, Estimator, EstimatorRef, EstimatorSettings,
     FirstOrder, Realisation, RowScan, RowScans, ScanStart, compensated_bias, expected_sums_bias,
@@ -14,9 +17,6 @@ pub use super::estimator::{
 };
 use super::moments::{Rows, noise_free_moments};
 use super::regression::Regression;
-use super::rls::Rls;
-use super::road_load::RoadLoad;
-use super::wbcls::Wbcls;
 use crate::noise::BLOCK;
 
 /// Ordinary least squares on the noisy regressors (the thesis).
@@ -76,8 +76,6 @@ impl Estimator for Bcls {
     }
 }
 
-/// Every estimator a study can name, in the order they are listed in messages.
-pub static ESTIMATORS: [&dyn Estimator; 5] = [&Ols, &Bcls, &Wbcls, &Rls, &RoadLoad];
 
 impl EstimatorRef {
     /// The registered estimator called `name`.

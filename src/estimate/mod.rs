@@ -25,14 +25,30 @@ pub mod channels;
 pub mod controls;
 pub mod conversions;
 pub mod estimator;
-pub mod estimators;
 mod kernels;
 pub mod moments;
 pub mod parameters;
 pub mod regression;
-pub mod rls;
-pub mod road_load;
 pub mod row_sums;
 pub mod sums;
 pub mod systems;
-pub mod wbcls;
+
+/// The registry of estimators: one line per file of `estimate/` that holds estimators,
+/// `module => [Type, …]` (the module is declared here), in the order study files' messages
+/// list them. Generates [`ESTIMATORS`].
+macro_rules! estimators {
+    ($($module:ident => [$($estimator:ident),+],)*) => {
+        $(pub mod $module;)*
+
+        /// Every estimator a study can name, in the order they are listed in messages.
+        pub static ESTIMATORS: [&dyn estimator::Estimator; [$($(stringify!($estimator)),+),*].len()] =
+            [$($(&$module::$estimator),+),*];
+    };
+}
+
+estimators! {
+    estimators => [Ols, Bcls],
+    wbcls => [Wbcls],
+    rls => [Rls],
+    road_load => [RoadLoad],
+}
