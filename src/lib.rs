@@ -66,8 +66,8 @@
 //!   equation-error variance Ω, its expectations of the columns, its BCLS correction of the
 //!   sums and, where rows share its noise, its part of the sandwich off the diagonal, the
 //!   variance it adds to a differentiated ỹ, its correlation time and the slot for its
-//!   covariances), and one line of the `channels!` registry in `estimate/channels/mod.rs`
-//!   plus its place in `Channel::OMEGA_ORDER` (the compiler asks for it). The `[noise]`
+//!   covariances, its place in the order of Ω's terms and its stream identifier), and one
+//!   line of the `channels!` registry in `estimate/channels/mod.rs`. The `[noise]`
 //!   key, the condition axis, the stream, which control variates vary, the bounds, BCLS and
 //!   wbcls's weights and left-out neighbours follow.
 //! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`

@@ -245,11 +245,11 @@ mod tests {
 
     #[test]
     fn a_sequence_is_the_same_whatever_lengths_are_read() {
-        let mut whole = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Output, 5);
+        let mut whole = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Channel(2), 5);
         let mut expected = vec![0.0; 1000];
         whole.fill(&mut expected);
         for lengths in [&[1000][..], &[1, 255, 256, 300, 188], &[97, 97, 97, 709]] {
-            let mut s = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Output, 5);
+            let mut s = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Channel(2), 5);
             let mut got = Vec::new();
             for &n in lengths {
                 let mut part = vec![0.0; n];
@@ -259,7 +259,7 @@ mod tests {
             assert_eq!(got, expected, "{lengths:?}");
         }
         // and it is the stream's whole blocks
-        let mut stream = NormalStream::for_realisation(3, 1, crate::noise::Stream::Output, 5);
+        let mut stream = NormalStream::for_realisation(3, 1, crate::noise::Stream::Channel(2), 5);
         let mut blocks = vec![0.0; 4 * BLOCK];
         for b in blocks.chunks_mut(BLOCK) {
             stream.fill_block(b);
@@ -317,22 +317,22 @@ mod tests {
 
     #[test]
     fn keys_differ_by_seed_condition_and_channel() {
-        let a = key(1, 2, Stream::Velocity);
-        assert_ne!(a, key(2, 2, Stream::Velocity));
-        assert_ne!(a, key(1, 3, Stream::Velocity));
-        assert_ne!(a, key(1, 2, Stream::Output));
+        let a = key(1, 2, Stream::Channel(1));
+        assert_ne!(a, key(2, 2, Stream::Channel(1)));
+        assert_ne!(a, key(1, 3, Stream::Channel(1)));
+        assert_ne!(a, key(1, 2, Stream::Channel(2)));
     }
 
     #[test]
     fn streams_are_independent_of_how_they_are_created() {
-        let mut a = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 42);
-        let mut b = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 42);
+        let mut a = NormalStream::for_realisation(7, 1, crate::noise::Stream::Channel(1), 42);
+        let mut b = NormalStream::for_realisation(7, 1, crate::noise::Stream::Channel(1), 42);
         let mut x = [0.0; 300];
         let mut y = [0.0; 300];
         a.fill(&mut x);
         b.fill(&mut y);
         assert_eq!(x, y);
-        let mut c = NormalStream::for_realisation(7, 1, crate::noise::Stream::Velocity, 43);
+        let mut c = NormalStream::for_realisation(7, 1, crate::noise::Stream::Channel(1), 43);
         c.fill(&mut y);
         assert_ne!(x, y);
     }

@@ -7,40 +7,41 @@
 /// The random streams of the engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stream {
-    /// Speed-measurement noise.
-    Velocity = 1,
-    /// Output (accelerometer) noise.
-    Output = 2,
-    /// Grade-measurement noise.
-    Grade = 3,
-    /// Propulsion-force measurement noise.
-    Force = 4,
+    /// A noise channel's draws, its identifier the channel's own (its
+    /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force; a new channel takes the
+    /// next number free of every stream's, [`Stream::NEXT_FREE`]).
+    Channel(u64),
     /// The line-fit model's measurement noise.
-    LineFit = 5,
+    LineFit,
     /// The truth's wind gusts, drawn per realisation.
-    Gusts = 6,
+    Gusts,
     /// The truth's random force calibration, drawn per realisation.
-    ForceCalibration = 7,
+    ForceCalibration,
     /// The elevation map's error, drawn per realisation.
-    GradeMap = 8,
+    GradeMap,
 }
 
 impl Stream {
-    /// Every stream, in the order of their identifiers.
-    pub const ALL: [Stream; 8] = [
-        Stream::Velocity,
-        Stream::Output,
-        Stream::Grade,
-        Stream::Force,
+    /// Every stream that is not a noise channel's, in the order of their identifiers.
+    pub const OTHERS: [Stream; 4] = [
         Stream::LineFit,
         Stream::Gusts,
         Stream::ForceCalibration,
         Stream::GradeMap,
     ];
 
+    /// The first identifier no stream has taken.
+    pub const NEXT_FREE: u64 = 9;
+
     /// Its identifier: the stream's part of the ChaCha key.
     pub const fn id(self) -> u64 {
-        self as u64
+        match self {
+            Stream::Channel(id) => id,
+            Stream::LineFit => 5,
+            Stream::Gusts => 6,
+            Stream::ForceCalibration => 7,
+            Stream::GradeMap => 8,
+        }
     }
 }
 
@@ -49,23 +50,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_stream_has_its_own_identifier_and_all_are_listed() {
-        let mut ids: Vec<u64> = Stream::ALL.iter().map(|s| s.id()).collect();
-        // The identifiers the engine's numbers were pinned with (docs/model.md#streams).
-        assert_eq!(ids, [1, 2, 3, 4, 5, 6, 7, 8]);
-        ids.dedup();
-        assert_eq!(ids.len(), Stream::ALL.len());
-        // ALL lists every variant: a variant missing from it would not match here.
-        for s in Stream::ALL {
+    fn the_other_streams_keep_their_identifiers_below_the_next_free_one() {
+        let ids: Vec<u64> = Stream::OTHERS.iter().map(|s| s.id()).collect();
+        // The identifiers the engine's numbers were pinned with (docs/model.md#streams);
+        // the channels' (1–4) and their distinctness from these are checked with the
+        // channels.
+        assert_eq!(ids, [5, 6, 7, 8]);
+        assert!(ids.iter().all(|&id| id < Stream::NEXT_FREE));
+        // OTHERS lists every variant but the channels': a variant missing from it would
+        // not match here.
+        for s in Stream::OTHERS {
             let listed = match s {
-                Stream::Velocity
-                | Stream::Output
-                | Stream::Grade
-                | Stream::Force
-                | Stream::LineFit
-                | Stream::Gusts
-                | Stream::ForceCalibration
-                | Stream::GradeMap => true,
+                Stream::Channel(_) => false,
+                Stream::LineFit | Stream::Gusts | Stream::ForceCalibration | Stream::GradeMap => {
+                    true
+                }
             };
             assert!(listed);
         }

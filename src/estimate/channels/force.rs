@@ -20,10 +20,11 @@ impl ChannelTerms for ForceNoise {
     const UNIT: &'static str = "N";
     const DESCRIPTION: &'static str = "propulsion-force measurement noise σ_F";
     const DEFAULT_LEVELS: Option<&'static [f64]> = Some(&[0.0]);
-    const STREAM: crate::noise::Stream = crate::noise::Stream::Force;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Channel(4);
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::F];
     const SIGNAL: Signal = Signal::Force;
+    const OMEGA_RANK: usize = 1;
     const PARTS: &'static [Part] = &[Part::F];
 
     /// F̃ = F + σe.

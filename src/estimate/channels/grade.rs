@@ -19,10 +19,11 @@ impl ChannelTerms for GradeNoise {
     const UNIT: &'static str = "rad";
     const DESCRIPTION: &'static str = "grade-measurement noise σ_θ";
     const DEFAULT_LEVELS: Option<&'static [f64]> = Some(&[0.0]);
-    const STREAM: crate::noise::Stream = crate::noise::Stream::Grade;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Channel(3);
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::C, Column::Y];
     const SIGNAL: Signal = Signal::Grade;
+    const OMEGA_RANK: usize = 2;
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
     /// sin and cos of θ + δ, δ = σe, from those of θ and δ (angle addition), the small

@@ -27,12 +27,8 @@ use crate::numeric::simd::Lanes;
 
 mod covariance;
 mod expect;
-mod force;
-mod grade;
 mod levels;
 mod omega;
-mod output;
-mod velocity;
 
 pub use covariance::{
     AcrossRows, Part, Powers, RowMoments, SumCovariances, packed, sum_covariances,
@@ -64,6 +60,10 @@ pub trait ChannelTerms {
     /// The logged signal its noise is added to, at its SD times its draw (the column of a
     /// log `simulate-log` writes).
     const SIGNAL: Signal;
+    /// Its place in the order the channels' terms of Ω are added ([`Channel::OMEGA_ORDER`]:
+    /// 0 first; the ranks of the channels are 0, 1, …, one each). Fixed once chosen: the
+    /// bounds' and the weighted estimator's bits depend on it; a new channel takes the next.
+    const OMEGA_RANK: usize;
     /// True when the vectorised kernel handles the channel.
     const ON_FAST_PATH: bool = false;
 
@@ -161,12 +161,14 @@ pub trait ChannelTerms {
     }
 }
 
-/// The registry: one line per channel, `Variant => its ChannelTerms type`, in the order of
-/// the study keys, the condition axes (the last varies fastest), the output columns and the
-/// streams' listing. Generates [`Channel`], [`Channel::ALL`] and the dispatch of every
-/// [`ChannelTerms`] item.
+/// The registry: one line per channel, `Variant => its file::its ChannelTerms type`, in the
+/// order of the study keys, the condition axes (the last varies fastest) and the output
+/// columns. Declares the channel's file and generates [`Channel`], [`Channel::ALL`] and the
+/// dispatch of every [`ChannelTerms`] item.
 macro_rules! channels {
-    ($($(#[$doc:meta])* $variant:ident => $terms:ty,)*) => {
+    ($($(#[$doc:meta])* $variant:ident => $module:ident :: $terms:ident,)*) => {
+        $(mod $module;)*
+
         /// An independent noise source of a realisation's measurements. Each has its own
         /// random stream, so switching one on does not change the draws of another.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -182,49 +184,54 @@ macro_rules! channels {
             /// The key under `[noise]` in study files, and the condition column in every
             /// table ([`ChannelTerms::KEY`]).
             pub const fn key(self) -> &'static str {
-                match self { $(Channel::$variant => <$terms>::KEY,)* }
+                match self { $(Channel::$variant => <$module::$terms>::KEY,)* }
             }
 
             /// Unit of the standard deviation.
             pub const fn unit(self) -> &'static str {
-                match self { $(Channel::$variant => <$terms>::UNIT,)* }
+                match self { $(Channel::$variant => <$module::$terms>::UNIT,)* }
             }
 
             /// What the standard deviation is of.
             pub const fn description(self) -> &'static str {
-                match self { $(Channel::$variant => <$terms>::DESCRIPTION,)* }
+                match self { $(Channel::$variant => <$module::$terms>::DESCRIPTION,)* }
             }
 
             /// The levels a study gets when it does not list the key (`None`: required).
             pub const fn default_levels(self) -> Option<&'static [f64]> {
-                match self { $(Channel::$variant => <$terms>::DEFAULT_LEVELS,)* }
+                match self { $(Channel::$variant => <$module::$terms>::DEFAULT_LEVELS,)* }
             }
 
             /// The channel's part of the ChaCha key of its stream (docs/model.md#streams).
             pub const fn stream(self) -> crate::noise::Stream {
-                match self { $(Channel::$variant => <$terms>::STREAM,)* }
+                match self { $(Channel::$variant => <$module::$terms>::STREAM,)* }
             }
 
             /// True when the channel's noise enters a regressor (so OLS is biased), not
             /// only the output.
             pub const fn in_regressors(self) -> bool {
-                match self { $(Channel::$variant => <$terms>::IN_REGRESSORS,)* }
+                match self { $(Channel::$variant => <$module::$terms>::IN_REGRESSORS,)* }
             }
 
             /// The measured columns of the regression its noise enters (speed noise enters
             /// ỹ as well through a differentiated acceleration: [`NoiseLevels::moves`]).
             pub const fn columns(self) -> &'static [Column] {
-                match self { $(Channel::$variant => <$terms>::COLUMNS,)* }
+                match self { $(Channel::$variant => <$module::$terms>::COLUMNS,)* }
             }
 
             /// The logged signal its noise is added to ([`ChannelTerms::SIGNAL`]).
             pub const fn signal(self) -> Signal {
-                match self { $(Channel::$variant => <$terms>::SIGNAL,)* }
+                match self { $(Channel::$variant => <$module::$terms>::SIGNAL,)* }
+            }
+
+            /// Its place in the order of the terms of Ω ([`ChannelTerms::OMEGA_RANK`]).
+            pub const fn omega_rank(self) -> usize {
+                match self { $(Channel::$variant => <$module::$terms>::OMEGA_RANK,)* }
             }
 
             /// True when the vectorised kernel handles the channel.
             pub const fn on_fast_path(self) -> bool {
-                match self { $(Channel::$variant => <$terms>::ON_FAST_PATH,)* }
+                match self { $(Channel::$variant => <$module::$terms>::ON_FAST_PATH,)* }
             }
 
             /// Move one sample's measured quantities (or `L::WIDTH` samples' in lanes) by
@@ -232,7 +239,7 @@ macro_rules! channels {
             /// ([`ChannelTerms::measure`]; docs/model.md#noise-channels).
             #[inline(always)]
             pub fn measure<L: Lanes>(self, l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
-                match self { $(Channel::$variant => <$terms>::measure(l, x, sd, e),)* }
+                match self { $(Channel::$variant => <$module::$terms>::measure(l, x, sd, e),)* }
             }
 
             /// Every channel for which `draw` gives (SD, draw) moves the sample, in the
@@ -245,33 +252,33 @@ macro_rules! channels {
                 mut draw: impl FnMut(Channel) -> Option<(f64, L::F64)>,
             ) {
                 $(if let Some((sd, e)) = draw(Channel::$variant) {
-                    <$terms>::measure(l, x, sd, e);
+                    <$module::$terms>::measure(l, x, sd, e);
                 })*
             }
 
             /// Whether this channel's noise at SD `sd` moves the samples at all
             /// ([`ChannelTerms::moves_at`]).
             pub fn moves_at(self, sd: f64) -> bool {
-                match self { $(Channel::$variant => <$terms>::moves_at(sd),)* }
+                match self { $(Channel::$variant => <$module::$terms>::moves_at(sd),)* }
             }
 
             /// This channel's term of the first-order equation-error variance Ω at SD `sd`
             /// (docs/model.md#bounds).
             pub fn omega_term(self, sd: f64, at: &OmegaAt) -> f64 {
-                match self { $(Channel::$variant => <$terms>::omega_term(sd, at),)* }
+                match self { $(Channel::$variant => <$module::$terms>::omega_term(sd, at),)* }
             }
 
             /// Move the expectations `e` of row `r`'s measured columns by this channel's
             /// noise at SD `sd` > 0 (docs/model.md#control-variates). The channels are
             /// independent, so the order does not matter.
             pub fn expect(self, sd: f64, r: &TrueRow, e: &mut ColumnMoments) {
-                match self { $(Channel::$variant => <$terms>::expect(sd, r, e),)* }
+                match self { $(Channel::$variant => <$module::$terms>::expect(sd, r, e),)* }
             }
 
             /// The sums `m` corrected for this channel's noise at SD `sd`, the other
             /// channels' left as they are (docs/model.md#bcls).
             pub fn compensate(self, m: &Moments, sd: f64, g: f64) -> Moments {
-                match self { $(Channel::$variant => <$terms>::compensate(m, sd, g),)* }
+                match self { $(Channel::$variant => <$module::$terms>::compensate(m, sd, g),)* }
             }
 
             /// This channel's terms of the compensated estimating function's variance at a
@@ -283,7 +290,7 @@ macro_rules! channels {
                 at: &OmegaAt,
                 x: &[f64; 3],
             ) -> SecondOrder {
-                match self { $(Channel::$variant => <$terms>::second_order(sd, noise, at, x),)* }
+                match self { $(Channel::$variant => <$module::$terms>::second_order(sd, noise, at, x),)* }
             }
 
             /// This channel's part of the sandwich's XᵀΣX beyond its Ω terms at the
@@ -294,7 +301,7 @@ macro_rules! channels {
                 theta: &[f64; 3],
                 noise: &NoiseLevels,
             ) -> Option<RowCovariance> {
-                match self { $(Channel::$variant => <$terms>::row_covariance(reg, theta, noise),)* }
+                match self { $(Channel::$variant => <$module::$terms>::row_covariance(reg, theta, noise),)* }
             }
 
             /// Per segment of rows (`segments`, index ranges of `reg`), the variance this
@@ -306,20 +313,20 @@ macro_rules! channels {
                 segments: &[(usize, usize)],
             ) -> Option<Vec<f64>> {
                 match self {
-                    $(Channel::$variant => <$terms>::derivative_variance(reg, noise, segments),)*
+                    $(Channel::$variant => <$module::$terms>::derivative_variance(reg, noise, segments),)*
                 }
             }
 
             /// The correlation time of this channel's noise \[s\] under `noise` (0:
             /// independent draws per sample, or off).
             pub fn correlation_time_s(self, noise: &NoiseLevels) -> f64 {
-                match self { $(Channel::$variant => <$terms>::correlation_time_s(noise),)* }
+                match self { $(Channel::$variant => <$module::$terms>::correlation_time_s(noise),)* }
             }
 
             /// True when a row's equation error carries this channel's draws of
             /// neighbouring samples.
             pub fn enters_neighbours(self, noise: &NoiseLevels) -> bool {
-                match self { $(Channel::$variant => <$terms>::enters_neighbours(noise),)* }
+                match self { $(Channel::$variant => <$module::$terms>::enters_neighbours(noise),)* }
             }
 
             /// Set the terms of row `i`'s expectations `e` that this channel's noise adds
@@ -334,19 +341,19 @@ macro_rules! channels {
                 e: &mut ColumnMoments,
             ) {
                 match self {
-                    $(Channel::$variant => <$terms>::expect_shared(reg, noise, ar1, i, e),)*
+                    $(Channel::$variant => <$module::$terms>::expect_shared(reg, noise, ar1, i, e),)*
                 }
             }
 
             /// The parts of the measured columns its noise moves.
             pub const fn parts(self) -> &'static [Part] {
-                match self { $(Channel::$variant => <$terms>::PARTS,)* }
+                match self { $(Channel::$variant => <$module::$terms>::PARTS,)* }
             }
 
             /// E\[Π pᵏᵖ\] over this channel's noise of its parts at row `r` (on under
             /// `noise`); `None`: not derived (docs/model.md#spread-control-variates).
             pub fn raw_moment(self, noise: &NoiseLevels, r: &TrueRow, k: &Powers) -> Option<f64> {
-                match self { $(Channel::$variant => <$terms>::raw_moment(noise, r, k),)* }
+                match self { $(Channel::$variant => <$module::$terms>::raw_moment(noise, r, k),)* }
             }
 
             /// Its part of the covariances of `sums` from distinct rows sharing its draws.
@@ -360,7 +367,7 @@ macro_rules! channels {
             ) -> AcrossRows {
                 match self {
                     $(Channel::$variant =>
-                        <$terms>::covariance_across_rows(reg, noise, ar1, rows, sums),)*
+                        <$module::$terms>::covariance_across_rows(reg, noise, ar1, rows, sums),)*
                 }
             }
         }
@@ -387,26 +394,22 @@ impl Channel {
         self as usize
     }
 
-    /// The channel whose noise is added to `signal` ([`ChannelTerms::SIGNAL`]): what the
-    /// rest of the crate names a channel by where a path treats one specially (the fast
-    /// path's speed and output noise, the AR(1) filter and differentiation of the speed
-    /// noise, the bounds that read σ_v or σ_y). Each signal has one channel (a test checks
-    /// it); a signal with none, or several, panics.
+    /// The sensor's own noise channel of `signal`: the first registered whose noise is
+    /// added to it ([`ChannelTerms::SIGNAL`]). What the rest of the crate names a channel
+    /// by where a path treats one specially (the fast path's speed and output noise, the
+    /// AR(1) filter and differentiation of the speed noise, the bounds that read σ_v or
+    /// σ_y); a channel registered after it on the same signal is one more source of noise
+    /// there, handled by the general path. Every signal has one (a test checks it).
     pub const fn of(signal: Signal) -> Channel {
-        let mut found = None;
         let mut i = 0;
         while i < CHANNEL_COUNT {
             let c = Channel::ALL[i];
             if c.signal() as usize == signal as usize {
-                assert!(found.is_none(), "two channels measure one signal");
-                found = Some(c);
+                return c;
             }
             i += 1;
         }
-        match found {
-            Some(c) => c,
-            None => panic!("no channel measures the signal"),
-        }
+        panic!("no channel measures the signal")
     }
 }
 

@@ -42,12 +42,23 @@ pub enum GradeLoading {
 impl Channel {
     /// The channels in the order their terms of Ω are added (fixed: the bounds' and the
     /// weighted estimator's bits depend on it).
-    pub const OMEGA_ORDER: [Channel; CHANNEL_COUNT] = [
-        Channel::Velocity,
-        Channel::Force,
-        Channel::Grade,
-        Channel::Output,
-    ];
+    pub const OMEGA_ORDER: [Channel; CHANNEL_COUNT] = {
+        // Rank r's channel at r: every rank 0..CHANNEL_COUNT taken once (else no build).
+        let mut order = [Channel::ALL[0]; CHANNEL_COUNT];
+        let mut taken = [false; CHANNEL_COUNT];
+        let mut i = 0;
+        while i < CHANNEL_COUNT {
+            let rank = Channel::ALL[i].omega_rank();
+            assert!(
+                rank < CHANNEL_COUNT && !taken[rank],
+                "the Ω ranks are 0, 1, … once each"
+            );
+            taken[rank] = true;
+            order[rank] = Channel::ALL[i];
+            i += 1;
+        }
+        order
+    };
 }
 
 /// A channel's part of the sandwich's XᵀΣX that a diagonal of Ω terms does not hold: the

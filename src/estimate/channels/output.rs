@@ -19,10 +19,11 @@ impl ChannelTerms for OutputNoise {
     const UNIT: &'static str = "m/s^2";
     const DESCRIPTION: &'static str = "additive noise σ_y on the regression output (acceleration)";
     const DEFAULT_LEVELS: Option<&'static [f64]> = None;
-    const STREAM: crate::noise::Stream = crate::noise::Stream::Output;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Channel(2);
     const IN_REGRESSORS: bool = false;
     const COLUMNS: &'static [Column] = &[Column::Y];
     const SIGNAL: Signal = Signal::Acceleration;
+    const OMEGA_RANK: usize = 3;
     const PARTS: &'static [Part] = &[Part::O];
     const ON_FAST_PATH: bool = true;
 

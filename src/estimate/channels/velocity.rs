@@ -146,10 +146,11 @@ impl ChannelTerms for Speed {
     const UNIT: &'static str = "m/s";
     const DESCRIPTION: &'static str = "speed-measurement noise σ_v";
     const DEFAULT_LEVELS: Option<&'static [f64]> = None;
-    const STREAM: crate::noise::Stream = crate::noise::Stream::Velocity;
+    const STREAM: crate::noise::Stream = crate::noise::Stream::Channel(1);
     const IN_REGRESSORS: bool = true;
     const COLUMNS: &'static [Column] = &[Column::W];
     const SIGNAL: Signal = Signal::Speed;
+    const OMEGA_RANK: usize = 0;
     const PARTS: &'static [Part] = &[Part::W, Part::D];
     const ON_FAST_PATH: bool = true;
 
