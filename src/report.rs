@@ -6,8 +6,10 @@
 use std::fmt::Write as _;
 
 mod html;
+mod warnings;
 
-pub use html::{Page, escape, head, model_error_warnings, page, warnings};
+pub use html::{Page, escape, head, page};
+pub use warnings::{model_error_warnings, warnings};
 
 use crate::model::{AxisValue, ConditionInfo, Layout};
 use crate::stats::summary::{BoundSummary, SummaryRow};

@@ -9,11 +9,12 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::checker::Checker;
+use super::noise::{VELOCITY_CORRELATION, noise_keys, noise_levels};
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
-use super::truth::{truth_keys, validate_systematic};
-use super::validate::{Checker, SettingKeys, check_realisations, serde_error, validate_estimation};
-use super::vehicle::{VELOCITY_CORRELATION, noise_keys, noise_levels};
+use super::truth::validate_systematic;
+use super::validate::{SettingKeys, check_realisations, serde_error, validate_estimation};
 use super::{KeySpans, StudyError};
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
@@ -22,6 +23,9 @@ use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
 use crate::vehicle::{DriveCycle, VehicleParams};
 use crate::vehicle::{SpeedUnit, central_differences, positions};
+use placement::elsewhere;
+
+pub(super) mod placement;
 
 /// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval).
 const MIN_REALISATIONS: i64 = 20;
@@ -106,70 +110,6 @@ pub(super) struct RawReference {
     drag_coefficient: Option<f64>,
     #[serde(default)]
     rolling_resistance: Option<f64>,
-}
-
-/// The keys of the fit file's fixed tables (`""`: the top level), as the serde structs
-/// read them (a unit test checks the two agree); `[noise]` has the channels' keys and
-/// `velocity_correlation_time`.
-pub(super) const FIT_KEYS: [(&str, &[&str]); 5] = [
-    ("", &["name", "seed", "realisations"]),
-    (
-        "log",
-        &[
-            "file",
-            "time_column",
-            "speed_column",
-            "speed_unit",
-            "force_column",
-            "torque_column",
-            "grade_column",
-            "grade_unit",
-            "acceleration_column",
-            "min_speed",
-        ],
-    ),
-    (
-        "vehicle",
-        &[
-            "mass",
-            "frontal_area",
-            "air_density",
-            "gravity",
-            "final_drive_ratio",
-            "wheel_radius",
-        ],
-    ),
-    (
-        "estimation",
-        &[
-            "estimators",
-            "forgetting",
-            "known_mass",
-            "effective_mass_factor",
-        ],
-    ),
-    (
-        "reference",
-        &["mass", "drag_coefficient", "rolling_resistance"],
-    ),
-];
-
-/// Where a key unknown in `[table]` of a fit file belongs instead (the fit file's
-/// [`Placement`](super::validate::Placement)).
-fn elsewhere(table: &str, key: &str, _variant: Option<(&str, &str)>) -> Option<String> {
-    let noise = Channel::ALL.iter().any(|c| c.key() == key) || key == VELOCITY_CORRELATION;
-    let systematic = truth_keys().contains(&key);
-    FIT_KEYS
-        .iter()
-        .filter(|(_, keys)| keys.contains(&key))
-        .map(|(t, _)| *t)
-        .chain(noise.then_some("noise"))
-        .chain(systematic.then_some("systematic"))
-        .find(|t| *t != table)
-        .map(|t| match t {
-            "" => "it belongs at the top of the file, before any [table]".to_string(),
-            t => format!("it belongs in [{t}]"),
-        })
 }
 
 /// A validated fit file.

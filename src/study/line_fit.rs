@@ -1,8 +1,9 @@
 //! The line-fit example: its validated settings ([`LineFitStudy`]) and their validation from
 //! `[line_fit]`.
 
+use super::checker::Checker;
 use super::raw::RawStudy;
-use super::validate::{Checker, validate_estimators};
+use super::validate::validate_estimators;
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::estimators::{EstimatorRef, Ols};
 

@@ -11,12 +11,15 @@
 //! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
 //! validated study's setting a new value ([`Study::varied`]) through the same validation.
 
+mod checker;
 mod fit;
 mod line_fit;
+mod noise;
 mod placement;
 mod raw;
 mod spacing;
 mod spans;
+mod terrain;
 mod truth;
 mod validate;
 mod vary;
@@ -29,12 +32,13 @@ use std::path::{Path, PathBuf};
 
 pub use fit::FitSpec;
 pub use line_fit::{LineFitStudy, NoiseShape};
+pub use noise::{AIR_SPEED_SD, GRADE_MAP_SD, NoiseAxes};
 use raw::RawStudy;
 pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, uneven_reason};
 pub use spans::KeySpans;
 pub use truth::TruthAxes;
 pub use vary::{TruthKey, VariedKey};
-pub use vehicle::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, NoiseAxes, VehicleStudy};
+pub use vehicle::{AirSpeed, VehicleStudy};
 
 pub use crate::vehicle::MAX_SAMPLES;
 

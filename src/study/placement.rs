@@ -2,8 +2,8 @@
 //! the wrong table.
 
 use super::StudyError;
-use super::validate::Checker;
-use super::vehicle::NOISE_KEYS;
+use super::checker::Checker;
+use super::noise::NOISE_KEYS;
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
 use crate::vehicle::DRIVE_MODES;
@@ -157,7 +157,8 @@ mod tests {
 
     #[test]
     fn the_fit_file_s_tables_keys_are_its_serde_structs_fields() {
-        use crate::study::fit::{FIT_KEYS, RawFitEstimation, RawFitVehicle, RawLog, RawReference};
+        use crate::study::fit::placement::FIT_KEYS;
+        use crate::study::fit::{RawFitEstimation, RawFitVehicle, RawLog, RawReference};
         for (table, fields) in [
             ("log", serde_fields::<RawLog>()),
             ("vehicle", serde_fields::<RawFitVehicle>()),

@@ -3,8 +3,8 @@
 //! [`MODEL_ERRORS`]; an axis entry takes a list of values, one condition each.
 
 use super::StudyError;
+use super::checker::Checker;
 use super::placement::unknown_key;
-use super::validate::Checker;
 use crate::vehicle::Truth;
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
 
