@@ -181,3 +181,19 @@ impl<'a> Checker<'a> {
         Ok(checked)
     }
 }
+
+/// The error for `key`, which `[table]` does not have: where it belongs, if another table
+/// of the checked file's kind has it, else the keys `[table]` does have.
+pub(super) fn unknown_key(
+    c: &Checker<'_>,
+    table: &str,
+    key: &str,
+    expected: Vec<&str>,
+    variant: Option<(&str, &str)>,
+) -> StudyError {
+    let reason = match c.elsewhere(table, key, variant) {
+        Some(place) => format!("unknown field `{key}` in [{table}]: {place}"),
+        None => format!("unknown field `{key}`, expected one of {expected:?}"),
+    };
+    c.fail(&format!("{table}.{key}"), reason)
+}

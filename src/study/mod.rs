@@ -3,13 +3,15 @@
 //! This is the one place where user input becomes trusted configuration. serde structs
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
-//! by their entries. `validate.rs` checks the common keys, `vehicle.rs` and `line_fit.rs` each
-//! model's (`truth.rs` the vehicle's `[truth]`), `placement.rs` says which table a key
-//! belongs in, `spacing.rs` is the rule on sample spacing, and `fit.rs` reads `fit`'s file
-//! with the same checks. Every failure is a [`StudyError`] that names the file, the dotted
-//! key, its line
-//! and the reason, so a user can fix the file without reading code. `vary.rs` gives a
-//! validated study's setting a new value ([`Study::varied`]) through the same validation.
+//! by their entries. `checker.rs` holds what every check reports through (the file, the
+//! keys' lines, the error for an unknown key); `validate.rs` checks the common keys,
+//! `vehicle.rs` and `line_fit.rs` each model's (`noise.rs` the vehicle's `[noise]`,
+//! `terrain.rs` its `[terrain]`, `truth.rs` its `[truth]`), `placement.rs` says which table a
+//! key belongs in, `spacing.rs` is the rule on sample spacing, and `fit.rs` reads `fit`'s
+//! file with the same checks. Every failure is a [`StudyError`] that names the file, the
+//! dotted key, its line and the reason, so a user can fix the file without reading code.
+//! `vary.rs` gives a validated study's setting a new value ([`Study::varied`]) through the
+//! same validation.
 
 mod checker;
 mod fit;

@@ -4,7 +4,7 @@
 
 use super::StudyError;
 use super::checker::Checker;
-use super::placement::unknown_key;
+use super::checker::unknown_key;
 use super::raw::RawNoise;
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 

@@ -1,8 +1,6 @@
 //! Where a study-file key belongs: each table's keys, and the message for a key placed in
 //! the wrong table.
 
-use super::StudyError;
-use super::checker::Checker;
 use super::noise::NOISE_KEYS;
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
@@ -99,22 +97,6 @@ pub(super) fn elsewhere(table: &str, key: &str, variant: Option<(&str, &str)>) -
             "" => "it belongs at the top of the file, before any [table]".to_string(),
             t => format!("it belongs in [{t}]"),
         })
-}
-
-/// The error for `key`, which `[table]` does not have: where it belongs, if another table
-/// of the checked file's kind has it, else the keys `[table]` does have.
-pub(super) fn unknown_key(
-    c: &Checker<'_>,
-    table: &str,
-    key: &str,
-    expected: Vec<&str>,
-    variant: Option<(&str, &str)>,
-) -> StudyError {
-    let reason = match c.elsewhere(table, key, variant) {
-        Some(place) => format!("unknown field `{key}` in [{table}]: {place}"),
-        None => format!("unknown field `{key}`, expected one of {expected:?}"),
-    };
-    c.fail(&format!("{table}.{key}"), reason)
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! drive mode needs or uses them, and the terrain scales (an axis of conditions).
 
 use super::checker::Checker;
-use super::placement::{COMMON_TERRAIN_KEYS, home_of, unknown_key};
+use super::checker::unknown_key;
+use super::placement::{COMMON_TERRAIN_KEYS, home_of};
 use super::raw::RawStudy;
 use super::{MAX_SAMPLES, StudyError};
 use crate::settings::Params;

@@ -4,7 +4,7 @@
 
 use super::StudyError;
 use super::checker::Checker;
-use super::placement::unknown_key;
+use super::checker::unknown_key;
 use crate::vehicle::Truth;
 use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
 

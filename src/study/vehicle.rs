@@ -4,19 +4,23 @@
 use std::sync::Arc;
 
 use super::StudyError;
-use super::checker::Checker;
+use super::checker::{Checker, unknown_key};
 use super::noise::{AIR_SPEED_SD, NoiseAxes, ValidatedNoise, validate_noise};
-use super::placement::{COMMON_DRIVE_KEYS, unknown_key};
+use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
 use super::terrain::validate_terrain;
 use super::truth::{TruthAxes, validate_truth};
 use super::validate::{SettingKeys, validate_estimation};
 use crate::estimate::channels::Acceleration;
-use crate::estimate::channels::Channel;
+use crate::estimate::channels::{Channel, Signal};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::TerrainSpec;
 use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
+
+/// The speed's channel: its noise must be off where the drag regressor reads a measured air
+/// speed.
+const SPEED: Channel = Channel::of(Signal::Speed);
 
 /// The validated description of a vehicle study (docs/model.md, and the README's study keys).
 #[derive(Debug, Clone)]
@@ -294,13 +298,12 @@ fn validate_air_speed(
              speed (estimation.air_speed = \"ground\", the default); set estimation.air_speed \
              = \"measured\" or leave the key out",
         )),
-        AirSpeed::Measured if noise.levels(Channel::Velocity).iter().any(|&s| s > 0.0) => Err(c
-            .fail(
-                &format!("noise.{}", Channel::Velocity.key()),
-                "must be [0] with estimation.air_speed = \"measured\": the drag regressor reads \
+        AirSpeed::Measured if noise.levels(SPEED).iter().any(|&s| s > 0.0) => Err(c.fail(
+            &format!("noise.{}", SPEED.key()),
+            "must be [0] with estimation.air_speed = \"measured\": the drag regressor reads \
                  the air-speed sensor (noise.air_speed_sd) and the acceleration is the model's, \
                  so the speed sensor's noise enters no column",
-            )),
+        )),
         AirSpeed::Measured if acceleration.contains(&Acceleration::Differentiated) => Err(c.fail(
             KEY,
             "\"measured\" needs estimation.acceleration = \"model\": an acceleration \

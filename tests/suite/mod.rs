@@ -20,6 +20,7 @@ mod line_fit;
 mod mcse;
 mod memory;
 mod model_errors;
+mod module_cycles;
 mod noise;
 mod noise_free;
 mod output_integrity;
