@@ -10,11 +10,12 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::checker::Checker;
+use super::estimation::{SettingKeys, validate_estimation};
 use super::noise::{VELOCITY_CORRELATION, noise_keys, noise_levels};
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::validate_systematic;
-use super::validate::{SettingKeys, check_realisations, serde_error, validate_estimation};
+use super::validate::{check_realisations, serde_error};
 use super::{KeySpans, StudyError};
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};

@@ -2,8 +2,8 @@
 //! `[line_fit]`.
 
 use super::checker::Checker;
+use super::estimation::validate_estimators;
 use super::raw::RawStudy;
-use super::validate::validate_estimators;
 use super::{MAX_SAMPLES, StudyError};
 use crate::estimate::estimators::{EstimatorRef, Ols};
 

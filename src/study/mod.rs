@@ -4,7 +4,8 @@
 //! (`raw.rs`) catch unknown keys, missing keys and wrong types of the fixed tables; the open
 //! tables (a terrain profile's or drive mode's keys, the noise channels) are read key by key
 //! by their entries. `checker.rs` holds what every check reports through (the file, the
-//! keys' lines, the error for an unknown key); `validate.rs` checks the common keys,
+//! keys' lines, the error for an unknown key); `validate.rs` checks the common keys (`estimation.rs` the
+//! `[estimation]` checks every model shares),
 //! `vehicle.rs` and `line_fit.rs` each model's (`noise.rs` the vehicle's `[noise]`,
 //! `terrain.rs` its `[terrain]`, `truth.rs` its `[truth]`), `placement.rs` says which table a
 //! key belongs in, `spacing.rs` is the rule on sample spacing, and `fit.rs` reads `fit`'s
@@ -14,6 +15,7 @@
 //! same validation.
 
 mod checker;
+mod estimation;
 mod fit;
 mod line_fit;
 mod noise;

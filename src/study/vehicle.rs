@@ -5,12 +5,12 @@ use std::sync::Arc;
 
 use super::StudyError;
 use super::checker::{Checker, unknown_key};
+use super::estimation::{SettingKeys, validate_estimation};
 use super::noise::{AIR_SPEED_SD, NoiseAxes, ValidatedNoise, validate_noise};
 use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
 use super::terrain::validate_terrain;
 use super::truth::{TruthAxes, validate_truth};
-use super::validate::{SettingKeys, validate_estimation};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, Signal};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
