@@ -85,9 +85,11 @@
 //! - **a condition axis** of the vehicle model: a variant of
 //!   [`model::vehicle::VehicleAxis`] and its arms (column, levels, what it sets in a
 //!   condition) in `model/vehicle/axes.rs`, and the validated levels in `study/vehicle.rs`.
-//! - **a summary measure**: a variant of [`stats::columns::Measure`] or
-//!   [`stats::columns::BoundMeasure`] (the writer, the decoder and the figures take it from
-//!   there) and its computation in [`stats::summary`].
+//! - **a summary measure**: one [`stats::summary::SummaryMeasure`] impl in its own file
+//!   under `stats/summary/measure/` (its column, whether it has an MCSE, how it is computed
+//!   from the condition's sums) and one line of the `summary_measures!` registry there; the
+//!   summary, the writer, the decoder and the figures take it from the registry. A measure
+//!   of a bound is a variant of [`stats::columns::BoundMeasure`].
 //! - **a model error** (how the simulated truth differs from the regression's equation):
 //!   one [`vehicle::truth::ModelError`] impl (the inertia and force the equation leaves out
 //!   at a sample, or what it does to the logged force, and whether it is drawn per

@@ -3,6 +3,7 @@
 //! empirical SE, the applicable bound and EmpSE/bound, plain and, where they apply, by the
 //! second moment's control variates) and `report.html`, the page written next to its files.
 
+use crate::stats::summary::Measure;
 use std::fmt::Write as _;
 
 mod html;
@@ -77,9 +78,9 @@ pub fn listed_conditions(
             let of = |r: &&SummaryRow| r.parameter == p && r.estimator == e;
             let candidates: Vec<&SummaryRow> = rows.iter().filter(of).collect();
             let measures: [&dyn Fn(&SummaryRow) -> f64; 3] = [
-                &|r| r.rel_bias.value.abs(),
+                &|r| r[Measure::RelBias].value.abs(),
                 &|r| lead_bound(layout, r).map_or(f64::NAN, |(_, s)| s.emp_over.value),
-                &|r| r.emp_se.value / r.truth.abs(),
+                &|r| r[Measure::EmpSe].value / r.truth.abs(),
             ];
             for (m, measure) in measures.iter().enumerate() {
                 let finite = || {
@@ -246,9 +247,17 @@ fn table_of(
             if let Some(m) = info.metrics.first().filter(|_| metric_shown) {
                 let _ = write!(line, " {m:>11.5e}");
             }
-            let mean = format!("{:.6e} ± {:.1e}", r.mean.value, r.mean.mcse);
-            let bias_cv = if r.bias_cv.value.is_finite() {
-                format!("{:.4e} ± {:.1e}", r.bias_cv.value, r.bias_cv.mcse)
+            let mean = format!(
+                "{:.6e} ± {:.1e}",
+                r[Measure::Mean].value,
+                r[Measure::Mean].mcse
+            );
+            let bias_cv = if r[Measure::BiasCv].value.is_finite() {
+                format!(
+                    "{:.4e} ± {:.1e}",
+                    r[Measure::BiasCv].value,
+                    r[Measure::BiasCv].mcse
+                )
             } else {
                 "—".to_string()
             };
@@ -265,7 +274,12 @@ fn table_of(
             let _ = write!(
                 line,
                 " {:>5}  {:>27}  {:>22}  {:>10.3e}  {:>bound_width$}  {:>ratio_width$}",
-                layout.estimators[r.estimator], mean, bias_cv, r.emp_se.value, bound, ratio
+                layout.estimators[r.estimator],
+                mean,
+                bias_cv,
+                r[Measure::EmpSe].value,
+                bound,
+                ratio
             );
             if let Some(w) = cv_width {
                 let cell = ratio_cv(r).map_or("—".to_string(), |e| {

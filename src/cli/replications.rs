@@ -54,7 +54,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
         };
         match replications_for(&report.summary, &parameters, pilot_r, target) {
             Plan::Reach { realisations, row } => {
-                let current = target.measure.of(row).mcse;
+                let current = row[target.measure].mcse;
                 println!(
                     "replications for {what}: R = {realisations} per condition (now {pilot_r}, \
                      MCSE {current:.3e} at {}); about {} at this run's pace",
@@ -67,7 +67,7 @@ pub fn plan_replications(report: &RunReport, targets: &[Target], pilot_r: u64, s
                 row,
                 best_mcse,
             } => {
-                let current = target.measure.of(row).mcse;
+                let current = row[target.measure].mcse;
                 println!(
                     "replications for {what}: out of reach: it would take R ≈ {needed:.2e} per \
                      condition (now {pilot_r}, MCSE {current:.3e} at {}), more than the \

@@ -9,6 +9,7 @@ use super::{
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
 use crate::run::summarise_in_memory;
+use crate::stats::summary::Measure;
 use crate::study::Study;
 
 /// Points of the first-order grid over [from, to].
@@ -85,9 +86,14 @@ impl<'a> Search<'a> {
             .expect("the summary has a row per estimator and parameter");
         let t = self.truth.abs();
         Ok(match self.request.target.measure {
-            DesignMeasure::RelRmse => (row.rmse.value / t, row.rmse.mcse / t),
-            DesignMeasure::RelEmpSe => (row.emp_se.value / t, row.emp_se.mcse / t),
-            DesignMeasure::AbsRelBias => (row.bias.value.abs() / t, row.bias.mcse / t),
+            DesignMeasure::RelRmse => (row[Measure::Rmse].value / t, row[Measure::Rmse].mcse / t),
+            DesignMeasure::RelEmpSe => {
+                (row[Measure::EmpSe].value / t, row[Measure::EmpSe].mcse / t)
+            }
+            DesignMeasure::AbsRelBias => (
+                row[Measure::Bias].value.abs() / t,
+                row[Measure::Bias].mcse / t,
+            ),
         })
     }
 }

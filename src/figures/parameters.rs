@@ -223,7 +223,7 @@ pub(super) fn draw_parameter(
     // A measure (or its MCSE) of every row, NaN where undefined.
     let column =
         |value: &dyn Fn(&SummaryRow) -> f64| -> Vec<f64> { t.rows.iter().map(value).collect() };
-    let measure = |m: Measure| (column(&|r| m.of(r).value), column(&|r| m.of(r).mcse));
+    let measure = |m: Measure| (column(&|r| r[m].value), column(&|r| r[m].mcse));
     let bound = |b: usize, m: BoundMeasure| {
         let of = |r: &SummaryRow| r.bounds[b].as_ref().map(|s| m.of(s));
         (
@@ -245,13 +245,13 @@ pub(super) fn draw_parameter(
     let with_cv = t
         .rows
         .iter()
-        .any(|r| r.parameter == pi && r.bias_cv.value.is_finite());
+        .any(|r| r.parameter == pi && r[Measure::BiasCv].value.is_finite());
     // The spread by the second moment's control variates
     // (docs/model.md#spread-control-variates), where it applies.
     let with_spread_cv = t
         .rows
         .iter()
-        .any(|r| r.parameter == pi && r.emp_se_cv.value.is_finite());
+        .any(|r| r.parameter == pi && r[Measure::EmpSeCv].value.is_finite());
     let with_ratio_cv = t.rows.iter().any(|r| {
         r.parameter == pi
             && r.bounds
@@ -374,9 +374,9 @@ pub(super) fn draw_parameter(
     // The control-variate estimate of the same bias (docs/model.md#control-variates), where
     // it applies: its error bars are usually too small to see.
     let relative = |m: Measure| {
-        column(&|r| 100.0 * m.of(r).value / r.truth)
+        column(&|r| 100.0 * r[m].value / r.truth)
             .into_iter()
-            .zip(column(&|r| 100.0 * m.of(r).mcse / r.truth.abs()))
+            .zip(column(&|r| 100.0 * r[m].mcse / r.truth.abs()))
             .unzip::<f64, f64, Vec<f64>, Vec<f64>>()
     };
     let (bias_cv, bias_cv_mcse) = relative(Measure::BiasCv);

@@ -2,6 +2,7 @@
 //! speed noise, per parameter and estimator, iso-lines of the relative RMSE in the
 //! (scale, σ_v) plane — which speed-sensor noise each terrain allows for a given precision.
 
+use crate::stats::summary::Measure;
 use std::path::Path;
 
 use super::FigureError;
@@ -76,7 +77,7 @@ pub(super) fn draw_tradeoffs(
             {
                 let i = scales.iter().position(|&s| s == value(r, sa)).unwrap_or(0);
                 let j = sds.iter().position(|&s| s == value(r, va)).unwrap_or(0);
-                grid[i][j] = r.rmse.value / r.truth.abs();
+                grid[i][j] = r[Measure::Rmse].value / r.truth.abs();
             }
             let mut all: Vec<f64> = grid
                 .iter()

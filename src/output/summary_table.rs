@@ -3,6 +3,7 @@
 //!
 //! Every column comes from [`SummaryColumn::all`], the one definition of the table.
 
+use crate::stats::summary::MEASURE_COUNT;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -206,20 +207,8 @@ fn decode(
             bias_model: number(bias_model, i).unwrap_or(f64::NAN),
             n: n.value(i) as u64,
             n_failed: n_failed.value(i) as u64,
-            mean: Estimate::undefined(),
-            bias: Estimate::undefined(),
-            rel_bias: Estimate::undefined(),
-            emp_se: Estimate::undefined(),
-            mse: Estimate::undefined(),
-            rmse: Estimate::undefined(),
-            rel_precision: Estimate::undefined(),
             bounds: vec![None; layout.bounds.len()],
-            mean_cv: Estimate::undefined(),
-            bias_cv: Estimate::undefined(),
-            cv_variance_ratio: f64::NAN,
-            emp_se_cv: Estimate::undefined(),
-            mse_cv: Estimate::undefined(),
-            rmse_cv: Estimate::undefined(),
+            measures: [Estimate::undefined(); MEASURE_COUNT],
             n_controls: n_controls.value(i) as u64,
         };
         for (column, array) in &measures {

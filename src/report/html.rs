@@ -2,6 +2,7 @@
 //! with the study, its provenance, the per-condition table, the figures and plain-language
 //! warnings where a number is easy to misread.
 
+use crate::stats::summary::Measure;
 use std::fmt::Write as _;
 
 use crate::model::{ConditionInfo, Layout};
@@ -164,15 +165,15 @@ struct Derived {
 fn derived(inv_mass: &SummaryRow, drag: &SummaryRow, cr: &SummaryRow) -> [Derived; 3] {
     let (t1, m1, s1, e1) = (
         inv_mass.truth,
-        inv_mass.mean.value,
-        inv_mass.emp_se.value,
-        inv_mass.mean.mcse,
+        inv_mass[Measure::Mean].value,
+        inv_mass[Measure::EmpSe].value,
+        inv_mass[Measure::Mean].mcse,
     );
     let (t2, m2, s2, e2) = (
         drag.truth,
-        drag.mean.value,
-        drag.emp_se.value,
-        drag.mean.mcse,
+        drag[Measure::Mean].value,
+        drag[Measure::EmpSe].value,
+        drag[Measure::Mean].mcse,
     );
     let ratio = (m2 / m1) / (t2 / t1);
     let (r1, r2) = (s1 / m1, s2 / m2);
@@ -191,11 +192,11 @@ fn derived(inv_mass: &SummaryRow, drag: &SummaryRow, cr: &SummaryRow) -> [Derive
             ),
         },
         Derived {
-            bias: 100.0 * cr.rel_bias.value,
-            bias_mcse: 100.0 * cr.rel_bias.mcse,
+            bias: 100.0 * cr[Measure::RelBias].value,
+            bias_mcse: 100.0 * cr[Measure::RelBias].mcse,
             spread: (
-                100.0 * cr.emp_se.value / cr.truth.abs(),
-                100.0 * cr.emp_se.value / cr.truth.abs(),
+                100.0 * cr[Measure::EmpSe].value / cr.truth.abs(),
+                100.0 * cr[Measure::EmpSe].value / cr.truth.abs(),
             ),
         },
     ]

@@ -3,6 +3,7 @@
 //! estimate under Holm's rule, failed estimates, and the model errors no bound covers.
 
 use crate::model::{ConditionInfo, Layout};
+use crate::stats::summary::Measure;
 use crate::stats::summary::SummaryRow;
 
 /// Plain-language warnings about the numbers of this run.
@@ -62,11 +63,12 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
             tested.len(),
             100.0 * FAMILY_WISE_ALPHA
         );
-        match biased
-            .iter()
-            .map(|&k| tested[k].0)
-            .max_by(|a, b| a.rel_bias.value.abs().total_cmp(&b.rel_bias.value.abs()))
-        {
+        match biased.iter().map(|&k| tested[k].0).max_by(|a, b| {
+            a[Measure::RelBias]
+                .value
+                .abs()
+                .total_cmp(&b[Measure::RelBias].value.abs())
+        }) {
             Some(worst) => out.push(format!(
                 "{name} is biased in {} of its {} estimates ({rule}; largest: {} {:+.2} % of the \
                  truth in condition {}). EmpSE and every bound describe the spread only; RMSE \
@@ -74,7 +76,7 @@ pub fn warnings(layout: &Layout, infos: &[ConditionInfo], summary: &[SummaryRow]
                 biased.len(),
                 tested.len(),
                 layout.parameters[worst.parameter].name,
-                100.0 * worst.rel_bias.value,
+                100.0 * worst[Measure::RelBias].value,
                 worst.condition
             )),
             None => out.push(format!(
@@ -108,13 +110,15 @@ pub const FAMILY_WISE_ALPHA: f64 = 0.05;
 fn bias_tests<'a>(rows: &[&'a SummaryRow]) -> Vec<(&'a SummaryRow, f64)> {
     use statrs::distribution::{ContinuousCDF, StudentsT};
     rows.iter()
-        .filter(|r| r.n >= 2 && r.bias.value.is_finite() && r.bias.mcse.is_finite())
+        .filter(|r| {
+            r.n >= 2 && r[Measure::Bias].value.is_finite() && r[Measure::Bias].mcse.is_finite()
+        })
         .map(|&r| {
-            let t = r.bias.value / r.bias.mcse;
+            let t = r[Measure::Bias].value / r[Measure::Bias].mcse;
             let p = match (t.is_finite(), StudentsT::new(0.0, 1.0, (r.n - 1) as f64)) {
                 (true, Ok(dist)) => (2.0 * dist.sf(t.abs())).min(1.0),
                 // a bias with no spread at all (MCSE 0): certain unless it is 0
-                _ => match r.bias.value == 0.0 {
+                _ => match r[Measure::Bias].value == 0.0 {
                     true => 1.0,
                     false => 0.0,
                 },
@@ -159,8 +163,8 @@ pub fn model_error_warnings(
         .filter(|r| {
             !infos[r.condition].model_errors.is_empty()
                 && r.bias_model.is_finite()
-                && r.emp_se.value.is_finite()
-                && r.bias_model.abs() > r.emp_se.value
+                && r[Measure::EmpSe].value.is_finite()
+                && r.bias_model.abs() > r[Measure::EmpSe].value
         })
         .collect();
     let shown: Vec<&SummaryRow> = beyond
@@ -198,7 +202,7 @@ fn model_error_warning(layout: &Layout, info: &ConditionInfo, r: &SummaryRow) ->
         x if x.is_finite() => format!("{x:+.2} %"),
         _ => format!("{:+.3e}{unit} (its truth is 0)", r.bias_model),
     };
-    let spread = match r.emp_se.value {
+    let spread = match r[Measure::EmpSe].value {
         0.0 => "while its estimates do not spread at all (EmpSE 0)".to_string(),
         s => format!("{:.2} times its spread", r.bias_model.abs() / s),
     };
@@ -242,7 +246,7 @@ fn model_error_warning(layout: &Layout, info: &ConditionInfo, r: &SummaryRow) ->
         description = parameter.description,
         name = parameter.name,
         bias = r.bias_model,
-        emp = r.emp_se.value,
+        emp = r[Measure::EmpSe].value,
     )
 }
 

@@ -7,138 +7,9 @@
 //! one is a compile-time change here.
 
 use super::measures::Estimate;
+pub use super::summary::Measure;
 use super::summary::{BoundSummary, SummaryRow};
 use crate::model::Layout;
-
-/// A measure of every summary row, each with its MCSE column `<name>_mcse` (but the
-/// control-variate variance ratio).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Measure {
-    /// Mean of θ̂.
-    Mean,
-    /// Bias: mean − truth.
-    Bias,
-    /// Relative bias: bias / truth.
-    RelBias,
-    /// Empirical SE: the SD of θ̂ over realisations.
-    EmpSe,
-    /// Mean squared error.
-    Mse,
-    /// Root mean squared error.
-    Rmse,
-    /// Precision relative to the reference estimator [%].
-    RelPrecision,
-    /// Mean of θ̂ by the control-variate regression.
-    MeanCv,
-    /// Bias by the control-variate regression.
-    BiasCv,
-    /// Var(θ̂) / residual variance of the control-variate regression (no MCSE).
-    CvVarianceRatio,
-    /// Empirical SE by the second moment's control variates.
-    EmpSeCv,
-    /// Mean squared error by the second moment's control variates.
-    MseCv,
-    /// Root mean squared error by the second moment's control variates.
-    RmseCv,
-}
-
-impl Measure {
-    /// Every measure, in column order.
-    pub const ALL: [Measure; 13] = [
-        Measure::Mean,
-        Measure::Bias,
-        Measure::RelBias,
-        Measure::EmpSe,
-        Measure::Mse,
-        Measure::Rmse,
-        Measure::RelPrecision,
-        Measure::MeanCv,
-        Measure::BiasCv,
-        Measure::CvVarianceRatio,
-        Measure::EmpSeCv,
-        Measure::MseCv,
-        Measure::RmseCv,
-    ];
-
-    /// Column name of the value.
-    pub fn name(self) -> &'static str {
-        match self {
-            Measure::Mean => "mean",
-            Measure::Bias => "bias",
-            Measure::RelBias => "rel_bias",
-            Measure::EmpSe => "emp_se",
-            Measure::Mse => "mse",
-            Measure::Rmse => "rmse",
-            Measure::RelPrecision => "rel_precision",
-            Measure::MeanCv => "mean_cv",
-            Measure::BiasCv => "bias_cv",
-            Measure::CvVarianceRatio => "cv_variance_ratio",
-            Measure::EmpSeCv => "emp_se_cv",
-            Measure::MseCv => "mse_cv",
-            Measure::RmseCv => "rmse_cv",
-        }
-    }
-
-    /// Whether it is estimated by the control-variate regression (defined from q + 3
-    /// realisations on, q the number of controls).
-    pub fn by_control_variates(self) -> bool {
-        matches!(
-            self,
-            Measure::MeanCv
-                | Measure::BiasCv
-                | Measure::CvVarianceRatio
-                | Measure::EmpSeCv
-                | Measure::MseCv
-                | Measure::RmseCv
-        )
-    }
-
-    /// Whether it has an MCSE column.
-    pub fn has_mcse(self) -> bool {
-        self != Measure::CvVarianceRatio
-    }
-
-    /// Its value and MCSE in `row`.
-    pub fn of(self, row: &SummaryRow) -> Estimate {
-        match self {
-            Measure::Mean => row.mean,
-            Measure::Bias => row.bias,
-            Measure::RelBias => row.rel_bias,
-            Measure::EmpSe => row.emp_se,
-            Measure::Mse => row.mse,
-            Measure::Rmse => row.rmse,
-            Measure::RelPrecision => row.rel_precision,
-            Measure::MeanCv => row.mean_cv,
-            Measure::BiasCv => row.bias_cv,
-            Measure::CvVarianceRatio => Estimate::new(row.cv_variance_ratio, f64::NAN),
-            Measure::EmpSeCv => row.emp_se_cv,
-            Measure::MseCv => row.mse_cv,
-            Measure::RmseCv => row.rmse_cv,
-        }
-    }
-
-    fn set(self, row: &mut SummaryRow, part: Part, v: f64) {
-        let target = match self {
-            Measure::Mean => &mut row.mean,
-            Measure::Bias => &mut row.bias,
-            Measure::RelBias => &mut row.rel_bias,
-            Measure::EmpSe => &mut row.emp_se,
-            Measure::Mse => &mut row.mse,
-            Measure::Rmse => &mut row.rmse,
-            Measure::RelPrecision => &mut row.rel_precision,
-            Measure::MeanCv => &mut row.mean_cv,
-            Measure::BiasCv => &mut row.bias_cv,
-            Measure::CvVarianceRatio => {
-                row.cv_variance_ratio = v;
-                return;
-            }
-            Measure::EmpSeCv => &mut row.emp_se_cv,
-            Measure::MseCv => &mut row.mse_cv,
-            Measure::RmseCv => &mut row.rmse_cv,
-        };
-        part.set(target, v);
-    }
-}
 
 /// A measure of one bound B in a summary row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -306,7 +177,7 @@ impl SummaryColumn {
             SummaryColumn::N,
             SummaryColumn::NFailed,
         ]);
-        for m in Measure::ALL {
+        for &m in Measure::ALL {
             out.push(SummaryColumn::Measure(m, Part::Value));
             if m.has_mcse() {
                 out.push(SummaryColumn::Measure(m, Part::Mcse));
@@ -348,7 +219,7 @@ impl SummaryColumn {
     /// the identifying and count columns.
     pub fn measure_value(self, row: &SummaryRow) -> Option<f64> {
         match self {
-            SummaryColumn::Measure(m, part) => Some(part.get(m.of(row))),
+            SummaryColumn::Measure(m, part) => Some(part.get(row[m])),
             SummaryColumn::Bound(b, m, part) => Some(
                 row.bounds[b]
                     .as_ref()
@@ -362,7 +233,7 @@ impl SummaryColumn {
     /// first non-null value). Other columns are ignored.
     pub fn set_measure(self, row: &mut SummaryRow, v: Option<f64>) {
         match self {
-            SummaryColumn::Measure(m, part) => m.set(row, part, v.unwrap_or(f64::NAN)),
+            SummaryColumn::Measure(m, part) => part.set(&mut row[m], v.unwrap_or(f64::NAN)),
             SummaryColumn::Bound(b, m, part) => {
                 if let Some(v) = v {
                     let s = row.bounds[b].get_or_insert_with(BoundSummary::undefined);

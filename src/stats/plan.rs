@@ -8,7 +8,7 @@ use crate::study::MAX_REALISATIONS;
 
 /// The measures of the summary whose MCSE can be planned: every one with an MCSE column.
 pub fn measures() -> impl Iterator<Item = Measure> {
-    Measure::ALL.into_iter().filter(|m| m.has_mcse())
+    Measure::ALL.iter().copied().filter(|m| m.has_mcse())
 }
 
 /// Their names, as `--replications-for` takes them.
@@ -102,7 +102,7 @@ pub fn replications_for<'a>(
                 .is_none_or(|p| parameters.get(r.parameter) == Some(&p))
         })
         .filter_map(|r| {
-            let m = target.measure.of(r);
+            let m = r[target.measure];
             m.mcse.is_finite().then_some((m.mcse, r))
         })
         .collect();

@@ -6,6 +6,7 @@ use super::common::*;
 use arrow::array::RecordBatch;
 use chassis_mc::model;
 use chassis_mc::run::summarise_in_memory;
+use chassis_mc::stats::summary::Measure;
 use chassis_mc::study::Study;
 
 /// (scale, velocity_sd, estimator, parameter) of summary row `i`.
@@ -112,8 +113,8 @@ fn repeated_experiments(r: u64) {
         let summary = summarise_in_memory(&study, model.as_ref()).unwrap();
         assert_eq!(summary.len(), rows);
         for (i, row) in summary.iter().enumerate() {
-            values[i].push(row.bias_cv.value);
-            mcses[i].push(row.bias_cv.mcse);
+            values[i].push(row[Measure::BiasCv].value);
+            mcses[i].push(row[Measure::BiasCv].mcse);
         }
     }
     let layout = model.layout();

@@ -6,6 +6,7 @@
 //! legend; error bars draw unfilled circles, which are not counted. The expected counts come
 //! from summary.parquet.
 
+use chassis_mc::stats::summary::Measure;
 use std::path::Path;
 use std::process::Command;
 
@@ -228,7 +229,7 @@ fn control_variate_spread_is_drawn_where_it_applies_and_only_there() {
                 .summary
                 .iter()
                 .filter(|r| r.parameter == pi)
-                .all(|r| r.emp_se_cv.value.is_finite()),
+                .all(|r| r[Measure::EmpSeCv].value.is_finite()),
             "{p}: emp_se_cv applies"
         );
         let se = control_variate_entries(&dir.path().join(format!("figures/se_{p}.svg")));
@@ -256,7 +257,7 @@ fn control_variate_spread_is_drawn_where_it_applies_and_only_there() {
     // figures none either.
     let (dir, report) = run(&super::common::study("line_fit.toml", 20), None);
     assert!(report.summary.iter().all(|r| {
-        r.emp_se_cv.value.is_nan()
+        r[Measure::EmpSeCv].value.is_nan()
             && r.bounds
                 .iter()
                 .flatten()

@@ -4,6 +4,7 @@
 
 use super::common::*;
 use chassis_mc::model;
+use chassis_mc::stats::summary::Measure;
 use chassis_mc::study::Study;
 use rayon::prelude::*;
 
@@ -278,8 +279,8 @@ fn repeated_spread_experiments(k: u64, r: u64, check_mcse: bool) {
         let summary = chassis_mc::run::summarise_in_memory(&study, model.as_ref()).unwrap();
         assert_eq!(summary.len(), rows);
         for (i, row) in summary.iter().enumerate() {
-            values[i].push(row.emp_se_cv.value);
-            mcses[i].push(row.emp_se_cv.mcse);
+            values[i].push(row[Measure::EmpSeCv].value);
+            mcses[i].push(row[Measure::EmpSeCv].mcse);
         }
     }
     let layout = model.layout();
@@ -290,7 +291,7 @@ fn repeated_spread_experiments(k: u64, r: u64, check_mcse: bool) {
         let sd = (values[i].iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (kf - 1.0)).sqrt();
         let rms = (mcses[i].iter().map(|m| m * m).sum::<f64>() / kf).sqrt();
         let ratio = rms / sd;
-        let truth = reference[i].emp_se_cv;
+        let truth = reference[i][Measure::EmpSeCv];
         let se = (sd * sd / kf + truth.mcse * truth.mcse).sqrt();
         let what = format!(
             "R = {r}, {} {}",

@@ -2,14 +2,14 @@
 
 use std::collections::BTreeMap;
 
-use super::{BoundSummary, Record, SummaryError, SummaryRow};
+use super::{BoundSummary, Measure, MeasureInputs, Record, SummaryError, SummaryRow};
 use crate::model::{ConditionInfo, Layout};
 use crate::numeric::dd::Dd;
 use crate::numeric::sum::ExactSum;
-use crate::stats::control::{ControlAcc, ControlFit};
+use crate::stats::control::ControlAcc;
 use crate::stats::measures::{
-    self, BoundSums, Estimate, EstimateSums, SpreadCv, coverage, emp_over_model, model_se,
-    model_se_relative_error, relative_precision, variance_ratio_p,
+    BoundSums, EstimateSums, SpreadCv, coverage, emp_over_model, model_se, model_se_relative_error,
+    variance_ratio_p,
 };
 use crate::stats::spread::{Coefficients, Residuals, SpreadGram, SpreadSolver};
 
@@ -388,19 +388,13 @@ impl<'a> ConditionSummarizer<'a> {
                         &acc.sum_cross_controls,
                     )
                 });
-                let (mean_cv, bias_cv, cv_variance_ratio, n_controls) = match cv {
-                    Some(ControlFit {
-                        bias,
-                        mcse,
-                        variance_ratio,
-                        used,
-                    }) => (
-                        Estimate::new(truth + bias, mcse),
-                        Estimate::new(bias, mcse),
-                        variance_ratio,
-                        used as u64,
-                    ),
-                    None => (Estimate::undefined(), Estimate::undefined(), f64::NAN, 0),
+                let inputs = MeasureInputs {
+                    truth,
+                    sums: &sums,
+                    reference: &reference,
+                    sum_cross_reference: acc.sum_cross_ref.value(),
+                    spread: &spread,
+                    control: cv.as_ref(),
                 };
                 out.push(SummaryRow {
                     condition: c,
@@ -410,21 +404,9 @@ impl<'a> ConditionSummarizer<'a> {
                     bias_model: info.bias_model[e][p],
                     n: acc.n,
                     n_failed: self.failed[e],
-                    mean: measures::mean(truth, &sums),
-                    bias: measures::bias(&sums),
-                    rel_bias: measures::relative_bias(truth, &sums),
-                    emp_se: measures::emp_se(&sums),
-                    mse: measures::mse(&sums),
-                    rmse: measures::rmse(&sums),
-                    rel_precision: relative_precision(&reference, &sums, acc.sum_cross_ref.value()),
                     bounds,
-                    mean_cv,
-                    bias_cv,
-                    cv_variance_ratio,
-                    n_controls,
-                    emp_se_cv: spread.emp_se,
-                    mse_cv: spread.mse,
-                    rmse_cv: spread.rmse,
+                    n_controls: cv.as_ref().map_or(0, |f| f.used as u64),
+                    measures: Measure::compute_all(&inputs),
                 });
             }
         }

@@ -13,8 +13,10 @@ use super::measures::Estimate;
 use crate::model::{ConditionInfo, Layout};
 
 mod condition;
+pub mod measure;
 
 pub use condition::ConditionSummarizer;
+pub use measure::{MEASURE_COUNT, Measure, MeasureInputs, SummaryMeasure};
 
 /// One realisation row of one estimator, as read from memory or from Parquet.
 #[derive(Debug, Clone, Copy)]
@@ -143,37 +145,25 @@ pub struct SummaryRow {
     pub n: u64,
     /// Realisations where the estimator failed (singular).
     pub n_failed: u64,
-    /// Mean of θ̂.
-    pub mean: Estimate,
-    /// Bias.
-    pub bias: Estimate,
-    /// Relative bias.
-    pub rel_bias: Estimate,
-    /// Empirical SE.
-    pub emp_se: Estimate,
-    /// Mean squared error.
-    pub mse: Estimate,
-    /// Root mean squared error.
-    pub rmse: Estimate,
-    /// Precision relative to the reference estimator (OLS when run),
-    /// 100((S_ref/S)² − 1) [%].
-    pub rel_precision: Estimate,
     /// Per bound of the layout: its measures where it applies.
     pub bounds: Vec<Option<BoundSummary>>,
-    /// Mean of θ̂ by the control-variate regression (NaN where none applies).
-    pub mean_cv: Estimate,
-    /// Bias by the control-variate regression.
-    pub bias_cv: Estimate,
-    /// Var(θ̂) / residual variance of the control-variate regression.
-    pub cv_variance_ratio: f64,
-    /// Control variates in the regression (0: none applies).
+    /// Control variates in the mean's regression (0: none applies).
     pub n_controls: u64,
-    /// Empirical SE by the second moment's control variates (NaN where none applies).
-    pub emp_se_cv: Estimate,
-    /// Mean squared error by the second moment's control variates.
-    pub mse_cv: Estimate,
-    /// Root mean squared error by the second moment's control variates.
-    pub rmse_cv: Estimate,
+    /// Every [`Measure`], in its order: read them by `row[measure]`.
+    pub measures: [Estimate; MEASURE_COUNT],
+}
+
+impl std::ops::Index<Measure> for SummaryRow {
+    type Output = Estimate;
+    fn index(&self, m: Measure) -> &Estimate {
+        &self.measures[m.index()]
+    }
+}
+
+impl std::ops::IndexMut<Measure> for SummaryRow {
+    fn index_mut(&mut self, m: Measure) -> &mut Estimate {
+        &mut self.measures[m.index()]
+    }
 }
 
 /// Two-pass accumulation of the summary of every condition at once, for rows that arrive in
