@@ -32,7 +32,7 @@
 //! | foundation | [`tabular`] | numeric columns of a user's CSV or Parquet file, errors naming column and line |
 //! | foundation | [`noise`] | ChaCha8 streams keyed by (seed, condition or draw group, channel), the ziggurat |
 //! | world | [`terrain`] | elevation profiles, grade tables, the terrain metric ς |
-//! | world | [`vehicle`] | vehicle parameters, drive cycles and where they come from (drive modes) |
+//! | world | [`dynamics`] | vehicle parameters, drive cycles and where they come from (drive modes) |
 //! | estimation | [`estimate`] | noise channels, the regression, per-realisation moments (the kernel), estimators, bounds |
 //! | input | [`study`] | TOML study files → a validated [`Study`]; errors name file, key and line |
 //! | model | [`model`] | what one realisation computes, the condition grid and the [`model::Layout`] of its rows |
@@ -79,9 +79,9 @@
 //! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of
 //!   [`terrain::profiles::PROFILES`] (its name in study files and how it reads its own keys
 //!   of `[terrain]`), both in `terrain/profiles.rs`; grade tables, scaling and ς follow.
-//! - **a drive mode (cycle source)**: one [`vehicle::CycleSource`] impl that reads its own
-//!   keys of `[drive]` (its own file, as `vehicle/torque.rs`) and one entry of
-//!   [`vehicle::DRIVE_MODES`].
+//! - **a drive mode (cycle source)**: one [`dynamics::CycleSource`] impl that reads its own
+//!   keys of `[drive]` (its own file, as `dynamics/torque.rs`) and one entry of
+//!   [`dynamics::DRIVE_MODES`].
 //! - **a condition axis** of the vehicle model: a variant of
 //!   [`model::vehicle::VehicleAxis`] and its arms (column, levels, what it sets in a
 //!   condition) in `model/vehicle/axes.rs`, and the validated levels in `study/vehicle.rs`.
@@ -91,10 +91,10 @@
 //!   summary, the writer, the decoder and the figures take it from the registry. A measure
 //!   of a bound is a variant of [`stats::columns::BoundMeasure`].
 //! - **a model error** (how the simulated truth differs from the regression's equation):
-//!   one [`vehicle::truth::ModelError`] impl (the inertia and force the equation leaves out
+//!   one [`dynamics::truth::ModelError`] impl (the inertia and force the equation leaves out
 //!   at a sample, or what it does to the logged force, and whether it is drawn per
-//!   realisation) and one entry of [`vehicle::truth::MODEL_ERRORS`] (its key of `[truth]`,
-//!   unit, neutral value, whether it is an axis), in `vehicle/truth/`; the study reads it,
+//!   realisation) and one entry of [`dynamics::truth::MODEL_ERRORS`] (its key of `[truth]`,
+//!   unit, neutral value, whether it is an axis), in `dynamics/truth/`; the study reads it,
 //!   the drive modes apply it and `bias_model` reports it from there
 //!   (docs/model.md#model-errors).
 //! - **a model**: one [`model::Model`] impl and an arm of [`model::prepare`]; the executor,
@@ -105,6 +105,7 @@
 pub mod check;
 pub mod cli;
 pub mod design;
+pub mod dynamics;
 pub mod estimate;
 pub mod figures;
 pub mod fit;
@@ -120,7 +121,6 @@ pub mod stats;
 pub mod study;
 pub mod tabular;
 pub mod terrain;
-pub mod vehicle;
 
 pub use run::{RunError, RunOptions, RunReport, run_study};
 pub use study::{Study, StudyError};

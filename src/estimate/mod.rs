@@ -4,7 +4,7 @@
 //! - [`channels`]: the noise channels of the measurements, one enum variant each;
 //! - [`sums`]: the sums of the normal equations, one typed list, and [`sums::Moments`];
 //! - [`moments`]: one realisation's sums, accumulated block by block from the noise draws
-//!   (the kernel), with the block sums of `kernels`;
+//!   (the kernel), with the block sums of `moments/lane_sums.rs`;
 //! - [`controls`]: the control variates, each moment minus its expectation;
 //! - [`systems`]: the OLS and BCLS normal equations of the moments;
 //! - [`estimator`]: what an estimator is (the trait, what it reads of a realisation, its own
@@ -25,7 +25,6 @@ pub mod channels;
 pub mod controls;
 pub mod conversions;
 pub mod estimator;
-mod kernels;
 pub mod moments;
 pub mod parameters;
 pub mod regression;

@@ -7,14 +7,15 @@
 //! kernel never forms the N×3 matrix.
 
 use super::channels::{BlockNoise, NoiseLevels};
-use super::kernels::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 use super::regression::Regression;
 use super::sums::Column;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
 use block::{OUTPUT, SPEED};
+use lane_sums::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 
 mod block;
+mod lane_sums;
 mod rows;
 pub use block::{Block, MeasuredBlock, RowsView, Wanted};
 pub use rows::Rows;

@@ -26,8 +26,8 @@ use std::sync::Arc;
 use nalgebra::{Matrix3, Vector3};
 
 use super::sums::{GradeSums, Moments};
+use crate::dynamics::{DriveCycle, VehicleParams};
 use crate::numeric::sum::exact_sum;
-use crate::vehicle::{DriveCycle, VehicleParams};
 
 mod derived;
 mod differentiation;
@@ -291,8 +291,8 @@ struct RowColumns {
 /// A short thesis-like cycle (60 s over a sinusoidal grade) for unit tests.
 #[cfg(test)]
 pub(crate) fn test_regression() -> Regression {
+    use crate::dynamics::{TorqueDrive, simulate};
     use crate::terrain::GradeTable;
-    use crate::vehicle::{TorqueDrive, simulate};
     let vehicle = VehicleParams::thesis();
     let drive = TorqueDrive {
         duration_s: 60.0,

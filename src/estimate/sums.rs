@@ -38,7 +38,7 @@ impl Column {
 /// it varies follow from its factors, `controls.rs`) and its column. Written by hand, each
 /// checked: its BCLS correction (`Moments::compensate`, which
 /// `every_compensated_sum_has_its_noise_free_expectation` checks), the hand-vectorised
-/// sums of the fast path (`MomentAccumulator::finish` over `kernels.rs`) and of the general
+/// sums of the fast path (`MomentAccumulator::finish` over `moments/lane_sums.rs`) and of the general
 /// path and the segments (`row_sums.rs`), and the regression's noise-free sums
 /// (`moments::noise_free_moments`): each builds [`Moments`] with every field named (a new
 /// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments`,

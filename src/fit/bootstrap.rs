@@ -8,14 +8,14 @@ use nalgebra::Vector3;
 
 use crate::numeric::ode::{Stage, rk4_step};
 
+use crate::dynamics::{DriveCycle, Replay};
+use crate::dynamics::{central_differences, positions};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::estimators::EstimatorRef;
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
 use crate::montecarlo::{self, Silent};
 use crate::study::TruthAxes;
-use crate::vehicle::{DriveCycle, Replay};
-use crate::vehicle::{central_differences, positions};
 
 use super::{FitError, FitSpec, SMOOTHING_S};
 

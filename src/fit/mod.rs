@@ -24,6 +24,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Matrix3, Vector3};
 use thiserror::Error;
 
+use crate::dynamics::Replay;
+use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
 use crate::estimate::parameters::Parameters;
@@ -33,8 +35,6 @@ use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, set};
 use crate::study::{StudyError, TruthAxes};
-use crate::vehicle::Replay;
-use crate::vehicle::truth::MODEL_ERRORS;
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";

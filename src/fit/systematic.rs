@@ -5,12 +5,12 @@
 
 use nalgebra::Vector3;
 
+use crate::dynamics::Replay;
+use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::estimators::EstimatorRef;
 use crate::model::Model;
 use crate::model::vehicle::VehicleModel;
 use crate::study::TruthAxes;
-use crate::vehicle::Replay;
-use crate::vehicle::truth::MODEL_ERRORS;
 
 use super::{FitError, FitSpec, bootstrap, with_derived};
 

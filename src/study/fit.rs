@@ -17,13 +17,13 @@ use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::validate_systematic;
 use super::validate::{check_realisations, serde_error};
 use super::{KeySpans, StudyError};
+use crate::dynamics::{DriveCycle, VehicleParams};
+use crate::dynamics::{SpeedUnit, central_differences, positions};
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::estimate::regression::Regression;
 use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
-use crate::vehicle::{DriveCycle, VehicleParams};
-use crate::vehicle::{SpeedUnit, central_differences, positions};
 use placement::elsewhere;
 
 pub(super) mod placement;
@@ -147,7 +147,7 @@ pub struct FitSpec {
     /// and Cr given).
     pub reference: [Option<f64>; 5],
     /// `[systematic]`: per model error given, its index in
-    /// [`MODEL_ERRORS`](crate::vehicle::truth::MODEL_ERRORS) and its magnitude (the value
+    /// [`MODEL_ERRORS`](crate::dynamics::truth::MODEL_ERRORS) and its magnitude (the value
     /// `[truth]` would give it), in that list's order; empty without the table.
     pub systematic: Vec<(usize, f64)>,
     /// The fit file's text.

@@ -44,7 +44,7 @@ pub use truth::TruthAxes;
 pub use vary::{TruthKey, VariedKey};
 pub use vehicle::{AirSpeed, VehicleStudy};
 
-pub use crate::vehicle::MAX_SAMPLES;
+pub use crate::dynamics::MAX_SAMPLES;
 
 /// Largest number of realisations per condition accepted.
 pub const MAX_REALISATIONS: u64 = 1 << 40;

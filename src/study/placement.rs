@@ -2,9 +2,9 @@
 //! the wrong table.
 
 use super::noise::NOISE_KEYS;
+use crate::dynamics::DRIVE_MODES;
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
-use crate::vehicle::DRIVE_MODES;
 
 /// Keys of `[drive]` that every drive mode has.
 pub(super) const COMMON_DRIVE_KEYS: [&str; 3] = ["min_speed", "exclude_braking", "durations"];

@@ -5,8 +5,8 @@
 use super::StudyError;
 use super::checker::Checker;
 use super::checker::unknown_key;
-use crate::vehicle::Truth;
-use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
+use crate::dynamics::Truth;
+use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
 
 /// The validated `[truth]` table: the values listed for each entry of [`MODEL_ERRORS`] (its
 /// neutral value alone when the key is absent; one value for an entry that is not an axis).

@@ -9,9 +9,9 @@ use super::raw::RawStudy;
 use super::{
     KeySpans, MAX_REALISATIONS, ModelSpec, Study, StudyError, line_fit, placement, vehicle,
 };
+use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::channels::Channel;
 use crate::settings::one_or_many;
-use crate::vehicle::truth::MODEL_ERRORS;
 
 /// Turn a serde/TOML error into one message naming the key and line; an unknown key that
 /// `place` finds a home for says where it belongs.

@@ -6,9 +6,9 @@ use std::sync::LazyLock;
 
 use super::validate::validate;
 use super::{Study, StudyError};
+use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
+use crate::dynamics::{DRIVE_MODES, RUN_PAIR};
 use crate::estimate::channels::{Channel, Signal};
-use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
-use crate::vehicle::{DRIVE_MODES, RUN_PAIR};
 
 /// A setting of a vehicle study that can be given one value by [`Study::varied`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

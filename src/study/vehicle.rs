@@ -11,12 +11,12 @@ use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
 use super::terrain::validate_terrain;
 use super::truth::{TruthAxes, validate_truth};
+use crate::dynamics::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, Signal};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::settings::{KeyError, Params, one_or_many};
 use crate::terrain::TerrainSpec;
-use crate::vehicle::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 
 /// The speed's channel: its noise must be off where the drag regressor reads a measured air
 /// speed.

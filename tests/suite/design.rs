@@ -318,8 +318,8 @@ fn every_model_error_that_is_an_axis_is_a_design_key_and_no_other() {
     // The truth keys `design` varies come from the registry of model errors: each steady
     // entry that is a condition axis, and no entry that takes one value per study or is
     // drawn anew in every realisation.
+    use chassis_mc::dynamics::truth::MODEL_ERRORS;
     use chassis_mc::study::VariedKey;
-    use chassis_mc::vehicle::truth::MODEL_ERRORS;
     let names: Vec<&str> = VariedKey::all().into_iter().map(VariedKey::name).collect();
     for e in &MODEL_ERRORS {
         let name = format!("truth.{}", e.key);

@@ -1,11 +1,11 @@
 //! `fit` on synthetic logs of a known vehicle, and `simulate-log`.
 
 use super::common::*;
+use chassis_mc::dynamics::truth::entry_index;
 use chassis_mc::fit::{FIT_FIGURE, FIT_PARAMETERS, FitSpec, fit, simulate_log};
 use chassis_mc::model::Model;
 use chassis_mc::model::vehicle::VehicleModel;
 use chassis_mc::study::Study;
-use chassis_mc::vehicle::truth::entry_index;
 
 const TRUTH: [f64; 3] = [1.0 / 1800.0, 0.35 / 1800.0, 0.0125];
 

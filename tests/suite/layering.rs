@@ -13,7 +13,7 @@ const LAYERS: [&str; 19] = [
     "tabular",
     "noise",
     "terrain",
-    "vehicle",
+    "dynamics",
     "estimate",
     "study",
     "model",

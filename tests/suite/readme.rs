@@ -2,8 +2,8 @@
 //! exactly those entries, in the code's order: adding an entry without its README line fails
 //! here.
 
+use chassis_mc::dynamics::DRIVE_MODES;
 use chassis_mc::model::vehicle::axes;
-use chassis_mc::vehicle::DRIVE_MODES;
 
 use super::common::*;
 

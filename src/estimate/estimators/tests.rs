@@ -10,7 +10,7 @@ use crate::noise::{BLOCK, NormalStream};
 /// proportion to them, are far from zero.
 fn regression() -> Regression {
     use crate::terrain::GradeTable;
-    use crate::vehicle::{TorqueDrive, VehicleParams, simulate};
+    use crate::dynamics::{TorqueDrive, VehicleParams, simulate};
     let vehicle = VehicleParams::thesis();
     let drive = TorqueDrive {
         duration_s: 60.0,

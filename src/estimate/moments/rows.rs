@@ -2,8 +2,8 @@
 //! the columns the noise moves, block by block, the regression's standing in for the rest.
 
 use super::block::{Block, MeasuredBlock, OUTPUT, RowsView, SPEED};
+use super::lane_sums::ZEROS;
 use crate::estimate::channels::{BlockNoise, NoiseLevels};
-use crate::estimate::kernels::ZEROS;
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Column;
 

@@ -5,7 +5,7 @@
 use std::sync::OnceLock;
 
 use super::{Column, Regression, Segments};
-use crate::vehicle::{DriveCycle, VehicleParams};
+use crate::dynamics::{DriveCycle, VehicleParams};
 
 /// Where a differentiated acceleration takes its speeds: the logged samples from the one
 /// before the first row to the one after the last (the *span*; rows left out of the

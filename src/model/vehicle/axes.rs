@@ -4,9 +4,9 @@
 //! axis columns and every condition's axis values are derived from the same list.
 
 use super::super::{Axis, AxisValue};
+use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal};
 use crate::study::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, VehicleStudy};
-use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 
 /// The speed's channel: with the air speed measured, its level is the air-speed sensor's
 /// (the sensor in the drag regressor), set by the air-speed axis.

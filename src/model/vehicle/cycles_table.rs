@@ -15,8 +15,8 @@ use arrow::array::{ArrayRef, BooleanArray, Float64Array, Int32Array, RecordBatch
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 use arrow::error::ArrowError;
 
-use crate::vehicle::DriveCycle;
-use crate::vehicle::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
+use crate::dynamics::DriveCycle;
+use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 
 /// Schema of `cycles.parquet`: one block of rows per distinct cycle, keyed by the columns
 /// `scale`, `acceleration` and the truth's axes that every condition also carries.

@@ -11,6 +11,7 @@ use super::{
     ExtraColumn, PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema,
     study_controls, study_extras,
 };
+use crate::dynamics::Prefix;
 use crate::estimate::bounds::BOUNDS;
 use crate::estimate::controls::CONTROLS;
 use crate::estimate::estimator::RowScans;
@@ -20,7 +21,6 @@ use crate::model::{
     realise_one_by_one,
 };
 use crate::study::VehicleStudy;
-use crate::vehicle::Prefix;
 
 /// The row layout of the vehicle model running `estimators`.
 pub fn layout(study: &VehicleStudy) -> Layout {

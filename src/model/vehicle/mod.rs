@@ -28,6 +28,8 @@ pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
 use super::{ConditionInfo, ExtraInfo, Layout, ModelErrorValue};
+use crate::dynamics::DriveCycle;
+use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
@@ -36,8 +38,6 @@ use crate::estimate::estimators::{ESTIMATORS, Estimate, EstimatorRef, FirstOrder
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
-use crate::vehicle::DriveCycle;
-use crate::vehicle::truth::MODEL_ERRORS;
 use prepare::{ScaleCycle, prefixes, scale_cycles, segments};
 use world::{GradeMap, Place, World};
 

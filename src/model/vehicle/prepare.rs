@@ -7,12 +7,12 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::ErrorAt;
+use crate::dynamics::truth::sample_of;
+use crate::dynamics::{DriveCycle, Prefix, Road, SimulationError, Truth};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::study::{AirSpeed, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
-use crate::vehicle::truth::sample_of;
-use crate::vehicle::{DriveCycle, Prefix, Road, SimulationError, Truth};
 
 /// The drive cycle of one terrain scale and truth.
 #[derive(Debug)]
@@ -138,11 +138,11 @@ pub(super) fn scale_cycles(
 /// is no longer a vehicle's. `None` when the mass is still there.
 fn drifted_away(
     truth: &Truth,
-    vehicle: &crate::vehicle::VehicleParams,
+    vehicle: &crate::dynamics::VehicleParams,
     time_s: f64,
 ) -> Option<String> {
     let at = |t: f64| {
-        let sample = crate::vehicle::truth::TruthSample {
+        let sample = crate::dynamics::truth::TruthSample {
             time_s: t,
             distance_m: 0.0,
             speed_m_s: 0.0,

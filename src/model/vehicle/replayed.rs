@@ -5,10 +5,10 @@
 use std::sync::Arc;
 
 use super::{ErrorAt, VehicleModel};
+use crate::dynamics::{Replay, RowSelection, VehicleParams};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::study::{AirSpeed, NoiseAxes, StudyError, TruthAxes, VehicleStudy};
-use crate::vehicle::{Replay, RowSelection, VehicleParams};
 
 impl VehicleModel {
     /// The one-condition model of `vehicle` on the cycle `replay` (taken as the equation's

@@ -7,12 +7,12 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 use super::prepare::{measured_speeds, used_samples};
+use crate::dynamics::{DriveCycle, Prefix, Road, Truth};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
 use crate::noise::NormalSequence;
 use crate::study::VehicleStudy;
 use crate::terrain::{GRID_STEP_M, GradeTable};
-use crate::vehicle::{DriveCycle, Prefix, Road, Truth};
 
 /// The elevation map's error: a stationary AR(1) process along the distance on the terrain
 /// grid (σ_h \[m\], correlation length L \[m\]); the measured grade is the forward

@@ -1,6 +1,6 @@
 //! The number types the engine's vectorised arithmetic is written over, once: [`Real`] (one
 //! `f64`, or several in lanes, with the IEEE operations lane by lane) and [`Lanes`], a token
-//! that proves its instructions exist and makes, loads and stores its numbers. A kernel is a
+//! that proves its instructions exist and makes, loads and stores its numbers. Vectorised code is a
 //! function generic over `L: Lanes`; [`Scalar`] gives the one-sample code, [`Quad`] the
 //! portable four lanes, and on x86-64 [`Avx2`](super::Avx2) the same four lanes in one
 //! register, with the same bits (no FMA, no reassociation: each lane's operations are the
@@ -131,7 +131,7 @@ impl Lanes for Scalar {
     }
 }
 
-/// Four `f64` lanes in an array: the portable code of every four-lane kernel (the compiler
+/// Four `f64` lanes in an array: the portable code of every four-lane function (the compiler
 /// vectorises it as the target allows).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct F64x4Portable(pub [f64; 4]);

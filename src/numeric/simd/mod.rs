@@ -1,4 +1,4 @@
-//! The engine's vector arithmetic: the number types kernels are written over once
+//! The engine's vector arithmetic: the number types vectorised code is written over once
 //! ([`Real`], [`Lanes`]: one `f64`, four portable lanes, AVX2's register), the only code that
 //! names an intrinsic, and which vector instructions the fast paths may use, the one place
 //! every dispatch asks. The environment variable [`PORTABLE`] set to anything but `0` or empty forces the

@@ -1,4 +1,6 @@
-//! The longitudinal vehicle model and its drive cycles (docs/model.md#vehicle).
+//! The vehicle's longitudinal dynamics, its drive cycles and how the truth may differ from
+//! the equation (docs/model.md#vehicle); the vehicle study's conditions and realisations are
+//! `model::vehicle`.
 //!
 //! `M dV/dt = F_prop(t) − ½ ρ Cd A V² − Cr M g cos θ(X) − M g sin θ(X)`. A drive cycle
 //! comes from a [`CycleSource`], one entry of [`DRIVE_MODES`] each: `torque` (the thesis's

@@ -1,8 +1,8 @@
-//! The block sums of the kernel's fast path (speed and output noise only), written once
+//! The block sums of the realisation kernel's fast path (speed and output noise only), written once
 //! over the four lanes of `numeric::simd` (portable or AVX2, the same bits); the measured
 //! speed is the speed channel's own arithmetic (`channels::measured_speed`).
 
-use super::channels::measured_speed;
+use crate::estimate::channels::measured_speed;
 use crate::noise::BLOCK;
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;

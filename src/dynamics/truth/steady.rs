@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use super::{ModelError, ModelErrorEntry, TruthSample};
-use crate::vehicle::VehicleParams;
+use crate::dynamics::VehicleParams;
 
 /// Steady wind along the route, `w` \[m/s\], positive a headwind when the vehicle drives the
 /// route forwards (a tailwind backwards: the wind along the direction of travel is

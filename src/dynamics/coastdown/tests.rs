@@ -1,5 +1,5 @@
 use super::*;
-use crate::vehicle::Road;
+use crate::dynamics::Road;
 
 /// The passenger car of `studies/coastdown.toml`.
 fn car() -> VehicleParams {
