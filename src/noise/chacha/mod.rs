@@ -136,16 +136,19 @@ impl ChaCha8Words {
 fn blocks(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_PER_CALL]) {
     #[cfg(target_arch = "x86_64")]
     {
-        if crate::numeric::simd::avx512f() {
+        use crate::numeric::simd;
+        if simd::avx512f() {
+            let state = initial_state::<BLOCKS_PER_CALL>(key, stream, counter);
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { avx512::blocks(key, stream, counter, out) };
+            return unsafe { simd::chacha_blocks_16::<DOUBLE_ROUNDS>(&state, out) };
         }
-        if crate::numeric::simd::avx2() {
+        if simd::avx2() {
             for (pass, chunk) in out.chunks_exact_mut(WORDS_PER_PASS).enumerate() {
                 let chunk = chunk.try_into().expect("pass length");
                 let start = counter.wrapping_add((pass * LANES) as u64);
+                let state = initial_state::<LANES>(key, stream, start);
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { avx2::blocks(key, stream, start, chunk) };
+                unsafe { simd::chacha_blocks_8::<DOUBLE_ROUNDS>(&state, chunk) };
             }
             return;
         }
@@ -199,12 +202,6 @@ fn interleave<const L: usize>(words: &[[u32; L]; BLOCK_WORDS], out: &mut [u64]) 
         }
     }
 }
-
-#[cfg(target_arch = "x86_64")]
-mod avx512;
-
-#[cfg(target_arch = "x86_64")]
-mod avx2;
 
 #[inline(always)]
 fn add(a: Lanes, b: Lanes) -> Lanes {
@@ -291,8 +288,11 @@ mod tests {
                 let mut two = [0; WORDS_PER_CALL];
                 for (pass, chunk) in two.chunks_exact_mut(WORDS_PER_PASS).enumerate() {
                     let chunk = chunk.try_into().unwrap();
+                    let state = initial_state::<LANES>(&key, 77, counter + (pass * LANES) as u64);
                     // SAFETY: AVX2 checked above.
-                    unsafe { avx2::blocks(&key, 77, counter + (pass * LANES) as u64, chunk) };
+                    unsafe {
+                        crate::numeric::simd::chacha_blocks_8::<DOUBLE_ROUNDS>(&state, chunk)
+                    };
                 }
                 assert_eq!(portable, two);
             }

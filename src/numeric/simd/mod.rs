@@ -9,11 +9,19 @@ use std::sync::OnceLock;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod chacha;
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod ziggurat;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx2::{Avx2, F64x4};
+#[cfg(target_arch = "x86_64")]
+pub use chacha::{chacha_blocks_8, chacha_blocks_16};
 pub use lanes::{F64x4Portable, Lanes, Lanes4, Quad, Real, Scalar};
+#[cfg(target_arch = "x86_64")]
+pub use ziggurat::{ziggurat_candidates_4, ziggurat_candidates_8};
 
 /// The environment variable that forces the portable code.
 pub const PORTABLE: &str = "CHASSIS_MC_PORTABLE";
