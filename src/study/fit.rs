@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::axes::VELOCITY_CORRELATION;
 use super::checker::Checker;
 use super::estimation::{SettingKeys, validate_estimation};
-use super::noise::{VELOCITY_CORRELATION, noise_keys, noise_levels};
+use super::noise::{noise_keys, noise_levels};
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::validate_systematic;

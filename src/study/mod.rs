@@ -14,6 +14,7 @@
 //! `vary.rs` gives a validated study's setting a new value ([`Study::varied`]) through the
 //! same validation.
 
+mod axes;
 mod checker;
 mod estimation;
 mod fit;
@@ -34,9 +35,10 @@ use validate::{check_realisations, serde_error, validate};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use axes::{AIR_SPEED_SD, GRADE_MAP_SD, LEVEL_AXIS_COUNT, LevelAxes, LevelAxis};
 pub use fit::FitSpec;
 pub use line_fit::{LineFitStudy, NoiseShape};
-pub use noise::{AIR_SPEED_SD, GRADE_MAP_SD, NoiseAxes};
+pub use noise::NoiseAxes;
 use raw::RawStudy;
 pub use spacing::{EVEN_STEPS_TOLERANCE, evenly_spaced, uneven_differentiation, uneven_reason};
 pub use spans::KeySpans;

@@ -3,6 +3,7 @@
 //! `[noise]`, one level each).
 
 use super::StudyError;
+use super::axes::{GRADE_MAP_SD, LevelAxes, LevelAxis};
 use super::checker::Checker;
 use super::checker::unknown_key;
 use super::raw::RawNoise;
@@ -47,24 +48,18 @@ impl NoiseAxes {
 pub(super) struct ValidatedNoise {
     /// Each channel's levels (condition axes).
     pub(super) axes: NoiseAxes,
-    /// `noise.grade_bias` \[rad\] (an axis).
-    pub(super) grade_bias: Vec<f64>,
-    /// `noise.velocity_correlation_time` \[s\] (an axis).
-    pub(super) velocity_correlation_s: Vec<f64>,
+    /// The level axes' levels.
+    pub(super) levels: LevelAxes,
     /// `noise.share_across_scales`.
     pub(super) share_across_scales: bool,
-    /// `noise.grade_map_sd` \[m\] (an axis).
-    pub(super) grade_map_sd: Vec<f64>,
     /// `noise.grade_map_length` \[m\].
     pub(super) grade_map_length_m: f64,
-    /// `noise.air_speed_sd` \[m/s\] (an axis).
-    pub(super) air_speed_sd: Vec<f64>,
 }
 
-/// The `[noise]` table: a list of levels per channel, defaults for the optional ones,
-/// `share_across_scales`, and no other key.
+/// The `[noise]` table: a list of levels per channel and per level axis, defaults for the
+/// optional ones, `share_across_scales`, `grade_map_length`, and no other key.
 pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedNoise, StudyError> {
-    noise_keys(n, c, &NOISE_KEYS)?;
+    noise_keys(n, c, &other_noise_keys())?;
     let mut levels = PerChannel::<Vec<f64>>::default();
     for channel in Channel::ALL {
         levels[channel] = match (noise_levels(n, c, channel.key())?, channel.default_levels()) {
@@ -78,14 +73,7 @@ pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedN
             }
         };
     }
-    let grade_bias = match n.0.get(GRADE_BIAS) {
-        Some(list) => {
-            let key = format!("noise.{GRADE_BIAS}");
-            c.list(&key, &c.numbers(&key, list)?, Checker::finite)?
-        }
-        None => vec![0.0],
-    };
-    let correlation = noise_levels(n, c, VELOCITY_CORRELATION)?.unwrap_or(vec![0.0]);
+    let level_axes = LevelAxes::read(n, c)?;
     let share = match n.0.get(SHARE_ACROSS_SCALES) {
         None => false,
         Some(v) => v.as_bool().ok_or_else(|| {
@@ -95,7 +83,6 @@ pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedN
             )
         })?,
     };
-    let grade_map_sd = noise_levels(n, c, GRADE_MAP_SD)?.unwrap_or(vec![0.0]);
     let grade_map_length_m = match n.0.get(GRADE_MAP_LENGTH) {
         None => 200.0,
         Some(v) => {
@@ -107,7 +94,9 @@ pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedN
             c.positive(&key, length)?
         }
     };
-    if n.0.contains_key(GRADE_MAP_LENGTH) && grade_map_sd.iter().all(|&s| s == 0.0) {
+    if n.0.contains_key(GRADE_MAP_LENGTH)
+        && level_axes[LevelAxis::GradeMap].iter().all(|&s| s == 0.0)
+    {
         return Err(c.fail(
             &format!("noise.{GRADE_MAP_LENGTH}"),
             format!(
@@ -116,16 +105,23 @@ pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedN
             ),
         ));
     }
-    let air_speed_sd = noise_levels(n, c, AIR_SPEED_SD)?.unwrap_or(vec![0.0]);
     Ok(ValidatedNoise {
         axes: NoiseAxes::new(levels),
-        grade_bias,
-        velocity_correlation_s: correlation,
+        levels: level_axes,
         share_across_scales: share,
-        grade_map_sd,
         grade_map_length_m,
-        air_speed_sd,
     })
+}
+
+/// The keys of a vehicle study's `[noise]` beyond the channels' levels: the level axes'
+/// and the table's own.
+pub(super) fn other_noise_keys() -> Vec<&'static str> {
+    let own = [SHARE_ACROSS_SCALES, GRADE_MAP_LENGTH];
+    LevelAxis::ALL
+        .map(LevelAxis::key)
+        .into_iter()
+        .chain(own)
+        .collect()
 }
 
 /// Fail on a `[noise]` key that is neither a channel's nor one of `extra`.
@@ -160,32 +156,9 @@ pub(super) fn noise_levels(
         .transpose()
 }
 
-/// The `[noise]` key of the speed noise's correlation time \[s\] (an axis; default `[0]`,
-/// white noise).
-pub(super) const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
-
 /// The `[noise]` key that lets conditions differing only in terrain scale and duration share
 /// each realisation's draws (docs/model.md#shared-noise).
 pub(super) const SHARE_ACROSS_SCALES: &str = "share_across_scales";
 
-/// The `[noise]` key of the grade sensor's constant offset \[rad\] (an axis; default `[0]`).
-pub(super) const GRADE_BIAS: &str = "grade_bias";
-
-/// The keys of a vehicle study's `[noise]` beyond the channels' levels.
-pub(super) const NOISE_KEYS: [&str; 6] = [
-    GRADE_BIAS,
-    VELOCITY_CORRELATION,
-    SHARE_ACROSS_SCALES,
-    GRADE_MAP_SD,
-    GRADE_MAP_LENGTH,
-    AIR_SPEED_SD,
-];
-
-/// The `[noise]` key of the elevation map's error \[m\] (an axis; default `[0]`).
-pub const GRADE_MAP_SD: &str = "grade_map_sd";
-
 /// The `[noise]` key of the correlation length of the map's error \[m\] (default 200).
 pub(crate) const GRADE_MAP_LENGTH: &str = "grade_map_length";
-
-/// The `[noise]` key of the air-speed sensor's noise \[m/s\] (an axis; default `[0]`).
-pub const AIR_SPEED_SD: &str = "air_speed_sd";

@@ -1,7 +1,7 @@
 //! Where a study-file key belongs: each table's keys, and the message for a key placed in
 //! the wrong table.
 
-use super::noise::NOISE_KEYS;
+use super::noise::other_noise_keys;
 use crate::dynamics::DRIVE_MODES;
 use crate::estimate::channels::Channel;
 use crate::terrain::profiles::PROFILES;
@@ -69,7 +69,7 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
         }
     }
     let noise = Channel::ALL.map(Channel::key);
-    if noise.contains(&key) || NOISE_KEYS.contains(&key) {
+    if noise.contains(&key) || other_noise_keys().contains(&key) {
         homes.push(("noise", None));
     }
     if super::truth::truth_keys().contains(&key) {

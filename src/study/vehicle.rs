@@ -4,9 +4,10 @@
 use std::sync::Arc;
 
 use super::StudyError;
+use super::axes::{AIR_SPEED_SD, LevelAxes, LevelAxis};
 use super::checker::{Checker, unknown_key};
 use super::estimation::{SettingKeys, validate_estimation};
-use super::noise::{AIR_SPEED_SD, NoiseAxes, ValidatedNoise, validate_noise};
+use super::noise::{NoiseAxes, ValidatedNoise, validate_noise};
 use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
 use super::terrain::validate_terrain;
@@ -41,12 +42,9 @@ pub struct VehicleStudy {
     pub scales: Vec<f64>,
     /// Noise condition axes.
     pub noise: NoiseAxes,
-    /// Correlation times of the speed noise \[s\], one condition axis (`[0.0]`, white, when
-    /// the study has no `noise.velocity_correlation_time`).
-    pub velocity_correlation_s: Vec<f64>,
-    /// Constant offsets of the measured grade \[rad\], one condition axis (`[0.0]` when
-    /// the study has no `noise.grade_bias`).
-    pub grade_bias: Vec<f64>,
+    /// The level axes' levels (`noise.velocity_correlation_time`, `noise.grade_bias`,
+    /// `noise.grade_map_sd`, `noise.air_speed_sd`, …: one condition axis each).
+    pub levels: LevelAxes,
     /// Estimators run on every realisation (common random numbers).
     pub estimators: Vec<EstimatorRef>,
     /// Settings of the estimators (`estimation.forgetting`).
@@ -57,17 +55,11 @@ pub struct VehicleStudy {
     /// `noise.share_across_scales`: conditions that differ only in terrain scale and
     /// duration read the same noise draws in each realisation (default false).
     pub share_across_scales: bool,
-    /// `noise.grade_map_sd` \[m\]: the elevation map's error, one condition axis (`[0.0]`
-    /// without the key; docs/model.md#grade-map).
-    pub grade_map_sd: Vec<f64>,
     /// `noise.grade_map_length` \[m\]: the correlation length of the map's error (200 m
     /// without the key).
     pub grade_map_length_m: f64,
     /// `estimation.air_speed`: what the drag regressor reads.
     pub air_speed: AirSpeed,
-    /// `noise.air_speed_sd` \[m/s\]: the air-speed sensor's noise, one condition axis
-    /// (`[0.0]` without the key; docs/model.md#air-speed).
-    pub air_speed_sd: Vec<f64>,
     /// `[truth]`: the model errors, condition axes after all the others (the truth is the
     /// equation without the table).
     pub truth: TruthAxes,
@@ -207,12 +199,9 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
 
     let ValidatedNoise {
         axes: noise,
-        grade_bias,
-        velocity_correlation_s,
+        levels,
         share_across_scales,
-        grade_map_sd,
         grade_map_length_m,
-        air_speed_sd,
     } = validate_noise(n, c)?;
     let known_inv_mass = e.known_mass.unwrap_or(false).then(|| 1.0 / vehicle.mass_kg);
     let keys = SettingKeys {
@@ -225,7 +214,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     let air_speed = validate_air_speed(
         e.air_speed.as_deref(),
         &noise,
-        &air_speed_sd,
+        &levels[LevelAxis::AirSpeedNoise],
         &acceleration,
         c,
     )?;
@@ -251,16 +240,13 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         terrain,
         scales,
         noise,
-        grade_bias,
-        velocity_correlation_s,
+        levels,
         estimators,
         settings,
         acceleration,
         share_across_scales,
-        grade_map_sd,
         grade_map_length_m,
         air_speed,
-        air_speed_sd,
         truth,
     })
 }

@@ -1,15 +1,16 @@
 //! The condition axes of the vehicle model, one variant of [`VehicleAxis`] each: its column,
 //! its levels in the study, and what it sets in a [`Point`] of the condition grid. The
 //! conditions are the product of [`axes`] in order (the last varies fastest); the layout's
-//! axis columns and every condition's axis values are derived from the same list.
+//! axis columns and every condition's axis values are derived from the same list. The axes
+//! of plain levels are the study's registry ([`LevelAxis`]): a new one is an entry there.
 
 use super::super::{Axis, AxisValue};
 use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal};
-use crate::study::{AIR_SPEED_SD, AirSpeed, GRADE_MAP_SD, VehicleStudy};
+use crate::study::{AirSpeed, LEVEL_AXIS_COUNT, LevelAxis, VehicleStudy};
 
 /// The speed's channel: with the air speed measured, its level is the air-speed sensor's
-/// (the sensor in the drag regressor), set by the air-speed axis.
+/// (the sensor in the drag regressor), set by the air-speed level axis.
 const SPEED: Channel = Channel::of(Signal::Speed);
 
 /// A condition axis of the vehicle model.
@@ -25,34 +26,25 @@ pub enum VehicleAxis {
     Runs,
     /// The standard deviation of one noise channel (`noise.<channel>_sd`).
     Noise(Channel),
-    /// The correlation time of the speed noise (`noise.velocity_correlation_time`).
-    VelocityCorrelation,
-    /// A constant offset of the measured grade (`noise.grade_bias`).
-    GradeBias,
+    /// A level axis of the study's registry (`noise.<key>`).
+    Level(LevelAxis),
     /// The source of the acceleration in the output (`estimation.acceleration`).
     Acceleration,
-    /// The elevation map's error \[m\] (`noise.grade_map_sd`).
-    GradeMap,
-    /// The air-speed sensor's noise \[m/s\] (`noise.air_speed_sd`). With a measured air
-    /// speed it is the level of the noise in the drag regressor: the speed channel's level
-    /// of the condition (docs/model.md#air-speed).
-    AirSpeed,
     /// The value of model error `i` of [`MODEL_ERRORS`] (`truth.<key>`, an axis entry).
     Truth(usize),
 }
 
-/// Every axis, outermost first.
+/// Every axis, outermost first. The acceleration's source nests inside the grade bias and
+/// outside the later level axes (the conditions' order of the files written before the
+/// level axes were a registry); a new level axis comes after the others.
 pub fn axes() -> impl Iterator<Item = VehicleAxis> {
+    let (outer, inner) = LevelAxis::ALL.split_at(LevelAxis::GradeBias as usize + 1);
     [VehicleAxis::Scale, VehicleAxis::Duration, VehicleAxis::Runs]
         .into_iter()
         .chain(Channel::ALL.map(VehicleAxis::Noise))
-        .chain([
-            VehicleAxis::VelocityCorrelation,
-            VehicleAxis::GradeBias,
-            VehicleAxis::Acceleration,
-            VehicleAxis::GradeMap,
-            VehicleAxis::AirSpeed,
-        ])
+        .chain(outer.iter().copied().map(VehicleAxis::Level))
+        .chain([VehicleAxis::Acceleration])
+        .chain(inner.iter().copied().map(VehicleAxis::Level))
         .chain(
             (0..MODEL_ERROR_COUNT)
                 .filter(|&i| MODEL_ERRORS[i].axis)
@@ -71,10 +63,8 @@ pub struct Point {
     pub runs_index: usize,
     /// The noise levels.
     pub noise: NoiseLevels,
-    /// Index into `noise.grade_bias`.
-    pub grade_bias_index: usize,
-    /// The elevation map's error \[m\] (0: the map is exact).
-    pub grade_map_sd: f64,
+    /// Per level axis, the index of its level in the study ([`Point::level`]).
+    pub level_indices: [usize; LEVEL_AXIS_COUNT],
     /// Per entry of [`MODEL_ERRORS`], the index of its value in `[truth]`.
     pub truth_levels: [usize; MODEL_ERROR_COUNT],
 }
@@ -84,6 +74,16 @@ impl Point {
     /// `runs` axes, in their order; at most one has more than one level).
     pub fn prefix_index(&self, study: &VehicleStudy) -> usize {
         self.duration_index * VehicleAxis::Runs.len(study) + self.runs_index
+    }
+
+    /// The index of the point's level on `axis` among the study's.
+    pub fn level_index(&self, axis: LevelAxis) -> usize {
+        self.level_indices[axis as usize]
+    }
+
+    /// The point's level on `axis`.
+    pub fn level(&self, study: &VehicleStudy, axis: LevelAxis) -> f64 {
+        study.levels[axis][self.level_index(axis)]
     }
 
     /// The index of the point's truth among the study's ([`TruthAxes::index`]).
@@ -102,11 +102,8 @@ impl VehicleAxis {
             VehicleAxis::Duration => Axis::number("duration", "s"),
             VehicleAxis::Runs => Axis::number("runs", ""),
             VehicleAxis::Noise(c) => Axis::number(c.key(), c.unit()),
-            VehicleAxis::VelocityCorrelation => Axis::number("velocity_correlation_time", "s"),
-            VehicleAxis::GradeBias => Axis::number("grade_bias", "rad"),
+            VehicleAxis::Level(a) => Axis::number(a.key(), a.unit()),
             VehicleAxis::Acceleration => Axis::text("acceleration"),
-            VehicleAxis::GradeMap => Axis::number(GRADE_MAP_SD, "m"),
-            VehicleAxis::AirSpeed => Axis::number(AIR_SPEED_SD, SPEED.unit()),
             VehicleAxis::Truth(i) => Axis::number(MODEL_ERRORS[i].key, MODEL_ERRORS[i].unit),
         }
     }
@@ -118,11 +115,8 @@ impl VehicleAxis {
             VehicleAxis::Duration => study.durations.as_ref().map_or(1, Vec::len),
             VehicleAxis::Runs => study.drive.runs().map_or(1, <[usize]>::len),
             VehicleAxis::Noise(c) => study.noise.levels(c).len(),
-            VehicleAxis::VelocityCorrelation => study.velocity_correlation_s.len(),
-            VehicleAxis::GradeBias => study.grade_bias.len(),
+            VehicleAxis::Level(a) => study.levels[a].len(),
             VehicleAxis::Acceleration => study.acceleration.len(),
-            VehicleAxis::GradeMap => study.grade_map_sd.len(),
-            VehicleAxis::AirSpeed => study.air_speed_sd.len(),
             VehicleAxis::Truth(i) => study.truth.levels(i).len(),
         }
     }
@@ -134,18 +128,11 @@ impl VehicleAxis {
             VehicleAxis::Duration => point.duration_index = i,
             VehicleAxis::Runs => point.runs_index = i,
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
-            VehicleAxis::VelocityCorrelation => {
-                point.noise.velocity_correlation_s = study.velocity_correlation_s[i]
+            VehicleAxis::Level(a) => {
+                point.level_indices[a as usize] = i;
+                a.apply(study, study.levels[a][i], &mut point.noise);
             }
-            VehicleAxis::GradeBias => point.grade_bias_index = i,
             VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
-            VehicleAxis::GradeMap => point.grade_map_sd = study.grade_map_sd[i],
-            // The speed channel's level is then 0 (validated): the sensor in the drag
-            // regressor is the air-speed sensor.
-            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => {
-                point.noise[SPEED] = study.air_speed_sd[i]
-            }
-            VehicleAxis::AirSpeed => {}
             VehicleAxis::Truth(e) => point.truth_levels[e] = i,
         }
     }
@@ -159,13 +146,10 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Runs => study.drive.runs().map_or(1, |r| r[point.runs_index]) as f64,
+            // The speed channel's level is then the air-speed sensor's (its own key is [0]).
             VehicleAxis::Noise(SPEED) if study.air_speed == AirSpeed::Measured => 0.0,
             VehicleAxis::Noise(c) => point.noise[c],
-            VehicleAxis::GradeMap => point.grade_map_sd,
-            VehicleAxis::AirSpeed if study.air_speed == AirSpeed::Measured => point.noise[SPEED],
-            VehicleAxis::AirSpeed => 0.0,
-            VehicleAxis::VelocityCorrelation => point.noise.velocity_correlation_s,
-            VehicleAxis::GradeBias => study.grade_bias[point.grade_bias_index],
+            VehicleAxis::Level(a) => point.level(study, a),
             VehicleAxis::Truth(e) => study.truth.levels(e)[point.truth_levels[e]],
             VehicleAxis::Acceleration => unreachable!("a text axis, returned above"),
         })

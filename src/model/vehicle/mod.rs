@@ -37,7 +37,7 @@ use crate::estimate::conversions::{EXTRAS, ExtraInputs};
 use crate::estimate::estimators::{ESTIMATORS, Estimate, EstimatorRef, FirstOrder, reads_rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
-use crate::study::{self, AirSpeed, Study, StudyError, VehicleStudy};
+use crate::study::{self, AirSpeed, LevelAxis, Study, StudyError, VehicleStudy};
 use prepare::{ScaleCycle, prefixes, scale_cycles, segments};
 use world::{GradeMap, Place, World};
 
@@ -170,7 +170,8 @@ impl VehicleModel {
                     .iter()
                     .position(|&a| a == noise.acceleration)
                     .expect("the grid takes the source from the study's list");
-                let regression = segment.regressions[source][point.grade_bias_index].clone();
+                let regression =
+                    segment.regressions[source][point.level_index(LevelAxis::GradeBias)].clone();
                 let of_spread = |spread: Spread| -> Arc<Vec<[f64; 3]>> {
                     Arc::new(
                         BOUNDS
@@ -222,8 +223,9 @@ impl VehicleModel {
                     .then(|| regression.ar1_coefficients(noise.velocity_correlation_s));
                 let expected = Expectations::new(&regression, &noise, ar1.as_deref());
                 let condition_truth = vs.truth.truth(point.truth_index(&vs));
-                let grade_map = (point.grade_map_sd > 0.0).then_some(GradeMap {
-                    sd_m: point.grade_map_sd,
+                let grade_map_sd = point.level(&vs, LevelAxis::GradeMap);
+                let grade_map = (grade_map_sd > 0.0).then_some(GradeMap {
+                    sd_m: grade_map_sd,
                     length_m: vs.grade_map_length_m,
                 });
                 let cycle = &cycles[cycle_index];
@@ -236,7 +238,7 @@ impl VehicleModel {
                         scale: vs.scales[point.scale_index],
                         prefix: prefixes[prefix],
                         source: noise.acceleration,
-                        grade_bias_rad: vs.grade_bias[point.grade_bias_index],
+                        grade_bias_rad: point.level(&vs, LevelAxis::GradeBias),
                     },
                 );
                 // The control variates are centred on the condition's regression: with
@@ -261,7 +263,8 @@ impl VehicleModel {
                             .collect(),
                         metrics: segment.metrics.clone(),
                         truth: free.iter().map(|&i| truth[i]).collect(),
-                        bias_model: bias_models[k][source][point.grade_bias_index].clone(),
+                        bias_model: bias_models[k][source][point.level_index(LevelAxis::GradeBias)]
+                            .clone(),
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,
@@ -408,7 +411,9 @@ fn uneven_differentiation(
     segments: &[prepare::Segment],
     error_at: &ErrorAt<'_>,
 ) -> Result<(), StudyError> {
-    let correlated = vs.velocity_correlation_s.iter().any(|&t| t > 0.0)
+    let correlated = vs.levels[LevelAxis::VelocityCorrelation]
+        .iter()
+        .any(|&t| t > 0.0)
         && vs
             .noise
             .levels(Channel::of(Signal::Speed))

@@ -11,7 +11,7 @@ use crate::dynamics::truth::sample_of;
 use crate::dynamics::{DriveCycle, Prefix, Road, SimulationError, Truth};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
-use crate::study::{AirSpeed, StudyError, VehicleStudy};
+use crate::study::{AirSpeed, LevelAxis, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
 
 /// The drive cycle of one terrain scale and truth.
@@ -358,7 +358,7 @@ fn regressions(
     source: Acceleration,
 ) -> Vec<Arc<Regression>> {
     let selected = cycle.select(used);
-    vs.grade_bias
+    vs.levels[LevelAxis::GradeBias]
         .iter()
         .map(|&b| {
             Arc::new(match source {

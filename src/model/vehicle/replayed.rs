@@ -8,7 +8,9 @@ use super::{ErrorAt, VehicleModel};
 use crate::dynamics::{Replay, RowSelection, VehicleParams};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
-use crate::study::{AirSpeed, NoiseAxes, StudyError, TruthAxes, VehicleStudy};
+use crate::study::{
+    AirSpeed, LevelAxes, LevelAxis, NoiseAxes, StudyError, TruthAxes, VehicleStudy,
+};
 
 impl VehicleModel {
     /// The one-condition model of `vehicle` on the cycle `replay` (taken as the equation's
@@ -40,16 +42,16 @@ impl VehicleModel {
             terrain: None,
             scales: vec![1.0],
             noise: NoiseAxes::new(PerChannel::from_fn(|c: Channel| vec![noise[c]])),
-            velocity_correlation_s: vec![noise.velocity_correlation_s],
-            grade_bias: vec![0.0],
+            levels: LevelAxes::defaults().with(
+                LevelAxis::VelocityCorrelation,
+                vec![noise.velocity_correlation_s],
+            ),
             estimators,
             settings,
             acceleration: vec![noise.acceleration],
             share_across_scales: false,
-            grade_map_sd: vec![0.0],
             grade_map_length_m: 200.0,
             air_speed: AirSpeed::Ground,
-            air_speed_sd: vec![0.0],
             truth,
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {

@@ -2,7 +2,7 @@
 //! written in the wrong one belongs in instead.
 
 use crate::estimate::channels::Channel;
-use crate::study::noise::VELOCITY_CORRELATION;
+use crate::study::axes::VELOCITY_CORRELATION;
 use crate::study::truth::truth_keys;
 
 /// The keys of the fit file's fixed tables (`""`: the top level), as the serde structs
