@@ -82,9 +82,14 @@
 //! - **a drive mode (cycle source)**: one [`dynamics::CycleSource`] impl that reads its own
 //!   keys of `[drive]` (its own file, as `dynamics/torque.rs`) and one entry of
 //!   [`dynamics::DRIVE_MODES`].
-//! - **a condition axis** of the vehicle model: a variant of
-//!   [`model::vehicle::VehicleAxis`] and its arms (column, levels, what it sets in a
-//!   condition) in `model/vehicle/axes.rs`, and the validated levels in `study/vehicle.rs`.
+//! - **a condition axis** of the vehicle model whose levels are numbers under `[noise]`:
+//!   one `LevelAxisEntry` impl in its own file in `study/axes/` (its key and column, unit,
+//!   the level without the key, the check of a level, what a level does to a condition's
+//!   noise levels) and one line of the `level_axes!` registry there; the study reads its
+//!   levels, the grid, the columns and the values follow, and a consumer reads a
+//!   condition's level by [`study::LevelAxis`] ([`model::vehicle::Point::level`];
+//!   docs/model.md#condition-axes). The noise channels and the model errors are axes
+//!   through their own registries.
 //! - **a summary measure**: one [`stats::summary::SummaryMeasure`] impl in its own file
 //!   under `stats/summary/measure/` (its column, whether it has an MCSE, how it is computed
 //!   from the condition's sums) and one line of the `summary_measures!` registry there; the

@@ -5,11 +5,6 @@
 //! condition holds the index of its level on every axis, and the model's axis list, its
 //! columns and every consumer read them by [`LevelAxis`] (docs/model.md#condition-axes).
 
-mod air_speed;
-mod grade_bias;
-mod grade_map;
-mod velocity_correlation;
-
 use std::ops::Index;
 
 use super::StudyError;
@@ -43,6 +38,8 @@ pub(in crate::study) trait LevelAxisEntry {
 
 macro_rules! level_axes {
     ($($module:ident :: $entry:ident),* $(,)?) => {
+        $(mod $module;)*
+
         /// A condition axis of [`LevelAxisEntry`]s, in the order of the registry.
         #[derive(Debug, Clone, Copy, PartialEq, Eq)]
         pub enum LevelAxis {
