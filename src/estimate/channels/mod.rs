@@ -161,7 +161,8 @@ pub trait ChannelTerms {
     }
 }
 
-/// The registry: one line per channel, `Variant => its file::its ChannelTerms type`, in the
+/// The registry: one line per channel, `Variant => its file::its ChannelTerms type` (a doc
+/// comment above it is optional), in the
 /// order of the study keys, the condition axes (the last varies fastest) and the output
 /// columns. Declares the channel's file and generates [`Channel`], [`Channel::ALL`] and the
 /// dispatch of every [`ChannelTerms`] item.
@@ -173,7 +174,11 @@ macro_rules! channels {
         /// random stream, so switching one on does not change the draws of another.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
         pub enum Channel {
-            $($(#[$doc])* $variant,)*
+            $(
+                $(#[$doc])*
+                #[doc = concat!("\n\nIts terms: [`", stringify!($module), "::", stringify!($terms), "`].")]
+                $variant,
+            )*
         }
 
         impl Channel {
