@@ -162,9 +162,8 @@ pub trait ChannelTerms {
 }
 
 /// The registry: one line per channel, `Variant => its file::its ChannelTerms type` (a doc
-/// comment above it is optional), in the
-/// order of the study keys, the condition axes (the last varies fastest) and the output
-/// columns. Declares the channel's file and generates [`Channel`], [`Channel::ALL`] and the
+/// comment above it is optional), in the order of the study keys, the condition axes (the
+/// last varies fastest) and the output columns. Declares the channel's file and generates [`Channel`], [`Channel::ALL`] and the
 /// dispatch of every [`ChannelTerms`] item.
 macro_rules! channels {
     ($($(#[$doc:meta])* $variant:ident => $module:ident :: $terms:ident,)*) => {
