@@ -130,7 +130,7 @@ impl VehicleAxis {
             VehicleAxis::Noise(c) => point.noise[c] = study.noise.levels(c)[i],
             VehicleAxis::Level(a) => {
                 point.level_indices[a as usize] = i;
-                a.apply(study, study.levels[a][i], &mut point.noise);
+                a.apply(study.levels[a][i], &mut point.noise);
             }
             VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
             VehicleAxis::Truth(e) => point.truth_levels[e] = i,

@@ -4,7 +4,6 @@
 
 use super::LevelAxisEntry;
 use crate::estimate::channels::{Channel, NoiseLevels, Signal};
-use crate::study::{AirSpeed, VehicleStudy};
 
 /// The `[noise]` key of the air-speed sensor's noise.
 pub const AIR_SPEED_SD: &str = "air_speed_sd";
@@ -19,8 +18,10 @@ impl LevelAxisEntry for AirSpeedNoise {
     const KEY: &'static str = AIR_SPEED_SD;
     const UNIT: &'static str = SPEED.unit();
 
-    fn apply(study: &VehicleStudy, level: f64, noise: &mut NoiseLevels) {
-        if study.air_speed == AirSpeed::Measured {
+    /// A level above 0 is the speed channel's: the study checks that it comes only with
+    /// `estimation.air_speed = "measured"`, and then with the speed's own level 0.
+    fn apply(level: f64, noise: &mut NoiseLevels) {
+        if level > 0.0 {
             noise[SPEED] = level;
         }
     }

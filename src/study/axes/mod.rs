@@ -10,7 +10,6 @@ use std::ops::Index;
 use super::StudyError;
 use super::checker::Checker;
 use super::raw::RawNoise;
-use super::vehicle::VehicleStudy;
 use crate::estimate::channels::NoiseLevels;
 
 pub use air_speed::AIR_SPEED_SD;
@@ -33,7 +32,7 @@ pub(in crate::study) trait LevelAxisEntry {
 
     /// What the level does to a condition's noise levels (by default nothing: its
     /// consumer reads the level by its [`LevelAxis`]).
-    fn apply(_study: &VehicleStudy, _level: f64, _noise: &mut NoiseLevels) {}
+    fn apply(_level: f64, _noise: &mut NoiseLevels) {}
 }
 
 macro_rules! level_axes {
@@ -72,10 +71,8 @@ macro_rules! level_axes {
             }
 
             /// What `level` does to a condition's noise levels.
-            pub fn apply(self, study: &VehicleStudy, level: f64, noise: &mut NoiseLevels) {
-                match self {
-                    $(LevelAxis::$entry => <$module::$entry>::apply(study, level, noise),)*
-                }
+            pub fn apply(self, level: f64, noise: &mut NoiseLevels) {
+                match self { $(LevelAxis::$entry => <$module::$entry>::apply(level, noise),)* }
             }
         }
 

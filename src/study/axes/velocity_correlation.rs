@@ -3,7 +3,6 @@
 
 use super::LevelAxisEntry;
 use crate::estimate::channels::NoiseLevels;
-use crate::study::VehicleStudy;
 
 /// The `[noise]` key of the speed noise's correlation time.
 pub(in crate::study) const VELOCITY_CORRELATION: &str = "velocity_correlation_time";
@@ -15,7 +14,7 @@ impl LevelAxisEntry for VelocityCorrelation {
     const KEY: &'static str = VELOCITY_CORRELATION;
     const UNIT: &'static str = "s";
 
-    fn apply(_study: &VehicleStudy, level: f64, noise: &mut NoiseLevels) {
+    fn apply(level: f64, noise: &mut NoiseLevels) {
         noise.velocity_correlation_s = level;
     }
 }
