@@ -73,7 +73,7 @@
 //! - **a sum of the normal equations**: one line of the table in `estimate/sums.rs`
 //!   ([`estimate::sums::Sum`]); [`estimate::sums::Moments`], the general kernel's sums and
 //!   the control variates follow; the hand-written lists (the fast path's in
-//!   `estimate/moments.rs`, the segments' in `estimate/row_sums.rs` and `estimate/wbcls.rs`,
+//!   `estimate/moments.rs`, the segments' in `estimate/moments/segment_sums.rs` and `estimate/wbcls.rs`,
 //!   the noise-free ones in `estimate/regression.rs`) name every field, so the compiler lists them, and
 //!   `every_hand_written_list_sums_each_sum_by_its_factors` checks their values.
 //! - **a terrain profile**: one [`terrain::Profile`] impl and one entry of

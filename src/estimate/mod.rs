@@ -11,7 +11,7 @@
 //!   scan of the rows and columns, its first-order bias);
 //! - [`estimators`]: OLS, BCLS and the registry; [`wbcls`] (weighted BCLS), [`rls`]
 //!   (recursive LS with forgetting) and [`road_load`] (the coast-down's A + B·V + C·V² fit)
-//!   from the rows, with [`row_sums`] the lane sums they share;
+//!   from the rows, with the segment sums they share in `moments/segment_sums.rs`;
 //! - [`parameters`]: which components of θ are fitted (all, or all but a known 1/M);
 //! - [`bounds`]: the bounds and predicted spreads;
 //! - [`conversions`]: M̂, Ĉd and the thesis's error conversions;
@@ -28,7 +28,6 @@ pub mod estimator;
 pub mod moments;
 pub mod parameters;
 pub mod regression;
-pub mod row_sums;
 pub mod sums;
 pub mod systems;
 

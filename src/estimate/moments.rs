@@ -17,6 +17,7 @@ use lane_sums::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 mod block;
 mod lane_sums;
 mod rows;
+pub mod segment_sums;
 pub use block::{Block, MeasuredBlock, RowsView, Wanted};
 pub use rows::Rows;
 
@@ -262,7 +263,7 @@ impl<'r> MomentAccumulator<'r> {
 
     /// The general path: the block measured and summed in four lanes in one pass
     /// ([`MeasuredBlock::measure_and_sum`], the sums those of
-    /// [`segment_moments`](super::row_sums::segment_moments)); the sums
+    /// [`segment_moments`](super::moments::segment_sums::segment_moments)); the sums
     /// of x̃₁ and x̃₃ alone are left to [`finish`](Self::finish) where those columns are
     /// noise-free.
     fn add_general(

@@ -39,7 +39,7 @@ impl Column {
 /// checked: its BCLS correction (`Moments::compensate`, which
 /// `every_compensated_sum_has_its_noise_free_expectation` checks), the hand-vectorised
 /// sums of the fast path (`MomentAccumulator::finish` over `moments/lane_sums.rs`) and of the general
-/// path and the segments (`row_sums.rs`), and the regression's noise-free sums
+/// path and the segments (`moments/segment_sums.rs`), and the regression's noise-free sums
 /// (`moments::noise_free_moments`): each builds [`Moments`] with every field named (a new
 /// sum fails to compile there), and `fast_and_general_paths_build_the_same_moments`,
 /// `the_vectorised_general_path_keeps_the_row_by_row_sums_within_rounding` and
@@ -280,13 +280,13 @@ impl Moments {
 mod tests {
     use super::*;
     use crate::estimate::moments::RowsView;
+    use crate::estimate::moments::segment_sums::segment_moments;
     use crate::estimate::regression::test_regression;
-    use crate::estimate::row_sums::segment_moments;
     use crate::estimate::wbcls::WeightSegments;
 
     /// The hand-written lists of sums against their definition: for every [`Sum`], the
     /// regression's noise-free moments, its noise-free segment sums (the sums without w,
-    /// the rest zero) and the segment sums of `row_sums.rs` (summed, and with those
+    /// the rest zero) and the segment sums of `moments/segment_sums.rs` (summed, and with those
     /// without w taken from the segment sums) equal Σ of the product of the sum's
     /// factors over the rows (the noise-free rows; the kernel's paths are checked against
     /// the macro's own `add_row` in `moments.rs`). The lists sum in other orders (lanes, blocks,

@@ -21,7 +21,7 @@ use super::estimator::{
 use super::moments::Moments;
 use super::moments::RowsView;
 use super::regression::Regression;
-use super::row_sums::{output_sums, segment_moments_lanes};
+use super::moments::segment_sums::{output_sums, segment_moments_lanes};
 use super::sums::{Column as Factor, Sum};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
@@ -226,7 +226,7 @@ fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels)
 /// The weight segments of `wbcls`: consecutive row ranges of at least [`SEGMENT_S`] each
 /// (the last may be shorter; a range holds at least one row), and over each the noise-free
 /// sums of the terms without w: those of x₁ and x₃ alone (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃), and
-/// Σx₁y, Σx₃y, Σy in four lanes as [`segment_moments`](super::row_sums::segment_moments) sums a segment (so a segment whose ỹ
+/// Σx₁y, Σx₃y, Σy in four lanes as [`segment_moments`](super::moments::segment_sums::segment_moments) sums a segment (so a segment whose ỹ
 /// is y takes them to the same bits); the rest zero. Made once per regression
 /// ([`Regression::derived`]).
 #[derive(Debug)]
@@ -278,7 +278,7 @@ impl WeightSegments {
 }
 
 /// The moments of each weight segment of `wbcls` ([`SEGMENT_S`] long,
-/// [`WeightSegments`]), each taken by [`segment_moments`](super::row_sums::segment_moments) once the rows have reached
+/// [`WeightSegments`]), each taken by [`segment_moments`](super::moments::segment_sums::segment_moments) once the rows have reached
 /// its end.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SegmentScan {
@@ -324,7 +324,7 @@ impl SegmentScan {
         self.advance_lanes(avx2, rows, segments, constants, end);
     }
 
-    /// The segments that end by `end`, each [`segment_moments`](super::row_sums::segment_moments) of its rows, written into
+    /// The segments that end by `end`, each [`segment_moments`](super::moments::segment_sums::segment_moments) of its rows, written into
     /// `done` by the function that sums them (compiled for AVX2, the copy of a segment's
     /// moments is a few register stores rather than a call of `memcpy`).
     #[inline(always)]

@@ -1,7 +1,7 @@
 use super::*;
 use crate::estimate::channels::Channel;
+use crate::estimate::moments::segment_sums::segment_moments;
 use crate::estimate::regression::test_regression as regression;
-use crate::estimate::row_sums::segment_moments;
 use crate::estimate::sums::Sum;
 use crate::noise::{BLOCK, NormalStream};
 #[cfg(target_arch = "x86_64")]

@@ -2,7 +2,7 @@
 //! noise-free quantities and moved by every channel that is on (each channel's
 //! [`measure`](crate::estimate::channels::Channel::measure), the one definition of its
 //! arithmetic), its w and ỹ formed, and, when asked, its terms added to the block's sums in
-//! the lanes `segment_moments` (`row_sums.rs`) uses, so the same bits
+//! the lanes `segment_moments` (`moments/segment_sums.rs`) uses, so the same bits
 //! (docs/model.md#sufficient-statistics). Written once over the number types of
 //! `numeric::simd`: four samples at a time in the portable lanes or in an AVX2 register, the
 //! samples after the last group one at a time.
@@ -155,7 +155,7 @@ impl Flat {
 }
 
 /// The block's lane sums, accumulator k of the terms of [`terms`]: sample i into lane
-/// i mod 4 (the lanes of `row_sums.rs`).
+/// i mod 4 (the lanes of `moments/segment_sums.rs`).
 type LaneSums = [[f64; LANES]; TERMS];
 
 const LANES: usize = 4;
@@ -164,7 +164,7 @@ const LANES: usize = 4;
 const TERMS: usize = 17;
 
 /// The terms a sample adds to the block's sums, in the order of `segment_moments`' lists
-/// (`row_sums.rs`): those of w or ỹ [x̃₁ỹ, x̃₃ỹ, x̃₁w, x̃₃w, w², wỹ, w, ỹ], those of x̃₁ and
+/// (`moments/segment_sums.rs`): those of w or ỹ [x̃₁ỹ, x̃₃ỹ, x̃₁w, x̃₃w, w², wỹ, w, ỹ], those of x̃₁ and
 /// x̃₃ alone [x̃₁², x̃₁x̃₃, x̃₃², x̃₁, x̃₃], and the grade term's [s̃, x̃₁s̃, x̃₃s̃, ws̃].
 #[inline(always)]
 fn terms<R: Real>([f, w, c, s, y]: [R; 5]) -> [R; TERMS] {
@@ -254,7 +254,7 @@ impl MeasuredBlock {
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
-    /// `segment_moments` (`row_sums.rs`) takes them from the measured rows, bit for bit;
+    /// `segment_moments` (`moments/segment_sums.rs`) takes them from the measured rows, bit for bit;
     /// `wanted` says which sums besides those of w and ỹ, and whether the rows are kept.
     /// The sums are added in the pass, in the lanes the samples are measured in (on x86-64
     /// one AVX2 register, with AVX-512VL where the CPU has it: the same operations, more

@@ -1,5 +1,5 @@
 use super::*;
-use crate::estimate::row_sums::{segment_moments, segment_moments_lanes};
+use crate::estimate::moments::segment_sums::{segment_moments, segment_moments_lanes};
 
 /// Deterministic rows y = xθ + wiggle over `n` samples `dt` apart.
 fn rows_every(dt: f64, n: usize) -> (Vec<f64>, [Vec<f64>; 4]) {

@@ -1,10 +1,10 @@
-//! Sums over a realisation's measured rows for the estimators that read them: the moments
-//! of consecutive segments (`wbcls`), written once over the four lanes of `numeric::simd`
-//! (portable, or AVX2 where the CPU has it: the same operations in the same order, so the
-//! same bits), and the scans the kernel runs as it measures the rows (`wbcls`'s segments,
-//! `rls`'s running normal equations, in `rls/scan.rs`).
+//! Sums over a stretch of a realisation's measured rows, for the estimators' own scans of
+//! them: the moments of consecutive segments (`wbcls`'s), written once over the four lanes
+//! of `numeric::simd` (portable, or AVX2 where the CPU has it: the same operations in the
+//! same order, so the same bits). The scans themselves are their estimators' (`wbcls.rs`,
+//! `rls/scan.rs`).
 
-use super::moments::{GradeSums, Moments, RowsView};
+use super::{GradeSums, Moments, RowsView};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad};
