@@ -29,8 +29,6 @@ pub const WORDS_PER_CALL: usize = BLOCKS_PER_CALL * BLOCK_WORDS / 2;
 const WORDS_PER_PASS: usize = LANES * BLOCK_WORDS / 2;
 /// ChaCha8: four double rounds.
 const DOUBLE_ROUNDS: usize = 4;
-/// "expand 32-byte k".
-const SIGMA: [u32; 4] = [0x6170_7865, 0x3320_646e, 0x7962_2d32, 0x6b20_6574];
 
 type Lanes = [u32; LANES];
 
@@ -138,17 +136,15 @@ fn blocks(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_PER_C
     {
         use crate::numeric::simd;
         if simd::avx512f() {
-            let state = initial_state::<BLOCKS_PER_CALL>(key, stream, counter);
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { simd::chacha_blocks_16::<DOUBLE_ROUNDS>(&state, out) };
+            return unsafe { simd::chacha_blocks_16::<DOUBLE_ROUNDS>(key, counter, stream, out) };
         }
         if simd::avx2() {
             for (pass, chunk) in out.chunks_exact_mut(WORDS_PER_PASS).enumerate() {
                 let chunk = chunk.try_into().expect("pass length");
                 let start = counter.wrapping_add((pass * LANES) as u64);
-                let state = initial_state::<LANES>(key, stream, start);
                 // SAFETY: the CPU supports AVX2, checked just above.
-                unsafe { simd::chacha_blocks_8::<DOUBLE_ROUNDS>(&state, chunk) };
+                unsafe { simd::chacha_blocks_8::<DOUBLE_ROUNDS>(key, start, stream, chunk) };
             }
             return;
         }
@@ -167,28 +163,6 @@ fn blocks_portable(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WO
             chunk,
         );
     }
-}
-
-/// The initial state of `L` blocks with counters `counter .. counter + L`, one row per
-/// state word and one column per block (the layout every path computes on).
-#[inline(always)]
-fn initial_state<const L: usize>(
-    key: &[u32; 8],
-    stream: u64,
-    counter: u64,
-) -> [[u32; L]; BLOCK_WORDS] {
-    let mut x = [[0u32; L]; BLOCK_WORDS];
-    for (k, &c) in SIGMA.iter().enumerate() {
-        x[k] = [c; L];
-    }
-    for (k, &w) in key.iter().enumerate() {
-        x[4 + k] = [w; L];
-    }
-    x[12] = std::array::from_fn(|i| counter.wrapping_add(i as u64) as u32);
-    x[13] = std::array::from_fn(|i| (counter.wrapping_add(i as u64) >> 32) as u32);
-    x[14] = [stream as u32; L];
-    x[15] = [(stream >> 32) as u32; L];
-    x
 }
 
 /// Blocks in order, each as eight little-endian 64-bit words: word j of block `lane` is
@@ -227,7 +201,7 @@ fn quarter_round(x: &mut [Lanes; BLOCK_WORDS], a: usize, b: usize, c: usize, d: 
 
 #[inline(always)]
 fn blocks_body(key: &[u32; 8], stream: u64, counter: u64, out: &mut [u64; WORDS_PER_PASS]) {
-    let init = initial_state::<LANES>(key, stream, counter);
+    let init = crate::numeric::simd::chacha_state::<LANES>(key, counter, stream);
     let mut x = init;
     for _ in 0..DOUBLE_ROUNDS {
         quarter_round(&mut x, 0, 4, 8, 12);
@@ -288,10 +262,12 @@ mod tests {
                 let mut two = [0; WORDS_PER_CALL];
                 for (pass, chunk) in two.chunks_exact_mut(WORDS_PER_PASS).enumerate() {
                     let chunk = chunk.try_into().unwrap();
-                    let state = initial_state::<LANES>(&key, 77, counter + (pass * LANES) as u64);
+                    let start = counter + (pass * LANES) as u64;
                     // SAFETY: AVX2 checked above.
                     unsafe {
-                        crate::numeric::simd::chacha_blocks_8::<DOUBLE_ROUNDS>(&state, chunk)
+                        crate::numeric::simd::chacha_blocks_8::<DOUBLE_ROUNDS>(
+                            &key, start, 77, chunk,
+                        )
                     };
                 }
                 assert_eq!(portable, two);

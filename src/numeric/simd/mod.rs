@@ -9,7 +9,6 @@ use std::sync::OnceLock;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
-#[cfg(target_arch = "x86_64")]
 mod chacha;
 mod lanes;
 #[cfg(target_arch = "x86_64")]
@@ -17,6 +16,7 @@ mod ziggurat;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx2::{Avx2, F64x4};
+pub use chacha::chacha_state;
 #[cfg(target_arch = "x86_64")]
 pub use chacha::{chacha_blocks_8, chacha_blocks_16};
 pub use lanes::{F64x4Portable, Lanes, Lanes4, Quad, Real, Scalar};
