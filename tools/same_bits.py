@@ -16,6 +16,7 @@ Exit status 0 when every file is the same, 1 otherwise.
 import argparse
 import filecmp
 import pathlib
+import struct
 import subprocess
 import sys
 import tempfile
@@ -52,6 +53,14 @@ def outputs(binary, out):
                            check=True)
 
 
+def same_value(x, y):
+    """Whether two cells are equal, floats by their bits (so 0.0 and -0.0 differ, and NaNs
+    of the same bits agree)."""
+    if isinstance(x, float) and isinstance(y, float):
+        return struct.pack("<d", x) == struct.pack("<d", y)
+    return x == y
+
+
 def differing_columns(a, b):
     """The columns and metadata keys of Parquet files `a` and `b` that differ (None without
     pyarrow)."""
@@ -67,8 +76,7 @@ def differing_columns(a, b):
         return found + [f"rows {ta.num_rows} vs {tb.num_rows}"]
     for n in names:
         ca, cb = ta.column(n).to_pylist(), tb.column(n).to_pylist()
-        same = all(x == y or (x != x and y != y) for x, y in zip(ca, cb))
-        if not same:
+        if not all(same_value(x, y) for x, y in zip(ca, cb)):
             found.append(n)
     ma = pq.read_metadata(a).metadata or {}
     mb = pq.read_metadata(b).metadata or {}

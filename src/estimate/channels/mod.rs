@@ -175,7 +175,7 @@ macro_rules! channels {
         pub enum Channel {
             $(
                 $(#[$doc])*
-                #[doc = concat!("\n\nIts terms: [`", stringify!($module), "::", stringify!($terms), "`].")]
+                #[doc = concat!("\n\nIts terms: `", stringify!($module), "::", stringify!($terms), "`.")]
                 $variant,
             )*
         }

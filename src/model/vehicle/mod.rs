@@ -170,8 +170,9 @@ impl VehicleModel {
                     .iter()
                     .position(|&a| a == noise.acceleration)
                     .expect("the grid takes the source from the study's list");
-                let regression =
-                    segment.regressions[source][point.level_index(LevelAxis::GradeBias)].clone();
+                // The regressions and bias models are one per grade bias.
+                let bias = point.level_index(LevelAxis::GradeBias);
+                let regression = segment.regressions[source][bias].clone();
                 let of_spread = |spread: Spread| -> Arc<Vec<[f64; 3]>> {
                     Arc::new(
                         BOUNDS
@@ -263,8 +264,7 @@ impl VehicleModel {
                             .collect(),
                         metrics: segment.metrics.clone(),
                         truth: free.iter().map(|&i| truth[i]).collect(),
-                        bias_model: bias_models[k][source][point.level_index(LevelAxis::GradeBias)]
-                            .clone(),
+                        bias_model: bias_models[k][source][bias].clone(),
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,

@@ -8,14 +8,9 @@
 //! writing the words straight into the caller's buffer is markedly faster than
 //! `rand_chacha`'s four-block refill plus a byte copy.
 //!
-//! Block layout (RFC 7539 numbering, 64-bit counter as in Bernstein's original):
-//!
-//! ```text
-//! "expa" "nd 3" "2-by" "te k"
-//! key0   key1   key2   key3
-//! key4   key5   key6   key7
-//! ctr_lo ctr_hi strm_lo strm_hi
-//! ```
+//! The block layout (64-bit counter, the stream as the nonce) and the vector passes are in
+//! `numeric::simd` ([`chacha_state`](crate::numeric::simd::chacha_state)); the dispatch and
+//! the portable pass are here.
 
 /// Blocks computed by one pass of the portable and AVX2 code (one per 32-bit lane).
 const LANES: usize = 8;

@@ -34,7 +34,7 @@ unsafe fn layer_pair(table: &[f64; 257], word: *const u64) -> __m128d {
 /// When `out` is shorter than `words`, or `outside` holds fewer than `words.len()` bits.
 ///
 /// # Safety
-/// The CPU supports AVX-512F ([`super::avx512f`]).
+/// The CPU supports AVX-512F ([`crate::numeric::simd::avx512f`]).
 #[target_feature(enable = "avx512f")]
 pub fn ziggurat_candidates_8(
     table: &[f64; 257],
@@ -94,7 +94,7 @@ pub fn ziggurat_candidates_8(
 /// As [`ziggurat_candidates_8`].
 ///
 /// # Safety
-/// The CPU supports AVX2 ([`super::avx2`]).
+/// The CPU supports AVX2 ([`crate::numeric::simd::avx2`]).
 #[target_feature(enable = "avx2")]
 pub fn ziggurat_candidates_4(
     table: &[f64; 257],

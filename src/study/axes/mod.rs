@@ -39,11 +39,11 @@ macro_rules! level_axes {
     ($($module:ident :: $entry:ident),* $(,)?) => {
         $(mod $module;)*
 
-        /// A condition axis of [`LevelAxisEntry`]s, in the order of the registry.
+        /// A condition axis of a `LevelAxisEntry`, in the order of the registry.
         #[derive(Debug, Clone, Copy, PartialEq, Eq)]
         pub enum LevelAxis {
             $(
-                #[doc = concat!("The axis of [`", stringify!($module), "::", stringify!($entry), "`].")]
+                #[doc = concat!("The axis of `", stringify!($module), "::", stringify!($entry), "`.")]
                 $entry,
             )*
         }

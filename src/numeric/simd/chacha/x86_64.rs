@@ -35,7 +35,7 @@ fn quarter_round_8(
 /// low half, and 2j + 1).
 ///
 /// # Safety
-/// The CPU supports AVX2 ([`super::avx2`]).
+/// The CPU supports AVX2 ([`crate::numeric::simd::avx2`]).
 #[target_feature(enable = "avx2")]
 pub fn chacha_blocks_8<const ROUNDS2: usize>(
     key: &[u32; 8],
@@ -120,7 +120,7 @@ fn quarter_round_16(x: &mut [__m512i; 16], (a, b, c, d): (usize, usize, usize, u
 /// [`chacha_blocks_8`], with counters `counter .. counter + 16`.
 ///
 /// # Safety
-/// The CPU supports AVX-512F ([`super::avx512f`]).
+/// The CPU supports AVX-512F ([`crate::numeric::simd::avx512f`]).
 #[target_feature(enable = "avx512f")]
 pub fn chacha_blocks_16<const ROUNDS2: usize>(
     key: &[u32; 8],

@@ -1,6 +1,6 @@
 //! The measures of every summary row, one entry each (docs/model.md#measures): a measure is
 //! a type implementing [`SummaryMeasure`] in its own file, listed once in the
-//! [`summary_measures!`] registry below, which declares its module and gives it its
+//! `summary_measures!` registry below, which declares its module and gives it its
 //! [`Measure`] variant, its place among the columns of `summary.parquet` (registry order) and
 //! its slot in [`SummaryRow`](super::SummaryRow).
 
@@ -56,7 +56,7 @@ macro_rules! summary_measures {
         #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
         pub enum Measure {
             $($(
-                #[doc = concat!("The measure [`", stringify!($module), "::", stringify!($measure), "`].")]
+                #[doc = concat!("The measure `", stringify!($module), "::", stringify!($measure), "`.")]
                 $measure,
             )+)+
         }
