@@ -336,7 +336,8 @@ impl RlsRun {
         start: usize,
         to: usize,
     ) {
-        let [f, w, c, y] = cols;
+        // The groups as arrays of four, their bounds checked here once, not at every load.
+        let [f, w, c, y] = cols.map(|col| col[start..to.max(start)].as_chunks::<LANES>().0);
         let minus_k = l.splat(-self.k);
         let age = l.splat(self.age);
         let entry = l.load(&self.entry, 0);
@@ -344,11 +345,13 @@ impl RlsRun {
         let row_of = |check: usize| plan.checks.get(check).copied().unwrap_or(usize::MAX);
         let mut count = 0;
         let mut next_row = row_of(self.next_check);
-        for start in (start..to).step_by(LANES) {
-            let x1 = l.load(f, start);
-            let x2 = minus_k * l.load(w, start);
-            let x3 = l.load(c, start);
-            let y = l.load(y, start);
+        let groups = f.iter().zip(w).zip(c).zip(y).enumerate();
+        for (g, (((f, w), c), y)) in groups {
+            let start = start + g * LANES;
+            let x1 = l.load(f, 0);
+            let x2 = minus_k * l.load(w, 0);
+            let x3 = l.load(c, 0);
+            let y = l.load(y, 0);
             let terms = [
                 x1 * x1,
                 x1 * x2,
