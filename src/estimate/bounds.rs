@@ -200,14 +200,15 @@ pub fn scaled_inverse_sd(
 }
 
 /// The thesis's bound sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) from a realisation's noisy X̃ᵀX̃ (`None`
-/// without speed noise, or when X̃ᵀX̃ is singular), over the fitted `parameters`.
+/// without speed noise, or when X̃ᵀX̃ is singular), over the fitted `parameters`; σ_v is the
+/// noise in w ([`NoiseLevels::speed_sd`]: the air-speed sensor's where it is measured).
 pub fn thesis_bound(
     noisy_xtx: &Matrix3<f64>,
     noise: &NoiseLevels,
     parameters: Parameters,
 ) -> Option<[f64; 3]> {
-    if noise.measures_noisy(Signal::Speed) {
-        scaled_inverse_sd(noisy_xtx, noise.sd_of(Signal::Speed), parameters).ok()
+    if noise.speed_sd() > 0.0 {
+        scaled_inverse_sd(noisy_xtx, noise.speed_sd(), parameters).ok()
     } else {
         None
     }
@@ -289,7 +290,7 @@ pub static BOUNDS: [Bound; 4] = [
         kind: BoundKind::Thesis,
         name: "thesis_bound",
         description: "sqrt(diag((X̃ᵀX̃/σ_v²)⁻¹)) with the noisy regressors (thesis eqs. 21, 40); reported under speed noise, where it is not a valid bound",
-        applies: |n| n.measures_noisy(Signal::Speed),
+        applies: |n| n.speed_sd() > 0.0,
         value: BoundValue::PerRealisation(thesis_bound),
         not_valid: Some(
             " under speed noise: the noise is in the regressors, not in the output, and σ_v \

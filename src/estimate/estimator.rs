@@ -11,7 +11,7 @@ use std::ops::Deref;
 use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::{Bound, Spread};
-use super::channels::{NoiseLevels, Signal};
+use super::channels::NoiseLevels;
 use super::moments::{Moments, Rows, RowsView, noise_free_moments};
 use super::parameters::Parameters;
 use super::regression::Regression;
@@ -241,7 +241,7 @@ pub struct FirstOrder<'a> {
 /// (E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴: docs/model.md#bcls, read backwards).
 pub fn expected_sums_bias(at: &FirstOrder<'_>) -> [f64; 3] {
     let reg = at.regression;
-    let s2 = at.noise.sd_of(Signal::Speed).powi(2);
+    let s2 = at.noise.speed_sd().powi(2);
     let m = noise_free_moments(reg);
     let expected = Moments {
         s_1w: m.s_1w + s2 * m.s_1,

@@ -6,12 +6,12 @@
 //! middle column is −k w, so XᵀX and Xᵀy need only sums of products of (x₁, w, x₃, y). The
 //! kernel never forms the N×3 matrix.
 
-use super::channels::{BlockNoise, NoiseLevels};
+use super::channels::{BlockNoise, Channel, NoiseLevels};
 use super::regression::Regression;
 use super::sums::Column;
 pub use super::sums::{GradeSums, Moments};
 use crate::noise::BLOCK;
-use block::{OUTPUT, SPEED};
+use block::OUTPUT;
 use lane_sums::{Columns, ZEROS, output_sums, speed_sums, speed_sums_writing_w};
 
 mod block;
@@ -98,6 +98,8 @@ struct SpeedOutputSums {
 pub struct MomentAccumulator<'r> {
     reg: &'r Regression,
     noise: NoiseLevels,
+    /// The channel whose noise is in w ([`NoiseLevels::speed_channel`]).
+    speed: Channel,
     /// Only speed and output noise: the constant columns stay noise-free and five sums per
     /// sample suffice.
     use_fast_path: bool,
@@ -119,12 +121,14 @@ impl<'r> MomentAccumulator<'r> {
     /// Start a realisation of `reg` with noise levels `noise`.
     pub fn new(reg: &'r Regression, noise: NoiseLevels) -> Self {
         let mut fast = SpeedOutputSums::default();
-        if !noise.is_on(SPEED) {
+        let speed = noise.speed_channel();
+        if !noise.is_on(speed) {
             [fast.s_w, fast.s_wf, fast.s_wc, fast.s_ww, fast.s_wy] = NoiseFreeSpeedSums::of(reg).0;
         }
         MomentAccumulator {
             reg,
             noise,
+            speed,
             use_fast_path: noise.fast_path(),
             sum_grade: noise.moves(Column::C),
             keep_rows: true,
@@ -188,7 +192,7 @@ impl<'r> MomentAccumulator<'r> {
     /// Whether [`add_block_writing_w`](Self::add_block_writing_w) writes w: on the fast
     /// path with speed noise (elsewhere w is not computed there).
     pub fn writes_w(&self) -> bool {
-        self.use_fast_path && self.noise[SPEED] != 0.0
+        self.use_fast_path && self.noise[self.speed] != 0.0
     }
 
     /// [`add_block`](Self::add_block) that, where [`writes_w`](Self::writes_w), also writes
@@ -228,9 +232,9 @@ impl<'r> MomentAccumulator<'r> {
             c: &reg.c[range.clone()],
             y: &reg.y[range],
         };
-        let sd_v = self.noise[SPEED];
+        let sd_v = self.noise[self.speed];
         let s = &mut self.fast;
-        let e = draws[SPEED].unwrap_or(&ZEROS[..len]);
+        let e = draws[self.speed].unwrap_or(&ZEROS[..len]);
         // Speed noise off: Ṽ = V exactly, and `new` set the speed sums already.
         if sd_v != 0.0 {
             let [s_w, s_wf, s_wc, s_ww, s_wy] = match w {

@@ -68,7 +68,7 @@ impl Estimator for Wbcls {
 
     fn estimate(&self, r: &Realisation<'_>) -> Estimate {
         let (k, g) = (r.regression.k, r.regression.g);
-        let sd = r.noise.sd_of(Signal::Speed);
+        let sd = r.noise.speed_sd();
         let mut theta = match r.settings.solve(&r.moments.bcls_system(k, g, r.noise)) {
             Ok(theta) => theta,
             failed => return Estimate::theta(failed),

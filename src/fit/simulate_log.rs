@@ -57,7 +57,7 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
     let n = cycle.t_s.len();
     // Each channel that is on adds its draws times its SD to the signal it moves
     // (`Channel::signal`); a signal no channel moves is logged as the truth plus zero.
-    let mut noise: [Option<Vec<f64>>; 4] = Default::default();
+    let mut noise: [Option<Vec<f64>>; Signal::LOGGED.len()] = Default::default();
     for c in Channel::ALL.into_iter().filter(|&c| noise_levels.is_on(c)) {
         let mut z = vec![0.0; n];
         model.standard_draws(study.seed(), 0, c, r, &mut z);
@@ -100,10 +100,10 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
 
 /// The column of `signal` in the log after the time (the order of [`LOG_HEADER`]).
 fn signal_index(signal: Signal) -> usize {
-    Signal::ALL
+    Signal::LOGGED
         .iter()
         .position(|&s| s == signal)
-        .expect("every signal is listed")
+        .expect("a logged signal (a measured air speed is refused above)")
 }
 
 /// Fail unless the file at `path` (if any) is a log the engine wrote: a user's file there

@@ -8,7 +8,7 @@
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stream {
     /// A noise channel's draws, its identifier the channel's own (its
-    /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force; a new channel takes the
+    /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force, 9 air speed; a new channel takes the
     /// next number free of every stream's, [`Stream::NEXT_FREE`]).
     Channel(u64),
     /// The line-fit model's measurement noise.
@@ -31,7 +31,7 @@ impl Stream {
     ];
 
     /// The first identifier no stream has taken.
-    pub const NEXT_FREE: u64 = 9;
+    pub const NEXT_FREE: u64 = 10;
 
     /// Its identifier: the stream's part of the ChaCha key.
     pub const fn id(self) -> u64 {

@@ -62,6 +62,11 @@ pub(super) fn validate_noise(n: &RawNoise, c: &Checker<'_>) -> Result<ValidatedN
     noise_keys(n, c, &other_noise_keys())?;
     let mut levels = PerChannel::<Vec<f64>>::default();
     for channel in Channel::ALL {
+        if !channel.own_axis() {
+            // Its level axis reads its key and sets its level per condition.
+            levels[channel] = vec![0.0];
+            continue;
+        }
         levels[channel] = match (noise_levels(n, c, channel.key())?, channel.default_levels()) {
             (Some(list), _) => list,
             (None, Some(default)) => default.to_vec(),

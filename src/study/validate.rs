@@ -171,7 +171,7 @@ pub(super) fn validate(
             }
         }
         n.0.retain(|_, v| *v != toml::Value::Boolean(false));
-        for channel in Channel::ALL {
+        for channel in Channel::ALL.into_iter().filter(|c| c.own_axis()) {
             if let Some(default) = channel.default_levels() {
                 n.0.entry(channel.key().to_string()).or_insert_with(|| {
                     toml::Value::Array(default.iter().map(|&v| toml::Value::Float(v)).collect())

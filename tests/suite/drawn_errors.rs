@@ -204,6 +204,53 @@ fn a_measured_air_speed_takes_the_wind_out_of_the_drag_estimate() {
 }
 
 #[test]
+fn an_air_speed_sensor_is_a_channel_of_its_own_with_the_speed_sensors_terms_in_w() {
+    // In calm air the air speed is the ground speed, so a measured air speed at σ_a is the
+    // ground speed's regression with noise σ_a in w (docs/model.md#air-speed). The bounds
+    // that are constant over the realisations, functions of the rows and of the noise in w,
+    // are then the speed sensor's at σ_v = σ_a to the bit; the draws are the air-speed channel's own stream's, so the
+    // estimates differ realisation by realisation and agree in distribution.
+    let r = 200;
+    let ground = short_thesis("[0.3]", "[\"ols\", \"bcls\"]", "");
+    let measured = short_thesis(
+        "[0.0]\nair_speed_sd = [0.3]",
+        "[\"ols\", \"bcls\"]\nair_speed = \"measured\"",
+        "",
+    );
+    let (g, _) = run(&load(&ground, r), None);
+    let (m, _) = run(&load(&measured, r), None);
+    for estimator in ["ols", "bcls"] {
+        for p in PARAMS {
+            for bound in ["eiv_sandwich_se", "eiv_crlb_linearized_se"] {
+                let (a, b) = (
+                    summary_col(g.path(), estimator, p, bound)[0],
+                    summary_col(m.path(), estimator, p, bound)[0],
+                );
+                assert!(a.is_finite() && a > 0.0, "{estimator} {p} {bound}: {a}");
+                assert_eq!(a.to_bits(), b.to_bits(), "{estimator} {p} {bound}");
+            }
+            // Independent draws: the difference of the two means has the MCSE
+            // sqrt(mcse_g² + mcse_m²); 4 of them bound it with probability > 0.9999.
+            let (mean_g, mean_m) = (
+                summary_col(g.path(), estimator, p, "mean")[0],
+                summary_col(m.path(), estimator, p, "mean")[0],
+            );
+            let mcse = summary_col(g.path(), estimator, p, "mean_mcse")[0]
+                .hypot(summary_col(m.path(), estimator, p, "mean_mcse")[0]);
+            assert_ne!(
+                mean_g.to_bits(),
+                mean_m.to_bits(),
+                "{estimator} {p}: the same draws"
+            );
+            assert!(
+                (mean_g - mean_m).abs() <= 4.0 * mcse,
+                "{estimator} {p}: {mean_g} vs {mean_m} ± {mcse}"
+            );
+        }
+    }
+}
+
+#[test]
 fn an_air_speed_sensor_is_refused_where_the_regression_would_not_read_it() {
     let cases = [
         // A sensor on a regression that reads the ground speed.

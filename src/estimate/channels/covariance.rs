@@ -3,7 +3,8 @@
 //!
 //! A row's measured columns are x̃₁ = F̃, w = Ṽ², x̃₃ = −g cos θ̃ and ỹ = a + s̃ + o + d, with
 //! s̃ = g sin θ̃ the grade term, o the output noise and d the noise a differentiated
-//! acceleration carries: six [`Part`]s, each moved by one channel ([`ChannelTerms::PARTS`]).
+//! acceleration carries: six [`Part`]s, each moved by one channel at a time
+//! ([`ChannelTerms::PARTS`]; w by the speed sensor's or the air-speed sensor's).
 //! The channels are independent, so the expectation of a product of parts at a row is the
 //! product of each channel's joint moment of its own parts ([`Channel::raw_moment`]), and
 //! the covariance of two sums' terms at a row is E\[ab\] − E\[a\]E\[b\] of column monomials
@@ -17,7 +18,7 @@ use crate::estimate::regression::Regression;
 use crate::estimate::sums::{Column, Sum};
 use crate::numeric::sum::ExactSum;
 
-/// A random part of a row's measured columns, each moved by one channel.
+/// A random part of a row's measured columns, each moved by one channel at a time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Part {
     /// x̃₁ = F̃ \[N\].
@@ -111,13 +112,16 @@ impl ChannelTable {
     }
 
     /// Set the `entries` of `channel`'s table at row `r` under `noise`: its raw moments when
-    /// it is on, the noise-free products when off; `None` where it does not derive one.
+    /// it is on, the noise-free products when off (a part that another channel holds,
+    /// `holders[part]` by [`holder`], is a factor of 1 here); `None` where it does not
+    /// derive one.
     fn fill(
         &mut self,
         channel: Channel,
         noise: &NoiseLevels,
         r: &TrueRow,
         entries: &[(usize, Powers)],
+        holders: &[Channel; PART_COUNT],
     ) -> Option<()> {
         let on = noise.is_on(channel);
         for (i, p) in entries {
@@ -126,6 +130,7 @@ impl ChannelTable {
             } else {
                 self.parts
                     .iter()
+                    .filter(|&&part| holders[part as usize] == channel)
                     .map(|&part| part.noise_free(r).powi(i32::from(p[part as usize])))
                     .product()
             };
@@ -140,6 +145,22 @@ impl ChannelTable {
 
 /// The powers of the columns of a monomial x̃₁^f w^w x̃₃^c ỹ^y, indexed by [`Column`].
 pub type ColumnPowers = [u8; 4];
+
+/// The channel whose table holds `part`'s factor under `noise`: the first that lists it and
+/// is on, else the first that lists it (with its noise-free value). Two channels list w,
+/// the speed sensor's and the air-speed sensor's, never on together; the other's table
+/// gives it the factor 1.
+fn holder(part: Part, noise: &NoiseLevels) -> Channel {
+    let listing = || {
+        Channel::ALL
+            .into_iter()
+            .filter(|c| c.parts().contains(&part))
+    };
+    listing()
+        .find(|&c| noise.is_on(c))
+        .or_else(|| listing().next())
+        .expect("every part is a channel's")
+}
 
 /// The column powers of a sum's term.
 pub fn powers_of(sum: Sum) -> ColumnPowers {
@@ -262,8 +283,9 @@ impl RowMoments {
         r: &TrueRow,
         entries: &[Vec<(usize, Powers)>; CHANNEL_COUNT],
     ) -> Option<()> {
+        let holders = Part::ALL.map(|part| holder(part, noise));
         for ((c, table), e) in Channel::ALL.iter().zip(&mut self.tables).zip(entries) {
-            table.fill(*c, noise, r, e)?;
+            table.fill(*c, noise, r, e, &holders)?;
         }
         self.accel = r.accel;
         Some(())

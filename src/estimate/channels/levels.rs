@@ -76,9 +76,27 @@ impl NoiseLevels {
         !Channel::ALL.iter().any(|c| c.shares_rows(self))
     }
 
-    /// True when the speed noise is on and correlated in time.
+    /// True when the noise in w (the speed sensor's or the air-speed sensor's:
+    /// [`speed_channel`](Self::speed_channel)) is on and correlated in time.
     pub fn velocity_correlated(&self) -> bool {
-        self.measures_noisy(Signal::Speed) && self.velocity_correlation_s > 0.0
+        self.speed_sd() > 0.0 && self.velocity_correlation_s > 0.0
+    }
+
+    /// The channel of the speed the drag regressor reads, whose noise is in w = Ṽ²: the
+    /// first that is on among those that move w (the air-speed sensor's, where the air
+    /// speed is measured), else the speed sensor's ([`Channel::of`] the speed). What the
+    /// paths that treat the noise in w specially ask (the fast path's sums, the AR(1)
+    /// filter, the thesis bound, `wbcls`, the first-order bias of OLS).
+    pub fn speed_channel(&self) -> Channel {
+        Channel::ALL
+            .into_iter()
+            .find(|&c| self.is_on(c) && c.columns().contains(&Column::W))
+            .unwrap_or(Channel::of(Signal::Speed))
+    }
+
+    /// The standard deviation of the noise in w \[m/s\] ([`speed_channel`](Self::speed_channel)'s).
+    pub fn speed_sd(&self) -> f64 {
+        self[self.speed_channel()]
     }
 
     /// Whether `channel` is on.

@@ -9,14 +9,16 @@
 //! under `[noise]`, the streams, the kernel, the bounds, `wbcls`, the control variates and
 //! BCLS ask [`Channel`]; none of them knows a channel's internals.
 //!
-//! - `velocity.rs`, `output.rs`, `grade.rs`, `force.rs`: the channels;
+//! - `velocity.rs`, `output.rs`, `grade.rs`, `force.rs`, `air_speed.rs`: the channels;
 //! - `omega.rs`: what Ω and the sandwich's off-diagonal part are evaluated at, and the
 //!   order the channels' Ω terms are added in ([`Channel::OMEGA_ORDER`]);
 //! - `covariance.rs`: the exact covariances of the sums, from each channel's moments of
 //!   the parts it moves, for the spread's control variates;
 //! - `expect.rs`: the noise-free row and the expectations the control variates centre
 //!   the sums with;
-//! - `levels.rs`: [`NoiseLevels`], a condition's levels, and what follows from them.
+//! - `levels.rs`: [`NoiseLevels`], a condition's levels, and what follows from them;
+//! - `signal.rs`: [`Signal`], what a sensor records, and [`Sample`], one sample's measured
+//!   quantities.
 
 use std::ops::{Index, IndexMut};
 
@@ -29,6 +31,7 @@ mod covariance;
 mod expect;
 mod levels;
 mod omega;
+mod signal;
 
 pub use covariance::{
     AcrossRows, Part, Powers, RowMoments, SumCovariances, packed, sum_covariances,
@@ -36,6 +39,7 @@ pub use covariance::{
 pub use expect::{ColumnMoments, TrueRow};
 pub use levels::{Acceleration, NoiseLevels};
 pub use omega::{GradeLoading, OmegaAt, RowCovariance, SecondOrder};
+pub use signal::{Sample, Signal};
 pub use velocity::measured_speed;
 
 /// One noise channel's terms, implemented by a unit struct in the channel's own file and
@@ -66,6 +70,10 @@ pub trait ChannelTerms {
     const OMEGA_RANK: usize;
     /// True when the vectorised kernel handles the channel.
     const ON_FAST_PATH: bool = false;
+    /// True when studies list its levels under [`KEY`](Self::KEY) as a condition axis of
+    /// the channels'; false when the study's level axis of that key sets its level (the
+    /// air-speed sensor's, whose axis has its own place among the level axes).
+    const OWN_AXIS: bool = true;
 
     /// Move one sample's measured quantities (or those of `L::WIDTH` consecutive samples in
     /// lanes) by its draw `e` ~ N(0, 1) at standard deviation `sd`: the per-sample
@@ -238,6 +246,12 @@ macro_rules! channels {
                 match self { $(Channel::$variant => <$module::$terms>::ON_FAST_PATH,)* }
             }
 
+            /// True when studies list its levels as a condition axis of the channels'
+            /// ([`ChannelTerms::OWN_AXIS`]).
+            pub const fn own_axis(self) -> bool {
+                match self { $(Channel::$variant => <$module::$terms>::OWN_AXIS,)* }
+            }
+
             /// Move one sample's measured quantities (or `L::WIDTH` samples' in lanes) by
             /// this channel's draw `e` ~ N(0, 1) at standard deviation `sd`
             /// ([`ChannelTerms::measure`]; docs/model.md#noise-channels).
@@ -387,6 +401,9 @@ channels! {
     Grade => grade::GradeNoise,
     /// Noise on the measured propulsion force.
     Force => force::ForceNoise,
+    /// Noise on a measured air speed (a mobile anemometer's), which the drag regressor
+    /// reads in place of the ground speed.
+    AirSpeed => air_speed::AirSpeedNoise,
 }
 
 /// Number of channels.
@@ -415,52 +432,6 @@ impl Channel {
         }
         panic!("no channel measures the signal")
     }
-}
-
-/// A signal of a vehicle's log, as a sensor records it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Signal {
-    /// The speed \[m/s\].
-    Speed,
-    /// The propulsion force \[N\].
-    Force,
-    /// The grade angle \[rad\].
-    Grade,
-    /// The acceleration \[m/s²\] (an accelerometer's).
-    Acceleration,
-}
-
-impl Signal {
-    /// Every signal, in the order of a log's columns after the time.
-    pub const ALL: [Signal; 4] = [
-        Signal::Speed,
-        Signal::Force,
-        Signal::Grade,
-        Signal::Acceleration,
-    ];
-}
-
-/// One sample's measured quantities in the number type `R` (one sample, or lanes of
-/// consecutive samples), as the channels' [`ChannelTerms::measure`] move them from the
-/// noise-free ones (docs/model.md#noise-channels).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample<R> {
-    /// The propulsion force x̃₁ \[N\].
-    pub force: R,
-    /// The speed Ṽ \[m/s\].
-    pub speed: R,
-    /// The noise-free sin θ of the grade (what a channel that moves the grade starts from).
-    pub sin_grade: R,
-    /// The noise-free cos θ of the grade.
-    pub cos_grade: R,
-    /// Gravity g \[m/s²\].
-    pub g: f64,
-    /// x̃₃ = −g cos θ̃ \[m/s²\] (the noise-free one until a channel moves the grade).
-    pub c: R,
-    /// The grade term s̃ = g sin θ̃ of the output \[m/s²\] (likewise).
-    pub s: R,
-    /// The noise added to the output \[m/s²\] (`None`: none).
-    pub output_noise: Option<R>,
 }
 
 /// A value per channel, indexed by [`Channel`].

@@ -23,11 +23,12 @@ use crate::numeric::simd::Lanes;
 /// The off-diagonal part of XᵀΣX for AR(1) speed noise: the equation errors of samples
 /// i ≠ j covary as (kθ₂)² (4 V_i V_j ρ_ij σ² + 2 ρ_ij² σ⁴), ρ_ij = Π φ_k between them
 /// (Gaussian e: Cov(e_i², e_j²) = 2ρ²σ⁴, Cov(e_i, e_j²) = 0). Summed in O(N) by the
-/// recursion G_i = φ_i (G_{i−1} + a_{i−1} x_{i−1}) = Σ_{j<i} ρ_ij a_j x_j.
-fn correlated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) -> Matrix3<f64> {
-    let sd = noise[Channel::Velocity];
+/// recursion G_i = φ_i (G_{i−1} + a_{i−1} x_{i−1}) = Σ_{j<i} ρ_ij a_j x_j. `sd` is the
+/// noise's SD, `tau` its correlation time \[s\] (the speed sensor's or the air-speed
+/// sensor's: the noise in w either way).
+pub(super) fn correlated_meat(reg: &Regression, theta: &[f64; 3], sd: f64, tau: f64) -> Matrix3<f64> {
     let scale = (theta[1] * reg.k).powi(2);
-    let phi = reg.row_ar1_coefficients(noise.velocity_correlation_s);
+    let phi = reg.row_ar1_coefficients(tau);
     let x = |i: usize| Vector3::new(reg.f[i], -reg.k * reg.v[i] * reg.v[i], reg.c[i]);
     // (weight a_i, per-step factor, coefficient): the ρ term and the ρ² term.
     let mut total = Matrix3::zeros();
@@ -74,7 +75,7 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
     // The correlation between neighbours of a sequence with AR(1) coefficients `ar1` (ρ,
     // or ρ² for the squares); none for white noise.
     let steps = |ar1: &dyn Fn(f64) -> Vec<[f64; 2]>, square: bool| -> Option<Vec<f64>> {
-        noise.velocity_correlated().then(|| {
+        correlated_in_time(noise, Channel::Velocity).then(|| {
             ar1(noise.velocity_correlation_s)
                 .iter()
                 .map(|[phi, _]| if square { phi * phi } else { *phi })
@@ -115,6 +116,31 @@ fn differentiated_meat(reg: &Regression, theta: &[f64; 3], noise: &NoiseLevels) 
 /// φ_j) and `inv_dt` = 1/Δt: 2Vσ² (φ_{s+1} − φ_s)/Δt, the third moments vanishing.
 fn neighbour_covariance(v: f64, sd: f64, ar1: &[[f64; 2]], s: usize, inv_dt: f64) -> f64 {
     2.0 * v * sd * sd * (ar1[s + 1][0] - ar1[s][0]) * inv_dt
+}
+
+/// True when `channel`'s noise (in w) is on and correlated in time under `noise`.
+pub(super) fn correlated_in_time(noise: &NoiseLevels, channel: Channel) -> bool {
+    noise.is_on(channel) && noise.velocity_correlation_s > 0.0
+}
+
+/// The terms beyond the first order of white noise in w on rows that hold one sample each
+/// (a model acceleration): with s = 2Ve + e² and d = s − σ², the compensated ψ is
+/// kθ₂\[x d − k e₂ (s² − 6σ²s − E\[·\])\] (BCLS's unbiased Ṽ⁴ − 6σ²Ṽ² + 3σ⁴ and Ṽ² − σ²), so
+/// beyond x xᵀ Ω its own part has variance k²(kθ₂)²(32V⁴σ⁴ + 96V²σ⁶ + 24σ⁸) and
+/// covariance −k(kθ₂)²·8V²σ⁴ with x d; Δ = −k d e₂, ε = kθ₂ d.
+pub(super) fn white_second_order(sd: f64, at: &OmegaAt, x: &[f64; 3]) -> SecondOrder {
+    let (s2, v2, k) = (sd * sd, at.v2, at.k);
+    let a2 = (k * at.theta[1]).powi(2);
+    let var_d = 4.0 * v2 * s2 + 2.0 * s2 * s2;
+    let e2 = Vector3::new(0.0, 1.0, 0.0);
+    let x = Vector3::from(*x);
+    let cross = x * e2.transpose() + e2 * x.transpose();
+    let var_q = 32.0 * v2 * v2 * s2 * s2 + 96.0 * v2 * s2 * s2 * s2 + 24.0 * s2.powi(4);
+    SecondOrder {
+        own: e2 * e2.transpose() * (k * k * a2 * var_q) - cross * (k * a2 * 8.0 * v2 * s2 * s2),
+        perturbation: e2 * e2.transpose() * (k * k * var_d),
+        loading: Vector3::new(0.0, -k * k * at.theta[1] * var_d, 0.0),
+    }
 }
 
 /// The speed-noise channel.
@@ -176,18 +202,7 @@ impl ChannelTerms for Speed {
         if Channel::Velocity.shares_rows(noise) {
             return SecondOrder::NONE;
         }
-        let (s2, v2, k) = (sd * sd, at.v2, at.k);
-        let a2 = (k * at.theta[1]).powi(2);
-        let var_d = 4.0 * v2 * s2 + 2.0 * s2 * s2;
-        let e2 = Vector3::new(0.0, 1.0, 0.0);
-        let x = Vector3::from(*x);
-        let cross = x * e2.transpose() + e2 * x.transpose();
-        let var_q = 32.0 * v2 * v2 * s2 * s2 + 96.0 * v2 * s2 * s2 * s2 + 24.0 * s2.powi(4);
-        SecondOrder {
-            own: e2 * e2.transpose() * (k * k * a2 * var_q) - cross * (k * a2 * 8.0 * v2 * s2 * s2),
-            perturbation: e2 * e2.transpose() * (k * k * var_d),
-            loading: Vector3::new(0.0, -k * k * at.theta[1] * var_d, 0.0),
-        }
+        white_second_order(sd, at, x)
     }
 
     /// E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6σ²V² + 3σ⁴.
@@ -227,9 +242,9 @@ impl ChannelTerms for Speed {
                 meat: differentiated_meat(reg, theta, noise),
                 replaces_omega_term: true,
             })
-        } else if noise.velocity_correlated() {
+        } else if correlated_in_time(noise, Channel::Velocity) {
             Some(RowCovariance {
-                meat: correlated_meat(reg, theta, noise),
+                meat: correlated_meat(reg, theta, noise[Channel::Velocity], noise.velocity_correlation_s),
                 replaces_omega_term: false,
             })
         } else {
@@ -265,7 +280,7 @@ impl ChannelTerms for Speed {
 
     /// The correlation time of the speed noise \[s\] (0: white or off).
     fn correlation_time_s(noise: &NoiseLevels) -> f64 {
-        if noise.velocity_correlated() {
+        if correlated_in_time(noise, Channel::Velocity) {
             noise.velocity_correlation_s
         } else {
             0.0
@@ -302,7 +317,7 @@ impl ChannelTerms for Speed {
         let sd = noise[Channel::Velocity];
         let (kw, kd) = (k[Part::W as usize], k[Part::D as usize]);
         let differentiated = noise.speed_noise_differentiated();
-        if differentiated && noise.velocity_correlated() && kd > 0 {
+        if differentiated && correlated_in_time(noise, Channel::Velocity) && kd > 0 {
             return None;
         }
         let d_sd = if differentiated {
@@ -329,9 +344,14 @@ impl ChannelTerms for Speed {
             (true, None) => {
                 AcrossRows::Covariance(differentiated_across_rows(reg, noise, rows, sums))
             }
-            (false, Some(ar1)) => {
-                AcrossRows::Covariance(correlated_across_rows(reg, noise, ar1, rows, sums))
-            }
+            (false, Some(ar1)) => AcrossRows::Covariance(correlated_across_rows(
+                reg,
+                Channel::Velocity,
+                noise,
+                ar1,
+                rows,
+                sums,
+            )),
             (false, None) => AcrossRows::Nothing,
         }
     }
@@ -353,14 +373,16 @@ fn without_w(sum: Sum, drop_y: bool) -> ColumnPowers {
 /// Hermite coefficients of the speed factor (Mehler's formula),
 /// Cov(aᵢ, bⱼ) = E\[oᵢ\] E\[o′ⱼ\] Σ_{k≥1} k! hₖ(aᵢ) hₖ(bⱼ) ρᵢⱼᵏ, summed in O(N) per k by the
 /// recursion Gⱼ = ρ_{j−1,j}ᵏ (G_{j−1} + hₖ(a_{j−1})).
-fn correlated_across_rows(
+/// `channel` is the one whose noise is in w (the speed sensor's or the air-speed sensor's).
+pub(super) fn correlated_across_rows(
     reg: &Regression,
+    channel: Channel,
     noise: &NoiseLevels,
     ar1: &[[f64; 2]],
     rows: &dyn Fn(usize) -> RowMoments,
     sums: &[Sum],
 ) -> Vec<f64> {
-    let sd = noise[Channel::Velocity];
+    let sd = noise[channel];
     let q = sums.len();
     // h[i][a][k]: row i's Hermite coefficients of sum a's term (k = 1..=4).
     let h: Vec<Vec<[f64; 5]>> = (0..reg.len())
@@ -372,7 +394,7 @@ fn correlated_across_rows(
                     let mut out = [0.0; 5];
                     if p > 0 {
                         let other =
-                            row.moment_without(without_w(a, false), Some(Channel::Velocity));
+                            row.moment_without(without_w(a, false), Some(channel));
                         let hk = hermite_coefficients(reg.v[i], sd, 2 * p);
                         for k in 1..5 {
                             out[k] = other * hk[k];

@@ -11,8 +11,7 @@ use crate::numeric::simd::Quad;
 
 mod one_pass;
 
-/// The channels the fast path carries: the speed's noise and the output's.
-pub(super) const SPEED: Channel = Channel::of(Signal::Speed);
+/// The output's channel, which the fast path carries beside the noise in w.
 pub(super) const OUTPUT: Channel = Channel::of(Signal::Acceleration);
 
 /// What a block is measured from: samples `start .. start + len` of the regression `reg`,

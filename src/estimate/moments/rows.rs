@@ -1,11 +1,12 @@
 //! The measured rows of one realisation, kept for the estimators that read rows ([`Rows`]):
 //! the columns the noise moves, block by block, the regression's standing in for the rest.
 
-use super::block::{Block, MeasuredBlock, OUTPUT, RowsView, SPEED};
+use super::block::{Block, MeasuredBlock, OUTPUT, RowsView};
 use super::lane_sums::ZEROS;
-use crate::estimate::channels::{BlockNoise, NoiseLevels};
+use crate::estimate::channels::{BlockNoise, NoiseLevels, measured_speed};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Column;
+use crate::numeric::simd::Scalar;
 
 /// The measured rows of one realisation, for estimators that need more than the sums
 /// (weighted and recursive ones). A column the noise does not touch is not copied: the
@@ -125,12 +126,13 @@ impl Rows {
         };
         if self.fast {
             // Fast path: only Ṽ and ỹ carry noise.
-            let sd_v = levels[SPEED];
-            let e = draws[SPEED].unwrap_or(&ZEROS[..len]);
+            let speed = levels.speed_channel();
+            let sd_v = levels[speed];
+            let e = draws[speed].unwrap_or(&ZEROS[..len]);
             if !w_written {
                 let room = &mut self.w[self.len..self.len + len];
-                for ((w, v), e) in room.iter_mut().zip(&reg.v[range.clone()]).zip(e) {
-                    let vt = v + sd_v * e;
+                for ((w, &v), &e) in room.iter_mut().zip(&reg.v[range.clone()]).zip(e) {
+                    let vt = measured_speed(Scalar, v, sd_v, e);
                     *w = vt * vt;
                 }
             }

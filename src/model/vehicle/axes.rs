@@ -6,12 +6,8 @@
 
 use super::super::{Axis, AxisValue};
 use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS};
-use crate::estimate::channels::{Channel, NoiseLevels, Signal};
-use crate::study::{AirSpeed, LEVEL_AXIS_COUNT, LevelAxis, VehicleStudy};
-
-/// The speed's channel: with the air speed measured, its level is the air-speed sensor's
-/// (the sensor in the drag regressor), set by the air-speed level axis.
-const SPEED: Channel = Channel::of(Signal::Speed);
+use crate::estimate::channels::{Channel, NoiseLevels};
+use crate::study::{LEVEL_AXIS_COUNT, LevelAxis, VehicleStudy};
 
 /// A condition axis of the vehicle model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -24,7 +20,8 @@ pub enum VehicleAxis {
     /// The first k runs of a coast-down (`drive.runs`; one level, 1, in every other drive
     /// mode: its cycle is one run).
     Runs,
-    /// The standard deviation of one noise channel (`noise.<channel>_sd`).
+    /// The standard deviation of one noise channel (`noise.<channel>_sd`; a channel whose
+    /// level a level axis sets has none: [`Channel::own_axis`]).
     Noise(Channel),
     /// A level axis of the study's registry (`noise.<key>`).
     Level(LevelAxis),
@@ -41,7 +38,12 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
     let (outer, inner) = LevelAxis::ALL.split_at(LevelAxis::GradeBias as usize + 1);
     [VehicleAxis::Scale, VehicleAxis::Duration, VehicleAxis::Runs]
         .into_iter()
-        .chain(Channel::ALL.map(VehicleAxis::Noise))
+        .chain(
+            Channel::ALL
+                .into_iter()
+                .filter(|c| c.own_axis())
+                .map(VehicleAxis::Noise),
+        )
         .chain(outer.iter().copied().map(VehicleAxis::Level))
         .chain([VehicleAxis::Acceleration])
         .chain(inner.iter().copied().map(VehicleAxis::Level))
@@ -146,8 +148,6 @@ impl VehicleAxis {
             VehicleAxis::Scale => study.scales[point.scale_index],
             VehicleAxis::Duration => duration_s,
             VehicleAxis::Runs => study.drive.runs().map_or(1, |r| r[point.runs_index]) as f64,
-            // The speed channel's level is then the air-speed sensor's (its own key is [0]).
-            VehicleAxis::Noise(SPEED) if study.air_speed == AirSpeed::Measured => 0.0,
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::Level(a) => point.level(study, a),
             VehicleAxis::Truth(e) => study.truth.levels(e)[point.truth_levels[e]],

@@ -16,8 +16,9 @@ use crate::estimate::regression::Regression;
 use crate::model::Status;
 use crate::noise::{BLOCK, NormalStream};
 
-/// The speed's channel: its noise is drawn by the kernel itself where it is correlated in
-/// time (AR(1)) or differentiated into the output.
+/// The speed sensor's channel: its noise is drawn by the kernel itself where it is
+/// differentiated into the output (and, as the noise in w of any speed channel, where it is
+/// correlated in time: [`NoiseLevels::speed_channel`](crate::estimate::channels::NoiseLevels::speed_channel)).
 const SPEED: Channel = Channel::of(Signal::Speed);
 
 impl VehicleModel {
@@ -128,8 +129,9 @@ impl VehicleModel {
             _ => None,
         };
         let mut derivative = [0.0; BLOCK];
-        // The previous sample's correlated speed noise (AR(1) on the rows only).
+        // The previous sample's correlated noise in w (AR(1) on the rows only).
         let mut previous = 0.0;
+        let in_w = noise.speed_channel();
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
             if let Some((d, e)) = &span_noise {
@@ -152,14 +154,14 @@ impl VehicleModel {
                         derivative[j] = sd * (e[s + 1] - e[s - 1]) * inv_dt[j];
                     }
                 }
-            } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[SPEED]) {
-                let buffer = &mut buffers[SPEED][..len];
+            } else if let (Some(ar1), Some(stream)) = (ar1, &mut streams[in_w]) {
+                let buffer = &mut buffers[in_w][..len];
                 stream.fill(buffer);
                 for (z, step) in buffer.iter_mut().zip(&ar1[start..start + len]) {
                     ar1_step(&mut previous, z, *step);
                 }
             }
-            // The speed noise is drawn above when it is correlated or differentiated.
+            // The noise in w is drawn above when it is correlated or differentiated.
             let speed_drawn = ar1.is_some() || span_noise.is_some();
             let mut draws = BlockNoise::default();
             for (channel, ((stream, buffer), draw)) in Channel::ALL
@@ -167,7 +169,7 @@ impl VehicleModel {
                 .zip(streams.0.iter_mut().zip(&mut buffers.0).zip(&mut draws.0))
             {
                 *draw = stream.as_mut().map(|s| {
-                    if !(channel == SPEED && speed_drawn) {
+                    if !(channel == in_w && speed_drawn) {
                         s.fill(&mut buffer[..len]);
                     }
                     &buffer[..len]
@@ -369,7 +371,8 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                filter_side_by_side(&mut buffers, |b| &mut b[SPEED][..], &mut previous, rows);
+                let in_w = noise.speed_channel();
+                filter_side_by_side(&mut buffers, |b| &mut b[in_w][..], &mut previous, rows);
             }
             for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
                 let len = BLOCK.min(n - start);

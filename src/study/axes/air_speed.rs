@@ -1,28 +1,26 @@
-//! The air-speed sensor's noise \[m/s\] (`noise.air_speed_sd`; `[0]` without it). With a
-//! measured air speed it is the noise in the drag regressor: the speed channel's level of
-//! the condition, whose own key is then `[0]` (docs/model.md#air-speed).
+//! The air-speed sensor's noise \[m/s\] (`noise.air_speed_sd`; `[0]` without it): the level of
+//! the air-speed channel, which the drag regressor reads with `estimation.air_speed =
+//! "measured"` (docs/model.md#air-speed). Its axis nests inside the map's error.
 
 use super::LevelAxisEntry;
 use crate::estimate::channels::{Channel, NoiseLevels, Signal};
 
-/// The `[noise]` key of the air-speed sensor's noise.
-pub const AIR_SPEED_SD: &str = "air_speed_sd";
+/// The air-speed sensor's channel.
+const AIR_SPEED: Channel = Channel::of(Signal::AirSpeed);
 
-/// The speed's channel, whose level the air-speed sensor's takes.
-const SPEED: Channel = Channel::of(Signal::Speed);
+/// The `[noise]` key of the air-speed sensor's noise (its channel's key).
+pub const AIR_SPEED_SD: &str = AIR_SPEED.key();
 
 /// The air-speed sensor's noise.
 pub struct AirSpeedNoise;
 
 impl LevelAxisEntry for AirSpeedNoise {
     const KEY: &'static str = AIR_SPEED_SD;
-    const UNIT: &'static str = SPEED.unit();
+    const UNIT: &'static str = AIR_SPEED.unit();
 
-    /// A level above 0 is the speed channel's: the study checks that it comes only with
-    /// `estimation.air_speed = "measured"`, and then with the speed's own level 0.
+    /// The air-speed channel's level (the study checks that a level above 0 comes only
+    /// with `estimation.air_speed = "measured"`, and then with the speed sensor's level 0).
     fn apply(level: f64, noise: &mut NoiseLevels) {
-        if level > 0.0 {
-            noise[SPEED] = level;
-        }
+        noise[AIR_SPEED] = level;
     }
 }

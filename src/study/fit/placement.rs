@@ -54,7 +54,8 @@ pub(in crate::study) const FIT_KEYS: [(&str, &[&str]); 5] = [
 /// Where a key unknown in `[table]` of a fit file belongs instead (the fit file's
 /// [`Placement`](crate::study::checker::Placement)).
 pub(super) fn elsewhere(table: &str, key: &str, _variant: Option<(&str, &str)>) -> Option<String> {
-    let noise = Channel::ALL.iter().any(|c| c.key() == key) || key == VELOCITY_CORRELATION;
+    let noise =
+        Channel::ALL.iter().any(|c| c.own_axis() && c.key() == key) || key == VELOCITY_CORRELATION;
     let systematic = truth_keys().contains(&key);
     FIT_KEYS
         .iter()
