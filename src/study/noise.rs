@@ -129,13 +129,16 @@ pub(super) fn other_noise_keys() -> Vec<&'static str> {
         .collect()
 }
 
-/// Fail on a `[noise]` key that is neither a channel's nor one of `extra`.
+/// Fail on a `[noise]` key that is neither a channel's own axis's nor one of `extra` (a
+/// channel whose level a level axis sets is listed by that axis, in `extra` where it
+/// applies).
 pub(super) fn noise_keys(n: &RawNoise, c: &Checker<'_>, extra: &[&str]) -> Result<(), StudyError> {
-    let keys: Vec<&str> = Channel::ALL
-        .map(Channel::key)
+    let mut keys: Vec<&str> = Channel::ALL
         .into_iter()
-        .chain(extra.iter().copied())
+        .filter(|channel| channel.own_axis())
+        .map(Channel::key)
         .collect();
+    keys.extend(extra);
     match n.0.keys().find(|k| !keys.contains(&k.as_str())) {
         Some(k) => Err(unknown_key(c, "noise", k, keys, None)),
         None => Ok(()),

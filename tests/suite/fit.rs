@@ -188,6 +188,14 @@ fn a_fit_file_s_unknown_noise_key_or_misspelt_estimator_is_named_with_its_line()
         "min_speed = 0.75",
         &["it belongs in [log]"],
     );
+    // A study's air-speed sensor: a fit regresses on the logged ground speed.
+    let air = text.replace("velocity_sd = 0.1", "velocity_sd = 0.1\nair_speed_sd = 0.2");
+    check(
+        &air,
+        "noise.air_speed_sd",
+        "air_speed_sd",
+        &["unknown field `air_speed_sd`"],
+    );
     let misspelt = text.replace("[\"ols\", \"bcls\"]", "[\"ols\", \"bclss\"]");
     check(
         &misspelt,

@@ -8,7 +8,7 @@
 //! samples after the last group one at a time.
 
 use super::{Block, MeasuredBlock, Wanted};
-use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
+use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample, Signal};
 use crate::estimate::sums::Column;
 use crate::estimate::sums::{GradeSums, Moments};
 #[cfg(target_arch = "x86_64")]
@@ -26,6 +26,45 @@ const DERIVATIVE: u32 = 1 << CHANNEL_COUNT;
 
 /// `CH` for a loop that reads which channels are on at run time.
 const RUNTIME: u32 = u32::MAX;
+
+/// The most sets of sources a loop is compiled for.
+const MAX_PASSES: usize = 32;
+
+/// The sets of sources `CH` the general path's pass is compiled for with every sum, from
+/// the registry: a channel off the fast path (why a block takes the general path) and any
+/// of the others, at most one channel of w on, and a differentiated acceleration only with
+/// the speed sensor's channel; then [`RUNTIME`] (a set no block has) to fill the array.
+const PASSES: [u32; MAX_PASSES] = {
+    let speed = Channel::of(Signal::Speed);
+    let mut out = [RUNTIME; MAX_PASSES];
+    let mut n = 0;
+    let mut set: u32 = 0;
+    while set < 2 * DERIVATIVE {
+        let (mut general, mut in_w, mut speed_on) = (false, 0, false);
+        let mut i = 0;
+        while i < CHANNEL_COUNT {
+            let c = Channel::ALL[i];
+            if set & bit(c) != 0 {
+                general |= !c.on_fast_path();
+                let columns = c.columns();
+                let mut k = 0;
+                while k < columns.len() {
+                    in_w += (columns[k] as usize == Column::W as usize) as usize;
+                    k += 1;
+                }
+                speed_on |= c.index() == speed.index();
+            }
+            i += 1;
+        }
+        if general && in_w <= 1 && (set & DERIVATIVE == 0 || speed_on) {
+            assert!(n < MAX_PASSES, "raise MAX_PASSES and the list of `pass`");
+            out[n] = set;
+            n += 1;
+        }
+        set += 1;
+    }
+    out
+};
 
 /// Whether the source `bit` is on: a constant of the loop, or, for [`RUNTIME`], read from
 /// the inputs (`present`).
@@ -332,15 +371,17 @@ impl MeasuredBlock {
             return self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows);
         }
         macro_rules! by_channels {
-            ($($ch:literal)*) => {
+            ($($i:literal)*) => {
                 match x.channels() {
-                    $($ch => self.groups::<L, SUMS, REGRESSORS, GRADE, $ch>(l, &x, rows),)*
+                    $(ch if ch == PASSES[$i] => {
+                        self.groups::<L, SUMS, REGRESSORS, GRADE, { PASSES[$i] }>(l, &x, rows)
+                    })*
                     _ => self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows),
                 }
             };
         }
-        // Every value with the grade (4) or force (8) channel's bit set, below 32.
-        by_channels!(4 5 6 7 8 9 10 11 12 13 14 15 20 21 22 23 24 25 26 27 28 29 30 31)
+        // Each entry of PASSES (0 .. MAX_PASSES).
+        by_channels!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31)
     }
 
     /// [`pass`](Self::pass) with the sources `CH` ([`Flat::channels`] or [`RUNTIME`]):
@@ -428,6 +469,47 @@ impl MeasuredBlock {
             let r = unsafe { x.measure::<Scalar, RUNTIME>(Scalar, j) };
             (self.f[j], self.w[j], self.c[j], self.s[j], self.y[j]) =
                 (r[0], r[1], r[2], r[3], r[4]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_passes_compiled_are_the_sets_of_sources_a_block_of_the_general_path_meets() {
+        let bits = |signals: &[Signal]| -> u32 {
+            signals.iter().map(|&s| bit(Channel::of(s))).sum::<u32>()
+        };
+        use Signal::{Acceleration as Output, AirSpeed, Force, Grade, Speed};
+        let compiled: Vec<u32> = PASSES.into_iter().filter(|&p| p != RUNTIME).collect();
+        // Each set once: grade and/or force noise, with speed noise, output noise and a
+        // differentiated acceleration (speed noise's) or an air speed, each on or off.
+        let mut sorted = compiled.clone();
+        sorted.dedup();
+        assert_eq!(sorted.len(), compiled.len());
+        // Per grade/force combination (3): output noise alone or not (2), with speed noise
+        // and a differentiated acceleration or not (2 × 2), with an air speed (2).
+        assert_eq!(compiled.len(), 3 * (2 + 2 * 2 + 2));
+        for set in [
+            bits(&[Grade]),
+            bits(&[Force]),
+            bits(&[Speed, Output, Grade, Force]) | DERIVATIVE,
+            bits(&[Speed, Grade]) | DERIVATIVE,
+            bits(&[AirSpeed, Grade]),
+            bits(&[AirSpeed, Output, Force]),
+        ] {
+            assert!(compiled.contains(&set), "{set:#b}");
+        }
+        for set in [
+            bits(&[Speed]),
+            bits(&[Speed, Output]),
+            bits(&[Grade]) | DERIVATIVE,
+            bits(&[Speed, AirSpeed, Grade]),
+            bits(&[AirSpeed, Grade]) | DERIVATIVE,
+        ] {
+            assert!(!compiled.contains(&set), "{set:#b}");
         }
     }
 }
