@@ -248,6 +248,10 @@ fn compile(e: &Expansion, noise: &NoiseLevels) -> Vec<Compiled> {
 pub struct RowMoments {
     tables: [ChannelTable; CHANNEL_COUNT],
     accel: f64,
+    /// Under the noise the moments are of, the channel that holds each part ([`holder`]).
+    holders: [Channel; PART_COUNT],
+    /// The channels off that hold no part: their entries are all 1, set once.
+    ones: [bool; CHANNEL_COUNT],
 }
 
 /// n! for small n.
@@ -260,19 +264,23 @@ impl RowMoments {
     /// them).
     pub fn new(noise: &NoiseLevels, r: &TrueRow) -> Option<Self> {
         let entries = Channel::ALL.map(|c| ChannelTable::entries(c, None));
-        let mut row = RowMoments::empty();
+        let mut row = RowMoments::empty(noise);
         row.fill(noise, r, &entries)?;
         Some(row)
     }
 
-    /// Moments with every entry unset (NaN).
-    fn empty() -> Self {
+    /// Moments under `noise` with every entry unset (NaN).
+    fn empty(noise: &NoiseLevels) -> Self {
+        let holders = Part::ALL.map(|part| holder(part, noise));
+        let ones = Channel::ALL.map(|c| !noise.is_on(c) && !holders.contains(&c));
         RowMoments {
             tables: Channel::ALL.map(|c| ChannelTable {
                 parts: c.parts(),
-                values: [f64::NAN; TABLE],
+                values: [if ones[c.index()] { 1.0 } else { f64::NAN }; TABLE],
             }),
             accel: f64::NAN,
+            holders,
+            ones,
         }
     }
 
@@ -283,9 +291,10 @@ impl RowMoments {
         r: &TrueRow,
         entries: &[Vec<(usize, Powers)>; CHANNEL_COUNT],
     ) -> Option<()> {
-        let holders = Part::ALL.map(|part| holder(part, noise));
         for ((c, table), e) in Channel::ALL.iter().zip(&mut self.tables).zip(entries) {
-            table.fill(*c, noise, r, e, &holders)?;
+            if !self.ones[c.index()] {
+                table.fill(*c, noise, r, e, &self.holders)?;
+            }
         }
         self.accel = r.accel;
         Some(())
@@ -423,7 +432,7 @@ pub fn sum_covariances(
     let mut total = vec![ExactSum::new(); pairs.len()];
     let mut magnitude = vec![0.0; pairs.len()];
     let mut values = vec![0.0; expansions.len()];
-    let mut row = RowMoments::empty();
+    let mut row = RowMoments::empty(noise);
     for i in 0..reg.len() {
         row.fill(noise, &TrueRow::of(reg, i), &entries)?;
         for (v, e) in values.iter_mut().zip(&expansions) {

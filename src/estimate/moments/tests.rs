@@ -241,7 +241,8 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
     // The block measured one sample at a time (each channel's `measure` on one
     // number), in one pass in the portable lanes, and in one pass as dispatched (AVX2
     // where the CPU has it), and its moments summed in that pass: the same operations,
-    // so the same bits. Each channel on or off, the grade noise with speed noise alone (the
+    // so the same bits. Each channel on or off (the speed's or the air speed's), the grade
+    // noise with speed noise alone (the
     // grade-noise study), grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in
     // every block),
     // with and without a derivative's noise, whole and partial blocks.
@@ -257,10 +258,16 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
     let draws = channel_draws(BLOCK, 4, 2);
     let d: Vec<f64> = (0..BLOCK).map(|j| 0.01 * j as f64 - 1.0).collect();
     // Every combination of the four channels on or off (the pass is compiled for each),
-    // and the grade-noise study's levels.
-    let combinations = (0..16).map(|bits: u32| {
+    // each of them with the air-speed channel in place of the speed's, and the grade-noise
+    // study's levels.
+    let combinations = (0..32).map(|bits: u32| {
         let on = |bit: u32, sd: f64| if bits >> bit & 1 == 1 { sd } else { 0.0 };
-        levels(on(0, 0.4), on(1, 0.2), on(2, 0.01), on(3, 30.0))
+        let mut noise = levels(on(0, 0.4), on(1, 0.2), on(2, 0.01), on(3, 30.0));
+        if bits >> 4 & 1 == 1 {
+            noise[Channel::AirSpeed] = noise[Channel::Velocity].max(0.3);
+            noise[Channel::Velocity] = 0.0;
+        }
+        noise
     });
     for noise in combinations.chain([levels(1.0, 0.0, 0.001, 0.0), levels(0.4, 0.0, 0.5, 0.0)]) {
         for derivative in [None, Some(&d[..])] {
