@@ -2,14 +2,14 @@
 //!
 //! A stream is keyed by (seed, condition or draw group, stream identifier) with the
 //! realisation as its ChaCha stream. The identifier is part of every study's numbers: never
-//! change or reuse one. A new source of randomness takes the next free number here.
+//! change or reuse one. A new source of randomness takes a number no stream has.
 
 /// The random streams of the engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stream {
     /// A noise channel's draws, its identifier the channel's own (its
-    /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force, 9 air speed; a new channel takes the
-    /// next number free of every stream's, [`Stream::NEXT_FREE`]).
+    /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force, 9 air speed; a new channel takes a
+    /// number no stream has, 10 the first, which the channels' test checks).
     Channel(u64),
     /// The line-fit model's measurement noise.
     LineFit,
@@ -30,9 +30,6 @@ impl Stream {
         Stream::GradeMap,
     ];
 
-    /// The first identifier no stream has taken.
-    pub const NEXT_FREE: u64 = 10;
-
     /// Its identifier: the stream's part of the ChaCha key.
     pub const fn id(self) -> u64 {
         match self {
@@ -50,13 +47,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_other_streams_keep_their_identifiers_below_the_next_free_one() {
+    fn the_other_streams_keep_their_identifiers() {
         let ids: Vec<u64> = Stream::OTHERS.iter().map(|s| s.id()).collect();
         // The identifiers the engine's numbers were pinned with (docs/model.md#streams);
-        // the channels' (1–4) and their distinctness from these are checked with the
+        // the channels' (1–4, 9) and their distinctness from these are checked with the
         // channels.
         assert_eq!(ids, [5, 6, 7, 8]);
-        assert!(ids.iter().all(|&id| id < Stream::NEXT_FREE));
         // OTHERS lists every variant but the channels': a variant missing from it would
         // not match here.
         for s in Stream::OTHERS {
