@@ -8,7 +8,7 @@
 //! samples after the last group one at a time.
 
 use super::{Block, MeasuredBlock, Wanted};
-use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample, Signal};
+use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
 use crate::estimate::sums::Column;
 use crate::estimate::sums::{GradeSums, Moments};
 #[cfg(target_arch = "x86_64")]
@@ -27,48 +27,12 @@ const DERIVATIVE: u32 = 1 << CHANNEL_COUNT;
 /// `CH` for a loop that reads which channels are on at run time.
 const RUNTIME: u32 = u32::MAX;
 
-/// The most sets of sources a loop is compiled for.
-const MAX_PASSES: usize = 32;
+mod passes;
 
-/// The sets of sources `CH` the general path's pass is compiled for with every sum, from
-/// the registry: a channel off the fast path (why a block takes the general path) and any
-/// of the others, at most one channel of w on, and a differentiated acceleration only with
-/// the speed sensor's channel; the first [`MAX_PASSES`] of them, those of the channels
-/// registered first before those of a later one (a set beyond them takes the loop that reads
-/// the sources at run time: the same bits, slower); then [`RUNTIME`] (a set no block has) to
-/// fill the array.
-const PASSES: [u32; MAX_PASSES] = {
-    let speed = Channel::of(Signal::Speed);
-    let mut out = [RUNTIME; MAX_PASSES];
-    let mut n = 0;
-    // Bit 0 of `m` the differentiated acceleration's, bit i + 1 channel i's.
-    let mut m: u32 = 0;
-    while m < 2 * DERIVATIVE && n < MAX_PASSES {
-        let set = (m >> 1) | if m & 1 != 0 { DERIVATIVE } else { 0 };
-        let (mut general, mut in_w, mut speed_on) = (false, 0, false);
-        let mut i = 0;
-        while i < CHANNEL_COUNT {
-            let c = Channel::ALL[i];
-            if set & bit(c) != 0 {
-                general |= !c.on_fast_path();
-                let columns = c.columns();
-                let mut k = 0;
-                while k < columns.len() {
-                    in_w += (columns[k] as usize == Column::W as usize) as usize;
-                    k += 1;
-                }
-                speed_on |= c.index() == speed.index();
-            }
-            i += 1;
-        }
-        if general && in_w <= 1 && (set & DERIVATIVE == 0 || speed_on) {
-            out[n] = set;
-            n += 1;
-        }
-        m += 1;
-    }
-    out
-};
+use passes::{MAX_PASSES, PASSES};
+
+// `pass` names each entry of PASSES, 0 .. 32.
+const _: () = assert!(MAX_PASSES == 32, "list each entry of PASSES in `pass`");
 
 /// Whether the source `bit` is on: a constant of the loop, or, for [`RUNTIME`], read from
 /// the inputs (`present`).
@@ -473,44 +437,6 @@ impl MeasuredBlock {
             let r = unsafe { x.measure::<Scalar, RUNTIME>(Scalar, j) };
             (self.f[j], self.w[j], self.c[j], self.s[j], self.y[j]) =
                 (r[0], r[1], r[2], r[3], r[4]);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_passes_compiled_are_the_sets_of_sources_a_block_of_the_general_path_meets() {
-        let bits = |signals: &[Signal]| -> u32 {
-            signals.iter().map(|&s| bit(Channel::of(s))).sum::<u32>()
-        };
-        use Signal::{Acceleration as Output, AirSpeed, Force, Grade, Speed};
-        let compiled: Vec<u32> = PASSES.into_iter().filter(|&p| p != RUNTIME).collect();
-        // Each set once: grade and/or force noise, with speed noise, output noise and a
-        // differentiated acceleration (speed noise's) or an air speed, each on or off.
-        let mut sorted = compiled.clone();
-        sorted.dedup();
-        assert_eq!(sorted.len(), compiled.len());
-        for set in [
-            bits(&[Grade]),
-            bits(&[Force]),
-            bits(&[Speed, Output, Grade, Force]) | DERIVATIVE,
-            bits(&[Speed, Grade]) | DERIVATIVE,
-            bits(&[AirSpeed, Grade]),
-            bits(&[AirSpeed, Output, Force]),
-        ] {
-            assert!(compiled.contains(&set), "{set:#b}");
-        }
-        for set in [
-            bits(&[Speed]),
-            bits(&[Speed, Output]),
-            bits(&[Grade]) | DERIVATIVE,
-            bits(&[Speed, AirSpeed, Grade]),
-            bits(&[AirSpeed, Grade]) | DERIVATIVE,
-        ] {
-            assert!(!compiled.contains(&set), "{set:#b}");
         }
     }
 }
