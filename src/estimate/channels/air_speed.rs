@@ -49,7 +49,7 @@ impl ChannelTerms for AirSpeedNoise {
 
     /// White noise: the speed sensor's terms of w (correlated noise: not derived).
     fn second_order(sd: f64, noise: &NoiseLevels, at: &OmegaAt, x: &[f64; 3]) -> SecondOrder {
-        if correlated_in_time(noise, Channel::AirSpeed) {
+        if Channel::AirSpeed.shares_rows(noise) {
             return SecondOrder::NONE;
         }
         white_second_order(sd, at, x)

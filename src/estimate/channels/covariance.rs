@@ -155,7 +155,7 @@ pub type ColumnPowers = [u8; 4];
 /// is on, else the first that lists it (with its noise-free value). Two channels list w,
 /// the speed sensor's and the air-speed sensor's, never on together; the other's table
 /// gives it the factor 1.
-fn holder(part: Part, noise: &NoiseLevels) -> Channel {
+pub(super) fn holder(part: Part, noise: &NoiseLevels) -> Channel {
     let listing = || {
         Channel::ALL
             .into_iter()

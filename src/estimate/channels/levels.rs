@@ -3,7 +3,8 @@
 
 use std::ops::{Index, IndexMut};
 
-use super::{Channel, OmegaAt, PerChannel, Signal};
+use super::covariance::holder;
+use super::{Channel, OmegaAt, Part, PerChannel, Signal};
 use crate::estimate::sums::Column;
 
 /// Where the acceleration in the regression output comes from (`estimation.acceleration`).
@@ -83,15 +84,12 @@ impl NoiseLevels {
     }
 
     /// The channel of the speed the drag regressor reads, whose noise is in w = Ṽ²: the
-    /// first that is on among those that move w (the air-speed sensor's, where the air
-    /// speed is measured), else the speed sensor's ([`Channel::of`] the speed). What the
-    /// paths that treat the noise in w specially ask (the fast path's sums, the AR(1)
+    /// holder of the part w (the first channel that is on among those that move it — the
+    /// air-speed sensor's, where the air speed is measured — else the speed sensor's). What
+    /// the paths that treat the noise in w specially ask (the fast path's sums, the AR(1)
     /// filter, the thesis bound, `wbcls`, the first-order bias of OLS).
     pub fn speed_channel(&self) -> Channel {
-        Channel::ALL
-            .into_iter()
-            .find(|&c| self.is_on(c) && c.columns().contains(&Column::W))
-            .unwrap_or(Channel::of(Signal::Speed))
+        holder(Part::W, self)
     }
 
     /// The standard deviation of the noise in w \[m/s\] ([`speed_channel`](Self::speed_channel)'s).

@@ -3,7 +3,7 @@
 
 use super::block::{Block, MeasuredBlock, OUTPUT, RowsView};
 use super::lane_sums::ZEROS;
-use crate::estimate::channels::{BlockNoise, NoiseLevels, measured_speed};
+use crate::estimate::channels::{BlockNoise, Channel, NoiseLevels, measured_speed};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Column;
 use crate::numeric::simd::Scalar;
@@ -32,8 +32,9 @@ pub struct Rows {
     s: Option<Vec<f64>>,
     /// Whether f, c, y and s are copied in this realisation (else the regression's stand in).
     copies: [bool; 4],
-    /// Whether the rows are measured on the fast path (only Ṽ and ỹ carry noise).
-    fast: bool,
+    /// On the fast path (only Ṽ and ỹ carry noise), the channel whose noise is in w
+    /// ([`NoiseLevels::speed_channel`]); `None`: the general path.
+    fast: Option<Channel>,
 }
 
 impl Rows {
@@ -49,7 +50,7 @@ impl Rows {
     pub fn reset(&mut self, reg: &Regression, noise: &NoiseLevels) {
         let n = reg.len();
         let general = !noise.fast_path();
-        self.fast = !general;
+        self.fast = (!general).then(|| noise.speed_channel());
         let column = |v: &mut Option<Vec<f64>>, copied: bool| {
             if copied {
                 let v = v.get_or_insert_with(Vec::new);
@@ -97,7 +98,10 @@ impl Rows {
     /// ([`MomentAccumulator::add_block_writing_w`]); that block's
     /// [`push_block`](Self::push_block) then takes w as written there.
     pub fn w_room(&mut self, len: usize) -> &mut [f64] {
-        assert!(self.fast, "w is written ahead on the fast path only");
+        assert!(
+            self.fast.is_some(),
+            "w is written ahead on the fast path only"
+        );
         assert!(self.w_ahead.is_none(), "room for w handed out twice");
         self.w_ahead = Some(len);
         &mut self.w[self.len..self.len + len]
@@ -124,9 +128,8 @@ impl Rows {
             }
             None => false,
         };
-        if self.fast {
+        if let Some(speed) = self.fast {
             // Fast path: only Ṽ and ỹ carry noise.
-            let speed = levels.speed_channel();
             let sd_v = levels[speed];
             let e = draws[speed].unwrap_or(&ZEROS[..len]);
             if !w_written {

@@ -17,8 +17,8 @@ use crate::model::Status;
 use crate::noise::{BLOCK, NormalStream};
 
 /// The speed sensor's channel: its noise is drawn by the kernel itself where it is
-/// differentiated into the output (and, as the noise in w of any speed channel, where it is
-/// correlated in time: [`NoiseLevels::speed_channel`](crate::estimate::channels::NoiseLevels::speed_channel)).
+/// differentiated into the output (correlated noise in w is drawn likewise, whichever
+/// channel's: `NoiseLevels::speed_channel`).
 const SPEED: Channel = Channel::of(Signal::Speed);
 
 impl VehicleModel {
@@ -353,6 +353,7 @@ impl VehicleModel {
             _ => None,
         };
         let mut previous = vec![0.0; count];
+        let in_w = noise.speed_channel();
         for start in (0..longest).step_by(BLOCK) {
             // Shared: whole blocks, the sequence each condition reads a prefix of. Alone (one
             // condition, its own streams): the blocks `measure` requests.
@@ -371,7 +372,6 @@ impl VehicleModel {
                 // The filter `measure` applies, for the realisations side by side: their
                 // recursions are independent, so the processor overlaps them.
                 let rows = &ar1[start..(start + drawn).min(ar1.len())];
-                let in_w = noise.speed_channel();
                 filter_side_by_side(&mut buffers, |b| &mut b[in_w][..], &mut previous, rows);
             }
             for (k, &n) in lengths.iter().enumerate().filter(|(_, n)| **n > start) {
