@@ -25,6 +25,7 @@ pub mod channels;
 pub mod controls;
 pub mod conversions;
 pub mod estimator;
+pub mod filters;
 pub mod moments;
 pub mod parameters;
 pub mod regression;
