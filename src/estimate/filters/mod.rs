@@ -158,7 +158,9 @@ impl Settle {
     /// The estimate at sample `k`.
     #[inline]
     pub fn see(&mut self, k: usize, estimate: f64) {
-        if !((estimate - self.target).abs() <= self.band) {
+        // NaN counts as outside.
+        let inside = (estimate - self.target).abs() <= self.band;
+        if !inside {
             self.from = k + 1;
         }
     }
