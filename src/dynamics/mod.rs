@@ -12,6 +12,7 @@
 //! this equation (model errors) is in [`truth`].
 
 mod coastdown;
+pub mod filter_truth;
 mod replay;
 mod speed_trace;
 mod torque;

@@ -12,6 +12,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::bounds::{Bound, Spread};
 use super::channels::NoiseLevels;
+use super::filters::{FilterSettings, GradeSource};
 use super::moments::{Moments, Rows, RowsView, noise_free_moments};
 use super::parameters::Parameters;
 use super::regression::Regression;
@@ -67,6 +68,10 @@ pub struct EstimatorSettings {
     /// The rotating-mass factor δ̂ `road_load` assumes (`estimation.effective_mass_factor`;
     /// 0: none).
     pub effective_mass_factor: f64,
+    /// Whether the estimators read a measured grade (`estimation.grade`).
+    pub grade: GradeSource,
+    /// The settings of the filters that estimate the grade with the mass.
+    pub filter: FilterSettings,
 }
 
 impl Default for EstimatorSettings {
@@ -75,6 +80,8 @@ impl Default for EstimatorSettings {
             forgetting: 1.0,
             parameters: Parameters::All,
             effective_mass_factor: 0.0,
+            grade: GradeSource::Measured,
+            filter: FilterSettings::default(),
         }
     }
 }
@@ -87,7 +94,7 @@ impl EstimatorSettings {
 }
 
 /// Room for an estimator's own columns in an [`Estimate`].
-pub const ESTIMATE_COLUMNS: usize = 4;
+pub const ESTIMATE_COLUMNS: usize = 16;
 
 /// One estimator's result on one realisation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -165,6 +172,12 @@ pub trait Estimator: Sync + Send + fmt::Debug {
     /// ([`EstimatorSettings::effective_mass_factor`]): the key is refused when no listed
     /// estimator does.
     fn reads_effective_mass_factor(&self) -> bool {
+        false
+    }
+
+    /// Whether it estimates the grade with the mass (a filter): it reads no measured grade,
+    /// and the filters' keys of `[estimation]` apply to it.
+    fn estimates_grade(&self) -> bool {
         false
     }
 

@@ -50,4 +50,5 @@ estimators! {
     wbcls => [Wbcls],
     rls => [Rls],
     road_load => [RoadLoad],
+    filtering => [RlsMf, Ekf],
 }

@@ -9,7 +9,7 @@
 pub enum Stream {
     /// A noise channel's draws, its identifier the channel's own (its
     /// `ChannelTerms::STREAM`: 1 speed, 2 output, 3 grade, 4 force, 9 air speed; a new channel takes a
-    /// number no stream has, 10 the first, which the channels' test checks).
+    /// number no stream has, 11 the first, which the channels' test checks).
     Channel(u64),
     /// The line-fit model's measurement noise.
     LineFit,
@@ -19,15 +19,19 @@ pub enum Stream {
     ForceCalibration,
     /// The elevation map's error, drawn per realisation.
     GradeMap,
+    /// A truth that follows the filters' model (its mass, grade walk and process noise),
+    /// drawn per realisation.
+    FilterTruth,
 }
 
 impl Stream {
     /// Every stream that is not a noise channel's, in the order of their identifiers.
-    pub const OTHERS: [Stream; 4] = [
+    pub const OTHERS: [Stream; 5] = [
         Stream::LineFit,
         Stream::Gusts,
         Stream::ForceCalibration,
         Stream::GradeMap,
+        Stream::FilterTruth,
     ];
 
     /// Its identifier: the stream's part of the ChaCha key.
@@ -38,6 +42,7 @@ impl Stream {
             Stream::Gusts => 6,
             Stream::ForceCalibration => 7,
             Stream::GradeMap => 8,
+            Stream::FilterTruth => 10,
         }
     }
 }
@@ -52,15 +57,17 @@ mod tests {
         // The identifiers the engine's numbers were pinned with (docs/model.md#streams);
         // the channels' (1–4, 9) and their distinctness from these are checked with the
         // channels.
-        assert_eq!(ids, [5, 6, 7, 8]);
+        assert_eq!(ids, [5, 6, 7, 8, 10]);
         // OTHERS lists every variant but the channels': a variant missing from it would
         // not match here.
         for s in Stream::OTHERS {
             let listed = match s {
                 Stream::Channel(_) => false,
-                Stream::LineFit | Stream::Gusts | Stream::ForceCalibration | Stream::GradeMap => {
-                    true
-                }
+                Stream::LineFit
+                | Stream::Gusts
+                | Stream::ForceCalibration
+                | Stream::GradeMap
+                | Stream::FilterTruth => true,
             };
             assert!(listed);
         }

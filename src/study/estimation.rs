@@ -3,7 +3,9 @@
 
 use super::StudyError;
 use super::checker::Checker;
+use super::filter_keys::{FilterKeys, KnownVehicle, validate_filter_keys};
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
+use crate::estimate::filters::GradeSource;
 use crate::estimate::parameters::Parameters;
 
 pub(super) fn validate_estimators(
@@ -35,7 +37,7 @@ pub(super) fn validate_estimators(
 }
 
 /// The keys of `[estimation]` that set [`EstimatorSettings`], as read.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone)]
 pub(super) struct SettingKeys {
     /// `forgetting`.
     pub forgetting: Option<f64>,
@@ -43,6 +45,10 @@ pub(super) struct SettingKeys {
     pub known_inv_mass: Option<f64>,
     /// `effective_mass_factor`.
     pub effective_mass_factor: Option<f64>,
+    /// `grade` and the filters' keys.
+    pub filter: FilterKeys,
+    /// The vehicle's values the filters take as known.
+    pub vehicle: KnownVehicle,
 }
 
 /// `[estimation]`'s `estimators` (any of the registry, none twice), `forgetting` (in
@@ -59,6 +65,8 @@ pub(super) fn validate_estimation(
         forgetting,
         known_inv_mass,
         effective_mass_factor,
+        filter,
+        vehicle,
     } = keys;
     let all: Vec<EstimatorRef> = ESTIMATORS.iter().map(|&e| EstimatorRef(e)).collect();
     let estimators = validate_estimators(names, &all, c)?;
@@ -122,6 +130,24 @@ pub(super) fn validate_estimation(
         Some(l) => l,
         None => 1.0,
     };
+    let (grade, filter) = validate_filter_keys(&filter, &estimators, vehicle, c)?;
+    if grade == GradeSource::None
+        && let Some(i) = estimators.iter().position(|e| !e.estimates_grade())
+    {
+        let filters: Vec<&str> = all
+            .iter()
+            .filter(|e| e.estimates_grade())
+            .map(|e| e.name())
+            .collect();
+        return Err(c.fail(
+            &format!("estimation.estimators[{i}]"),
+            format!(
+                "{} reads the measured grade, which estimation.grade = \"none\" takes away; \
+                 the estimators that estimate it with the mass are {filters:?}",
+                estimators[i].name()
+            ),
+        ));
+    }
     let parameters = match known_inv_mass {
         Some(inv_mass) => Parameters::KnownMass { inv_mass },
         None => Parameters::All,
@@ -132,6 +158,8 @@ pub(super) fn validate_estimation(
             forgetting,
             parameters,
             effective_mass_factor,
+            grade,
+            filter,
         },
     ))
 }

@@ -12,6 +12,7 @@ use serde::Deserialize;
 use super::axes::VELOCITY_CORRELATION;
 use super::checker::Checker;
 use super::estimation::{SettingKeys, validate_estimation};
+use super::filter_keys::KnownVehicle;
 use super::noise::{noise_keys, noise_levels};
 use super::raw::{RawNoise, one_or_many};
 use super::spacing::{uneven_differentiation, uneven_reason};
@@ -100,6 +101,42 @@ pub(super) struct RawFitEstimation {
     known_mass: Option<bool>,
     #[serde(default)]
     effective_mass_factor: Option<f64>,
+    // The grade's source and the filters' keys (`FilterKeys`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    grade: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    speed_process_sd: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    grade_walk: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    prior_mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    prior_mass_sd: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    grade_sd0: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    forgetting_mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    forgetting_grade: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    difference_window: Option<f64>,
+}
+
+impl RawFitEstimation {
+    /// The keys of the filters and of the grade's source.
+    fn filter_keys(&self) -> super::filter_keys::FilterKeys {
+        super::filter_keys::FilterKeys {
+            grade: self.grade.clone(),
+            speed_process_sd: self.speed_process_sd,
+            grade_walk: self.grade_walk,
+            prior_mass: self.prior_mass,
+            prior_mass_sd: self.prior_mass_sd,
+            grade_sd0: self.grade_sd0,
+            forgetting_mass: self.forgetting_mass,
+            forgetting_grade: self.forgetting_grade,
+            difference_window: self.difference_window,
+        }
+    }
 }
 
 /// `[reference]`: values to draw the fit against.
@@ -335,6 +372,12 @@ fn validate(
         forgetting: e.forgetting,
         known_inv_mass,
         effective_mass_factor: e.effective_mass_factor,
+        filter: e.filter_keys(),
+        vehicle: KnownVehicle {
+            mass_kg: vehicle.mass_kg,
+            drag_coefficient: vehicle.drag_coefficient,
+            rolling: vehicle.rolling_resistance,
+        },
     };
     let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
 

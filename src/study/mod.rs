@@ -17,6 +17,7 @@
 mod axes;
 mod checker;
 mod estimation;
+mod filter_keys;
 mod fit;
 mod line_fit;
 mod noise;

@@ -160,6 +160,42 @@ pub struct RawEstimation {
     /// The rotating-mass factor `road_load` assumes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effective_mass_factor: Option<f64>,
+    // The grade's source and the filters' keys (`FilterKeys`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_process_sd: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade_walk: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_mass_sd: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade_sd0: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forgetting_mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub forgetting_grade: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub difference_window: Option<f64>,
+}
+
+impl RawEstimation {
+    /// The keys of the filters and of the grade's source.
+    pub(super) fn filter_keys(&self) -> super::filter_keys::FilterKeys {
+        super::filter_keys::FilterKeys {
+            grade: self.grade.clone(),
+            speed_process_sd: self.speed_process_sd,
+            grade_walk: self.grade_walk,
+            prior_mass: self.prior_mass,
+            prior_mass_sd: self.prior_mass_sd,
+            grade_sd0: self.grade_sd0,
+            forgetting_mass: self.forgetting_mass,
+            forgetting_grade: self.forgetting_grade,
+            difference_window: self.difference_window,
+        }
+    }
 }
 
 /// A list, or one value standing for the list of that value (`scales = 1.0` is

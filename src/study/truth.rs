@@ -6,7 +6,10 @@ use super::StudyError;
 use super::checker::Checker;
 use super::checker::unknown_key;
 use crate::dynamics::Truth;
+use crate::dynamics::filter_truth::{FilterTruth, InvMassPrior};
 use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, entry_index};
+use crate::estimate::filters::Prior;
+use crate::terrain::TerrainSpec;
 
 /// The validated `[truth]` table: the values listed for each entry of [`MODEL_ERRORS`] (its
 /// neutral value alone when the key is absent; one value for an entry that is not an axis).
@@ -78,8 +81,11 @@ pub(super) fn validate_truth(
         return Ok(axes);
     };
     let keys = truth_keys();
-    if let Some(k) = table.keys().find(|k| !keys.contains(&k.as_str())) {
-        return Err(unknown_key(c, "truth", k, keys.to_vec(), None));
+    let known = |k: &str| keys.contains(&k) || FILTER_TRUTH_KEYS.contains(&k);
+    if let Some(k) = table.keys().find(|k| !known(k)) {
+        let mut all = keys.to_vec();
+        all.extend(FILTER_TRUTH_KEYS);
+        return Err(unknown_key(c, "truth", k, all, None));
     }
     for (i, entry) in MODEL_ERRORS.iter().enumerate() {
         let Some(value) = table.get(entry.key) else {
@@ -161,6 +167,79 @@ pub(super) fn validate_systematic(
         out.push((i, one));
     }
     Ok(out)
+}
+
+/// `[truth]`'s keys of a truth that follows the filters' model (not model errors).
+pub(super) const FILTER_TRUTH_KEYS: [&str; 2] = ["speed_process_sd", "mass_from_prior"];
+
+/// A truth that follows the filters' model (docs/model.md#filter-truth):
+/// `truth.speed_process_sd` (≥ 0 m/s per step, one number), `truth.mass_from_prior` (the
+/// filters' prior `prior`), the walk of a `random_walk` terrain; only in the drive mode
+/// `torque` (whose force does not depend on the motion) and without model errors.
+pub(super) fn validate_filter_truth(
+    table: Option<&toml::Table>,
+    terrain: Option<&TerrainSpec>,
+    prior: Prior,
+    mode: &str,
+    model_errors: &TruthAxes,
+    c: &Checker<'_>,
+) -> Result<FilterTruth, StudyError> {
+    let speed_process_sd = match table.and_then(|t| t.get("speed_process_sd")) {
+        None => 0.0,
+        Some(toml::Value::Float(v)) => c.non_negative("truth.speed_process_sd", *v)?,
+        Some(toml::Value::Integer(v)) => c.non_negative("truth.speed_process_sd", *v as f64)?,
+        Some(_) => {
+            return Err(c.fail(
+                "truth.speed_process_sd",
+                "must be one number (m/s per step), not a list",
+            ));
+        }
+    };
+    let mass_from_prior = match table.and_then(|t| t.get("mass_from_prior")) {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(_) => return Err(c.fail("truth.mass_from_prior", "must be true or false")),
+    };
+    let truth = FilterTruth {
+        speed_process_sd,
+        mass_prior: mass_from_prior.then(|| InvMassPrior {
+            mean: prior.inv_mass(),
+            sd: prior.inv_mass_var().sqrt(),
+        }),
+        grade_walk: terrain.and_then(|t| t.profile.grade_walk()),
+    };
+    if !truth.is_drawn() {
+        return Ok(truth);
+    }
+    let key = match () {
+        _ if speed_process_sd > 0.0 => "truth.speed_process_sd",
+        _ if mass_from_prior => "truth.mass_from_prior",
+        _ => "terrain.profile",
+    };
+    if mode != "torque" {
+        return Err(c.fail(
+            key,
+            format!(
+                "a truth that follows the filters' model needs drive.mode = \"torque\" (a force \
+                 that does not depend on the motion), got \"{mode}\""
+            ),
+        ));
+    }
+    if let Some(entry) = MODEL_ERRORS
+        .iter()
+        .zip(&model_errors.0)
+        .find(|(e, values)| values.iter().any(|&v| v != e.neutral))
+        .map(|(e, _)| e)
+    {
+        return Err(c.fail(
+            key,
+            format!(
+                "a truth that follows the filters' model has no model errors, but truth.{} is set",
+                entry.key
+            ),
+        ));
+    }
+    Ok(truth)
 }
 
 #[cfg(test)]

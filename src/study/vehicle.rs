@@ -7,11 +7,12 @@ use super::StudyError;
 use super::axes::{AIR_SPEED_SD, LevelAxes, LevelAxis};
 use super::checker::{Checker, unknown_key};
 use super::estimation::{SettingKeys, validate_estimation};
+use super::filter_keys::KnownVehicle;
 use super::noise::{NoiseAxes, ValidatedNoise, validate_noise};
 use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
 use super::terrain::validate_terrain;
-use super::truth::{TruthAxes, validate_truth};
+use super::truth::{TruthAxes, validate_filter_truth, validate_truth};
 use crate::dynamics::{CycleSource, DRIVE_MODES, Drivetrain, RowSelection, VehicleParams};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::channels::{Channel, Signal};
@@ -63,6 +64,9 @@ pub struct VehicleStudy {
     /// `[truth]`: the model errors, condition axes after all the others (the truth is the
     /// equation without the table).
     pub truth: TruthAxes,
+    /// A truth that follows the filters' model (`truth.speed_process_sd`,
+    /// `truth.mass_from_prior`, `terrain.profile = "random_walk"`).
+    pub filter_truth: crate::dynamics::filter_truth::FilterTruth,
 }
 
 /// What the drag regressor reads (`estimation.air_speed`; docs/model.md#air-speed).
@@ -208,6 +212,12 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         forgetting: e.forgetting,
         known_inv_mass,
         effective_mass_factor: e.effective_mass_factor,
+        filter: e.filter_keys(),
+        vehicle: KnownVehicle {
+            mass_kg: vehicle.mass_kg,
+            drag_coefficient: vehicle.drag_coefficient,
+            rolling: vehicle.rolling_resistance,
+        },
     };
     let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
     let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
@@ -231,6 +241,14 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         ));
     }
     let truth = validate_truth(raw.truth.as_ref(), c)?;
+    let filter_truth = validate_filter_truth(
+        raw.truth.as_ref(),
+        terrain.as_ref(),
+        settings.filter.prior,
+        mode.name,
+        &truth,
+        c,
+    )?;
 
     Ok(VehicleStudy {
         vehicle,
@@ -248,6 +266,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         grade_map_length_m,
         air_speed,
         truth,
+        filter_truth,
     })
 }
 

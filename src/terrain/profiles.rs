@@ -23,6 +23,12 @@ pub trait Profile: fmt::Debug + Send + Sync {
     fn extent_m(&self) -> Option<f64> {
         None
     }
+
+    /// The grade's random walk when the profile is drawn anew in every realisation (its
+    /// rises are then those of a flat road, the condition's nominal one).
+    fn grade_walk(&self) -> Option<GradeWalk> {
+        None
+    }
 }
 
 /// The rises of the elevation function `y` \[m\] on the grid x = 0 … length m (forward Euler,
@@ -44,7 +50,7 @@ pub struct ProfileEntry {
 }
 
 /// Every profile a study can name.
-pub static PROFILES: [ProfileEntry; 3] = [
+pub static PROFILES: [ProfileEntry; 4] = [
     ProfileEntry {
         name: "cos2",
         keys: Cos2::KEYS,
@@ -60,7 +66,56 @@ pub static PROFILES: [ProfileEntry; 3] = [
         keys: FileProfile::KEYS,
         parse: FileProfile::parse,
     },
+    ProfileEntry {
+        name: "random_walk",
+        keys: RandomWalk::KEYS,
+        parse: RandomWalk::parse,
+    },
 ];
+
+/// The grade as a random walk in distance: φ₀ ~ N(0, σ₀²), φ_{k+1} = φ_k + w_k,
+/// w_k ~ N(0, q·|V_k|·Δt) (`terrain.profile = "random_walk"`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GradeWalk {
+    /// q \[rad²/m\].
+    pub intensity: f64,
+    /// σ₀ \[rad\].
+    pub sd0_rad: f64,
+}
+
+/// `"random_walk"`: the grade a random walk in distance, drawn anew in every realisation
+/// (the filters' model of the grade: docs/model.md#filter-truth); its nominal road is flat.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RandomWalk(pub GradeWalk);
+
+impl RandomWalk {
+    const KEYS: &'static [&'static str] = &["grade_walk", "grade_sd0"];
+
+    fn parse(p: &Params<'_>) -> Result<Arc<dyn Profile>, KeyError> {
+        p.only(Self::KEYS)?;
+        Ok(Arc::new(RandomWalk(GradeWalk {
+            intensity: p.positive("grade_walk")?,
+            sd0_rad: p.non_negative("grade_sd0")?,
+        })))
+    }
+}
+
+impl Profile for RandomWalk {
+    fn rises_m(&self, length: usize) -> Vec<f64> {
+        vec![0.0; length]
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "random walk q = {} rad²/m, σ₀ = {} rad",
+            self.0.intensity, self.0.sd0_rad
+        )
+    }
+
+    fn grade_walk(&self) -> Option<GradeWalk> {
+        Some(self.0)
+    }
+}
 
 /// `"cos2"`: y(x) = h cos²(x / P), the thesis's hill.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -21,6 +21,7 @@ mod mcse;
 mod memory;
 mod model_errors;
 mod module_cycles;
+mod no_grade_sensor;
 mod noise;
 mod noise_free;
 mod output_integrity;

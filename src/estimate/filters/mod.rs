@@ -18,6 +18,8 @@
 
 use nalgebra::Matrix3;
 
+pub use ekf::Prior;
+
 pub mod ekf;
 pub mod pcrlb;
 pub mod rls_mf;
@@ -168,5 +170,72 @@ impl Settle {
     /// The sample it settled at, of `n` seen.
     pub fn settled(&self, n: usize) -> Option<usize> {
         (self.from < n).then_some(self.from)
+    }
+}
+
+/// Whether the estimators read a measured grade (`estimation.grade`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GradeSource {
+    /// The measured grade (with its noise, offset or map error), as the regression reads it.
+    #[default]
+    Measured,
+    /// None: no grade signal reaches any estimator.
+    None,
+}
+
+/// The settings of the filters (`[estimation]`; docs/model.md#no-grade-sensor), with the
+/// vehicle's Cd and Cr they take as known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterSettings {
+    /// The prior of the mass and the grade.
+    pub prior: Prior,
+    /// √q_v, the speed equation's process noise per step (`speed_process_sd`) \[m/s\].
+    pub speed_process_sd: f64,
+    /// q, the grade walk's intensity (`grade_walk`) \[rad²/m\].
+    pub grade_walk: f64,
+    /// λ₁ of `rls_mf` (`forgetting_mass`).
+    pub forgetting_mass: f64,
+    /// λ₂ of `rls_mf` (`forgetting_grade`).
+    pub forgetting_grade: f64,
+    /// The half-width of `rls_mf`'s central difference (`difference_window`) \[s\].
+    pub difference_window_s: f64,
+    /// The vehicle's Cd \[-\].
+    pub drag_coefficient: f64,
+    /// The vehicle's Cr \[-\].
+    pub rolling: f64,
+}
+
+impl Default for FilterSettings {
+    /// The defaults of `[estimation]`'s keys; the thesis vehicle's Cd and Cr.
+    fn default() -> Self {
+        FilterSettings {
+            prior: Prior {
+                mass_kg: 1500.0,
+                mass_sd_kg: 250.0,
+                grade_sd_rad: 0.01,
+            },
+            speed_process_sd: 1e-3,
+            grade_walk: 1e-7,
+            forgetting_mass: 1.0,
+            forgetting_grade: 0.999,
+            difference_window_s: 0.5,
+            drag_coefficient: 0.3,
+            rolling: 0.01,
+        }
+    }
+}
+
+impl FilterSettings {
+    /// The filters' model for a regression with k = ½ρA `k`, gravity `g` and speed noise
+    /// of SD `speed_sd`.
+    pub fn model(&self, k: f64, g: f64, speed_sd: f64) -> FilterModel {
+        FilterModel {
+            drag: k * self.drag_coefficient,
+            rolling: self.rolling,
+            g,
+            speed_process_var: self.speed_process_sd * self.speed_process_sd,
+            grade_walk: self.grade_walk,
+            speed_noise_var: speed_sd * speed_sd,
+        }
     }
 }

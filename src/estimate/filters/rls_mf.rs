@@ -50,7 +50,7 @@ pub fn half_window(window_s: f64, step_s: f64) -> usize {
 
 /// The recursion over measured speeds `z` and forces `force` at times `t` (`None` when
 /// there are fewer than 2m + 1 samples); `watch` sees the estimate of 1/M at each sample k
-/// it takes.
+/// up to n − 1 − m (the prior's before the first difference, at k = m).
 pub fn run(
     model: &FilterModel,
     prior: &Prior,
@@ -80,6 +80,10 @@ pub fn run(
     let mut p2 = prior.grade_sd_rad * prior.grade_sd_rad / scale;
     let mut window: f64 = z[..2 * m + 1].iter().sum();
     let count = (2 * m + 1) as f64;
+    // Before the first difference the estimate is the prior's.
+    for k in 0..m {
+        watch(k, theta);
+    }
     for k in m..n - m {
         if k > m {
             window += z[k + m] - z[k - m - 1];

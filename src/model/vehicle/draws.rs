@@ -60,8 +60,9 @@ thread_local! {
     pub(super) static SPAN_NOISE: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
-/// A realisation's own regression and the AR(1) coefficients of its correlated speed noise.
-pub(super) type OwnRegression = (Regression, Option<Vec<[f64; 2]>>);
+/// A realisation's own regression, the AR(1) coefficients of its correlated speed noise,
+/// and its own true θ.
+pub(super) type OwnRegression = (Regression, Option<Vec<[f64; 2]>>, [f64; 3]);
 
 /// One channel's normals in a realisation: read straight from its stream in the blocks the
 /// kernel asks for, or, shared between conditions, as a [`NormalSequence`] whose values do

@@ -38,7 +38,7 @@ impl VehicleModel {
     pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
         match self.regression_of(seed, c, r) {
             Ok(world) => {
-                let (reg, ar1) = self.rows_of(c, &world);
+                let (reg, ar1, _) = self.rows_of(c, &world);
                 self.measure(seed, c, r, reg, ar1, None, None)
             }
             Err(_) => Moments {
@@ -57,25 +57,34 @@ impl VehicleModel {
         let Some(world) = &cond.world else {
             return Ok(None);
         };
-        let reg = world.regression(&self.study, seed, self.stream_key(c), r)?;
+        let (reg, inv_mass) = world.regression(&self.study, seed, self.stream_key(c), r)?;
         let ar1 = cond
             .noise
             .velocity_correlated()
             .then(|| reg.ar1_coefficients(cond.noise.velocity_correlation_s));
-        Ok(Some((reg, ar1)))
+        // A drawn mass moves 1/M and Cd/M; Cd and Cr stay the vehicle's.
+        let truth = match inv_mass {
+            Some(inv_mass) => [
+                inv_mass,
+                self.study.vehicle.drag_coefficient * inv_mass,
+                self.truth[2],
+            ],
+            None => self.truth,
+        };
+        Ok(Some((reg, ar1, truth)))
     }
 
-    /// The regression a realisation of condition `c` is drawn on and its AR(1) coefficients:
-    /// its own (`world`, from [`Self::regression_of`]) or the condition's.
+    /// The regression a realisation of condition `c` is drawn on, its AR(1) coefficients
+    /// and its true θ: its own (`world`, from [`Self::regression_of`]) or the condition's.
     fn rows_of<'a>(
         &'a self,
         c: usize,
         world: &'a Option<OwnRegression>,
-    ) -> (&'a Regression, Option<&'a [[f64; 2]]>) {
+    ) -> (&'a Regression, Option<&'a [[f64; 2]]>, &'a [f64; 3]) {
         let cond = &self.conditions[c];
         world.as_ref().map_or_else(
-            || (&*cond.regression, cond.ar1.as_deref()),
-            |(reg, ar1)| (reg, ar1.as_deref()),
+            || (&*cond.regression, cond.ar1.as_deref(), &self.truth),
+            |(reg, ar1, truth)| (reg, ar1.as_deref(), truth),
         )
     }
 
@@ -217,23 +226,23 @@ impl VehicleModel {
             Ok(world) => world,
             Err(_) => return self.unsimulated(slots),
         };
-        let (reg, ar1) = self.rows_of(c, &world);
+        let (reg, ar1, truth) = self.rows_of(c, &world);
         if self.reads_rows {
             rows.reset(reg, &cond.noise);
             let start = ScanStart {
                 noise: &cond.noise,
                 settings: &self.study.settings,
-                truth: &self.truth,
+                truth,
                 // A realisation's own regression (drawn entries) serves it alone.
                 shared: world.is_none(),
             };
             scans.reset(&self.study.estimators, reg, &start);
             let kept = Some((&mut *rows, &mut *scans));
             let moments = self.measure(seed, c, r, reg, ar1, kept, span);
-            self.conclude(c, reg, &moments, Some((rows, scans)), slots);
+            self.conclude(c, reg, truth, &moments, Some((rows, scans)), slots);
         } else {
             let moments = self.measure(seed, c, r, reg, ar1, None, span);
-            self.conclude(c, reg, &moments, None, slots)
+            self.conclude(c, reg, truth, &moments, None, slots)
         }
     }
 
@@ -398,6 +407,7 @@ impl VehicleModel {
         &self,
         c: usize,
         reg: &Regression,
+        truth: &[f64; 3],
         moments: &Moments,
         rows: Option<(&Rows, &RowScans)>,
         slots: &mut [f64],
@@ -428,7 +438,7 @@ impl VehicleModel {
                 regression: reg,
                 noise: &cond.noise,
                 settings: &self.study.settings,
-                truth: &self.truth,
+                truth,
             });
             let status = if estimate.theta.is_ok() {
                 Status::Ok

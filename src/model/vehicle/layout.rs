@@ -181,7 +181,14 @@ impl Model for VehicleModel {
         let mut slots = slots.chunks_exact_mut(self.layout.realisation_stride());
         for moments in self.measure_group(seed, conditions, first, count) {
             for (&c, (moments, slots)) in conditions.iter().zip(moments.iter().zip(&mut slots)) {
-                self.conclude(c, &self.conditions[c].regression, moments, None, slots);
+                self.conclude(
+                    c,
+                    &self.conditions[c].regression,
+                    &self.truth,
+                    moments,
+                    None,
+                    slots,
+                );
             }
         }
     }

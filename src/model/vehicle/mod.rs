@@ -34,7 +34,9 @@ use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::conversions::{EXTRAS, ExtraInputs};
-use crate::estimate::estimators::{ESTIMATORS, Estimate, EstimatorRef, FirstOrder, reads_rows};
+use crate::estimate::estimators::{
+    ESTIMATORS, Estimate, EstimateColumn, EstimatorRef, FirstOrder, reads_rows,
+};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, LevelAxis, Study, StudyError, VehicleStudy};
@@ -233,6 +235,7 @@ impl VehicleModel {
                 let world = World::new(
                     condition_truth,
                     grade_map,
+                    vs.filter_truth,
                     Place {
                         cycle: cycle.cycle.clone(),
                         table: cycle.table.clone(),
@@ -437,12 +440,13 @@ fn uneven_differentiation(
 }
 
 /// A per-row extra column of the tables: one that every estimate has (an index into
-/// [`EXTRAS`]) or an estimator's own (its [`Estimator::columns`](crate::estimate::estimator::Estimator::columns)`[k]`, NaN in the other
+/// [`EXTRAS`]) or estimators' own (an entry of their [`Estimator::columns`](crate::estimate::estimator::Estimator::columns),
+/// one column for every estimator that has an entry of its name, NaN in the other
 /// estimators' rows).
 #[derive(Debug, Clone, Copy)]
 enum ExtraColumn {
     Every(usize),
-    Own(EstimatorRef, usize),
+    Own(&'static EstimateColumn),
 }
 
 impl ExtraColumn {
@@ -450,14 +454,11 @@ impl ExtraColumn {
     fn info(self) -> ExtraInfo {
         match self {
             ExtraColumn::Every(j) => ExtraInfo::from(&EXTRAS[j]),
-            ExtraColumn::Own(e, k) => {
-                let column = &e.columns()[k];
-                ExtraInfo {
-                    name: column.name,
-                    unit: column.unit,
-                    description: column.description,
-                }
-            }
+            ExtraColumn::Own(column) => ExtraInfo {
+                name: column.name,
+                unit: column.unit,
+                description: column.description,
+            },
         }
     }
 
@@ -465,26 +466,33 @@ impl ExtraColumn {
     fn value(self, inputs: &ExtraInputs<'_>, estimator: EstimatorRef, estimate: &Estimate) -> f64 {
         match self {
             ExtraColumn::Every(j) => (EXTRAS[j].value)(inputs),
-            ExtraColumn::Own(e, k) if e == estimator => estimate.columns[k],
-            ExtraColumn::Own(..) => f64::NAN,
+            ExtraColumn::Own(column) => estimator
+                .columns()
+                .iter()
+                .position(|c| c.name == column.name)
+                .map_or(f64::NAN, |k| estimate.columns[k]),
         }
     }
 }
 
 /// The per-row extras the tables of `study` carry: those of every estimate, then each
-/// registered estimator's own (in the order of [`ESTIMATORS`]) that are in every study or
-/// whose estimator the study lists.
+/// registered estimator's own (in the order of [`ESTIMATORS`], a name once, where it first
+/// appears) that are in every study or whose estimator the study lists.
 fn study_extras(study: &VehicleStudy) -> Vec<ExtraColumn> {
-    let every = (0..EXTRAS.len()).map(ExtraColumn::Every);
-    let own = ESTIMATORS.iter().flat_map(|&e| {
+    let mut extras: Vec<ExtraColumn> = (0..EXTRAS.len()).map(ExtraColumn::Every).collect();
+    for &e in ESTIMATORS.iter() {
         let e = EstimatorRef(e);
         let listed = study.estimators.contains(&e);
-        let columns = e.columns().iter().enumerate();
-        columns
-            .filter(move |(_, c)| c.in_every_study || listed)
-            .map(move |(k, _)| ExtraColumn::Own(e, k))
-    });
-    every.chain(own).collect()
+        for column in e.columns().iter().filter(|c| c.in_every_study || listed) {
+            let known = extras
+                .iter()
+                .any(|x| matches!(x, ExtraColumn::Own(c) if c.name == column.name));
+            if !known {
+                extras.push(ExtraColumn::Own(column));
+            }
+        }
+    }
+    extras
 }
 
 /// The sums (indices into [`CONTROLS`]) that are control variates in some condition of

@@ -53,6 +53,7 @@ impl VehicleModel {
             grade_map_length_m: 200.0,
             air_speed: AirSpeed::Ground,
             truth,
+            filter_truth: Default::default(),
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
             file: origin.to_string(),

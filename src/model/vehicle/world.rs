@@ -7,6 +7,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 use super::prepare::{measured_speeds, used_samples};
+use crate::dynamics::filter_truth::FilterTruth;
 use crate::dynamics::{DriveCycle, Prefix, Road, Truth};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::Regression;
@@ -96,6 +97,8 @@ pub(super) struct World {
     grade_bias_rad: f64,
     /// The map's error (`None`: the map is exact).
     pub grade_map: Option<GradeMap>,
+    /// A truth that follows the filters' model (drawn when it [is](FilterTruth::is_drawn)).
+    filter_truth: FilterTruth,
 }
 
 /// Where a condition's realisations are made: its cycle, road and row selection.
@@ -116,10 +119,15 @@ pub(super) struct Place {
 }
 
 impl World {
-    /// The world of a condition with `truth` and `grade_map` at `place`; `None` when its
-    /// realisations draw nothing beyond their sensor noise.
-    pub fn new(truth: Truth, grade_map: Option<GradeMap>, place: Place) -> Option<World> {
-        if !truth.is_drawn() && grade_map.is_none() {
+    /// The world of a condition with `truth`, `grade_map` and `filter_truth` at `place`;
+    /// `None` when its realisations draw nothing beyond their sensor noise.
+    pub fn new(
+        truth: Truth,
+        grade_map: Option<GradeMap>,
+        filter_truth: FilterTruth,
+        place: Place,
+    ) -> Option<World> {
+        if !truth.is_drawn() && grade_map.is_none() && !filter_truth.is_drawn() {
             return None;
         }
         let start = place.cycle.t_s.first().copied().unwrap_or(0.0);
@@ -135,22 +143,37 @@ impl World {
             source: place.source,
             grade_bias_rad: place.grade_bias_rad,
             grade_map,
+            filter_truth,
         })
     }
 
     /// The regression of realisation `r`: its truth (each drawn entry from its own stream
     /// of (`seed`, `key`)) driven or logged, its map's grade, the rows selected as the
-    /// condition's are. An error says why the realisation's truth cannot be used (the
-    /// vehicle stalled or ran off the terrain, or too few rows are left).
+    /// condition's are; and its own 1/M where the truth draws one. An error says why the
+    /// realisation's truth cannot be used (the vehicle stalled or ran off the terrain, or
+    /// too few rows are left).
     pub fn regression(
         &self,
         vs: &VehicleStudy,
         seed: u64,
         key: u64,
         r: u64,
-    ) -> Result<Regression, String> {
+    ) -> Result<(Regression, Option<f64>), String> {
         let nominal = &*self.cycle;
-        let (mut cycle, truth) = if !self.truth.is_drawn() {
+        let mut inv_mass = None;
+        let (mut cycle, truth) = if self.filter_truth.is_drawn() {
+            // The filters' model: its own Euler path (validated to come without model
+            // errors).
+            let (cycle, drawn) = self.filter_truth.cycle(
+                nominal,
+                &vs.vehicle,
+                self.table.as_deref(),
+                self.scale,
+                (seed, key, r),
+            )?;
+            inv_mass = self.filter_truth.mass_prior.map(|_| drawn);
+            (cycle, Cow::Borrowed(&self.truth))
+        } else if !self.truth.is_drawn() {
             (nominal.clone(), Cow::Borrowed(&self.truth))
         } else if self.truth.moves_per_realisation() {
             // The force the truth needs changes: the drive mode makes the cycle again
@@ -199,21 +222,24 @@ impl World {
                 cycle.grade_rad[i] = mapped_grade(cycle.grade_rad[i], cycle.x_m[i], heading, &d);
             }
         }
-        Ok(match self.source {
-            Acceleration::Differentiated => {
-                Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle)
-            }
-            Acceleration::Model => {
-                let mut selected = cycle.select(&used);
-                if self.grade_bias_rad != 0.0 {
-                    selected
-                        .grade_rad
-                        .iter_mut()
-                        .for_each(|g| *g += self.grade_bias_rad);
+        Ok((
+            match self.source {
+                Acceleration::Differentiated => {
+                    Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle)
                 }
-                Regression::new(&selected, &vs.vehicle)
-            }
-        })
+                Acceleration::Model => {
+                    let mut selected = cycle.select(&used);
+                    if self.grade_bias_rad != 0.0 {
+                        selected
+                            .grade_rad
+                            .iter_mut()
+                            .for_each(|g| *g += self.grade_bias_rad);
+                    }
+                    Regression::new(&selected, &vs.vehicle)
+                }
+            },
+            inv_mass,
+        ))
     }
 }
 

@@ -1,0 +1,160 @@
+//! No grade sensor: the filters of mass and grade (`ekf`, `rls_mf`), the bound along each
+//! realisation's true path, and a truth that follows the filters' model
+//! (docs/model.md#no-grade-sensor, docs/model.md#filter-truth).
+
+use std::path::Path;
+
+use chassis_mc::montecarlo::Silent;
+use chassis_mc::run::{RunOptions, run_study, summarize};
+use chassis_mc::study::Study;
+
+use super::common::*;
+
+/// The thesis vehicle and torque from 10 m/s for `duration` s at 0.01 s, speed noise
+/// 0.1 m/s, `ekf` and `rls_mf` without the grade; the truth follows the filters' model
+/// (a random-walk grade, 1/M from the prior, the filters' process noise).
+fn filter_model_study(duration: f64, realisations: u64) -> (String, Study) {
+    let text = study_text("thesis.toml");
+    let text = set_key(&text, "duration", &format!("{duration}"));
+    let text = set_key(&text, "initial_speed", "10.0");
+    let text = set_key(&text, "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[0.1]");
+    let text = set_key(
+        &text,
+        "profile",
+        "\"random_walk\"\ngrade_walk = 1e-7\ngrade_sd0 = 0.01",
+    );
+    let text: String = text
+        .lines()
+        .filter(|l| !l.starts_with("height") && !l.starts_with("period"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let text = set_key(
+        &text,
+        "estimators",
+        "[\"ekf\", \"rls_mf\"]\ngrade = \"none\"\nprior_mass = 1500.0\nprior_mass_sd = 250.0\n\
+         grade_sd0 = 0.01\ngrade_walk = 1e-7\nspeed_process_sd = 0.001",
+    );
+    let text = format!("{text}\n[truth]\nspeed_process_sd = 0.001\nmass_from_prior = true\n");
+    let study = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(realisations), None)
+        .unwrap();
+    (text, study)
+}
+
+fn bytes(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Column `col` of the rows of `estimator` in realisations.parquet.
+fn realisation_col(dir: &Path, estimator: &str, col: &str) -> Vec<f64> {
+    let t = read_table(&dir.join("realisations.parquet"));
+    let e = str_col(&t, "estimator");
+    f64_col(&t, col)
+        .into_iter()
+        .zip(e)
+        .filter(|(_, e)| e == estimator)
+        .map(|(v, _)| v)
+        .collect()
+}
+
+#[test]
+fn the_filters_give_the_same_bytes_across_threads_shards_and_extension() {
+    let (text, study) = filter_model_study(30.0, 24);
+    let (one, _) = run(&study, Some(1));
+    let (two, _) = run(&study, Some(2));
+    for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"] {
+        assert!(
+            bytes(&one.path().join(name)) == bytes(&two.path().join(name)),
+            "{name}: 1 and 2 threads differ"
+        );
+    }
+    // Each realisation drew its own truth: its own 1/M, so its own error and path bound.
+    let bound = realisation_col(one.path(), "ekf", "path_bound_inv_mass");
+    assert_ne!(bound[0], bound[1]);
+
+    let sharded = tempfile::tempdir().unwrap();
+    run_shards(&study, sharded.path(), &[2, 0, 1]);
+    summarize(&[sharded.path().to_path_buf()], sharded.path(), false).unwrap();
+    assert!(
+        bytes(&one.path().join("summary.parquet"))
+            == bytes(&sharded.path().join("summary.parquet")),
+        "sharded summary differs"
+    );
+
+    let grown = tempfile::tempdir().unwrap();
+    let options = RunOptions::new(grown.path());
+    let first = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(12), None)
+        .unwrap();
+    run_study(&first, &options, &Silent).unwrap();
+    run_study(&study, &options, &Silent).unwrap();
+    for name in ["realisations.parquet", "summary.parquet"] {
+        assert!(
+            bytes(&one.path().join(name)) == bytes(&grown.path().join(name)),
+            "{name}: extended run differs"
+        );
+    }
+}
+
+/// Where the truth follows its model, the EKF is consistent: its mean NEES is a χ²₃'s, its
+/// own 95 % interval of 1/M covers, and its RMSE of 1/M is the bound along the true paths.
+#[test]
+fn the_ekf_is_consistent_where_the_truth_follows_its_model() {
+    let r = 400;
+    let (_, study) = filter_model_study(300.0, r);
+    let (dir, _) = run(&study, None);
+    let nees = realisation_col(dir.path(), "ekf", "nees");
+    let error = realisation_col(dir.path(), "ekf", "inv_mass_error");
+    let sd = realisation_col(dir.path(), "ekf", "filter_sd_inv_mass");
+    let bound = realisation_col(dir.path(), "ekf", "path_bound_inv_mass");
+    let n = r as f64;
+    assert_eq!(nees.len(), r as usize);
+    // The mean of R χ²₃ has SD √(6/R) = 0.12 at R = 400: 4 SD is 0.49.
+    let mean_nees = nees.iter().sum::<f64>() / n;
+    assert!(
+        (mean_nees - 3.0).abs() < 4.0 * (6.0 / n).sqrt(),
+        "mean NEES {mean_nees}"
+    );
+    // Coverage of a 95 % interval over R: binomial SE √(0.95·0.05/R) = 1.09 %; 4 SE.
+    let covered = error
+        .iter()
+        .zip(&sd)
+        .filter(|(e, s)| e.abs() <= 1.96 * **s)
+        .count() as f64
+        / n;
+    assert!(
+        (covered - 0.95).abs() < 4.0 * (0.95 * 0.05 / n).sqrt(),
+        "coverage {covered}"
+    );
+    // RMSE over the bound's root-mean-square: the MSE of R normal errors has a relative SE
+    // of √(2/R), the RMSE half of it (3.5 % at R = 400); 4 MCSE.
+    let mse = error.iter().map(|e| e * e).sum::<f64>() / n;
+    let bound_ms = bound.iter().map(|b| b * b).sum::<f64>() / n;
+    let ratio = (mse / bound_ms).sqrt();
+    assert!(
+        (ratio - 1.0).abs() < 4.0 * 0.5 * (2.0 / n).sqrt(),
+        "RMSE / path bound {ratio}"
+    );
+}
+
+#[test]
+fn without_the_grade_an_estimator_that_reads_it_is_refused() {
+    let text = study_text("thesis.toml");
+    let text = set_key(&text, "estimators", "[\"ols\", \"ekf\"]\ngrade = \"none\"");
+    let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
+    let shown = e.to_string();
+    assert!(shown.contains("estimation.estimators[0]"), "{shown}");
+    assert!(shown.contains("ols reads the measured grade"), "{shown}");
+    // A filter's key without a filter listed says what it applies to.
+    let text = set_key(
+        &study_text("thesis.toml"),
+        "estimators",
+        "[\"ols\"]\ngrade_walk = 1e-6",
+    );
+    let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
+    assert!(e.to_string().contains("estimation.grade_walk"), "{e}");
+    assert!(e.to_string().contains("rls_mf and ekf"), "{e}");
+}
