@@ -40,7 +40,13 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             study.drive.describe()
         )],
         axes: axes().map(VehicleAxis::column).collect(),
-        condition_metrics: vec!["terrain_ms_grid", "terrain_ms_cycle"],
+        condition_metrics: {
+            let mut metrics = vec!["terrain_ms_grid", "terrain_ms_cycle"];
+            if estimators.iter().any(|e| e.estimates_grade()) {
+                metrics.extend(super::pcrlb::METRICS);
+            }
+            metrics
+        },
         figure_x: Some(FigureX {
             metric: "terrain_ms_grid",
             label: "terrain variability ς = mean θ² over the terrain table [rad²]",

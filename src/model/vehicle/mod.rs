@@ -19,6 +19,7 @@ mod cycles_table;
 mod draws;
 mod kernel;
 mod layout;
+mod pcrlb;
 mod prepare;
 mod replayed;
 mod world;
@@ -111,12 +112,14 @@ impl VehicleModel {
             .vehicle()
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
             .clone();
-        Self::prepare(vs, &|key: &str, reason: String| study.error_at(key, reason))
+        Self::prepare(vs, study.seed(), &|key: &str, reason: String| {
+            study.error_at(key, reason)
+        })
     }
 
-    /// Prepare every condition of the validated `vs`; `error_at` names a key of the study
-    /// it came from in an error.
-    fn prepare(vs: VehicleStudy, error_at: &ErrorAt<'_>) -> Result<Self, StudyError> {
+    /// Prepare every condition of the validated `vs` run with `seed`; `error_at` names a key
+    /// of the study it came from in an error.
+    fn prepare(vs: VehicleStudy, seed: u64, error_at: &ErrorAt<'_>) -> Result<Self, StudyError> {
         let truth = vs.vehicle.theta();
         let free = vs.settings.parameters.free();
         let cycles = scale_cycles(&vs, error_at)?;
@@ -126,6 +129,7 @@ impl VehicleModel {
         uneven_differentiation(&vs, &segments, error_at)?;
         let points = grid(&vs);
         let controls = study_controls(&vs);
+        let filters_listed = vs.estimators.iter().any(|e| e.estimates_grade());
         let layout_controls = &controls;
         // Scale, duration and runs are the outermost axes: the conditions of one draw group
         // are `inner` apart.
@@ -260,12 +264,22 @@ impl VehicleModel {
                 let control_covariance = (!active.is_empty())
                     .then(|| sum_covariances(&regression, &noise, ar1.as_deref(), &active))
                     .flatten();
+                let mut metrics = segment.metrics.clone();
+                if filters_listed {
+                    let key = match vs.share_across_scales {
+                        true => SHARED_GROUP | group as u64,
+                        false => group as u64,
+                    };
+                    let bound =
+                        pcrlb::metrics(&vs, &regression, world.as_ref(), &noise, (seed, key));
+                    metrics.extend(bound);
+                }
                 Condition {
                     info: ConditionInfo {
                         axes: axes()
                             .map(|a| a.value(&vs, point, segment.duration_s))
                             .collect(),
-                        metrics: segment.metrics.clone(),
+                        metrics,
                         truth: free.iter().map(|&i| truth[i]).collect(),
                         bias_model: bias_models[k][source][bias].clone(),
                         model_errors: model_errors(&vs, point.truth_index(&vs)),

@@ -61,6 +61,7 @@ impl VehicleModel {
             line: None,
             reason,
         };
-        Self::prepare(vs, error_at)
+        // A log's one truth draws nothing: the seed is not read.
+        Self::prepare(vs, 0, error_at)
     }
 }

@@ -1,0 +1,103 @@
+//! The condition's posterior Cramér–Rao bound of the filters' model (`pcrlb_*` metrics of
+//! the summary): the recursion with each expectation the mean over the condition's truths
+//! (docs/model.md#pcrlb).
+
+use super::world::World;
+use crate::estimate::channels::NoiseLevels;
+use crate::estimate::filters::{CHECKPOINTS_S, TruePath, pcrlb};
+use crate::estimate::regression::Regression;
+use crate::study::VehicleStudy;
+
+/// The truths the bound averages over where every realisation has its own: those of
+/// realisations 0 … 99 (the same whatever R, so that an extension keeps the bound).
+pub(super) const TRUTHS: u64 = 100;
+
+/// The metrics' names: the bound's SD of 1/M and of the grade at the last row, then at
+/// each of [`CHECKPOINTS_S`].
+pub(super) const METRICS: [&str; 8] = [
+    "pcrlb_inv_mass",
+    "pcrlb_grade",
+    "pcrlb_inv_mass_60s",
+    "pcrlb_inv_mass_120s",
+    "pcrlb_inv_mass_300s",
+    "pcrlb_grade_60s",
+    "pcrlb_grade_120s",
+    "pcrlb_grade_300s",
+];
+
+/// A truth's path: its regression's rows, their true grade and 1/M.
+struct Path {
+    reg: Regression,
+    grade: Vec<f64>,
+    inv_mass: f64,
+}
+
+impl Path {
+    fn new(reg: Regression, inv_mass: f64) -> Path {
+        let grade = reg
+            .sin_grade
+            .iter()
+            .zip(reg.cos_grade.iter())
+            .map(|(s, c)| s.atan2(*c))
+            .collect();
+        Path {
+            reg,
+            grade,
+            inv_mass,
+        }
+    }
+
+    fn view(&self) -> TruePath<'_> {
+        TruePath {
+            t: &self.reg.t,
+            v: &self.reg.v,
+            grade: &self.grade,
+            force: &self.reg.f,
+            inv_mass: self.inv_mass,
+        }
+    }
+}
+
+/// The metrics of a condition with `regression` and `noise`: along its one truth, or the
+/// mean over the first [`TRUTHS`] of its `world`'s (drawn from (`seed`, `key`); those that
+/// cannot be simulated, or whose rows differ from the first's, left out). NaN where the
+/// bound is undefined (no speed noise, or the information singular).
+pub(super) fn metrics(
+    vs: &VehicleStudy,
+    regression: &Regression,
+    world: Option<&World>,
+    noise: &NoiseLevels,
+    (seed, key): (u64, u64),
+) -> [f64; METRICS.len()] {
+    let settings = &vs.settings.filter;
+    let model = settings.model(regression.k, regression.g, noise.speed_sd());
+    let inv_mass = 1.0 / vs.vehicle.mass_kg;
+    let paths: Vec<Path> = match world {
+        None => vec![Path::new(regression.clone(), inv_mass)],
+        Some(world) => (0..TRUTHS)
+            .filter_map(|r| world.regression(vs, seed, key, r).ok())
+            .map(|(reg, own)| Path::new(reg, own.unwrap_or(inv_mass)))
+            .collect(),
+    };
+    let Some(first) = paths.first() else {
+        return [f64::NAN; METRICS.len()];
+    };
+    let views: Vec<TruePath<'_>> = paths
+        .iter()
+        .filter(|p| p.reg.t[..] == first.reg.t[..])
+        .map(Path::view)
+        .collect();
+    let Ok(bound) = pcrlb::bound(&model, &settings.prior, &views) else {
+        return [f64::NAN; METRICS.len()];
+    };
+    let mut out = [f64::NAN; METRICS.len()];
+    out[0] = bound.end.inv_mass_var.sqrt();
+    out[1] = bound.end.grade_var.sqrt();
+    for (i, c) in bound.checkpoints.iter().enumerate() {
+        if let Some(c) = c {
+            out[2 + i] = c.inv_mass_var.sqrt();
+            out[2 + CHECKPOINTS_S.len() + i] = c.grade_var.sqrt();
+        }
+    }
+    out
+}
