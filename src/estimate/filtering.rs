@@ -28,10 +28,21 @@ const fn column(name: &'static str, unit: &'static str, description: &'static st
     }
 }
 
+/// The name of the column of a filter's error of 1/M at the last row.
+pub const INV_MASS_ERROR: &str = "inv_mass_error";
+/// The name of the column of the bound's SD of 1/M along the realisation's own path.
+pub const PATH_BOUND_INV_MASS: &str = "path_bound_inv_mass";
+/// The name of the column of a filter's own SD of 1/M.
+pub const FILTER_SD_INV_MASS: &str = "filter_sd_inv_mass";
+/// The name of the column of `ekf`'s NEES.
+pub const NEES: &str = "nees";
+/// The name of the condition metric of the PCRLB's SD of 1/M at the last row.
+pub const PCRLB_INV_MASS: &str = "pcrlb_inv_mass";
+
 /// The columns both filters have, in this order at the start of their own.
 const SHARED: [EstimateColumn; 7] = [
     column(
-        "filter_sd_inv_mass",
+        FILTER_SD_INV_MASS,
         "1/kg",
         "ekf, rls_mf: the filter's own SD of 1/M at the last row",
     ),
@@ -41,12 +52,12 @@ const SHARED: [EstimateColumn; 7] = [
         "ekf, rls_mf: time from the first row after which the 1/M estimate stays within ±2 % of its truth (null if never)",
     ),
     column(
-        "inv_mass_error",
+        INV_MASS_ERROR,
         "1/kg",
         "ekf, rls_mf: the estimate of 1/M at the last row minus the realisation's true 1/M",
     ),
     column(
-        "path_bound_inv_mass",
+        PATH_BOUND_INV_MASS,
         "1/kg",
         "ekf, rls_mf: the posterior Cramér–Rao bound's SD of 1/M along the realisation's own true path, at the last row",
     ),
@@ -77,7 +88,7 @@ static EKF_COLUMNS: [EstimateColumn; 14] = [
     SHARED[5],
     SHARED[6],
     column(
-        "nees",
+        NEES,
         "1",
         "ekf: the normalised estimation error squared of [V, 1/M, φ] at the last row",
     ),

@@ -31,9 +31,10 @@ fn field(layout: &Layout, column: SummaryColumn) -> Field {
         SummaryColumn::N | SummaryColumn::NFailed | SummaryColumn::NControls => {
             Field::new(name, DataType::Int64, false)
         }
-        SummaryColumn::Measure(..) | SummaryColumn::Bound(..) | SummaryColumn::BiasModel => {
-            f64_field(name, true)
-        }
+        SummaryColumn::Measure(..)
+        | SummaryColumn::Bound(..)
+        | SummaryColumn::Filter(..)
+        | SummaryColumn::BiasModel => f64_field(name, true),
     }
 }
 
@@ -91,12 +92,12 @@ pub fn summary_batch(
                 SummaryColumn::NControls => Arc::new(Int64Array::from_iter_values(
                     rows.iter().map(|r| r.n_controls as i64),
                 )),
-                SummaryColumn::Measure(..) | SummaryColumn::Bound(..) => {
-                    Arc::new(Float64Array::from_iter(
-                        rows.iter()
-                            .map(|r| column.measure_value(r).and_then(finite_or_null)),
-                    ))
-                }
+                SummaryColumn::Measure(..)
+                | SummaryColumn::Bound(..)
+                | SummaryColumn::Filter(..) => Arc::new(Float64Array::from_iter(
+                    rows.iter()
+                        .map(|r| column.measure_value(r).and_then(finite_or_null)),
+                )),
             }
         })
         .collect();
@@ -210,6 +211,7 @@ fn decode(
             bounds: vec![None; layout.bounds.len()],
             measures: [Estimate::undefined(); MEASURE_COUNT],
             n_controls: n_controls.value(i) as u64,
+            filter: None,
         };
         for (column, array) in &measures {
             column.set_measure(&mut row, number(array, i));

@@ -15,6 +15,7 @@ use super::OutputError;
 use crate::model::{Axis, AxisKind, AxisValue, ConditionInfo, Layout, Status};
 use crate::montecarlo::Chunk;
 use crate::stats::summary::Record;
+use crate::stats::summary::filter::INPUTS;
 
 pub(super) fn f64_field(name: impl Into<String>, nullable: bool) -> Field {
     Field::new(name, DataType::Float64, nullable)
@@ -137,6 +138,8 @@ pub struct RealisationBatches {
     bounds: Vec<f64>,
     /// row-major control variates, one per layout control per row
     controls: Vec<f64>,
+    /// Per row, the filters' columns (NaN where absent).
+    filter: Vec<[f64; 4]>,
     n_params: usize,
     n_bound_values: usize,
     n_controls: usize,
@@ -164,6 +167,12 @@ impl RealisationBatches {
             );
         }
         names.extend(layout.controls.iter().map(|x| x.name.to_string()));
+        names.extend(
+            INPUTS
+                .iter()
+                .filter(|&&name| layout.extras.iter().any(|x| x.name == name))
+                .map(|name| name.to_string()),
+        );
         names
     }
 
@@ -234,6 +243,19 @@ impl RealisationBatches {
             .iter()
             .map(|x| f64_col(x.name))
             .collect::<Result<_, _>>()?;
+        // The filters' columns, where the layout has them.
+        let filter_cols: Vec<Option<Float64Array>> = INPUTS
+            .iter()
+            .map(|&name| {
+                layout
+                    .extras
+                    .iter()
+                    .any(|x| x.name == name)
+                    .then(|| f64_col(name))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        let mut filter = Vec::with_capacity(n);
         let mut theta = Vec::with_capacity(n * np);
         let mut bounds = Vec::with_capacity(n * bound_cols.len());
         let mut controls = Vec::with_capacity(n * control_cols.len());
@@ -253,6 +275,10 @@ impl RealisationBatches {
                     .iter()
                     .map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }),
             );
+            filter.push(std::array::from_fn(|j| match &filter_cols[j] {
+                Some(c) if !c.is_null(i) => c.value(i),
+                _ => f64::NAN,
+            }));
         }
         let mut condition = Vec::with_capacity(n);
         let mut realisation = Vec::with_capacity(n);
@@ -276,6 +302,7 @@ impl RealisationBatches {
             theta,
             bounds,
             controls,
+            filter,
             n_params: np,
             n_bound_values: bound_cols.len(),
             n_controls: control_cols.len(),
@@ -302,6 +329,7 @@ impl RealisationBatches {
             theta: &self.theta[i * self.n_params..(i + 1) * self.n_params],
             bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
             controls: &self.controls[i * self.n_controls..(i + 1) * self.n_controls],
+            filter: self.filter[i],
         }
     }
 

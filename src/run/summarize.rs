@@ -13,6 +13,7 @@ use crate::montecarlo;
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OpenedFile, OutputError, keys, set};
 use crate::stats::measures::Z_95;
+use crate::stats::summary::filter::INPUTS;
 use crate::stats::summary::{ConditionSummarizer, Record, SummaryError, SummaryRow};
 use crate::study::{Study, StudyError};
 
@@ -307,6 +308,8 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
     // realisation is a pure function of its seed, condition and index, so the blocks give
     // what one call over every condition gives).
     let all: Vec<usize> = (0..infos.len()).collect();
+    // The filters' columns among the extras (None: the layout has none).
+    let filter_extras = INPUTS.map(|name| layout.extras.iter().position(|x| x.name == name));
     for block in all.chunks(IN_MEMORY_BLOCK) {
         let slots = montecarlo::in_memory(model, study.seed(), block, 0..r, &montecarlo::Silent);
         let records = |i: usize| {
@@ -319,6 +322,7 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
                 theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
                 bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
                 controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
+                filter: filter_extras.map(|x| x.map_or(f64::NAN, |x| s[layout.extra_at(e, x)])),
             })
         };
         for (k, &c) in block.iter().enumerate() {

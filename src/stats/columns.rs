@@ -8,6 +8,7 @@
 
 use super::measures::Estimate;
 pub use super::summary::Measure;
+use super::summary::filter::{FilterMeasure, INPUTS};
 use super::summary::{BoundSummary, SummaryRow};
 use crate::model::Layout;
 
@@ -161,6 +162,9 @@ pub enum SummaryColumn {
     /// A measure of bound `b` of the layout, or its MCSE (f64, null where the bound does
     /// not apply).
     Bound(usize, BoundMeasure, Part),
+    /// A filter's measure or its MCSE (f64, null but on a filter's `inv_mass` row; the
+    /// columns only where the realisations have the filters' columns).
+    Filter(FilterMeasure, Part),
 }
 
 impl SummaryColumn {
@@ -192,6 +196,12 @@ impl SummaryColumn {
                 }
             }
         }
+        if layout.extras.iter().any(|x| x.name == INPUTS[0]) {
+            for m in FilterMeasure::ALL {
+                out.push(SummaryColumn::Filter(m, Part::Value));
+                out.push(SummaryColumn::Filter(m, Part::Mcse));
+            }
+        }
         out
     }
 
@@ -212,6 +222,7 @@ impl SummaryColumn {
             SummaryColumn::Bound(b, m, part) => {
                 format!("{}{}", m.column(layout.bounds[b].name), part.suffix())
             }
+            SummaryColumn::Filter(m, part) => format!("{}{}", m.name(), part.suffix()),
         }
     }
 
@@ -224,6 +235,11 @@ impl SummaryColumn {
                 row.bounds[b]
                     .as_ref()
                     .map_or(f64::NAN, |s| part.get(m.of(s))),
+            ),
+            SummaryColumn::Filter(m, part) => Some(
+                row.filter
+                    .as_ref()
+                    .map_or(f64::NAN, |f| part.get(f[m.index()])),
             ),
             _ => None,
         }
@@ -238,6 +254,13 @@ impl SummaryColumn {
                 if let Some(v) = v {
                     let s = row.bounds[b].get_or_insert_with(BoundSummary::undefined);
                     m.set(s, part, v);
+                }
+            }
+            SummaryColumn::Filter(m, part) => {
+                if let Some(v) = v {
+                    let undefined = Estimate::new(f64::NAN, f64::NAN);
+                    let f = row.filter.get_or_insert([undefined; 4]);
+                    part.set(&mut f[m.index()], v);
                 }
             }
             _ => {}

@@ -195,6 +195,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         theta: std::slice::from_ref(&theta[i]),
         bounds: std::slice::from_ref(&b[i]),
         controls: &[],
+        filter: [f64::NAN; 4],
     };
     for &i in &order {
         s.first_pass(&record(i)).unwrap();

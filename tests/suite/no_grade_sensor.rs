@@ -138,6 +138,40 @@ fn the_ekf_is_consistent_where_the_truth_follows_its_model() {
         (ratio - 1.0).abs() < 4.0 * 0.5 * (2.0 / n).sqrt(),
         "RMSE / path bound {ratio}"
     );
+
+    // The summary's measures are these, on the ekf's inv_mass row.
+    let t = read_table(&dir.path().join("summary.parquet"));
+    let row = str_col(&t, "estimator")
+        .iter()
+        .zip(str_col(&t, "parameter"))
+        .position(|(e, p)| e == "ekf" && p == "inv_mass")
+        .unwrap();
+    let at = |col: &str| f64_col(&t, col)[row];
+    // Exact sums against a plain sum: equal to rounding.
+    assert!((at("nees_mean") / mean_nees - 1.0).abs() < 1e-12);
+    assert_eq!(at("coverage_filter"), covered);
+    assert!((at("rmse_over_path_bound") / ratio - 1.0).abs() < 1e-12);
+    // The PCRLB is a bound where the truth follows the model: the RMSE of 1/M and of the
+    // grade are not below it beyond 3 MCSE (an RMSE's MCSE ≈ RMSE/√(2R)), at the end and at
+    // 60, 120 and 300 s.
+    let rmse = |col: &str| {
+        let e = realisation_col(dir.path(), "ekf", col);
+        (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt()
+    };
+    for (error, bound) in [
+        ("inv_mass_error", "pcrlb_inv_mass"),
+        ("inv_mass_error_60s", "pcrlb_inv_mass_60s"),
+        ("inv_mass_error_120s", "pcrlb_inv_mass_120s"),
+        ("inv_mass_error_300s", "pcrlb_inv_mass_300s"),
+        ("grade_error", "pcrlb_grade"),
+        ("grade_error_60s", "pcrlb_grade_60s"),
+        ("grade_error_120s", "pcrlb_grade_120s"),
+        ("grade_error_300s", "pcrlb_grade_300s"),
+    ] {
+        let (rmse, bound) = (rmse(error), at(bound));
+        let mcse = rmse / (2.0 * n).sqrt();
+        assert!(rmse > bound - 3.0 * mcse, "{error}: RMSE {rmse} below {bound}");
+    }
 }
 
 #[test]

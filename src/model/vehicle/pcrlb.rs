@@ -4,6 +4,7 @@
 
 use super::world::World;
 use crate::estimate::channels::NoiseLevels;
+use crate::estimate::filtering::PCRLB_INV_MASS;
 use crate::estimate::filters::{CHECKPOINTS_S, TruePath, pcrlb};
 use crate::estimate::regression::Regression;
 use crate::study::VehicleStudy;
@@ -15,7 +16,7 @@ pub(super) const TRUTHS: u64 = 100;
 /// The metrics' names: the bound's SD of 1/M and of the grade at the last row, then at
 /// each of [`CHECKPOINTS_S`].
 pub(super) const METRICS: [&str; 8] = [
-    "pcrlb_inv_mass",
+    PCRLB_INV_MASS,
     "pcrlb_grade",
     "pcrlb_inv_mass_60s",
     "pcrlb_inv_mass_120s",

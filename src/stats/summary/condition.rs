@@ -2,7 +2,9 @@
 
 use std::collections::BTreeMap;
 
+use super::filter::FilterAcc;
 use super::{BoundSummary, Measure, MeasureInputs, Record, SummaryError, SummaryRow};
+use crate::estimate::filtering::PCRLB_INV_MASS;
 use crate::model::{ConditionInfo, Layout};
 use crate::numeric::dd::Dd;
 use crate::numeric::sum::ExactSum;
@@ -112,6 +114,8 @@ pub struct ConditionSummarizer<'a> {
     spread_solver: Option<SpreadSolver>,
     /// The current realisation's HC2 weight (pass two).
     spread_weight: f64,
+    /// [estimator]: the sums of a filter's own columns.
+    filter: Vec<FilterAcc>,
 }
 
 impl<'a> ConditionSummarizer<'a> {
@@ -158,6 +162,7 @@ impl<'a> ConditionSummarizer<'a> {
             current: None,
             current_estimators: vec![false; e],
             current_centred: vec![f64::NAN; e * p],
+            filter: vec![FilterAcc::default(); e],
         }
     }
 
@@ -222,6 +227,7 @@ impl<'a> ConditionSummarizer<'a> {
             self.failed[r.estimator] += 1;
             return Ok(());
         }
+        self.filter[r.estimator].add(&r.filter);
         let np = self.layout.parameters.len();
         for (p, acc) in self.acc[r.estimator].iter_mut().enumerate() {
             let d = r.theta[p] - self.info.truth[p];
@@ -356,6 +362,18 @@ impl<'a> ConditionSummarizer<'a> {
         let factor = self.controls.factor();
 
         let (c, info) = (self.condition, self.info);
+        // A filter's measures go on its inv_mass row, against the condition's PCRLB.
+        let inv_mass = self
+            .layout
+            .parameters
+            .iter()
+            .position(|p| p.name == "inv_mass");
+        let pcrlb = self
+            .layout
+            .condition_metrics
+            .iter()
+            .position(|m| *m == PCRLB_INV_MASS)
+            .map_or(f64::NAN, |i| info.metrics[i]);
         for (e, per_e) in self.acc.iter().enumerate() {
             for (p, acc) in per_e.iter().enumerate() {
                 let truth = info.truth[p];
@@ -407,6 +425,8 @@ impl<'a> ConditionSummarizer<'a> {
                     bounds,
                     n_controls: cv.as_ref().map_or(0, |f| f.used as u64),
                     measures: Measure::compute_all(&inputs),
+                    filter: (Some(p) == inv_mass && self.filter[e].seen())
+                        .then(|| self.filter[e].finish(pcrlb)),
                 });
             }
         }

@@ -13,6 +13,7 @@ use super::measures::Estimate;
 use crate::model::{ConditionInfo, Layout};
 
 mod condition;
+pub mod filter;
 pub mod measure;
 
 pub use condition::ConditionSummarizer;
@@ -36,6 +37,8 @@ pub struct Record<'a> {
     /// The realisation's control variates, one per control of the layout (the same on
     /// every estimator's row; NaN where one is not a control in the condition).
     pub controls: &'a [f64],
+    /// The row's values of the filters' columns [`filter::INPUTS`] (NaN where absent).
+    pub filter: [f64; 4],
 }
 
 /// Rows that do not form a complete, consistent set of realisations.
@@ -151,6 +154,9 @@ pub struct SummaryRow {
     pub n_controls: u64,
     /// Every [`Measure`], in its order: read them by `row[measure]`.
     pub measures: [Estimate; MEASURE_COUNT],
+    /// A filter's measures ([`filter::FilterMeasure`], in its order) on its `inv_mass` row
+    /// (`None` elsewhere).
+    pub filter: Option<[Estimate; 4]>,
 }
 
 impl std::ops::Index<Measure> for SummaryRow {
