@@ -162,6 +162,29 @@ impl Regression {
         )
     }
 
+    /// The regression an estimator reads without a grade signal (`estimation.grade =
+    /// "none"`) under a measured acceleration (an accelerometer, whose output
+    /// y = dV/dt + g sin θ holds the grade): column 3 is −g, cos θ taken as 1
+    /// (docs/model.md#no-grade-accelerometer). The truth's grade stays in y, `g_sin`,
+    /// `sin_grade` and `cos_grade`; the constant sums are those of the new column.
+    pub fn without_grade(&self) -> Regression {
+        let columns = RowColumns {
+            t: self.t.clone(),
+            run: self.run.clone(),
+            f: self.f.clone(),
+            c: vec![-self.g; self.len()].into(),
+            v: self.v.clone(),
+            y: self.y.clone(),
+            accel: self.accel.clone(),
+            g_sin: self.g_sin.clone(),
+            sin_grade: self.sin_grade.clone(),
+            cos_grade: self.cos_grade.clone(),
+        };
+        let mut reg = Self::with_sums(columns, self.k, self.g);
+        reg.differentiation = self.differentiation.clone();
+        reg
+    }
+
     /// The regression of its first `n` rows, sharing its columns: bit for bit the regression
     /// of those rows built alone (the same values, summed the same way). A duration's rows
     /// are the first rows of the whole cycle's (docs/model.md#row-selection), so the

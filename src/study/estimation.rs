@@ -5,7 +5,6 @@ use super::StudyError;
 use super::checker::Checker;
 use super::filter_keys::{FilterKeys, KnownVehicle, validate_filter_keys};
 use crate::estimate::estimators::{ESTIMATORS, EstimatorRef, EstimatorSettings};
-use crate::estimate::filters::GradeSource;
 use crate::estimate::parameters::Parameters;
 
 pub(super) fn validate_estimators(
@@ -131,23 +130,6 @@ pub(super) fn validate_estimation(
         None => 1.0,
     };
     let (grade, filter) = validate_filter_keys(&filter, &estimators, vehicle, c)?;
-    if grade == GradeSource::None
-        && let Some(i) = estimators.iter().position(|e| !e.estimates_grade())
-    {
-        let filters: Vec<&str> = all
-            .iter()
-            .filter(|e| e.estimates_grade())
-            .map(|e| e.name())
-            .collect();
-        return Err(c.fail(
-            &format!("estimation.estimators[{i}]"),
-            format!(
-                "{} reads the measured grade, which estimation.grade = \"none\" takes away; \
-                 the estimators that estimate it with the mass are {filters:?}",
-                estimators[i].name()
-            ),
-        ));
-    }
     let parameters = match known_inv_mass {
         Some(inv_mass) => Parameters::KnownMass { inv_mass },
         None => Parameters::All,

@@ -135,3 +135,48 @@ pub(super) fn validate_filter_keys(
         },
     ))
 }
+
+/// With `estimation.grade = "none"` no grade signal reaches an estimator: one that reads
+/// the grade's column (all but the filters) needs an accelerometer, whose output holds the
+/// grade (`accelerometer`: every acceleration source is the model's), and no grade sensor's
+/// noise, offset or map error may be set (`grade_keys`: the keys of those set, first).
+pub(super) fn check_grade_none(
+    grade: GradeSource,
+    estimators: &[EstimatorRef],
+    accelerometer: bool,
+    grade_keys: &[&str],
+    c: &Checker<'_>,
+) -> Result<(), StudyError> {
+    if grade == GradeSource::Measured {
+        return Ok(());
+    }
+    if let Some(key) = grade_keys.first() {
+        return Err(c.fail(
+            key,
+            "is a grade sensor's error, but estimation.grade = \"none\" reads no grade",
+        ));
+    }
+    if accelerometer {
+        return Ok(());
+    }
+    match estimators.iter().position(|e| !e.estimates_grade()) {
+        Some(i) => {
+            let filters: Vec<&str> = ESTIMATORS
+                .iter()
+                .filter(|e| e.estimates_grade())
+                .map(|e| e.name())
+                .collect();
+            Err(c.fail(
+                &format!("estimation.estimators[{i}]"),
+                format!(
+                    "{} reads the grade, which estimation.grade = \"none\" takes away: it needs \
+                     an accelerometer (estimation.acceleration = \"model\", whose output holds \
+                     the grade; cos θ is then taken as 1), or an estimator that estimates the \
+                     grade with the mass, {filters:?}",
+                    estimators[i].name()
+                ),
+            ))
+        }
+        None => Ok(()),
+    }
+}

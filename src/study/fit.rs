@@ -380,6 +380,13 @@ fn validate(
         },
     };
     let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
+    super::filter_keys::check_grade_none(
+        settings.grade,
+        &estimators,
+        noise.acceleration == Acceleration::Model,
+        &[],
+        c,
+    )?;
 
     // [reference] (optional): M, Cd and Cr to draw the fit against.
     let reference = match &raw.reference {

@@ -7,7 +7,7 @@ use super::StudyError;
 use super::axes::{AIR_SPEED_SD, LevelAxes, LevelAxis};
 use super::checker::{Checker, unknown_key};
 use super::estimation::{SettingKeys, validate_estimation};
-use super::filter_keys::KnownVehicle;
+use super::filter_keys::{KnownVehicle, check_grade_none};
 use super::noise::{NoiseAxes, ValidatedNoise, validate_noise};
 use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
@@ -221,6 +221,32 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
     };
     let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
     let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
+    let grade_channel = Channel::of(Signal::Grade);
+    let grade_keys: Vec<String> = [
+        (
+            format!("noise.{}", grade_channel.key()),
+            noise.levels(grade_channel),
+        ),
+        (
+            format!("noise.{}", LevelAxis::GradeBias.key()),
+            &levels[LevelAxis::GradeBias],
+        ),
+        (
+            format!("noise.{}", LevelAxis::GradeMap.key()),
+            &levels[LevelAxis::GradeMap],
+        ),
+    ]
+    .into_iter()
+    .filter(|(_, levels)| levels.iter().any(|&l| l != 0.0))
+    .map(|(key, _)| key)
+    .collect();
+    check_grade_none(
+        settings.grade,
+        &estimators,
+        acceleration.iter().all(|&a| a == Acceleration::Model),
+        &grade_keys.iter().map(String::as_str).collect::<Vec<_>>(),
+        c,
+    )?;
     let air_speed = validate_air_speed(
         e.air_speed.as_deref(),
         &noise,

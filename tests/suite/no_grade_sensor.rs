@@ -170,18 +170,35 @@ fn the_ekf_is_consistent_where_the_truth_follows_its_model() {
     ] {
         let (rmse, bound) = (rmse(error), at(bound));
         let mcse = rmse / (2.0 * n).sqrt();
-        assert!(rmse > bound - 3.0 * mcse, "{error}: RMSE {rmse} below {bound}");
+        assert!(
+            rmse > bound - 3.0 * mcse,
+            "{error}: RMSE {rmse} below {bound}"
+        );
     }
 }
 
 #[test]
 fn without_the_grade_an_estimator_that_reads_it_is_refused() {
     let text = study_text("thesis.toml");
-    let text = set_key(&text, "estimators", "[\"ols\", \"ekf\"]\ngrade = \"none\"");
+    // Without an accelerometer (the speed differentiated) OLS has no grade to read.
+    let text = set_key(
+        &text,
+        "estimators",
+        "[\"ols\", \"ekf\"]\ngrade = \"none\"\nacceleration = \"differentiated\"",
+    );
     let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
     let shown = e.to_string();
     assert!(shown.contains("estimation.estimators[0]"), "{shown}");
-    assert!(shown.contains("ols reads the measured grade"), "{shown}");
+    assert!(shown.contains("ols reads the grade"), "{shown}");
+    // Nor may a grade sensor's noise be set.
+    let text = set_key(
+        &study_text("thesis.toml"),
+        "estimators",
+        "[\"ekf\"]\ngrade = \"none\"",
+    );
+    let text = set_key(&text, "output_sd", "[0.0]\ngrade_sd = [0.01]");
+    let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
+    assert!(e.to_string().contains("noise.grade_sd"), "{e}");
     // A filter's key without a filter listed says what it applies to.
     let text = set_key(
         &study_text("thesis.toml"),
@@ -191,4 +208,70 @@ fn without_the_grade_an_estimator_that_reads_it_is_refused() {
     let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
     assert!(e.to_string().contains("estimation.grade_walk"), "{e}");
     assert!(e.to_string().contains("rls_mf and ekf"), "{e}");
+}
+
+/// With an accelerometer and no grade, OLS and BCLS read −g for −g cos θ: their bias is the
+/// least-squares projection of the omitted θ₃ g (1 − cos θ), to first order θ₃ g θ²/2
+/// (docs/model.md#no-grade-accelerometer). `bias_model` (the noise-free estimate) agrees
+/// with that projection computed here from cycles.parquet, and BCLS's Monte Carlo bias of Cr
+/// with `bias_model` within 4 MCSE.
+#[test]
+fn without_the_grade_an_accelerometer_leaves_the_projection_of_the_cosine_on_cr() {
+    let text = study_text("thesis.toml");
+    let text = set_key(&text, "duration", "300.0");
+    let text = set_key(&text, "initial_speed", "10.0");
+    let text = set_key(&text, "scales", "[2.0]");
+    let text = set_key(&text, "velocity_sd", "[0.1]");
+    let text = set_key(&text, "output_sd", "[0.05]");
+    let text = set_key(
+        &text,
+        "estimators",
+        "[\"ols\", \"bcls\"]\ngrade = \"none\"\nacceleration = \"model\"",
+    );
+    let study = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(400), None)
+        .unwrap();
+    let (dir, _) = run(&study, None);
+    let cycles = read_table(&dir.path().join("cycles.parquet"));
+    let (v, grade, f) = (
+        f64_col(&cycles, "v"),
+        f64_col(&cycles, "grade"),
+        f64_col(&cycles, "f_prop"),
+    );
+    // The thesis vehicle: k = ½·1.2·5.5, g = 9.81, Cr = 0.0125.
+    let (k, g, cr) = (0.5 * 1.2 * 5.5, 9.81, 0.0125);
+    let mut xtx = nalgebra::Matrix3::<f64>::zeros();
+    let mut xtr = nalgebra::Vector3::<f64>::zeros();
+    for i in 0..v.len() {
+        let x = nalgebra::Vector3::new(f[i], -k * v[i] * v[i], -g);
+        xtx += x * x.transpose();
+        xtr += x * (cr * g * grade[i] * grade[i] / 2.0);
+    }
+    let predicted = xtx.lu().solve(&xtr).unwrap();
+    let t = read_table(&dir.path().join("summary.parquet"));
+    let (e, p) = (str_col(&t, "estimator"), str_col(&t, "parameter"));
+    let row = |est: &str| {
+        (0..e.len())
+            .find(|&i| e[i] == est && p[i] == "rolling_resistance")
+            .unwrap()
+    };
+    let (bias_model, bias, mcse) = (
+        f64_col(&t, "bias_model")[row("bcls")],
+        f64_col(&t, "bias")[row("bcls")],
+        f64_col(&t, "bias_mcse")[row("bcls")],
+    );
+    // 1 − cos θ = θ²/2 − θ⁴/24 + …: the second term is θ²/12 of the first, under 0.3 % of
+    // it for |θ| ≤ 0.17 rad (scale 2); plus the sums' rounding.
+    assert!(
+        (bias_model / predicted[2] - 1.0).abs() < 3e-3,
+        "bias_model {bias_model} against the projection {}",
+        predicted[2]
+    );
+    // About −⟨θ²⟩/2 of Cr: the projection onto the constant column is most of it.
+    assert!(bias_model < 0.0);
+    assert!(
+        (bias - bias_model).abs() < 4.0 * mcse,
+        "BCLS bias {bias} ± {mcse} against {bias_model}"
+    );
 }

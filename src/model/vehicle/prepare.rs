@@ -10,6 +10,7 @@ use super::ErrorAt;
 use crate::dynamics::truth::sample_of;
 use crate::dynamics::{DriveCycle, Prefix, Road, SimulationError, Truth};
 use crate::estimate::channels::Acceleration;
+use crate::estimate::filters::GradeSource;
 use crate::estimate::regression::Regression;
 use crate::study::{AirSpeed, LevelAxis, StudyError, VehicleStudy};
 use crate::terrain::{GradeTable, MAX_GRADE_RAD, mean_square};
@@ -365,7 +366,9 @@ fn regressions(
                 Acceleration::Differentiated => {
                     Regression::differentiated(cycle, used, b, &vs.vehicle)
                 }
-                Acceleration::Model if b == 0.0 => Regression::new(&selected, &vs.vehicle),
+                Acceleration::Model if b == 0.0 => {
+                    read_grade(vs, Regression::new(&selected, &vs.vehicle))
+                }
                 Acceleration::Model => {
                     let mut measured = selected.clone();
                     measured.grade_rad.iter_mut().for_each(|g| *g += b);
@@ -374,6 +377,15 @@ fn regressions(
             })
         })
         .collect()
+}
+
+/// `reg` as the study's estimators read it under a measured acceleration: without the
+/// grade's column where `estimation.grade = "none"` ([`Regression::without_grade`]).
+pub(super) fn read_grade(vs: &VehicleStudy, reg: Regression) -> Regression {
+    match vs.settings.grade {
+        GradeSource::Measured => reg,
+        GradeSource::None => reg.without_grade(),
+    }
 }
 
 /// Whether the samples marked in `short` are the first of those marked in `long`.

@@ -6,7 +6,7 @@
 use std::borrow::Cow;
 use std::sync::Arc;
 
-use super::prepare::{measured_speeds, used_samples};
+use super::prepare::{measured_speeds, read_grade, used_samples};
 use crate::dynamics::filter_truth::FilterTruth;
 use crate::dynamics::{DriveCycle, Prefix, Road, Truth};
 use crate::estimate::channels::Acceleration;
@@ -235,7 +235,7 @@ impl World {
                             .iter_mut()
                             .for_each(|g| *g += self.grade_bias_rad);
                     }
-                    Regression::new(&selected, &vs.vehicle)
+                    read_grade(vs, Regression::new(&selected, &vs.vehicle))
                 }
             },
             inv_mass,
