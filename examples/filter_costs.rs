@@ -23,6 +23,9 @@ use chassis_mc::model::vehicle::VehicleModel;
 use chassis_mc::study::Study;
 
 const RUNS: usize = 16;
+
+/// A named item to time.
+type Item<'a> = (&'static str, Box<dyn FnMut() + 'a>);
 const N: usize = 60_001;
 
 fn main() -> anyhow::Result<()> {
@@ -79,7 +82,7 @@ fn main() -> anyhow::Result<()> {
     };
 
     let mut first = 0u64;
-    let mut items: Vec<(&str, Box<dyn FnMut()>)> = vec![
+    let mut items: Vec<Item<'_>> = vec![
         (
             "thesis realisation (OLS)",
             Box::new(|| {
