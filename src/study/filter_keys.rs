@@ -180,3 +180,23 @@ pub(super) fn check_grade_none(
         None => Ok(()),
     }
 }
+
+/// What the filters need of the rows: consecutive samples of one drive (no row selection,
+/// no coast-down's runs), the vehicle's speed (not an air speed) and the truth's grade in
+/// the regression (no grade offset or map error, which the regression's grade carries):
+/// `conflicts` are the keys set against that, first.
+pub(super) fn check_filter_inputs(
+    estimators: &[EstimatorRef],
+    conflicts: &[(&str, &str)],
+    c: &Checker<'_>,
+) -> Result<(), StudyError> {
+    let Some(filter) = estimators.iter().find(|e| e.estimates_grade()) else {
+        return Ok(());
+    };
+    match conflicts.first() {
+        Some((key, why)) => {
+            Err(c.fail(key, format!("cannot be used with {}: {why}", filter.name())))
+        }
+        None => Ok(()),
+    }
+}

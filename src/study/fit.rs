@@ -14,7 +14,7 @@ use super::checker::Checker;
 use super::estimation::{SettingKeys, validate_estimation};
 use super::filter_keys::KnownVehicle;
 use super::noise::{noise_keys, noise_levels};
-use super::raw::{RawNoise, one_or_many};
+use super::raw::RawNoise;
 use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::validate_systematic;
 use super::validate::{check_realisations, serde_error};
@@ -28,7 +28,9 @@ use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
 use placement::elsewhere;
 
+mod estimation;
 pub(super) mod placement;
+pub(super) use estimation::RawFitEstimation;
 
 /// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval).
 const MIN_REALISATIONS: i64 = 20;
@@ -86,57 +88,6 @@ pub(super) struct RawFitVehicle {
     final_drive_ratio: Option<f64>,
     #[serde(default)]
     wheel_radius: Option<f64>,
-}
-
-/// `[estimation]`: a study's, without the acceleration axis (a fit's acceleration is the
-/// log's: its `acceleration_column`, else differentiated).
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct RawFitEstimation {
-    #[serde(deserialize_with = "one_or_many")]
-    estimators: Vec<String>,
-    #[serde(default)]
-    forgetting: Option<f64>,
-    #[serde(default)]
-    known_mass: Option<bool>,
-    #[serde(default)]
-    effective_mass_factor: Option<f64>,
-    // The grade's source and the filters' keys (`FilterKeys`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    grade: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    speed_process_sd: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    grade_walk: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    prior_mass: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    prior_mass_sd: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    grade_sd0: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    forgetting_mass: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    forgetting_grade: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    difference_window: Option<f64>,
-}
-
-impl RawFitEstimation {
-    /// The keys of the filters and of the grade's source.
-    fn filter_keys(&self) -> super::filter_keys::FilterKeys {
-        super::filter_keys::FilterKeys {
-            grade: self.grade.clone(),
-            speed_process_sd: self.speed_process_sd,
-            grade_walk: self.grade_walk,
-            prior_mass: self.prior_mass,
-            prior_mass_sd: self.prior_mass_sd,
-            grade_sd0: self.grade_sd0,
-            forgetting_mass: self.forgetting_mass,
-            forgetting_grade: self.forgetting_grade,
-            difference_window: self.difference_window,
-        }
-    }
 }
 
 /// `[reference]`: values to draw the fit against.

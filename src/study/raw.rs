@@ -160,23 +160,31 @@ pub struct RawEstimation {
     /// The rotating-mass factor `road_load` assumes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub effective_mass_factor: Option<f64>,
-    // The grade's source and the filters' keys (`FilterKeys`).
+    /// "measured" or "none".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grade: Option<String>,
+    /// The filters' speed process noise per step \[m/s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_process_sd: Option<f64>,
+    /// The filters' grade walk \[rad²/m\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grade_walk: Option<f64>,
+    /// The filters' prior mass \[kg\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_mass: Option<f64>,
+    /// Its SD \[kg\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_mass_sd: Option<f64>,
+    /// The filters' prior SD of the grade \[rad\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grade_sd0: Option<f64>,
+    /// `rls_mf`'s forgetting factor of 1/M.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forgetting_mass: Option<f64>,
+    /// `rls_mf`'s forgetting factor of the grade term.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub forgetting_grade: Option<f64>,
+    /// `rls_mf`'s difference half-width \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub difference_window: Option<f64>,
 }

@@ -7,7 +7,7 @@ use super::StudyError;
 use super::axes::{AIR_SPEED_SD, LevelAxes, LevelAxis};
 use super::checker::{Checker, unknown_key};
 use super::estimation::{SettingKeys, validate_estimation};
-use super::filter_keys::{KnownVehicle, check_grade_none};
+use super::filter_keys::{KnownVehicle, check_filter_inputs, check_grade_none};
 use super::noise::{NoiseAxes, ValidatedNoise, validate_noise};
 use super::placement::COMMON_DRIVE_KEYS;
 use super::raw::RawStudy;
@@ -254,6 +254,39 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         &acceleration,
         c,
     )?;
+    let set = |levels: &[f64]| levels.iter().any(|&l| l != 0.0);
+    let bias_key = format!("noise.{}", LevelAxis::GradeBias.key());
+    let map_key = format!("noise.{}", LevelAxis::GradeMap.key());
+    let steps = "it steps from each row to the next, which a row selection would make a gap";
+    let conflicts: Vec<(&str, &str)> = [
+        (
+            set(&levels[LevelAxis::GradeBias]),
+            bias_key.as_str(),
+            "its errors are scored against the regression's grade, which the offset moves",
+        ),
+        (
+            set(&levels[LevelAxis::GradeMap]),
+            map_key.as_str(),
+            "its errors are scored against the regression's grade, which the map replaces",
+        ),
+        (
+            air_speed == AirSpeed::Measured,
+            "estimation.air_speed",
+            "it reads the vehicle's measured speed",
+        ),
+        (selection.min_speed_m_s > 0.0, "drive.min_speed", steps),
+        (selection.exclude_braking, "drive.exclude_braking", steps),
+        (
+            drive.runs().is_some(),
+            "drive.mode",
+            "it follows one drive, not a coast-down's separate runs",
+        ),
+    ]
+    .into_iter()
+    .filter(|(on, _, _)| *on)
+    .map(|(_, key, why)| (key, why))
+    .collect();
+    check_filter_inputs(&estimators, &conflicts, c)?;
 
     if drive.runs().is_some() && known_inv_mass.is_none() {
         // Without propulsion the 1/M column is zero: the mass cannot be estimated.

@@ -150,7 +150,11 @@ fn the_ekf_is_consistent_where_the_truth_follows_its_model() {
     // Exact sums against a plain sum: equal to rounding.
     assert!((at("nees_mean") / mean_nees - 1.0).abs() < 1e-12);
     assert_eq!(at("coverage_filter"), covered);
-    assert!((at("rmse_over_path_bound") / ratio - 1.0).abs() < 1e-12);
+    assert!(
+        (at("rmse_over_path_bound") / ratio - 1.0).abs() < 1e-12,
+        "{} against {ratio}",
+        at("rmse_over_path_bound")
+    );
     // The PCRLB is a bound where the truth follows the model: the RMSE of 1/M and of the
     // grade are not below it beyond 3 MCSE (an RMSE's MCSE ≈ RMSE/√(2R)), at the end and at
     // 60, 120 and 300 s.
@@ -199,6 +203,12 @@ fn without_the_grade_an_estimator_that_reads_it_is_refused() {
     let text = set_key(&text, "output_sd", "[0.0]\ngrade_sd = [0.01]");
     let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
     assert!(e.to_string().contains("noise.grade_sd"), "{e}");
+    // A filter steps from row to row: a selection that leaves rows out is refused.
+    let text = set_key(&study_text("thesis.toml"), "estimators", "[\"ekf\"]");
+    let text = set_key(&text, "initial_speed", "0.0\nmin_speed = 1.0");
+    let e = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap()).unwrap_err();
+    assert!(e.to_string().contains("drive.min_speed"), "{e}");
+    assert!(e.to_string().contains("cannot be used with ekf"), "{e}");
     // A filter's key without a filter listed says what it applies to.
     let text = set_key(
         &study_text("thesis.toml"),

@@ -17,6 +17,7 @@ mod axes;
 mod bias_model;
 mod cycles_table;
 mod draws;
+mod extras;
 mod kernel;
 mod layout;
 mod pcrlb;
@@ -28,19 +29,17 @@ pub use axes::{Point, VehicleAxis, axes, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
-use super::{ConditionInfo, ExtraInfo, Layout, ModelErrorValue};
+use super::{ConditionInfo, Layout, ModelErrorValue};
 use crate::dynamics::DriveCycle;
 use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
-use crate::estimate::conversions::{EXTRAS, ExtraInputs};
-use crate::estimate::estimators::{
-    ESTIMATORS, Estimate, EstimateColumn, EstimatorRef, FirstOrder, reads_rows,
-};
+use crate::estimate::estimators::{FirstOrder, reads_rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, LevelAxis, Study, StudyError, VehicleStudy};
+use extras::{ExtraColumn, study_extras};
 use prepare::{ScaleCycle, prefixes, scale_cycles, segments};
 use world::{GradeMap, Place, World};
 
@@ -451,62 +450,6 @@ fn uneven_differentiation(
         )),
         None => Ok(()),
     }
-}
-
-/// A per-row extra column of the tables: one that every estimate has (an index into
-/// [`EXTRAS`]) or estimators' own (an entry of their [`Estimator::columns`](crate::estimate::estimator::Estimator::columns),
-/// one column for every estimator that has an entry of its name, NaN in the other
-/// estimators' rows).
-#[derive(Debug, Clone, Copy)]
-enum ExtraColumn {
-    Every(usize),
-    Own(&'static EstimateColumn),
-}
-
-impl ExtraColumn {
-    /// Its entry in the layout.
-    fn info(self) -> ExtraInfo {
-        match self {
-            ExtraColumn::Every(j) => ExtraInfo::from(&EXTRAS[j]),
-            ExtraColumn::Own(column) => ExtraInfo {
-                name: column.name,
-                unit: column.unit,
-                description: column.description,
-            },
-        }
-    }
-
-    /// Its value in the row of `estimator`, whose estimate is `estimate`.
-    fn value(self, inputs: &ExtraInputs<'_>, estimator: EstimatorRef, estimate: &Estimate) -> f64 {
-        match self {
-            ExtraColumn::Every(j) => (EXTRAS[j].value)(inputs),
-            ExtraColumn::Own(column) => estimator
-                .columns()
-                .iter()
-                .position(|c| c.name == column.name)
-                .map_or(f64::NAN, |k| estimate.columns[k]),
-        }
-    }
-}
-
-/// The per-row extras the tables of `study` carry: those of every estimate, then each
-/// registered estimator's own (in the order of [`ESTIMATORS`], a name once, where it first
-/// appears) that are in every study or whose estimator the study lists.
-fn study_extras(study: &VehicleStudy) -> Vec<ExtraColumn> {
-    let mut extras: Vec<ExtraColumn> = (0..EXTRAS.len()).map(ExtraColumn::Every).collect();
-    for &e in ESTIMATORS.iter() {
-        let e = EstimatorRef(e);
-        let listed = study.estimators.contains(&e);
-        for column in e.columns().iter().filter(|c| c.in_every_study || listed) {
-            let known = extras
-                .iter()
-                .any(|x| matches!(x, ExtraColumn::Own(c) if c.name == column.name));
-            if !known {
-                extras.push(ExtraColumn::Own(column));
-            }
-        }
-    }
-    extras
 }
 
 /// The sums (indices into [`CONTROLS`]) that are control variates in some condition of

@@ -60,9 +60,12 @@ impl FilterMeasure {
 /// The sums of one estimator's filter columns over a condition's realisations.
 #[derive(Debug, Clone, Default)]
 pub(super) struct FilterAcc {
-    /// [e²], [e⁴], [b²], [b⁴], [e²b²] over the realisations with both e and b.
-    error: [ExactSum; 5],
+    /// [e²], [e⁴] over the realisations with e.
+    error: [ExactSum; 2],
     n_error: u64,
+    /// [e²], [e⁴], [b²], [b⁴], [e²b²] over the realisations with both e and b.
+    paired: [ExactSum; 5],
+    n_paired: u64,
     /// Realisations with e and the filter's SD, and those covered.
     n_interval: u64,
     covered: u64,
@@ -75,16 +78,22 @@ impl FilterAcc {
     /// Take one realisation's `values` (in the order of [`INPUTS`]; NaN where absent).
     pub(super) fn add(&mut self, values: &[f64; 4]) {
         let [e, b, sd, nees] = *values;
+        if e.is_finite() {
+            let e2 = e * e;
+            self.error[0].add(e2);
+            self.error[1].add(e2 * e2);
+            self.n_error += 1;
+        }
         if e.is_finite() && b.is_finite() {
             let (e2, b2) = (e * e, b * b);
             for (s, v) in self
-                .error
+                .paired
                 .iter_mut()
                 .zip([e2, e2 * e2, b2, b2 * b2, e2 * b2])
             {
                 s.add(v);
             }
-            self.n_error += 1;
+            self.n_paired += 1;
         }
         if e.is_finite() && sd.is_finite() {
             self.n_interval += 1;
@@ -101,7 +110,7 @@ impl FilterAcc {
 
     /// Whether any realisation had a filter's values.
     pub(super) fn seen(&self) -> bool {
-        self.n_error + self.n_interval + self.n_nees > 0
+        self.n_error + self.n_paired + self.n_interval + self.n_nees > 0
     }
 
     /// The measures, `pcrlb` the condition's bound's SD of 1/M (NaN: none). MCSEs by the
@@ -109,17 +118,22 @@ impl FilterAcc {
     pub(super) fn finish(&self, pcrlb: f64) -> [Estimate; 4] {
         let undefined = Estimate::new(f64::NAN, f64::NAN);
         let mut out = [undefined; 4];
-        let n = self.n_error as f64;
         if self.n_error >= 2 {
-            let s: Vec<f64> = self.error.iter().map(ExactSum::value).collect();
-            let (me, me2, mb, mb2, meb) = (s[0] / n, s[1] / n, s[2] / n, s[3] / n, s[4] / n);
+            let n = self.n_error as f64;
+            let (me, me2) = (self.error[0].value() / n, self.error[1].value() / n);
             let var_e = (me2 - me * me) * n / (n - 1.0);
-            let var_b = (mb2 - mb * mb) * n / (n - 1.0);
-            let cov = (meb - me * mb) * n / (n - 1.0);
             // √(m_e)/pcrlb: d√m = dm/(2√m).
             let rmse = me.sqrt();
             out[FilterMeasure::RmseOverPcrlb.index()] =
                 Estimate::new(rmse / pcrlb, (var_e / n).sqrt() / (2.0 * rmse) / pcrlb);
+        }
+        if self.n_paired >= 2 {
+            let n = self.n_paired as f64;
+            let s: Vec<f64> = self.paired.iter().map(ExactSum::value).collect();
+            let (me, me2, mb, mb2, meb) = (s[0] / n, s[1] / n, s[2] / n, s[3] / n, s[4] / n);
+            let var_e = (me2 - me * me) * n / (n - 1.0);
+            let var_b = (mb2 - mb * mb) * n / (n - 1.0);
+            let cov = (meb - me * mb) * n / (n - 1.0);
             // √(m_e/m_b): the ratio r's variance by the delta method, then d√r = dr/(2√r).
             let r = me / mb;
             let var_r = (var_e / (mb * mb) - 2.0 * me * cov / mb.powi(3)
