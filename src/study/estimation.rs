@@ -54,12 +54,13 @@ pub(super) struct SettingKeys {
 /// (0, 1], 1 when absent, and only with rls listed) and `effective_mass_factor` (≥ 0, 0 when
 /// absent, only with road_load listed): the estimators and their settings, which fit every
 /// parameter unless `keys.known_inv_mass` gives the weighed 1/M (`estimation.known_mass`;
-/// an estimator that needs it is refused without it).
+/// an estimator that needs it is refused without it); and the levels of the filters'
+/// `grade_walk`.
 pub(super) fn validate_estimation(
     names: &[String],
     keys: SettingKeys,
     c: &Checker<'_>,
-) -> Result<(Vec<EstimatorRef>, EstimatorSettings), StudyError> {
+) -> Result<(Vec<EstimatorRef>, EstimatorSettings, Vec<f64>), StudyError> {
     let SettingKeys {
         forgetting,
         known_inv_mass,
@@ -129,7 +130,7 @@ pub(super) fn validate_estimation(
         Some(l) => l,
         None => 1.0,
     };
-    let (grade, filter) = validate_filter_keys(&filter, &estimators, vehicle, c)?;
+    let (grade, filter, grade_walks) = validate_filter_keys(&filter, &estimators, vehicle, c)?;
     let parameters = match known_inv_mass {
         Some(inv_mass) => Parameters::KnownMass { inv_mass },
         None => Parameters::All,
@@ -143,5 +144,6 @@ pub(super) fn validate_estimation(
             grade,
             filter,
         },
+        grade_walks,
     ))
 }

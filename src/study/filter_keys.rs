@@ -18,9 +18,9 @@ pub struct FilterKeys {
     /// \[m/s per step\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_process_sd: Option<f64>,
-    /// \[rad²/m\].
+    /// \[rad²/m\], one level per condition.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub grade_walk: Option<f64>,
+    pub grade_walk: Option<Vec<f64>>,
     /// \[kg\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_mass: Option<f64>,
@@ -54,13 +54,14 @@ pub(super) struct KnownVehicle {
 
 /// `estimation.grade` and the filters' settings: each key in its range, the filters' keys
 /// only with a filter listed, `rls_mf`'s only with it listed; the prior's mean the vehicle's
-/// mass and its SD a sixth of it by default.
+/// mass and its SD a sixth of it by default. Also the levels of `grade_walk` (an axis; the
+/// settings hold the first).
 pub(super) fn validate_filter_keys(
     keys: &FilterKeys,
     estimators: &[EstimatorRef],
     vehicle: KnownVehicle,
     c: &Checker<'_>,
-) -> Result<(GradeSource, FilterSettings), StudyError> {
+) -> Result<(GradeSource, FilterSettings, Vec<f64>), StudyError> {
     let grade = match keys.grade.as_deref() {
         None => GradeSource::Measured,
         Some(name) => c.named(
@@ -109,6 +110,16 @@ pub(super) fn validate_filter_keys(
             None => Ok(default),
         }
     };
+    let walks = match &keys.grade_walk {
+        Some(_) if !any_filter => {
+            return Err(c.fail(
+                "estimation.grade_walk",
+                format!("applies to {to_filters}, which estimation.estimators does not list"),
+            ));
+        }
+        Some(levels) => c.list("estimation.grade_walk", levels, |c, k, v| c.positive(k, v))?,
+        None => vec![d.grade_walk],
+    };
     let window = only(
         "difference_window",
         keys.difference_window,
@@ -124,7 +135,7 @@ pub(super) fn validate_filter_keys(
                 keys.speed_process_sd,
                 d.speed_process_sd,
             )?,
-            grade_walk: positive("grade_walk", keys.grade_walk, d.grade_walk)?,
+            grade_walk: walks[0],
             forgetting_mass: forgetting("forgetting_mass", keys.forgetting_mass, 1.0)?,
             forgetting_grade: forgetting("forgetting_grade", keys.forgetting_grade, 0.999)?,
             difference_window_s: window.map_or(Ok(d.difference_window_s), |w| {
@@ -133,6 +144,7 @@ pub(super) fn validate_filter_keys(
             drag_coefficient: vehicle.drag_coefficient,
             rolling: vehicle.rolling,
         },
+        walks,
     ))
 }
 

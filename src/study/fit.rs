@@ -330,7 +330,7 @@ fn validate(
             rolling: vehicle.rolling_resistance,
         },
     };
-    let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
+    let (estimators, settings, _) = validate_estimation(&e.estimators, keys, c)?;
     super::filter_keys::check_grade_none(
         settings.grade,
         &estimators,

@@ -166,9 +166,13 @@ pub struct RawEstimation {
     /// The filters' speed process noise per step \[m/s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_process_sd: Option<f64>,
-    /// The filters' grade walk \[rad²/m\].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub grade_walk: Option<f64>,
+    /// The filters' grade walk \[rad²/m\]: a number or a list (an axis).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "some_one_or_many"
+    )]
+    pub grade_walk: Option<Vec<f64>>,
     /// The filters' prior mass \[kg\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_mass: Option<f64>,
@@ -195,7 +199,7 @@ impl RawEstimation {
         super::filter_keys::FilterKeys {
             grade: self.grade.clone(),
             speed_process_sd: self.speed_process_sd,
-            grade_walk: self.grade_walk,
+            grade_walk: self.grade_walk.clone(),
             prior_mass: self.prior_mass,
             prior_mass_sd: self.prior_mass_sd,
             grade_sd0: self.grade_sd0,

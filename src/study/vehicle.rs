@@ -67,6 +67,9 @@ pub struct VehicleStudy {
     /// A truth that follows the filters' model (`truth.speed_process_sd`,
     /// `truth.mass_from_prior`, `terrain.profile = "random_walk"`).
     pub filter_truth: crate::dynamics::filter_truth::FilterTruth,
+    /// `estimation.grade_walk`'s levels, an axis of the conditions where a filter is listed
+    /// (one level, the default, without the key).
+    pub grade_walks: Vec<f64>,
 }
 
 /// What the drag regressor reads (`estimation.air_speed`; docs/model.md#air-speed).
@@ -219,7 +222,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
             rolling: vehicle.rolling_resistance,
         },
     };
-    let (estimators, settings) = validate_estimation(&e.estimators, keys, c)?;
+    let (estimators, settings, grade_walks) = validate_estimation(&e.estimators, keys, c)?;
     let acceleration = validate_acceleration(e.acceleration.as_ref(), c)?;
     let grade_channel = Channel::of(Signal::Grade);
     let grade_keys: Vec<String> = [
@@ -326,6 +329,7 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         air_speed,
         truth,
         filter_truth,
+        grade_walks,
     })
 }
 

@@ -285,3 +285,48 @@ fn without_the_grade_an_accelerometer_leaves_the_projection_of_the_cosine_on_cr(
         "BCLS bias {bias} ± {mcse} against {bias_model}"
     );
 }
+
+/// `estimation.grade_walk` as a list is an axis of a study that lists a filter (the last,
+/// column `grade_walk`), each condition's filters and `bias_model` at its own level; a study
+/// without a filter has no such column.
+#[test]
+fn the_grade_walk_is_an_axis_of_a_study_with_a_filter_only() {
+    let text = study_text("thesis.toml");
+    let text = set_key(&text, "duration", "30.0");
+    let text = set_key(&text, "initial_speed", "10.0");
+    let text = set_key(&text, "scales", "[1.0]");
+    let text = set_key(&text, "velocity_sd", "[0.1]");
+    let with = set_key(
+        &text,
+        "estimators",
+        "[\"ols\", \"ekf\"]\ngrade_walk = [1e-7, 1e-4]",
+    );
+    let study = Study::from_toml(&with, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(8), None)
+        .unwrap();
+    let (dir, _) = run(&study, Some(2));
+    let t = read_table(&dir.path().join("summary.parquet"));
+    let (e, p) = (str_col(&t, "estimator"), str_col(&t, "parameter"));
+    let rows: Vec<usize> = (0..e.len())
+        .filter(|&i| e[i] == "ekf" && p[i] == "inv_mass")
+        .collect();
+    assert_eq!(rows.len(), 2);
+    let walk = f64_col(&t, "grade_walk");
+    assert_eq!([walk[rows[0]], walk[rows[1]]], [1e-7, 1e-4]);
+    let bias_model = f64_col(&t, "bias_model");
+    assert_ne!(bias_model[rows[0]], bias_model[rows[1]]);
+    // OLS reads no walk: its rows are the same in both conditions.
+    let ols: Vec<usize> = (0..e.len())
+        .filter(|&i| e[i] == "ols" && p[i] == "inv_mass")
+        .collect();
+    assert_eq!(bias_model[ols[0]], bias_model[ols[1]]);
+
+    let without = Study::from_toml(&text, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(2), None)
+        .unwrap();
+    let (dir, _) = run(&without, Some(1));
+    let t = read_table(&dir.path().join("summary.parquet"));
+    assert!(t.column_by_name("grade_walk").is_none());
+}

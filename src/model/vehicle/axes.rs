@@ -29,6 +29,9 @@ pub enum VehicleAxis {
     Acceleration,
     /// The value of model error `i` of [`MODEL_ERRORS`] (`truth.<key>`, an axis entry).
     Truth(usize),
+    /// The filters' grade walk (`estimation.grade_walk`): an axis only of a study that lists
+    /// a filter ([`axes_of`]).
+    GradeWalk,
 }
 
 /// Every axis, outermost first. The acceleration's source nests inside the grade bias and
@@ -52,6 +55,14 @@ pub fn axes() -> impl Iterator<Item = VehicleAxis> {
                 .filter(|&i| MODEL_ERRORS[i].axis)
                 .map(VehicleAxis::Truth),
         )
+        .chain([VehicleAxis::GradeWalk])
+}
+
+/// The axes of `study`: [`axes`], the filters' grade walk only where a filter is listed (so
+/// that a study without one has the columns it had before the filters).
+pub fn axes_of(study: &VehicleStudy) -> impl Iterator<Item = VehicleAxis> + '_ {
+    let filters = study.estimators.iter().any(|e| e.estimates_grade());
+    axes().filter(move |&a| filters || a != VehicleAxis::GradeWalk)
 }
 
 /// One condition: the level of every axis.
@@ -69,6 +80,8 @@ pub struct Point {
     pub level_indices: [usize; LEVEL_AXIS_COUNT],
     /// Per entry of [`MODEL_ERRORS`], the index of its value in `[truth]`.
     pub truth_levels: [usize; MODEL_ERROR_COUNT],
+    /// Index into the filters' `estimation.grade_walk` (0 without the axis).
+    pub grade_walk_index: usize,
 }
 
 impl Point {
@@ -107,6 +120,7 @@ impl VehicleAxis {
             VehicleAxis::Level(a) => Axis::number(a.key(), a.unit()),
             VehicleAxis::Acceleration => Axis::text("acceleration"),
             VehicleAxis::Truth(i) => Axis::number(MODEL_ERRORS[i].key, MODEL_ERRORS[i].unit),
+            VehicleAxis::GradeWalk => Axis::number("grade_walk", "rad²/m"),
         }
     }
 
@@ -120,6 +134,7 @@ impl VehicleAxis {
             VehicleAxis::Level(a) => study.levels[a].len(),
             VehicleAxis::Acceleration => study.acceleration.len(),
             VehicleAxis::Truth(i) => study.truth.levels(i).len(),
+            VehicleAxis::GradeWalk => study.grade_walks.len(),
         }
     }
 
@@ -136,6 +151,7 @@ impl VehicleAxis {
             }
             VehicleAxis::Acceleration => point.noise.acceleration = study.acceleration[i],
             VehicleAxis::Truth(e) => point.truth_levels[e] = i,
+            VehicleAxis::GradeWalk => point.grade_walk_index = i,
         }
     }
 
@@ -151,6 +167,7 @@ impl VehicleAxis {
             VehicleAxis::Noise(c) => point.noise[c],
             VehicleAxis::Level(a) => point.level(study, a),
             VehicleAxis::Truth(e) => study.truth.levels(e)[point.truth_levels[e]],
+            VehicleAxis::GradeWalk => study.grade_walks[point.grade_walk_index],
             VehicleAxis::Acceleration => unreachable!("a text axis, returned above"),
         })
     }
@@ -159,7 +176,7 @@ impl VehicleAxis {
 /// Every condition of `study`: the product of the axes' levels, the last axis fastest.
 pub fn grid(study: &VehicleStudy) -> Vec<Point> {
     let mut points = vec![Point::default()];
-    for axis in axes() {
+    for axis in axes_of(study) {
         points = points
             .into_iter()
             .flat_map(|base| {

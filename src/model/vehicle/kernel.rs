@@ -231,7 +231,7 @@ impl VehicleModel {
             rows.reset(reg, &cond.noise);
             let start = ScanStart {
                 noise: &cond.noise,
-                settings: &self.study.settings,
+                settings: &cond.settings,
                 truth,
                 // A realisation's own regression (drawn entries) serves it alone.
                 shared: world.is_none(),
@@ -437,7 +437,7 @@ impl VehicleModel {
                 scans: rows.map(|(_, scans)| scans),
                 regression: reg,
                 noise: &cond.noise,
-                settings: &self.study.settings,
+                settings: &cond.settings,
                 truth,
             });
             let status = if estimate.theta.is_ok() {

@@ -8,7 +8,7 @@ use arrow::error::ArrowError;
 
 use super::prepare::used_samples;
 use super::{
-    ExtraColumn, PARAMETERS, VehicleAxis, VehicleModel, axes, cycles_batch, cycles_schema,
+    ExtraColumn, PARAMETERS, VehicleAxis, VehicleModel, axes_of, cycles_batch, cycles_schema,
     study_controls, study_extras,
 };
 use crate::dynamics::Prefix;
@@ -39,7 +39,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
             "route: {terrain}; drive: {}",
             study.drive.describe()
         )],
-        axes: axes().map(VehicleAxis::column).collect(),
+        axes: axes_of(study).map(VehicleAxis::column).collect(),
         condition_metrics: {
             let mut metrics = vec!["terrain_ms_grid", "terrain_ms_cycle"];
             if estimators.iter().any(|e| e.estimates_grade()) {

@@ -25,7 +25,7 @@ mod prepare;
 mod replayed;
 mod world;
 
-pub use axes::{Point, VehicleAxis, axes, grid};
+pub use axes::{Point, VehicleAxis, axes, axes_of, grid};
 pub use cycles_table::{cycles_batch, cycles_schema};
 pub use layout::layout;
 
@@ -35,7 +35,7 @@ use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::bounds::{BOUNDS, BoundKind, BoundValue, Spread};
 use crate::estimate::channels::{Channel, NoiseLevels, Signal, sum_covariances};
 use crate::estimate::controls::{CONTROLS, Expectations, varies};
-use crate::estimate::estimators::{FirstOrder, reads_rows};
+use crate::estimate::estimators::{EstimatorSettings, FirstOrder, reads_rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
 use crate::study::{self, AirSpeed, LevelAxis, Study, StudyError, VehicleStudy};
@@ -68,6 +68,9 @@ struct Condition {
     /// What each realisation draws beyond its sensor noise, when something is (its own
     /// regression then, made from its own truth and map).
     world: Option<World>,
+    /// The estimator settings of its realisations (the study's, at its level of the filters'
+    /// grade walk).
+    settings: EstimatorSettings,
 }
 
 /// An error about key `key` (dotted) of the study a model is prepared from, for `reason`.
@@ -263,24 +266,43 @@ impl VehicleModel {
                 let control_covariance = (!active.is_empty())
                     .then(|| sum_covariances(&regression, &noise, ar1.as_deref(), &active))
                     .flatten();
+                let mut settings = vs.settings;
+                settings.filter.grade_walk = vs.grade_walks[point.grade_walk_index];
                 let mut metrics = segment.metrics.clone();
                 if filters_listed {
                     let key = match vs.share_across_scales {
                         true => SHARED_GROUP | group as u64,
                         false => group as u64,
                     };
-                    let bound =
-                        pcrlb::metrics(&vs, &regression, world.as_ref(), &noise, (seed, key));
+                    let bound = pcrlb::metrics(
+                        &vs,
+                        &settings,
+                        &regression,
+                        world.as_ref(),
+                        &noise,
+                        (seed, key),
+                    );
                     metrics.extend(bound);
                 }
                 Condition {
                     info: ConditionInfo {
-                        axes: axes()
+                        axes: axes_of(&vs)
                             .map(|a| a.value(&vs, point, segment.duration_s))
                             .collect(),
                         metrics,
                         truth: free.iter().map(|&i| truth[i]).collect(),
-                        bias_model: bias_models[k][source][bias].clone(),
+                        // The filters' noise-free estimates depend on the grade walk: made
+                        // for each condition where it is an axis of several levels.
+                        bias_model: match vs.grade_walks.len() > 1 && filters_listed {
+                            true => bias_model::bias_model(
+                                &regression,
+                                noise.acceleration,
+                                &vs.estimators,
+                                &settings,
+                                &truth,
+                            ),
+                            false => bias_models[k][source][bias].clone(),
+                        },
                         model_errors: model_errors(&vs, point.truth_index(&vs)),
                         applies,
                         controls,
@@ -294,6 +316,7 @@ impl VehicleModel {
                     group,
                     expected,
                     world,
+                    settings,
                 }
             })
             .collect();

@@ -4,6 +4,7 @@
 
 use super::world::World;
 use crate::estimate::channels::NoiseLevels;
+use crate::estimate::estimators::EstimatorSettings;
 use crate::estimate::filtering::PCRLB_INV_MASS;
 use crate::estimate::filters::{CHECKPOINTS_S, TruePath, pcrlb};
 use crate::estimate::regression::Regression;
@@ -59,18 +60,19 @@ impl Path {
     }
 }
 
-/// The metrics of a condition with `regression` and `noise`: along its one truth, or the
+/// The metrics of a condition with `settings`, `regression` and `noise`: along its one truth, or the
 /// mean over the first [`TRUTHS`] of its `world`'s (drawn from (`seed`, `key`); those that
 /// cannot be simulated, or whose rows differ from the first's, left out). NaN where the
 /// bound is undefined (no speed noise, or the information singular).
 pub(super) fn metrics(
     vs: &VehicleStudy,
+    settings: &EstimatorSettings,
     regression: &Regression,
     world: Option<&World>,
     noise: &NoiseLevels,
     (seed, key): (u64, u64),
 ) -> [f64; METRICS.len()] {
-    let settings = &vs.settings.filter;
+    let settings = &settings.filter;
     let model = settings.model(regression.k, regression.g, noise.speed_sd());
     let inv_mass = 1.0 / vs.vehicle.mass_kg;
     let paths: Vec<Path> = match world {

@@ -54,6 +54,7 @@ impl VehicleModel {
             air_speed: AirSpeed::Ground,
             truth,
             filter_truth: Default::default(),
+            grade_walks: vec![settings.filter.grade_walk],
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
             file: origin.to_string(),

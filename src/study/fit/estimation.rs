@@ -56,7 +56,7 @@ impl RawFitEstimation {
         crate::study::filter_keys::FilterKeys {
             grade: self.grade.clone(),
             speed_process_sd: self.speed_process_sd,
-            grade_walk: self.grade_walk,
+            grade_walk: self.grade_walk.map(|g| vec![g]),
             prior_mass: self.prior_mass,
             prior_mass_sd: self.prior_mass_sd,
             grade_sd0: self.grade_sd0,
