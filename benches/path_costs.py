@@ -14,7 +14,9 @@ Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then 
 BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
 grade noise σ_θ = 0.001 rad; and the heavy-duty truck (studies/heavy_duty.toml, its first
 hour) with OLS, with grade noise, and with a differentiated acceleration, grade noise and
-OLS + BCLS + WBCLS.
+OLS + BCLS + WBCLS; and the filters without a grade sensor, `ekf` and `rls_mf` alone on the
+thesis cycle (their bound along the path is made once per condition there, outside the
+marginal cost: examples/filter_costs.rs times it).
 
     cargo build --release && .venv/bin/python benches/path_costs.py [--repeat 3] [--large 1020]
         [--rounds N] [--before OTHER/target/release/chassis-mc] [--only REGEX]
@@ -85,6 +87,9 @@ PATHS = [
     ("… differentiated + grade noise, OLS + BCLS + WBCLS",
      truck(estimators='["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
            estimation_extra='\nacceleration = "differentiated"')),
+    ("no grade sensor: ekf", thesis(estimators='["ekf"]', estimation_extra='\ngrade = "none"')),
+    ("no grade sensor: rls_mf", thesis(estimators='["rls_mf"]',
+                                       estimation_extra='\ngrade = "none"')),
 ]
 
 

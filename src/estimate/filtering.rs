@@ -4,7 +4,7 @@
 //! against the realisation's truth at the end and at [`CHECKPOINTS_S`], and the bound along
 //! the realisation's own true path (docs/model.md#no-grade-sensor).
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use super::filters::ekf::{self, Prior};
 use super::filters::pcrlb::{self, BoundTrack};
@@ -132,7 +132,7 @@ struct Inputs<'a> {
     force: &'a [f64],
     model: FilterModel,
     prior: Prior,
-    truth: Vec<f64>,
+    truth: Arc<TrueGrades>,
     inv_mass: f64,
     regression: &'a Regression,
 }
@@ -151,7 +151,8 @@ impl<'a> Inputs<'a> {
             force: rows.f,
             model: settings.model(reg.k, reg.g, r.noise.speed_sd()),
             prior: settings.prior,
-            truth: true_grades(reg),
+            // The true grade of each row, made once per regression.
+            truth: reg.derived(|reg| TrueGrades(true_grades(reg))),
             inv_mass: r.truth[0],
             regression: reg,
         }
@@ -161,7 +162,7 @@ impl<'a> Inputs<'a> {
         TruePath {
             t: self.t,
             v: &self.regression.v,
-            grade: &self.truth,
+            grade: &self.truth.0,
             force: &self.regression.f,
             inv_mass: self.inv_mass,
         }
@@ -214,6 +215,9 @@ impl PathBounds {
     }
 }
 
+/// The true grade of each row of a regression.
+struct TrueGrades(Vec<f64>);
+
 /// The true grade of each row of `reg`, atan2(sin θ, cos θ).
 fn true_grades(reg: &Regression) -> Vec<f64> {
     reg.sin_grade
@@ -255,14 +259,14 @@ impl Estimator for Ekf {
             settle.see(k, th)
         });
         let n = x.t.len() - 1;
-        let truth_end = [x.regression.v[n], x.inv_mass, x.truth[n]];
+        let truth_end = [x.regression.v[n], x.inv_mass, x.truth.0[n]];
         let bound = x.path_bound().ok();
         let at = checkpoint_indices(x.t);
         let error_at = |i: usize, of: usize, truth: &dyn Fn(usize) -> f64| {
             run.checkpoints[i].map_or(f64::NAN, |c| c.state[of] - truth(at[i].unwrap_or(0)))
         };
         let inv_mass = |_: usize| x.inv_mass;
-        let grade = |k: usize| x.truth[k];
+        let grade = |k: usize| x.truth.0[k];
         let values = [
             run.end.cov[(INV_MASS, INV_MASS)].sqrt(),
             settle.settled(n + 1).map_or(f64::NAN, |k| x.since_start(k)),
@@ -272,7 +276,7 @@ impl Estimator for Ekf {
             error_at(1, INV_MASS, &inv_mass),
             error_at(2, INV_MASS, &inv_mass),
             ekf::nees(&run.end, &truth_end),
-            run.end.state[GRADE] - x.truth[n],
+            run.end.state[GRADE] - x.truth.0[n],
             run.end.cov[(GRADE, GRADE)].sqrt(),
             bound.map_or(f64::NAN, |b| b.end.grade_var.sqrt()),
             error_at(0, GRADE, &grade),
