@@ -151,8 +151,7 @@ impl<'a> Inputs<'a> {
             force: rows.f,
             model: settings.model(reg.k, reg.g, r.noise.speed_sd()),
             prior: settings.prior,
-            // The true grade of each row, made once per regression.
-            truth: reg.derived(|reg| TrueGrades(true_grades(reg))),
+            truth: true_grades(reg),
             inv_mass: r.truth[0],
             regression: reg,
         }
@@ -215,16 +214,22 @@ impl PathBounds {
     }
 }
 
-/// The true grade of each row of a regression.
-struct TrueGrades(Vec<f64>);
+/// The true grade \[rad\] of each row of a regression, atan2(sin θ, cos θ).
+#[derive(Debug)]
+pub struct TrueGrades(pub Vec<f64>);
 
-/// The true grade of each row of `reg`, atan2(sin θ, cos θ).
-fn true_grades(reg: &Regression) -> Vec<f64> {
-    reg.sin_grade
-        .iter()
-        .zip(reg.cos_grade.iter())
-        .map(|(s, c)| s.atan2(*c))
-        .collect()
+/// The true grades of `reg`'s rows, made once per regression and kept with it
+/// ([`Regression::derived`]): the filters' truth and the bound's path.
+pub fn true_grades(reg: &Regression) -> Arc<TrueGrades> {
+    reg.derived(|reg| {
+        TrueGrades(
+            reg.sin_grade
+                .iter()
+                .zip(reg.cos_grade.iter())
+                .map(|(s, c)| s.atan2(*c))
+                .collect(),
+        )
+    })
 }
 
 /// The extended Kalman filter of \[V, 1/M, φ\].

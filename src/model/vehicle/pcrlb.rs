@@ -2,10 +2,13 @@
 //! the summary): the recursion with each expectation the mean over the condition's truths
 //! (docs/model.md#pcrlb).
 
+use std::borrow::Cow;
+use std::sync::Arc;
+
 use super::world::World;
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimators::EstimatorSettings;
-use crate::estimate::filtering::PCRLB_INV_MASS;
+use crate::estimate::filtering::{PCRLB_INV_MASS, TrueGrades, true_grades};
 use crate::estimate::filters::{CHECKPOINTS_S, TruePath, pcrlb};
 use crate::estimate::regression::Regression;
 use crate::study::VehicleStudy;
@@ -27,24 +30,19 @@ pub(super) const METRICS: [&str; 8] = [
     "pcrlb_grade_300s",
 ];
 
-/// A truth's path: its regression's rows, their true grade and 1/M.
-struct Path {
-    reg: Regression,
-    grade: Vec<f64>,
+/// A truth's path: its regression's rows (the condition's, or a realisation's own), their
+/// true grade and 1/M.
+struct Path<'a> {
+    reg: Cow<'a, Regression>,
+    grade: Arc<TrueGrades>,
     inv_mass: f64,
 }
 
-impl Path {
-    fn new(reg: Regression, inv_mass: f64) -> Path {
-        let grade = reg
-            .sin_grade
-            .iter()
-            .zip(reg.cos_grade.iter())
-            .map(|(s, c)| s.atan2(*c))
-            .collect();
+impl<'a> Path<'a> {
+    fn new(reg: Cow<'a, Regression>, inv_mass: f64) -> Path<'a> {
         Path {
+            grade: true_grades(&reg),
             reg,
-            grade,
             inv_mass,
         }
     }
@@ -53,7 +51,7 @@ impl Path {
         TruePath {
             t: &self.reg.t,
             v: &self.reg.v,
-            grade: &self.grade,
+            grade: &self.grade.0,
             force: &self.reg.f,
             inv_mass: self.inv_mass,
         }
@@ -76,10 +74,10 @@ pub(super) fn metrics(
     let model = settings.model(regression.k, regression.g, noise.speed_sd());
     let inv_mass = 1.0 / vs.vehicle.mass_kg;
     let paths: Vec<Path> = match world {
-        None => vec![Path::new(regression.clone(), inv_mass)],
+        None => vec![Path::new(Cow::Borrowed(regression), inv_mass)],
         Some(world) => (0..TRUTHS)
             .filter_map(|r| world.regression(vs, seed, key, r).ok())
-            .map(|(reg, own)| Path::new(reg, own.unwrap_or(inv_mass)))
+            .map(|(reg, own)| Path::new(Cow::Owned(reg), own.unwrap_or(inv_mass)))
             .collect(),
     };
     let Some(first) = paths.first() else {
