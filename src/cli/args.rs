@@ -93,14 +93,23 @@ pub enum Command {
         force_scale = 0.05): how far each estimate moves under each is reported beside the \
         interval (DIR/systematic.parquet and a second table). Writes DIR/fit.parquet, \
         DIR/fit.svg and DIR/report.html and prints the table.\n\n\
+        A log without a grade: estimation.grade = \"none\" and no grade_column. The ekf and \
+        rls_mf filters then estimate the grade with the mass, given [vehicle] \
+        drag_coefficient and rolling_resistance and [estimation] prior_mass (and \
+        prior_mass_sd, grade_walk, ...): each reports 1/M and M with its own SD and 95 % \
+        interval beside the bootstrap's, whose world is the filters' own model with the fit's \
+        mass (docs/model.md#fit-no-grade). OLS, BCLS and WBCLS need the log's \
+        acceleration_column then (cos θ taken as 1).\n\n\
         Example: chassis-mc fit studies/fit_example.toml --out results/fit"
     )]
     Fit(FitArgs),
     /// Write a synthetic log of a one-condition study: its cycle with one realisation's noise.
     #[command(
         long_about = "Write a synthetic measured log (CSV) of a study with one \
-        condition: the noise-free drive cycle plus realisation R's noise of every channel that \
-        is on, drawn as a run draws it (seed and R select it). Columns time_s, speed_m_s, \
+        condition: the noise-free drive cycle (or realisation R's own path, where the truth \
+        follows the filters' model at the vehicle's mass: terrain.profile = \"random_walk\", \
+        truth.speed_process_sd) plus realisation R's noise of every channel that is on, drawn \
+        as a run draws it (seed and R select it). Columns time_s, speed_m_s, \
         force_n, grade_rad, accel_m_s2 (the model acceleration plus the output noise). The \
         input of `fit` for a vehicle whose truth is known.\n\n\
         Example: chassis-mc simulate-log studies/fit_log.toml --out studies/data/fit_log.csv"

@@ -13,25 +13,26 @@ use crate::dynamics::{central_differences, positions};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::estimators::EstimatorRef;
 use crate::model::Model;
-use crate::model::vehicle::VehicleModel;
+use crate::model::vehicle::{ReplayTruth, VehicleModel};
 use crate::montecarlo::{self, Silent};
 use crate::study::TruthAxes;
 
 use super::{FitError, FitSpec, SMOOTHING_S};
+use crate::dynamics::filter_truth::{FilterTruth, GradeWalk};
 
 /// The measured speed smoothed by a centred moving average over ±[`SMOOTHING_S`], not
 /// below 0.
-fn smoothed_speed(c: &DriveCycle) -> Vec<f64> {
+fn smoothed_speed(c: &DriveCycle, half_width: f64) -> Vec<f64> {
     let n = c.t_s.len();
     let (mut lo, mut hi) = (0, 0);
     let mut sum = 0.0;
     let mut smooth = Vec::with_capacity(n);
     for i in 0..n {
-        while hi < n && c.t_s[hi] <= c.t_s[i] + SMOOTHING_S {
+        while hi < n && c.t_s[hi] <= c.t_s[i] + half_width {
             sum += c.v_m_s[hi];
             hi += 1;
         }
-        while c.t_s[lo] < c.t_s[i] - SMOOTHING_S {
+        while c.t_s[lo] < c.t_s[i] - half_width {
             sum -= c.v_m_s[lo];
             lo += 1;
         }
@@ -79,11 +80,19 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
 }
 
 /// The cycle of the world of one estimator's fit: the vehicle with θ = `theta` replayed on
-/// the log's rows (docs/model.md#fit), fitting θ exactly on every row.
-pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f64>) -> Replay {
+/// the log's rows (docs/model.md#fit), fitting θ exactly on every row; for a filter
+/// ([`filter_replay`]) following the filters' model exactly.
+pub(super) fn replay(
+    spec: &FitSpec,
+    estimator: EstimatorRef,
+    theta: &Vector3<f64>,
+) -> Result<Replay, FitError> {
     let c = &spec.cycle;
     let n = c.t_s.len();
-    let smooth = smoothed_speed(c);
+    let smooth = smoothed_speed(c, SMOOTHING_S);
+    if estimator.estimates_grade() {
+        return Ok(filter_replay(spec, estimator, smooth));
+    }
     // The bootstrap world's truth, on the log's own rows, fitting θ exactly. With an
     // accelerometer: the smoothed speed, the logged force and grade, and the acceleration
     // that makes every row fit θ (so the excitation is the log's own). With a
@@ -121,10 +130,51 @@ pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f6
         run: c.run.clone(),
         run_heading: c.run_heading.clone(),
     };
+    Ok(Replay {
+        source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
+        cycle,
+        used: Some(spec.used.clone()),
+    })
+}
+
+/// The cycle behind a filter's bootstrap world, which has no grade to replay: the log's
+/// times and force, from the smoothed speed at the first sample; the world draws the rest
+/// as the filters' model has it ([`filter_truth`]).
+fn filter_replay(spec: &FitSpec, estimator: EstimatorRef, smooth: Vec<f64>) -> Replay {
+    let c = &spec.cycle;
+    let cycle = DriveCycle {
+        x_m: positions(&c.t_s, &smooth),
+        t_s: c.t_s.clone(),
+        v_m_s: smooth,
+        grade_rad: vec![0.0; c.t_s.len()],
+        f_prop_n: c.f_prop_n.clone(),
+        accel_m_s2: vec![0.0; c.t_s.len()],
+        run: c.run.clone(),
+        run_heading: c.run_heading.clone(),
+    };
     Replay {
         source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
         cycle,
         used: Some(spec.used.clone()),
+    }
+}
+
+/// The truth of a filter's bootstrap world: the filters' own model with the fit's 1/M
+/// (docs/model.md#fit): each realisation steps the speed from the log's first (smoothed)
+/// sample under the logged force with the filters' process noise, on a grade drawn from
+/// their random walk; nothing is drawn for another estimator.
+fn filter_truth(spec: &FitSpec, estimator: EstimatorRef) -> FilterTruth {
+    if !estimator.estimates_grade() {
+        return FilterTruth::default();
+    }
+    let f = &spec.settings.filter;
+    FilterTruth {
+        speed_process_sd: f.speed_process_sd,
+        mass_prior: None,
+        grade_walk: Some(GradeWalk {
+            intensity: f.grade_walk,
+            sd0_rad: f.prior.grade_sd_rad,
+        }),
     }
 }
 
@@ -151,7 +201,10 @@ pub(super) fn world(
         spec.noise,
         vec![estimator],
         spec.settings,
-        truth,
+        ReplayTruth {
+            model_errors: truth,
+            filter: filter_truth(spec, estimator),
+        },
         &origin,
     )?)
 }

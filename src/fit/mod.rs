@@ -28,12 +28,14 @@ use crate::dynamics::Replay;
 use crate::dynamics::truth::MODEL_ERRORS;
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings, estimates_without_draws};
+use crate::estimate::filtering::FILTER_SD_INV_MASS;
 use crate::estimate::parameters::Parameters;
 use crate::estimate::regression::Regression;
 use crate::figures::FigureError;
 use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, set};
+use crate::stats::measures::Z_95;
 use crate::study::{StudyError, TruthAxes};
 
 /// The output file of `fit`.
@@ -78,13 +80,14 @@ impl FitError {
     }
 }
 
-/// Each estimator's θ̂ on the measured rows of `reg` (taken as they are).
+/// Each estimator's θ̂ on the measured rows of `reg` (taken as they are), and a filter's
+/// own SD of 1/M.
 fn estimates(
     reg: &Regression,
     noise: &NoiseLevels,
     estimators: &[EstimatorRef],
     settings: &EstimatorSettings,
-) -> Vec<Option<Vector3<f64>>> {
+) -> Vec<(Option<Vector3<f64>>, Option<f64>)> {
     estimates_without_draws(
         reg,
         &NoiseLevels::default(),
@@ -94,8 +97,28 @@ fn estimates(
         &[f64::NAN; 3],
     )
     .into_iter()
-    .map(|e| e.theta.ok())
+    .zip(estimators)
+    .map(|(e, est)| {
+        let sd = est
+            .columns()
+            .iter()
+            .position(|c| c.name == FILTER_SD_INV_MASS)
+            .map(|i| e.columns[i]);
+        (e.theta.ok(), sd)
+    })
     .collect()
+}
+
+/// A filter's own 95 % interval of 1/M, θ̂₁ ± z·SD, and of M, its image under M = 1/θ₁
+/// (unbounded above, +∞, where the interval of 1/M reaches 0); with the SD of M by the
+/// delta method, SD/θ̂₁² (docs/model.md#fit).
+fn filter_intervals(inv_mass: f64, sd: f64) -> [(f64, f64, f64); 2] {
+    let (low, high) = (inv_mass - Z_95 * sd, inv_mass + Z_95 * sd);
+    let mass_high = if low > 0.0 { 1.0 / low } else { f64::INFINITY };
+    [
+        (sd, low, high),
+        (sd / (inv_mass * inv_mass), 1.0 / high, mass_high),
+    ]
 }
 
 /// θ and the derived M = 1/θ₁ \[kg\] and Cd = θ₂/θ₁ (a quotient, where a run's `drag` column
@@ -133,12 +156,20 @@ pub const FIT_PARAMETERS: [&str; 5] = [
     "drag_coefficient",
 ];
 
-/// The rows of [`FIT_PARAMETERS`] a fit reports: all, or without 1/M and M when the mass
-/// is known (`estimation.known_mass`).
-fn fit_rows(parameters: Parameters) -> impl Iterator<Item = usize> {
+/// The rows of [`FIT_PARAMETERS`] a fit of `estimator` reports: all; without 1/M and M
+/// when the mass is known (`estimation.known_mass`); only 1/M and M for a filter, to which
+/// Cd and Cr are known.
+fn fit_rows(parameters: Parameters, estimator: EstimatorRef) -> impl Iterator<Item = usize> {
     // 1/M (row 0) and M (row 3) are known, not fitted.
     let known_mass = parameters != Parameters::All;
-    (0..FIT_PARAMETERS.len()).filter(move |&p| !(known_mass && (p == 0 || p == 3)))
+    let filter = estimator.estimates_grade();
+    (0..FIT_PARAMETERS.len()).filter(move |&p| {
+        let mass = p == 0 || p == 3;
+        match filter {
+            true => mass,
+            false => !(known_mass && mass),
+        }
+    })
 }
 
 /// One row of `fit.parquet`.
@@ -164,6 +195,20 @@ pub struct FitRow {
     pub ci_high: f64,
     /// The fit file's `[reference]` value, if it gives one.
     pub reference: Option<f64>,
+    /// A filter's own SD, 2.5 % and 97.5 % limits (of 1/M; of M its image, the SD by the
+    /// delta method; `None` for the other estimators).
+    pub filter: Option<FilterInterval>,
+}
+
+/// A filter's own SD and 95 % interval of one parameter (docs/model.md#fit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterInterval {
+    /// The filter's own SD.
+    pub sd: f64,
+    /// The interval's lower limit.
+    pub low: f64,
+    /// Its upper limit (+∞ for M when the interval of 1/M reaches 0).
+    pub high: f64,
 }
 
 /// What `fit` found.
@@ -195,7 +240,9 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
     // Every refusal before anything is created.
     let mut thetas = Vec::with_capacity(fits.len());
-    for (est, theta) in spec.estimators.iter().zip(fits) {
+    let mut filter_sds = Vec::with_capacity(fits.len());
+    for (est, (theta, filter_sd)) in spec.estimators.iter().zip(fits) {
+        filter_sds.push(filter_sd);
         let Some(theta) = theta else {
             return Err(StudyError {
                 file: spec.origin.clone(),
@@ -226,10 +273,10 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         }
         thetas.push((*est, theta));
     }
-    let replays: Vec<Replay> = thetas
+    let replays = thetas
         .iter()
         .map(|(est, theta)| bootstrap::replay(spec, *est, theta))
-        .collect();
+        .collect::<Result<Vec<Replay>, FitError>>()?;
     let worlds = thetas
         .iter()
         .zip(&replays)
@@ -251,7 +298,9 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     set::ensure_complete(out)?;
     let mut rows = Vec::new();
     let mut budget = Vec::new();
-    for (((est, theta), model), shifts) in thetas.iter().zip(&worlds).zip(&shifts) {
+    for ((((est, theta), model), shifts), filter_sd) in
+        thetas.iter().zip(&worlds).zip(&shifts).zip(&filter_sds)
+    {
         let se = reg
             .sandwich_covariance(
                 &[theta[0], theta[1], theta[2]],
@@ -259,10 +308,16 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 spec.settings.parameters,
             )
             .map_or([f64::NAN; 5], |cov| derived_se(theta, &cov));
+        // A filter's rows have no sandwich SE (it is OLS's); they have the filter's own.
+        let se = match est.estimates_grade() {
+            true => [f64::NAN; 5],
+            false => se,
+        };
+        let intervals = filter_sd.map(|sd| filter_intervals(theta[0], sd));
         let boot = bootstrap::resample(spec, model);
         let estimate = with_derived(theta);
         let first = rows.len();
-        for p in fit_rows(spec.settings.parameters) {
+        for p in fit_rows(spec.settings.parameters, *est) {
             let name = &FIT_PARAMETERS[p];
             let mut values: Vec<f64> = boot.iter().map(|b| with_derived(b)[p]).collect();
             values.sort_by(f64::total_cmp);
@@ -279,10 +334,14 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 ci_low: quantile(&values, 0.025),
                 ci_high: quantile(&values, 0.975),
                 reference: spec.reference[p],
+                filter: intervals.map(|i| {
+                    let (sd, low, high) = i[usize::from(p == 3)];
+                    FilterInterval { sd, low, high }
+                }),
             });
         }
         let mine = &rows[first..];
-        for (p, row) in fit_rows(spec.settings.parameters).zip(mine) {
+        for (p, row) in fit_rows(spec.settings.parameters, *est).zip(mine) {
             for (&(entry, magnitude), shift) in spec.systematic.iter().zip(shifts) {
                 let entry = &MODEL_ERRORS[entry];
                 budget.push(SystematicRow {

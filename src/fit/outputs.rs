@@ -12,7 +12,8 @@ use crate::figures::FigureError;
 use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile};
 
 use super::{
-    FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FitRow, FitSpec, SYSTEMATIC_FILE, SystematicRow,
+    FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FilterInterval, FitRow, FitSpec, SYSTEMATIC_FILE,
+    SystematicRow,
 };
 use crate::model::ModelErrorValue;
 use crate::stats::measures::Z_95;
@@ -22,7 +23,7 @@ pub(super) fn write_rows(
     rows: &[FitRow],
     meta: &FileMetadata,
 ) -> Result<PendingFile, OutputError> {
-    let schema = Arc::new(Schema::new(vec![
+    let mut fields = vec![
         Field::new("estimator", DataType::Utf8, false),
         Field::new("parameter", DataType::Utf8, false),
         Field::new("estimate", DataType::Float64, false),
@@ -33,13 +34,22 @@ pub(super) fn write_rows(
         Field::new("ci_low", DataType::Float64, true),
         Field::new("ci_high", DataType::Float64, true),
         Field::new("reference", DataType::Float64, true),
-    ]));
-    let col = |f: fn(&FitRow) -> f64| -> ArrayRef {
+    ];
+    // A filter's own interval, in a fit that lists one (a fit without keeps its columns).
+    let filters = rows.iter().any(|r| r.filter.is_some());
+    if filters {
+        fields.extend(
+            ["filter_sd", "filter_ci_low", "filter_ci_high"]
+                .map(|name| Field::new(name, DataType::Float64, true)),
+        );
+    }
+    let schema = Arc::new(Schema::new(fields));
+    let col = |f: &dyn Fn(&FitRow) -> f64| -> ArrayRef {
         Arc::new(Float64Array::from_iter(
             rows.iter().map(|r| Some(f(r)).filter(|v| v.is_finite())),
         ))
     };
-    let columns: Vec<ArrayRef> = vec![
+    let mut columns: Vec<ArrayRef> = vec![
         Arc::new(StringArray::from_iter_values(
             rows.iter().map(|r| r.estimator),
         )),
@@ -49,14 +59,21 @@ pub(super) fn write_rows(
         Arc::new(Float64Array::from_iter_values(
             rows.iter().map(|r| r.estimate),
         )),
-        col(|r| r.sandwich_se),
-        col(|r| r.boot_mean),
-        col(|r| r.boot_bias),
-        col(|r| r.bias_corrected),
-        col(|r| r.ci_low),
-        col(|r| r.ci_high),
-        col(|r| r.reference.unwrap_or(f64::NAN)),
+        col(&|r| r.sandwich_se),
+        col(&|r| r.boot_mean),
+        col(&|r| r.boot_bias),
+        col(&|r| r.bias_corrected),
+        col(&|r| r.ci_low),
+        col(&|r| r.ci_high),
+        col(&|r| r.reference.unwrap_or(f64::NAN)),
     ];
+    if filters {
+        let part =
+            |f: fn(&FilterInterval) -> f64| move |r: &FitRow| r.filter.map_or(f64::NAN, |i| f(&i));
+        columns.push(col(&part(|i| i.sd)));
+        columns.push(col(&part(|i| i.low)));
+        columns.push(col(&part(|i| i.high)));
+    }
     let batch =
         RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
     let mut sink = ParquetSink::create(out, FIT_FILE, schema, meta, "fit")?;
@@ -108,6 +125,11 @@ pub fn format_value(value: f64, spread: f64) -> String {
 /// each to the digits its sandwich SE supports (docs/model.md#fit).
 pub fn table(rows: &[FitRow]) -> String {
     let with_reference = rows.iter().any(|r| r.reference.is_some());
+    let with_filter = rows.iter().any(|r| r.filter.is_some());
+    let optional = |on: bool, title: &str| match on {
+        true => title.to_string(),
+        false => String::new(),
+    };
     let mut lines = vec![[
         "estimator".to_string(),
         "parameter".into(),
@@ -116,11 +138,9 @@ pub fn table(rows: &[FitRow]) -> String {
         "bootstrap bias".into(),
         "bias-corrected".into(),
         "95 % bootstrap interval".into(),
-        if with_reference {
-            "reference".into()
-        } else {
-            String::new()
-        },
+        optional(with_filter, "SD (filter)"),
+        optional(with_filter, "95 % filter interval"),
+        optional(with_reference, "reference"),
     ]];
     let mut estimators: Vec<&str> = rows.iter().map(|r| r.estimator).collect();
     estimators.dedup();
@@ -132,7 +152,12 @@ pub fn table(rows: &[FitRow]) -> String {
             else {
                 continue;
             };
-            let f = |v: f64| format_value(v, r.sandwich_se);
+            // The digits a spread supports: the sandwich SE's, else the filter's SD.
+            let spread = match (r.sandwich_se.is_finite(), r.filter) {
+                (false, Some(i)) => i.sd,
+                _ => r.sandwich_se,
+            };
+            let f = |v: f64| format_value(v, spread);
             lines.push([
                 est.to_string(),
                 label.to_string(),
@@ -141,8 +166,11 @@ pub fn table(rows: &[FitRow]) -> String {
                 f(r.boot_bias),
                 f(r.bias_corrected),
                 format!("[{}, {}]", f(r.ci_low), f(r.ci_high)),
+                r.filter.map_or(String::new(), |i| format_value(i.sd, i.sd)),
+                r.filter
+                    .map_or(String::new(), |i| format!("[{}, {}]", f(i.low), f(i.high))),
                 r.reference
-                    .map_or(String::new(), |v| format_value(v, r.sandwich_se)),
+                    .map_or(String::new(), |v| format_value(v, spread)),
             ]);
         }
     }
@@ -164,7 +192,8 @@ fn aligned<const N: usize>(lines: &[[String; N]], left: usize) -> String {
     let mut out = String::new();
     for line in lines {
         let mut text = String::new();
-        for (c, cell) in line.iter().enumerate() {
+        // A column empty in every line (an optional one not shown) takes no space.
+        for (c, cell) in line.iter().enumerate().filter(|(c, _)| widths[*c] > 0) {
             let pad = widths[c] - cell.chars().count();
             if c < left {
                 let _ = write!(text, "{cell}{}  ", " ".repeat(pad));

@@ -16,7 +16,8 @@ use super::FitError;
 /// engine's own earlier output, which a new log may replace.
 pub const LOG_HEADER: &str = "time_s,speed_m_s,force_n,grade_rad,accel_m_s2";
 
-/// Write a synthetic log of `study` (one condition) to `path`: the noise-free cycle with
+/// Write a synthetic log of `study` (one condition) to `path`: the noise-free cycle (or
+/// realisation `r`'s own path, where its truth follows the filters' model) with
 /// realisation `r`'s noise of every channel that is on (drawn as a run draws it),
 /// columns `time_s`, `speed_m_s`, `force_n`, `grade_rad` and `accel_m_s2` (the model
 /// acceleration plus the output noise: an accelerometer).
@@ -40,19 +41,29 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
             )
             .into());
     }
-    // The log is the condition's noise-free cycle plus each channel's draws: a realisation
-    // with its own truth or map, or an air-speed sensor, has signals this log has no place
-    // for.
-    if let Some(key) = model.draws_a_world(0) {
-        return Err(study
-            .error_at(
-                key,
-                "simulate-log writes the condition's cycle with its sensor noise; it does not \
-                 write a realisation's own gusts, calibration or map, nor a measured air speed",
-            )
-            .into());
-    }
-    let cycle = model.cycles().remove(0);
+    // The log is the condition's noise-free cycle plus each channel's draws, or the
+    // realisation's own path where its truth follows the filters' model at the vehicle's
+    // mass (docs/model.md#filter-truth): a realisation with its own model errors, map or
+    // mass, or an air-speed sensor, has signals this log has no place for.
+    let cycle = match model.filter_cycle(0, study.seed(), r) {
+        Some(drawn) => std::sync::Arc::new(drawn.map_err(|reason| {
+            study.error_at("truth", format!("realisation {r}'s path: {reason}"))
+        })?),
+        None => {
+            if let Some(key) = model.draws_a_world(0) {
+                return Err(study
+                    .error_at(
+                        key,
+                        "simulate-log writes the condition's cycle with its sensor noise (or a \
+                         realisation's own path where it follows the filters' model at the \
+                         vehicle's mass); it does not write a realisation's own gusts, \
+                         calibration, map or mass, nor a measured air speed",
+                    )
+                    .into());
+            }
+            model.cycles().remove(0)
+        }
+    };
     let noise_levels = model.noise_levels(0);
     let n = cycle.t_s.len();
     // Each channel that is on adds its draws times its SD to the signal it moves

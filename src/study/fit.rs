@@ -23,6 +23,7 @@ use crate::dynamics::{DriveCycle, VehicleParams};
 use crate::dynamics::{SpeedUnit, central_differences, positions};
 use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
+use crate::estimate::filters::GradeSource;
 use crate::estimate::regression::Regression;
 use crate::tabular::read_columns;
 use crate::terrain::GradeUnit;
@@ -66,21 +67,30 @@ pub(super) struct RawLog {
     force_column: Option<String>,
     #[serde(default)]
     torque_column: Option<String>,
-    grade_column: String,
-    grade_unit: String,
+    #[serde(default)]
+    grade_column: Option<String>,
+    #[serde(default)]
+    grade_unit: Option<String>,
     #[serde(default)]
     acceleration_column: Option<String>,
     #[serde(default)]
     min_speed: Option<f64>,
 }
 
-/// `[vehicle]`: what is known (mass, Cd and Cr are what the fit finds).
+/// `[vehicle]`: what is known (mass, Cd and Cr are what the fit finds; Cd and Cr are known
+/// to the filters, which find the mass alone).
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawFitVehicle {
     /// The weighed mass \[kg\] (with `estimation.known_mass`).
     #[serde(default)]
     mass: Option<f64>,
+    /// Cd, known to the filters.
+    #[serde(default)]
+    drag_coefficient: Option<f64>,
+    /// Cr, known to the filters.
+    #[serde(default)]
+    rolling_resistance: Option<f64>,
     frontal_area: f64,
     air_density: f64,
     gravity: f64,
@@ -189,13 +199,19 @@ impl FitSpec {
         validate(raw, &c, text, log)
     }
 
-    /// The regression of the log's used samples, taken as they are (measured).
+    /// The regression of the log's used samples, taken as they are (measured); without a
+    /// grade (`estimation.grade = "none"`) cos θ is taken as 1
+    /// ([`Regression::without_grade`]).
     pub fn regression(&self) -> Regression {
-        match self.acceleration {
+        let reg = match self.acceleration {
             Acceleration::Differentiated => {
                 Regression::differentiated(&self.cycle, &self.used, 0.0, &self.vehicle)
             }
             Acceleration::Model => Regression::new(&self.cycle.select(&self.used), &self.vehicle),
+        };
+        match self.settings.grade {
+            GradeSource::Measured => reg,
+            GradeSource::None => reg.without_grade(),
         }
     }
 }
@@ -262,7 +278,6 @@ fn validate(
         None => c.dir().join(&l.file),
     };
     let speed_unit = c.named("log.speed_unit", &l.speed_unit, &SpeedUnit::ALL)?;
-    let grade_unit = c.named("log.grade_unit", &l.grade_unit, &GradeUnit::ALL)?;
     let min_speed = match l.min_speed {
         Some(s) => c.non_negative("log.min_speed", s)?,
         None => 0.0,
@@ -326,8 +341,8 @@ fn validate(
         filter: e.filter_keys(),
         vehicle: KnownVehicle {
             mass_kg: vehicle.mass_kg,
-            drag_coefficient: vehicle.drag_coefficient,
-            rolling: vehicle.rolling_resistance,
+            drag_coefficient: v.drag_coefficient.unwrap_or(0.0),
+            rolling: v.rolling_resistance.unwrap_or(0.0),
         },
     };
     let (estimators, settings, _) = validate_estimation(&e.estimators, keys, c)?;
@@ -338,6 +353,37 @@ fn validate(
         &[],
         c,
     )?;
+    check_filters(&raw, &estimators, c)?;
+    let grade_column = match (&l.grade_column, settings.grade) {
+        (Some(_), GradeSource::None) => {
+            return Err(c.fail(
+                "log.grade_column",
+                "estimation.grade = \"none\" reads no grade: leave the column out",
+            ));
+        }
+        (None, GradeSource::Measured) => {
+            return Err(c.fail(
+                "log.grade_column",
+                "required key is missing (a log without a grade: estimation.grade = \"none\")",
+            ));
+        }
+        (Some(column), GradeSource::Measured) => {
+            let unit = l.grade_unit.as_deref().ok_or_else(|| {
+                c.fail(
+                    "log.grade_unit",
+                    "required key is missing (with log.grade_column)",
+                )
+            })?;
+            Some((
+                column.as_str(),
+                c.named("log.grade_unit", unit, &GradeUnit::ALL)?,
+            ))
+        }
+        (None, GradeSource::None) => None,
+    };
+    if grade_column.is_none() && l.grade_unit.is_some() {
+        return Err(c.fail("log.grade_unit", "is given without log.grade_column"));
+    }
 
     // [reference] (optional): M, Cd and Cr to draw the fit against.
     let reference = match &raw.reference {
@@ -367,7 +413,7 @@ fn validate(
 
     let systematic = validate_systematic(raw.systematic.as_ref(), c)?;
 
-    let (cycle, used) = read_log(l, &file, force, torque_factor, speed_unit, grade_unit, c)?;
+    let (cycle, used) = read_log(l, &file, force, torque_factor, speed_unit, grade_column, c)?;
     if used.iter().filter(|u| **u).count() < 3 {
         return Err(c.fail(
             "log.min_speed",
@@ -405,6 +451,78 @@ fn validate(
     })
 }
 
+/// What the filters need of a fit file (docs/model.md#fit): Cd and Cr in `[vehicle]` (known
+/// to them), the prior's mass in `[estimation]` (a fit has no vehicle mass to default it
+/// to), every sample of the log (no `min_speed`), the mass not weighed, no `[systematic]`;
+/// and without a filter, no Cd or Cr in `[vehicle]` (the other estimators fit them).
+fn check_filters(
+    raw: &RawFit,
+    estimators: &[EstimatorRef],
+    c: &Checker<'_>,
+) -> Result<(), StudyError> {
+    let v = &raw.vehicle;
+    let Some(filter) = estimators.iter().find(|e| e.estimates_grade()) else {
+        let given = [
+            ("vehicle.drag_coefficient", v.drag_coefficient),
+            ("vehicle.rolling_resistance", v.rolling_resistance),
+        ];
+        return match given.iter().find(|(_, value)| value.is_some()) {
+            Some((key, _)) => Err(c.fail(
+                key,
+                "is known only to the filters (ekf, rls_mf), which estimation.estimators does \
+                 not list; the other estimators fit Cd/M and Cr",
+            )),
+            None => Ok(()),
+        };
+    };
+    let name = filter.name();
+    for (key, value) in [
+        ("vehicle.drag_coefficient", v.drag_coefficient),
+        ("vehicle.rolling_resistance", v.rolling_resistance),
+    ] {
+        match value {
+            None => {
+                return Err(c.fail(
+                    key,
+                    format!("required key is missing ({name} takes Cd and Cr as known)"),
+                ));
+            }
+            Some(x) => {
+                c.non_negative(key, x)?;
+            }
+        }
+    }
+    if raw.estimation.prior_mass.is_none() {
+        return Err(c.fail(
+            "estimation.prior_mass",
+            format!("required key is missing ({name} starts from a prior of the mass [kg])"),
+        ));
+    }
+    let conflicts = [
+        (
+            raw.estimation.known_mass == Some(true),
+            "estimation.known_mass",
+            "it estimates the mass",
+        ),
+        (
+            raw.log.min_speed.is_some(),
+            "log.min_speed",
+            "it runs along every sample of the log",
+        ),
+        (
+            raw.systematic.is_some(),
+            "systematic",
+            "the systematic-error budget is not built for the filters",
+        ),
+    ];
+    let set: Vec<(&str, &str)> = conflicts
+        .iter()
+        .filter(|(on, _, _)| *on)
+        .map(|(_, key, why)| (*key, *why))
+        .collect();
+    super::filter_keys::check_filter_inputs(estimators, &set, c)
+}
+
 /// The log's columns as a measured cycle (acceleration differentiated without an
 /// `acceleration_column`), and the samples the regression uses: those at `min_speed` or
 /// faster, and with a differentiated acceleration not the first or last.
@@ -414,11 +532,12 @@ fn read_log(
     force: &str,
     torque_factor: Option<f64>,
     speed_unit: SpeedUnit,
-    grade_unit: GradeUnit,
+    grade: Option<(&str, GradeUnit)>,
     c: &Checker<'_>,
 ) -> Result<(DriveCycle, Vec<bool>), StudyError> {
-    let (time, speed, grade) = (&*l.time_column, &*l.speed_column, &*l.grade_column);
-    let mut wanted = vec![time, speed, force, grade];
+    let (time, speed) = (&*l.time_column, &*l.speed_column);
+    let mut wanted = vec![time, speed, force];
+    wanted.extend(grade.map(|(column, _)| column));
     wanted.extend(l.acceleration_column.as_deref());
     let cols = read_columns(file, &wanted, 3).map_err(|e| c.fail("log.file", e.to_string()))?;
     cols.strictly_increasing(time)
@@ -434,11 +553,12 @@ fn read_log(
         .iter()
         .map(|&x| torque_factor.map_or(x, |q| q * x))
         .collect();
-    let grade_rad: Vec<f64> = cols
-        .get(grade)
-        .iter()
-        .map(|&g| grade_unit.to_rad(g))
-        .collect();
+    // Without a grade column the cycle's grade is 0: no estimator reads it
+    // (docs/model.md#fit).
+    let grade_rad: Vec<f64> = match grade {
+        Some((column, unit)) => cols.get(column).iter().map(|&g| unit.to_rad(g)).collect(),
+        None => vec![0.0; t.len()],
+    };
     let accel_m_s2 = match &l.acceleration_column {
         Some(a) => cols.get(a).to_vec(),
         None => central_differences(&t, &v_m_s),

@@ -12,6 +12,7 @@ mod drawn_errors;
 mod fault_pass;
 mod figures;
 mod fit;
+mod fit_no_grade;
 mod grid_cost;
 mod help_examples;
 mod known_mass;

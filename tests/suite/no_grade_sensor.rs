@@ -316,6 +316,12 @@ fn the_grade_walk_is_an_axis_of_a_study_with_a_filter_only() {
     assert_eq!([walk[rows[0]], walk[rows[1]]], [1e-7, 1e-4]);
     let bias_model = f64_col(&t, "bias_model");
     assert_ne!(bias_model[rows[0]], bias_model[rows[1]]);
+    // M's bound by the delta method at the thesis car's 1800 kg: SD(1/M)·M², to rounding.
+    let (inv, mass) = (f64_col(&t, "pcrlb_inv_mass"), f64_col(&t, "pcrlb_mass"));
+    for &i in &rows {
+        assert!(inv[i] > 0.0);
+        assert!((mass[i] / (inv[i] * 1800.0 * 1800.0) - 1.0).abs() < 1e-12);
+    }
     // OLS reads no walk: its rows are the same in both conditions.
     let ols: Vec<usize> = (0..e.len())
         .filter(|&i| e[i] == "ols" && p[i] == "inv_mass")

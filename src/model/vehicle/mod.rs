@@ -23,6 +23,7 @@ mod layout;
 mod pcrlb;
 mod prepare;
 mod replayed;
+pub use replayed::ReplayTruth;
 mod world;
 
 pub use axes::{Point, VehicleAxis, axes, axes_of, grid};
@@ -391,6 +392,21 @@ impl VehicleModel {
 
     /// The number condition `c`'s random streams are keyed by: its index, or, with
     /// `noise.share_across_scales`, its draw group's, marked (docs/model.md#shared-noise).
+    /// Realisation `r`'s true cycle of condition `c` under `seed` when its world draws
+    /// nothing but a truth that follows the filters' model at the vehicle's mass
+    /// ([`World::filter_cycle`]): `None` otherwise.
+    pub fn filter_cycle(
+        &self,
+        c: usize,
+        seed: u64,
+        r: u64,
+    ) -> Option<Result<crate::dynamics::DriveCycle, String>> {
+        self.conditions[c]
+            .world
+            .as_ref()?
+            .filter_cycle(&self.study, seed, self.stream_key(c), r)
+    }
+
     fn stream_key(&self, c: usize) -> u64 {
         let group = self.conditions[c].group as u64;
         if self.shared {

@@ -18,8 +18,8 @@ use crate::study::VehicleStudy;
 pub(super) const TRUTHS: u64 = 100;
 
 /// The metrics' names: the bound's SD of 1/M and of the grade at the last row, then at
-/// each of [`CHECKPOINTS_S`].
-pub(super) const METRICS: [&str; 8] = [
+/// each of [`CHECKPOINTS_S`], then M's at the last row by the delta method.
+pub(super) const METRICS: [&str; 9] = [
     PCRLB_INV_MASS,
     "pcrlb_grade",
     "pcrlb_inv_mass_60s",
@@ -28,6 +28,7 @@ pub(super) const METRICS: [&str; 8] = [
     "pcrlb_grade_60s",
     "pcrlb_grade_120s",
     "pcrlb_grade_300s",
+    "pcrlb_mass",
 ];
 
 /// A truth's path: its regression's rows (the condition's, or a realisation's own), their
@@ -93,6 +94,9 @@ pub(super) fn metrics(
     };
     let mut out = [f64::NAN; METRICS.len()];
     out[0] = bound.end.inv_mass_var.sqrt();
+    // M = 1/θ₁ by the delta method, at the truths' mean 1/M: SD(M) = SD(1/M)/θ₁².
+    let mean_inv_mass = views.iter().map(|v| v.inv_mass).sum::<f64>() / views.len() as f64;
+    out[2 + 2 * CHECKPOINTS_S.len()] = out[0] / (mean_inv_mass * mean_inv_mass);
     out[1] = bound.end.grade_var.sqrt();
     for (i, c) in bound.checkpoints.iter().enumerate() {
         if let Some(c) = c {

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use super::{ErrorAt, VehicleModel};
+use crate::dynamics::filter_truth::FilterTruth;
 use crate::dynamics::{Replay, RowSelection, VehicleParams};
 use crate::estimate::channels::{Channel, NoiseLevels, PerChannel};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
@@ -12,25 +13,35 @@ use crate::study::{
     AirSpeed, LevelAxes, LevelAxis, NoiseAxes, StudyError, TruthAxes, VehicleStudy,
 };
 
+/// The truth of a replayed world ([`VehicleModel::for_cycle`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReplayTruth {
+    /// Its model errors (one truth: [`TruthAxes::single`]; [`TruthAxes::default`] for
+    /// none).
+    pub model_errors: TruthAxes,
+    /// When drawn, each realisation's truth follows the filters' model from the cycle's
+    /// first speed under its force (a filter's bootstrap world).
+    pub filter: FilterTruth,
+}
+
 impl VehicleModel {
     /// The one-condition model of `vehicle` on the cycle `replay` (taken as the equation's
-    /// motion, its `used` rows the regression's) with the model errors of `truth` (one
-    /// truth: [`TruthAxes::single`]; [`TruthAxes::default`] for none), measured with the
+    /// motion, its `used` rows the regression's) with the truth `truth`, measured with the
     /// noise `noise` (its acceleration source too) and estimated by `estimators` with
     /// `settings`: what a study of drive mode `replay` with one level per noise axis, no
-    /// terrain and no row selection of its own prepares. An error (the rows leave fewer than 3 samples, or a compensating
-    /// estimator meets correlated speed noise on uneven samples) names `origin` and the
-    /// key such a study would have.
+    /// terrain and no row selection of its own prepares. An error (the rows leave fewer
+    /// than 3 samples, or a compensating estimator meets correlated speed noise on uneven
+    /// samples) names `origin` and the key such a study would have.
     pub fn for_cycle(
         replay: Replay,
         vehicle: VehicleParams,
         noise: NoiseLevels,
         estimators: Vec<EstimatorRef>,
         settings: EstimatorSettings,
-        truth: TruthAxes,
+        truth: ReplayTruth,
         origin: &str,
     ) -> Result<VehicleModel, StudyError> {
-        debug_assert_eq!(truth.combinations(), 1, "one truth");
+        debug_assert_eq!(truth.model_errors.combinations(), 1, "one truth");
         let vs = VehicleStudy {
             vehicle,
             drive: Arc::new(replay),
@@ -52,8 +63,8 @@ impl VehicleModel {
             share_across_scales: false,
             grade_map_length_m: 200.0,
             air_speed: AirSpeed::Ground,
-            truth,
-            filter_truth: Default::default(),
+            truth: truth.model_errors,
+            filter_truth: truth.filter,
             grade_walks: vec![settings.filter.grade_walk],
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
@@ -62,7 +73,8 @@ impl VehicleModel {
             line: None,
             reason,
         };
-        // A log's one truth draws nothing: the seed is not read.
+        // The seed is read only by the condition's bound over drawn truths
+        // (docs/model.md#pcrlb), which a replayed world's user does not report.
         Self::prepare(vs, 0, error_at)
     }
 }

@@ -147,6 +147,33 @@ impl World {
         })
     }
 
+    /// Realisation `r`'s true cycle when the world draws nothing but a truth that follows
+    /// the filters' model at the vehicle's own mass (a path, a grade walk, the process
+    /// noise); `None` otherwise. An error says why the path cannot be used.
+    pub fn filter_cycle(
+        &self,
+        vs: &VehicleStudy,
+        seed: u64,
+        key: u64,
+        r: u64,
+    ) -> Option<Result<DriveCycle, String>> {
+        let only = self.filter_truth.is_drawn()
+            && self.filter_truth.mass_prior.is_none()
+            && !self.truth.is_drawn()
+            && self.grade_map.is_none();
+        only.then(|| {
+            self.filter_truth
+                .cycle(
+                    &self.cycle,
+                    &vs.vehicle,
+                    self.table.as_deref(),
+                    self.scale,
+                    (seed, key, r),
+                )
+                .map(|(cycle, _)| cycle)
+        })
+    }
+
     /// The regression of realisation `r`: its truth (each drawn entry from its own stream
     /// of (`seed`, `key`)) driven or logged, its map's grade, the rows selected as the
     /// condition's are; and its own 1/M where the truth draws one. An error says why the

@@ -29,6 +29,8 @@ pub(in crate::study) const FIT_KEYS: [(&str, &[&str]); 5] = [
         "vehicle",
         &[
             "mass",
+            "drag_coefficient",
+            "rolling_resistance",
             "frontal_area",
             "air_density",
             "gravity",
