@@ -14,7 +14,9 @@ every quantity here except a bias that happens to lie within ~1e-3 MCSE of zero,
 on which they are ever read. ς over the cycle is recomputed by DuckDB from the grades in
 cycles.parquet (a compensated sum of 60 001 squares).
 
-Then runs gusts_check.py and coastdown_check.py: the engine's Monte Carlo under random gusts,
+identification.py recomputes each condition's VIFs, correlations and condition number from
+cycles.parquet with NumPy (1e-9 relative; see there). Then runs gusts_check.py and
+coastdown_check.py: the engine's Monte Carlo under random gusts,
 and its road_load analysis of a coast-down under speed noise, each against an independent
 NumPy one (means and SDs within 4 MCSEs; see those scripts).
 
@@ -187,6 +189,8 @@ def main():
         run_scripts(run, tmp, engine, "unsharded")
         figures = list((run / "analysis").glob("figure*_*.png"))
         assert len(figures) == 3, f"thesis_figures drew {len(figures)} figures, expected 3"
+        # VIFs, correlations and condition numbers from cycles.parquet by NumPy (1e-9).
+        subprocess.run([sys.executable, HERE / "identification.py", run, "--check"], check=True)
 
         # The same study in 3 shards, then summarized: no realisations.parquet at the top.
         sharded = tmp / "sharded"

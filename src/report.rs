@@ -7,6 +7,7 @@ use crate::stats::summary::Measure;
 use std::fmt::Write as _;
 
 mod html;
+mod identification;
 mod warnings;
 
 pub use html::{Page, escape, head, page};

@@ -115,6 +115,7 @@ pub fn page(p: &Page<'_>) -> String {
         }
     }
     out.push_str(&vehicle_parameters(p.layout, p.infos, p.summary, &listed));
+    out.push_str(&super::identification::section(p.layout, p.infos, &listed));
     // Figures.
     if !p.figures.is_empty() {
         out.push_str("<h2>Figures</h2>\n");

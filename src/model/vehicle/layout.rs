@@ -42,6 +42,7 @@ pub fn layout(study: &VehicleStudy) -> Layout {
         axes: axes_of(study).map(VehicleAxis::column).collect(),
         condition_metrics: {
             let mut metrics = vec!["terrain_ms_grid", "terrain_ms_cycle"];
+            metrics.extend(super::identification::names(study.settings.parameters));
             if estimators.iter().any(|e| e.estimates_grade()) {
                 metrics.extend(super::pcrlb::METRICS);
             }

@@ -18,6 +18,7 @@ mod bias_model;
 mod cycles_table;
 mod draws;
 mod extras;
+mod identification;
 mod kernel;
 mod layout;
 mod pcrlb;
@@ -39,7 +40,7 @@ use crate::estimate::controls::{CONTROLS, Expectations, varies};
 use crate::estimate::estimators::{EstimatorSettings, FirstOrder, reads_rows};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Sum;
-use crate::study::{self, AirSpeed, LevelAxis, Study, StudyError, VehicleStudy};
+use crate::study::{self, LevelAxis, Study, StudyError, VehicleStudy};
 use extras::{ExtraColumn, study_extras};
 use prepare::{ScaleCycle, prefixes, scale_cycles, segments};
 use world::{GradeMap, Place, World};
@@ -270,6 +271,7 @@ impl VehicleModel {
                 let mut settings = vs.settings;
                 settings.filter.grade_walk = vs.grade_walks[point.grade_walk_index];
                 let mut metrics = segment.metrics.clone();
+                metrics.extend(identification::metrics(&regression, vs.settings.parameters));
                 if filters_listed {
                     let key = match vs.share_across_scales {
                         true => SHARED_GROUP | group as u64,
@@ -392,21 +394,6 @@ impl VehicleModel {
 
     /// The number condition `c`'s random streams are keyed by: its index, or, with
     /// `noise.share_across_scales`, its draw group's, marked (docs/model.md#shared-noise).
-    /// Realisation `r`'s true cycle of condition `c` under `seed` when its world draws
-    /// nothing but a truth that follows the filters' model at the vehicle's mass
-    /// ([`World::filter_cycle`]): `None` otherwise.
-    pub fn filter_cycle(
-        &self,
-        c: usize,
-        seed: u64,
-        r: u64,
-    ) -> Option<Result<crate::dynamics::DriveCycle, String>> {
-        self.conditions[c]
-            .world
-            .as_ref()?
-            .filter_cycle(&self.study, seed, self.stream_key(c), r)
-    }
-
     fn stream_key(&self, c: usize) -> u64 {
         let group = self.conditions[c].group as u64;
         if self.shared {
@@ -424,22 +411,6 @@ impl VehicleModel {
     /// The validated study settings.
     pub fn study(&self) -> &VehicleStudy {
         &self.study
-    }
-
-    /// The key that makes condition `c`'s realisations more than its cycle and its sensor
-    /// noise — an entry drawn per realisation, the map's error, or a measured air speed —
-    /// when one does (`None`: each realisation is the condition's regression with its
-    /// channels' draws).
-    pub fn draws_a_world(&self, c: usize) -> Option<&'static str> {
-        let cond = &self.conditions[c];
-        if self.study.air_speed == AirSpeed::Measured {
-            return Some("estimation.air_speed");
-        }
-        let world = cond.world.as_ref()?;
-        Some(match world.grade_map {
-            Some(_) => "noise.grade_map_sd",
-            None => "truth",
-        })
     }
 }
 

@@ -270,6 +270,35 @@ impl World {
     }
 }
 
+/// What a realisation of a condition draws beyond its sensor noise (for `simulate-log`).
+impl super::VehicleModel {
+    /// Realisation `r`'s true cycle of condition `c` under `seed` when its world draws
+    /// nothing but a truth that follows the filters' model at the vehicle's mass
+    /// ([`World::filter_cycle`]): `None` otherwise.
+    pub fn filter_cycle(&self, c: usize, seed: u64, r: u64) -> Option<Result<DriveCycle, String>> {
+        self.conditions[c]
+            .world
+            .as_ref()?
+            .filter_cycle(&self.study, seed, self.stream_key(c), r)
+    }
+
+    /// The key that makes condition `c`'s realisations more than its cycle and its sensor
+    /// noise — an entry drawn per realisation, the map's error, or a measured air speed —
+    /// when one does (`None`: each realisation is the condition's regression with its
+    /// channels' draws).
+    pub fn draws_a_world(&self, c: usize) -> Option<&'static str> {
+        let cond = &self.conditions[c];
+        if self.study.air_speed == crate::study::AirSpeed::Measured {
+            return Some("estimation.air_speed");
+        }
+        let world = cond.world.as_ref()?;
+        Some(match world.grade_map {
+            Some(_) => "noise.grade_map_sd",
+            None => "truth",
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
