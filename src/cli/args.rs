@@ -98,7 +98,7 @@ pub enum Command {
         drag_coefficient and rolling_resistance and [estimation] prior_mass (and \
         prior_mass_sd, grade_walk, ...): each reports 1/M and M with its own SD and 95 % \
         interval beside the bootstrap's, whose world is the filters' own model with the fit's \
-        mass (docs/model.md#fit-no-grade). OLS, BCLS and WBCLS need the log's \
+        mass (docs/model.md#fit-no-grade). The other estimators need the log's \
         acceleration_column then (cos θ taken as 1).\n\n\
         Example: chassis-mc fit studies/fit_example.toml --out results/fit"
     )]

@@ -22,17 +22,17 @@ use crate::dynamics::filter_truth::{FilterTruth, GradeWalk};
 
 /// The measured speed smoothed by a centred moving average over ±[`SMOOTHING_S`], not
 /// below 0.
-fn smoothed_speed(c: &DriveCycle, half_width: f64) -> Vec<f64> {
+fn smoothed_speed(c: &DriveCycle) -> Vec<f64> {
     let n = c.t_s.len();
     let (mut lo, mut hi) = (0, 0);
     let mut sum = 0.0;
     let mut smooth = Vec::with_capacity(n);
     for i in 0..n {
-        while hi < n && c.t_s[hi] <= c.t_s[i] + half_width {
+        while hi < n && c.t_s[hi] <= c.t_s[i] + SMOOTHING_S {
             sum += c.v_m_s[hi];
             hi += 1;
         }
-        while c.t_s[lo] < c.t_s[i] - half_width {
+        while c.t_s[lo] < c.t_s[i] - SMOOTHING_S {
             sum -= c.v_m_s[lo];
             lo += 1;
         }
@@ -82,16 +82,12 @@ fn simulated_speed(spec: &FitSpec, theta: &Vector3<f64>, smooth: &[f64]) -> Vec<
 /// The cycle of the world of one estimator's fit: the vehicle with θ = `theta` replayed on
 /// the log's rows (docs/model.md#fit), fitting θ exactly on every row; for a filter
 /// ([`filter_replay`]) following the filters' model exactly.
-pub(super) fn replay(
-    spec: &FitSpec,
-    estimator: EstimatorRef,
-    theta: &Vector3<f64>,
-) -> Result<Replay, FitError> {
+pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f64>) -> Replay {
     let c = &spec.cycle;
     let n = c.t_s.len();
-    let smooth = smoothed_speed(c, SMOOTHING_S);
+    let smooth = smoothed_speed(c);
     if estimator.estimates_grade() {
-        return Ok(filter_replay(spec, estimator, smooth));
+        return filter_replay(spec, estimator, smooth);
     }
     // The bootstrap world's truth, on the log's own rows, fitting θ exactly. With an
     // accelerometer: the smoothed speed, the logged force and grade, and the acceleration
@@ -130,11 +126,11 @@ pub(super) fn replay(
         run: c.run.clone(),
         run_heading: c.run_heading.clone(),
     };
-    Ok(Replay {
+    Replay {
         source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
         cycle,
         used: Some(spec.used.clone()),
-    })
+    }
 }
 
 /// The cycle behind a filter's bootstrap world, which has no grade to replay: the log's

@@ -6,11 +6,12 @@
 //! ([`crate::study::FitSpec`], `study/fit.rs`), `bootstrap.rs`
 //! builds each estimator's bootstrap world and resamples it, `systematic.rs` moves the
 //! estimates under the model errors of `[systematic]`, `outputs.rs` writes fit.parquet,
-//! systematic.parquet, fit.svg and report.html (and the printed tables), `simulate_log.rs`
+//! systematic.parquet and fit.svg (and the printed tables), `report.rs` report.html, `simulate_log.rs`
 //! writes a synthetic log; this file fits the log and puts the rows together.
 
 mod bootstrap;
 mod outputs;
+mod report;
 mod simulate_log;
 mod systematic;
 
@@ -36,7 +37,7 @@ use crate::model::vehicle::{PARAMETERS, VehicleModel};
 use crate::output::lock::DirLock;
 use crate::output::{self, FileMetadata, OutputError, set};
 use crate::stats::measures::Z_95;
-use crate::study::{StudyError, TruthAxes};
+use crate::study::{MIN_REALISATIONS, StudyError, TruthAxes};
 
 /// The output file of `fit`.
 pub const FIT_FILE: &str = "fit.parquet";
@@ -195,6 +196,8 @@ pub struct FitRow {
     pub ci_high: f64,
     /// The fit file's `[reference]` value, if it gives one.
     pub reference: Option<f64>,
+    /// The bootstrap realisations kept (all but those whose world could not be simulated).
+    pub boot_n: usize,
     /// A filter's own SD, 2.5 % and 97.5 % limits (of 1/M; of M its image, the SD by the
     /// delta method; `None` for the other estimators).
     pub filter: Option<FilterInterval>,
@@ -248,10 +251,17 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 file: spec.origin.clone(),
                 key: Some("estimation.estimators".into()),
                 line: None,
-                reason: format!(
-                    "{}: the normal equations of the log are singular",
-                    est.name()
-                ),
+                reason: match est.estimates_grade() {
+                    true => format!(
+                        "{}: no estimate from the log (fewer samples than its difference \
+                         window, or a step its recursion cannot take)",
+                        est.name()
+                    ),
+                    false => format!(
+                        "{}: the normal equations of the log are singular",
+                        est.name()
+                    ),
+                },
             }
             .into());
         };
@@ -273,10 +283,10 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         }
         thetas.push((*est, theta));
     }
-    let replays = thetas
+    let replays: Vec<Replay> = thetas
         .iter()
         .map(|(est, theta)| bootstrap::replay(spec, *est, theta))
-        .collect::<Result<Vec<Replay>, FitError>>()?;
+        .collect();
     let worlds = thetas
         .iter()
         .zip(&replays)
@@ -292,14 +302,42 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         .map(|(((est, theta), replay), world)| systematic::shifts(spec, *est, theta, replay, world))
         .collect::<Result<Vec<Vec<[f64; 5]>>, FitError>>()?;
     drop(replays);
+    // The bootstraps, before anything is written: a world whose realisations mostly fail (a
+    // filter's model stalling under the logged force) is refused.
+    let mut boots = Vec::with_capacity(worlds.len());
+    for ((est, _), model) in thetas.iter().zip(&worlds) {
+        let boot = bootstrap::resample(spec, model);
+        if (boot.len() as i64) < MIN_REALISATIONS {
+            return Err(StudyError {
+                file: spec.origin.clone(),
+                key: Some("realisations".into()),
+                line: None,
+                reason: format!(
+                    "{}'s bootstrap kept {} of {} realisations (fewer than {MIN_REALISATIONS}): \
+                     the others' worlds could not be simulated{}",
+                    est.name(),
+                    boot.len(),
+                    spec.realisations,
+                    match est.estimates_grade() {
+                        true =>
+                            " (the filters' model stalls under the logged force: the log \
+                                 stops or brakes, which the model has no term for)",
+                        false => "",
+                    }
+                ),
+            }
+            .into());
+        }
+        boots.push(boot);
+    }
 
     std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
     let _lock = DirLock::acquire(out)?;
     set::ensure_complete(out)?;
     let mut rows = Vec::new();
     let mut budget = Vec::new();
-    for ((((est, theta), model), shifts), filter_sd) in
-        thetas.iter().zip(&worlds).zip(&shifts).zip(&filter_sds)
+    for ((((est, theta), boot), shifts), filter_sd) in
+        thetas.iter().zip(&boots).zip(&shifts).zip(&filter_sds)
     {
         let se = reg
             .sandwich_covariance(
@@ -314,7 +352,6 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
             false => se,
         };
         let intervals = filter_sd.map(|sd| filter_intervals(theta[0], sd));
-        let boot = bootstrap::resample(spec, model);
         let estimate = with_derived(theta);
         let first = rows.len();
         for p in fit_rows(spec.settings.parameters, *est) {
@@ -334,6 +371,7 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
                 ci_low: quantile(&values, 0.025),
                 ci_high: quantile(&values, 0.975),
                 reference: spec.reference[p],
+                boot_n: boot.len(),
                 filter: intervals.map(|i| {
                     let (sd, low, high) = i[usize::from(p == 3)];
                     FilterInterval { sd, low, high }
@@ -370,7 +408,7 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
     let mut pending = vec![
         outputs::write_rows(out, &rows, &meta)?,
         figure,
-        outputs::write_report(out, spec, &rows, &budget, &svg)?,
+        report::write_report(out, spec, &rows, &budget, &svg)?,
     ];
     if !budget.is_empty() {
         pending.push(outputs::write_budget(out, &budget, &meta)?);
@@ -384,4 +422,24 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         systematic: budget,
         files,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_filters_interval_of_m_is_the_image_of_one_over_ms_and_unbounded_past_zero() {
+        // 1/M = 5e-4 ± 1e-5: M's limits are 1/(5e-4 ± 1.96e-5), its SD 1e-5 / (5e-4)².
+        let [inv, mass] = filter_intervals(5e-4, 1e-5);
+        assert_eq!(inv, (1e-5, 5e-4 - Z_95 * 1e-5, 5e-4 + Z_95 * 1e-5));
+        assert_eq!(mass.1, 1.0 / inv.2);
+        assert_eq!(mass.2, 1.0 / inv.1);
+        assert!((mass.0 - 1e-5 / 25e-8).abs() < 1e-9);
+        // An interval of 1/M that reaches 0 leaves M unbounded above.
+        let [inv, mass] = filter_intervals(5e-4, 3e-4);
+        assert!(inv.1 < 0.0);
+        assert_eq!(mass.2, f64::INFINITY);
+        assert_eq!(mass.1, 1.0 / inv.2);
+    }
 }

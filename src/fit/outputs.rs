@@ -1,19 +1,18 @@
-//! What `fit` writes: fit.parquet, fit.svg and report.html, and the table it prints
+//! What `fit` writes: fit.parquet, systematic.parquet and fit.svg, and the tables it prints
 //! (docs/model.md#fit).
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, Float64Array, RecordBatch, StringArray};
+use arrow::array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
 
 use crate::figures::FigureError;
-use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile};
+use crate::output::{FileMetadata, OutputError, ParquetSink, PendingFile};
 
 use super::{
-    FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FilterInterval, FitRow, FitSpec, SYSTEMATIC_FILE,
-    SystematicRow,
+    FIT_FIGURE, FIT_FILE, FIT_PARAMETERS, FilterInterval, FitRow, SYSTEMATIC_FILE, SystematicRow,
 };
 use crate::model::ModelErrorValue;
 use crate::stats::measures::Z_95;
@@ -42,6 +41,7 @@ pub(super) fn write_rows(
             ["filter_sd", "filter_ci_low", "filter_ci_high"]
                 .map(|name| Field::new(name, DataType::Float64, true)),
         );
+        fields.push(Field::new("boot_n", DataType::Int64, false));
     }
     let schema = Arc::new(Schema::new(fields));
     let col = |f: &dyn Fn(&FitRow) -> f64| -> ArrayRef {
@@ -73,6 +73,9 @@ pub(super) fn write_rows(
         columns.push(col(&part(|i| i.sd)));
         columns.push(col(&part(|i| i.low)));
         columns.push(col(&part(|i| i.high)));
+        columns.push(Arc::new(Int64Array::from_iter_values(
+            rows.iter().map(|r| r.boot_n as i64),
+        )));
     }
     let batch =
         RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
@@ -419,56 +422,4 @@ pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
         root.present().map_err(|e| fail(&e))?;
     }
     Ok(svg)
-}
-
-pub(super) fn write_report(
-    out: &Path,
-    spec: &FitSpec,
-    rows: &[FitRow],
-    budget: &[SystematicRow],
-    svg: &str,
-) -> Result<PendingFile, OutputError> {
-    use crate::report::escape;
-    let title = format!("{} — chassis-mc fit", spec.log.display());
-    let svg = svg.find("<svg").map_or(svg, |i| &svg[i..]);
-    let html = format!(
-        "{head}<p>log {log}: {n} samples, {used} in the regression; \
-         acceleration {acc}; bootstrap seed {seed}, {r} realisations; chassis-mc {ver}</p>\n\
-         <p class=\"warning\">The sandwich SE assumes the noise levels of [noise] and ignores the \
-         estimator's bias (for M and Cd it is the delta method's); the bootstrap interval is a \
-         percentile interval of the estimator in a world where the fit is the truth, so it is \
-         centred on the estimate plus the bias: for a biased estimator read the bias-corrected \
-         estimate with it.</p>\n\
-         <figure>\n{svg}\n<figcaption>{figure}: estimate and 95 % bootstrap interval per \
-         estimator{against}</figcaption>\n</figure>\n\
-         <pre>{table}</pre>\n{budget}<h2>Fit file</h2>\n<pre>{text}</pre>\n</body>\n</html>\n",
-        head = crate::report::head(&title),
-        log = escape(&spec.log.display().to_string()),
-        n = spec.cycle.t_s.len(),
-        used = spec.used.iter().filter(|u| **u).count(),
-        acc = spec.acceleration.name(),
-        seed = spec.seed,
-        r = spec.realisations,
-        ver = env!("CARGO_PKG_VERSION"),
-        figure = FIT_FIGURE,
-        against = if spec.reference.iter().any(Option::is_some) {
-            ", against the fit file's [reference] (dashed)"
-        } else {
-            ""
-        },
-        table = escape(&table(rows)),
-        budget = match budget.is_empty() {
-            true => String::new(),
-            false => format!(
-                "<h2>Systematic-error budget</h2>\n<p>How far each estimate moves when the \
-                 truth has one model error of the fit file's [systematic] at its magnitude: \
-                 the estimator on the noise-free rows of the world its fit defines, with the \
-                 error and without it (docs/model.md#fit). No interval above includes these \
-                 shifts; compare each with the interval's half-width.</p>\n<pre>{}</pre>\n",
-                escape(&budget_table(budget))
-            ),
-        },
-        text = escape(&spec.text),
-    );
-    output::write_pending(out, "report.html", html.as_bytes())
 }

@@ -45,6 +45,16 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
     // realisation's own path where its truth follows the filters' model at the vehicle's
     // mass (docs/model.md#filter-truth): a realisation with its own model errors, map or
     // mass, or an air-speed sensor, has signals this log has no place for.
+    // A measured air speed has no column here, whatever the truth.
+    if model.study().air_speed == crate::study::AirSpeed::Measured {
+        return Err(study
+            .error_at(
+                "estimation.air_speed",
+                "simulate-log writes the vehicle's speed; a measured air speed has no column in \
+                 its log",
+            )
+            .into());
+    }
     let cycle = match model.filter_cycle(0, study.seed(), r) {
         Some(drawn) => std::sync::Arc::new(drawn.map_err(|reason| {
             study.error_at("truth", format!("realisation {r}'s path: {reason}"))

@@ -19,22 +19,24 @@ use super::spacing::{uneven_differentiation, uneven_reason};
 use super::truth::validate_systematic;
 use super::validate::{check_realisations, serde_error};
 use super::{KeySpans, StudyError};
+use crate::dynamics::SpeedUnit;
 use crate::dynamics::{DriveCycle, VehicleParams};
-use crate::dynamics::{SpeedUnit, central_differences, positions};
-use crate::estimate::channels::{Acceleration, Channel, NoiseLevels};
+use crate::estimate::channels::{Acceleration, Channel, NoiseLevels, Signal};
 use crate::estimate::estimators::{EstimatorRef, EstimatorSettings};
 use crate::estimate::filters::GradeSource;
 use crate::estimate::regression::Regression;
-use crate::tabular::read_columns;
-use crate::terrain::GradeUnit;
 use placement::elsewhere;
 
 mod estimation;
+mod filters;
+mod log;
 pub(super) mod placement;
 pub(super) use estimation::RawFitEstimation;
+pub(super) use log::RawLog;
 
-/// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval).
-const MIN_REALISATIONS: i64 = 20;
+/// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval), and fewest
+/// a bootstrap must keep.
+pub const MIN_REALISATIONS: i64 = 20;
 
 /// A fit file as written.
 #[derive(Debug, Deserialize)]
@@ -52,29 +54,6 @@ pub(super) struct RawFit {
     reference: Option<RawReference>,
     #[serde(default)]
     systematic: Option<toml::Table>,
-}
-
-/// `[log]`: the log file and its columns.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct RawLog {
-    #[serde(default)]
-    file: String,
-    time_column: String,
-    speed_column: String,
-    speed_unit: String,
-    #[serde(default)]
-    force_column: Option<String>,
-    #[serde(default)]
-    torque_column: Option<String>,
-    #[serde(default)]
-    grade_column: Option<String>,
-    #[serde(default)]
-    grade_unit: Option<String>,
-    #[serde(default)]
-    acceleration_column: Option<String>,
-    #[serde(default)]
-    min_speed: Option<f64>,
 }
 
 /// `[vehicle]`: what is known (mass, Cd and Cr are what the fit finds; Cd and Cr are known
@@ -346,44 +325,22 @@ fn validate(
         },
     };
     let (estimators, settings, _) = validate_estimation(&e.estimators, keys, c)?;
+    // A grade sensor's noise has nothing to act on without the grade.
+    let grade_keys: Vec<String> = Channel::ALL
+        .into_iter()
+        .filter(|ch| ch.own_axis() && ch.signal() == Signal::Grade && noise[*ch] > 0.0)
+        .map(|ch| format!("noise.{}", ch.key()))
+        .collect();
+    let grade_keys: Vec<&str> = grade_keys.iter().map(String::as_str).collect();
     super::filter_keys::check_grade_none(
         settings.grade,
         &estimators,
         noise.acceleration == Acceleration::Model,
-        &[],
+        &grade_keys,
         c,
     )?;
-    check_filters(&raw, &estimators, c)?;
-    let grade_column = match (&l.grade_column, settings.grade) {
-        (Some(_), GradeSource::None) => {
-            return Err(c.fail(
-                "log.grade_column",
-                "estimation.grade = \"none\" reads no grade: leave the column out",
-            ));
-        }
-        (None, GradeSource::Measured) => {
-            return Err(c.fail(
-                "log.grade_column",
-                "required key is missing (a log without a grade: estimation.grade = \"none\")",
-            ));
-        }
-        (Some(column), GradeSource::Measured) => {
-            let unit = l.grade_unit.as_deref().ok_or_else(|| {
-                c.fail(
-                    "log.grade_unit",
-                    "required key is missing (with log.grade_column)",
-                )
-            })?;
-            Some((
-                column.as_str(),
-                c.named("log.grade_unit", unit, &GradeUnit::ALL)?,
-            ))
-        }
-        (None, GradeSource::None) => None,
-    };
-    if grade_column.is_none() && l.grade_unit.is_some() {
-        return Err(c.fail("log.grade_unit", "is given without log.grade_column"));
-    }
+    filters::check_filters(&raw, &estimators, &noise, c)?;
+    let grade_column = log::grade_column(l, settings.grade, c)?;
 
     // [reference] (optional): M, Cd and Cr to draw the fit against.
     let reference = match &raw.reference {
@@ -413,7 +370,8 @@ fn validate(
 
     let systematic = validate_systematic(raw.systematic.as_ref(), c)?;
 
-    let (cycle, used) = read_log(l, &file, force, torque_factor, speed_unit, grade_column, c)?;
+    let (cycle, used) = log::read_log(l, &file, force, torque_factor, speed_unit, grade_column, c)?;
+    filters::check_filter_log(&estimators, &cycle.t_s, c)?;
     if used.iter().filter(|u| **u).count() < 3 {
         return Err(c.fail(
             "log.min_speed",
@@ -449,136 +407,4 @@ fn validate(
         systematic,
         text: text.to_string(),
     })
-}
-
-/// What the filters need of a fit file (docs/model.md#fit): Cd and Cr in `[vehicle]` (known
-/// to them), the prior's mass in `[estimation]` (a fit has no vehicle mass to default it
-/// to), every sample of the log (no `min_speed`), the mass not weighed, no `[systematic]`;
-/// and without a filter, no Cd or Cr in `[vehicle]` (the other estimators fit them).
-fn check_filters(
-    raw: &RawFit,
-    estimators: &[EstimatorRef],
-    c: &Checker<'_>,
-) -> Result<(), StudyError> {
-    let v = &raw.vehicle;
-    let Some(filter) = estimators.iter().find(|e| e.estimates_grade()) else {
-        let given = [
-            ("vehicle.drag_coefficient", v.drag_coefficient),
-            ("vehicle.rolling_resistance", v.rolling_resistance),
-        ];
-        return match given.iter().find(|(_, value)| value.is_some()) {
-            Some((key, _)) => Err(c.fail(
-                key,
-                "is known only to the filters (ekf, rls_mf), which estimation.estimators does \
-                 not list; the other estimators fit Cd/M and Cr",
-            )),
-            None => Ok(()),
-        };
-    };
-    let name = filter.name();
-    for (key, value) in [
-        ("vehicle.drag_coefficient", v.drag_coefficient),
-        ("vehicle.rolling_resistance", v.rolling_resistance),
-    ] {
-        match value {
-            None => {
-                return Err(c.fail(
-                    key,
-                    format!("required key is missing ({name} takes Cd and Cr as known)"),
-                ));
-            }
-            Some(x) => {
-                c.non_negative(key, x)?;
-            }
-        }
-    }
-    if raw.estimation.prior_mass.is_none() {
-        return Err(c.fail(
-            "estimation.prior_mass",
-            format!("required key is missing ({name} starts from a prior of the mass [kg])"),
-        ));
-    }
-    let conflicts = [
-        (
-            raw.estimation.known_mass == Some(true),
-            "estimation.known_mass",
-            "it estimates the mass",
-        ),
-        (
-            raw.log.min_speed.is_some(),
-            "log.min_speed",
-            "it runs along every sample of the log",
-        ),
-        (
-            raw.systematic.is_some(),
-            "systematic",
-            "the systematic-error budget is not built for the filters",
-        ),
-    ];
-    let set: Vec<(&str, &str)> = conflicts
-        .iter()
-        .filter(|(on, _, _)| *on)
-        .map(|(_, key, why)| (*key, *why))
-        .collect();
-    super::filter_keys::check_filter_inputs(estimators, &set, c)
-}
-
-/// The log's columns as a measured cycle (acceleration differentiated without an
-/// `acceleration_column`), and the samples the regression uses: those at `min_speed` or
-/// faster, and with a differentiated acceleration not the first or last.
-fn read_log(
-    l: &RawLog,
-    file: &Path,
-    force: &str,
-    torque_factor: Option<f64>,
-    speed_unit: SpeedUnit,
-    grade: Option<(&str, GradeUnit)>,
-    c: &Checker<'_>,
-) -> Result<(DriveCycle, Vec<bool>), StudyError> {
-    let (time, speed) = (&*l.time_column, &*l.speed_column);
-    let mut wanted = vec![time, speed, force];
-    wanted.extend(grade.map(|(column, _)| column));
-    wanted.extend(l.acceleration_column.as_deref());
-    let cols = read_columns(file, &wanted, 3).map_err(|e| c.fail("log.file", e.to_string()))?;
-    cols.strictly_increasing(time)
-        .map_err(|e| c.fail("log.file", e.to_string()))?;
-    let t = cols.get(time).to_vec();
-    let v_m_s: Vec<f64> = cols
-        .get(speed)
-        .iter()
-        .map(|&s| speed_unit.to_m_s(s))
-        .collect();
-    let f_prop_n: Vec<f64> = cols
-        .get(force)
-        .iter()
-        .map(|&x| torque_factor.map_or(x, |q| q * x))
-        .collect();
-    // Without a grade column the cycle's grade is 0: no estimator reads it
-    // (docs/model.md#fit).
-    let grade_rad: Vec<f64> = match grade {
-        Some((column, unit)) => cols.get(column).iter().map(|&g| unit.to_rad(g)).collect(),
-        None => vec![0.0; t.len()],
-    };
-    let accel_m_s2 = match &l.acceleration_column {
-        Some(a) => cols.get(a).to_vec(),
-        None => central_differences(&t, &v_m_s),
-    };
-    let min_speed = l.min_speed.unwrap_or(0.0);
-    let mut used: Vec<bool> = v_m_s.iter().map(|&s| s >= min_speed).collect();
-    if l.acceleration_column.is_none() {
-        let n = used.len();
-        used[0] = false;
-        used[n - 1] = false;
-    }
-    let cycle = DriveCycle {
-        x_m: positions(&t, &v_m_s),
-        t_s: t,
-        v_m_s,
-        grade_rad,
-        f_prop_n,
-        accel_m_s2,
-        run: vec![0; used.len()],
-        run_heading: vec![1.0],
-    };
-    Ok((cycle, used))
 }

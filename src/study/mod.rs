@@ -37,7 +37,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use axes::{AIR_SPEED_SD, GRADE_MAP_SD, LEVEL_AXIS_COUNT, LevelAxes, LevelAxis};
-pub use fit::FitSpec;
+pub use fit::{FitSpec, MIN_REALISATIONS};
 pub use line_fit::{LineFitStudy, NoiseShape};
 pub use noise::NoiseAxes;
 use raw::RawStudy;

@@ -77,8 +77,11 @@ fn the_ekfs_own_interval_covers_the_mass_of_logs_without_a_grade_column() {
     // 95 % interval of 1/M must hold the truth in 45–49 of 50 (90–98 %). For a consistent
     // filter X ~ Bin(50, 0.95): P(X ≤ 44) = 0.04, P(X = 50) = 0.08; the prior, a standard
     // deviation from the truth, pulls the estimate by about 0.3 of its SD (posterior over
-    // prior variance ≈ 0.08), for ≈ 94.5 % (P(X ≤ 44) = 0.06, P(X = 50) = 0.06). Measured:
-    // 46 of 50; over 400 logs 95.3 ± 1.1 % (`ekf_coverage_over_400_logs`).
+    // prior variance ≈ 0.08), for ≈ 94.5 % (P(X ≤ 44) = 0.06, P(X = 50) = 0.06). The band
+    // 90–98 % is the one asked of this check: a consistent filter lands outside it at about
+    // one seed in eight, so a failure after the streams change calls for the 400-log
+    // measurement below before anything else. Measured: 46 of 50; over 400 logs
+    // 95.3 ± 1.1 % (`ekf_coverage_over_400_logs`).
     let (own, boot, ratio) = ekf_coverage(50);
     eprintln!(
         "EKF's own interval covers {own} of 50, its bootstrap's {boot}; median width ratio \
@@ -103,6 +106,15 @@ fn ekf_coverage_over_400_logs() {
         boot as f64 / 400.0,
         se(boot)
     );
+    // A consistent filter's 95 % interval: within 3 binomial SEs at p = 0.95
+    // (√(0.95 · 0.05 / 400) = 0.011), for the filter's own and, a percentile interval of
+    // the same model's worlds, the bootstrap's; the two intervals' widths within 20 %.
+    let band = 3.0 * (0.95f64 * 0.05 / 400.0).sqrt();
+    for (what, k) in [("own", own), ("bootstrap", boot)] {
+        let p = k as f64 / 400.0;
+        assert!((p - 0.95).abs() <= band, "{what}: {p}");
+    }
+    assert!((0.8..=1.2).contains(&ratio), "width ratio {ratio}");
 }
 
 #[test]
@@ -129,6 +141,57 @@ fn a_filters_fit_reports_the_mass_only_with_its_own_interval_beside_the_bootstra
     let file = tmp.path().join("out/fit.parquet");
     let sd = f64_col(&read_table(&file), "filter_sd");
     assert!(sd.iter().all(|v| v.is_finite() && *v > 0.0));
+    // The bootstrap keeps the worlds that ran: all of the EKF's (its mass near the truth's);
+    // rls_mf's heavier fit stalls in a few of its drawn grades.
+    for r in &result.rows {
+        let all = r.estimator == "ekf";
+        assert!(
+            r.boot_n <= 40 && r.boot_n >= 20 && (!all || r.boot_n == 40),
+            "{r:?}"
+        );
+    }
+
+    let with_grade = tmp.path().join("with_grade.csv");
+    simulate_log(&study("fit_log_no_grade.toml", 1), 0, &with_grade, true).unwrap();
+    let ols = ols_text(&text.replace(
+        &log.display().to_string(),
+        &with_grade.display().to_string(),
+    ));
+    let spec = FitSpec::parse(&ols, "ols fit", tmp.path()).unwrap();
+    fit(&spec, &tmp.path().join("ols")).unwrap();
+    let table = read_table(&tmp.path().join("ols/fit.parquet"));
+    for name in ["filter_sd", "filter_ci_low", "filter_ci_high", "boot_n"] {
+        assert!(table.column_by_name(name).is_none(), "{name}");
+    }
+}
+
+/// `text` (a filters' fit file) for OLS with the grade measured and the accelerometer.
+fn ols_text(text: &str) -> String {
+    let text = text
+        .replace("[\"ekf\", \"rls_mf\"]", "[\"ols\"]")
+        .replace("[\"ekf\"]", "[\"ols\"]")
+        .replace("grade = \"none\"\n", "");
+    let text: String = text
+        .lines()
+        .filter(|l| {
+            ![
+                "prior_mass",
+                "prior_mass_sd",
+                "grade_sd0",
+                "grade_walk",
+                "speed_process_sd",
+                "drag_coefficient",
+                "rolling_resistance",
+            ]
+            .iter()
+            .any(|k| l.starts_with(&format!("{k} ")))
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    text.replace(
+        "force_n\"",
+        "force_n\"\ngrade_column = \"grade_rad\"\ngrade_unit = \"rad\"\nacceleration_column = \"accel_m_s2\"",
+    )
 }
 
 #[test]
@@ -155,7 +218,7 @@ fn a_fit_file_says_what_the_filters_need_and_nothing_they_do_not_read() {
     refused(
         base.replace("force_n\"", "force_n\"\nmin_speed = 0.5"),
         "log.min_speed",
-        "every sample",
+        "consecutive samples",
     );
     refused(
         base.replace(
@@ -170,28 +233,88 @@ fn a_fit_file_says_what_the_filters_need_and_nothing_they_do_not_read() {
         "log.grade_column",
         "required key is missing",
     );
-    // Without a filter, Cd and Cr are what the fit finds.
-    let ols = base
-        .replace("[\"ekf\"]", "[\"ols\"]")
-        .replace("grade = \"none\"\n", "");
-    let ols: String = ols
-        .lines()
-        .filter(|l| {
-            ![
-                "prior_mass",
-                "prior_mass_sd",
-                "grade_sd0",
-                "grade_walk",
-                "speed_process_sd",
-            ]
-            .iter()
-            .any(|k| l.starts_with(&format!("{k} ")))
-        })
-        .map(|l| format!("{l}\n"))
-        .collect();
-    let ols = ols.replace(
-        "force_n\"",
-        "force_n\"\ngrade_column = \"g\"\ngrade_unit = \"rad\"",
+    refused(
+        base.replace(
+            "prior_mass = 1500.0",
+            "prior_mass = 1500.0\nknown_mass = true",
+        )
+        .replace(
+            "drag_coefficient = 0.35",
+            "mass = 1800.0\ndrag_coefficient = 0.35",
+        ),
+        "estimation.known_mass",
+        "estimates the mass",
     );
+    refused(
+        format!("{base}\n[systematic]\nwind_speed = 2.0\n"),
+        "systematic",
+        "not built for the filters",
+    );
+    refused(
+        base.replace("force_n\"", "force_n\"\ngrade_unit = \"rad\""),
+        "log.grade_unit",
+        "without log.grade_column",
+    );
+    refused(
+        base.replace("drag_coefficient = 0.35", ""),
+        "vehicle.drag_coefficient",
+        "required key is missing",
+    );
+    refused(
+        base.replace("velocity_sd = 0.1", ""),
+        "noise.velocity_sd",
+        "must be positive",
+    );
+    refused(
+        base.replace("velocity_sd = 0.1", "velocity_sd = 0.1\ngrade_sd = 0.05"),
+        "noise.grade_sd",
+        "reads no grade",
+    );
+    // Without a filter, Cd and Cr are what the fit finds.
+    let ols = ols_text(&base).replace("frontal_area", "drag_coefficient = 0.35\nfrontal_area");
     refused(ols, "vehicle.drag_coefficient", "known only to the filters");
+    // rls_mf's window is a number of samples: its log's times must be even.
+    let uneven = tmp.path().join("uneven.csv");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let shifted: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| match i {
+            2 => l.replacen("0.1,", "0.13,", 1) + "\n",
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&uneven, shifted).unwrap();
+    let rls = fit_text(&uneven, "[\"rls_mf\"]", 20, 1);
+    refused(rls, "log.file", "not evenly spaced");
+}
+
+#[test]
+fn simulate_log_writes_a_realisations_own_path_and_refuses_what_a_log_cannot_carry() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Two realisations' logs of a truth that follows the filters' model differ in their
+    // grade (each its own walk), and the same realisation's twice are the same bytes.
+    let [a, b, a2] = ["a.csv", "b.csv", "a2.csv"].map(|n| tmp.path().join(n));
+    let s = study("fit_log_no_grade.toml", 1);
+    simulate_log(&s, 0, &a, true).unwrap();
+    simulate_log(&s, 1, &b, true).unwrap();
+    simulate_log(&s, 0, &a2, true).unwrap();
+    let (ta, tb) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    assert_eq!(ta, std::fs::read(&a2).unwrap());
+    let grade = |text: &[u8]| -> Vec<String> {
+        String::from_utf8_lossy(text)
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(3).unwrap().to_string())
+            .collect()
+    };
+    assert_ne!(grade(&ta), grade(&tb));
+    // A drawn mass has no place in a log, nor a measured air speed.
+    let text = study_text("fit_log_no_grade.toml");
+    let drawn = text.replace("[truth]\n", "[truth]\nmass_from_prior = true\n");
+    let s = chassis_mc::study::Study::from_toml(&drawn, study_path("x.toml").to_str().unwrap())
+        .unwrap();
+    let e = simulate_log(&s, 0, &tmp.path().join("c.csv"), true).unwrap_err();
+    assert!(e.to_string().contains("mass"), "{e}");
+    assert!(!tmp.path().join("c.csv").exists());
 }

@@ -99,7 +99,10 @@ mod tests {
         let all = metrics(&reg, Parameters::All);
         assert_eq!(all.len(), ALL.len());
         // Singular: no VIF, and no finite condition number (λ_min is 0 to rounding).
-        assert!(all[0..3].iter().all(|v| v.is_nan() || *v >= 1e12), "{all:?}");
+        assert!(
+            all[0..3].iter().all(|v| v.is_nan() || *v >= 1e12),
+            "{all:?}"
+        );
         assert_eq!(all[3], 0.0);
         assert_eq!(all[5], 1.0);
         assert!(all[6].is_nan() || all[6] >= 1e12, "singular: {all:?}");

@@ -94,9 +94,10 @@ pub(super) fn metrics(
     };
     let mut out = [f64::NAN; METRICS.len()];
     out[0] = bound.end.inv_mass_var.sqrt();
-    // M = 1/θ₁ by the delta method, at the truths' mean 1/M: SD(M) = SD(1/M)/θ₁².
-    let mean_inv_mass = views.iter().map(|v| v.inv_mass).sum::<f64>() / views.len() as f64;
-    out[2 + 2 * CHECKPOINTS_S.len()] = out[0] / (mean_inv_mass * mean_inv_mass);
+    // M = 1/θ₁ by the delta method, (M̂ − M)² ≈ M⁴(θ̂₁ − θ₁)², averaged over the truths:
+    // SD(1/M)·√(mean M⁴) (SD(1/M)·M² where they share M).
+    let mean_m4 = views.iter().map(|v| v.inv_mass.powi(-4)).sum::<f64>() / views.len() as f64;
+    out[2 + 2 * CHECKPOINTS_S.len()] = out[0] * mean_m4.sqrt();
     out[1] = bound.end.grade_var.sqrt();
     for (i, c) in bound.checkpoints.iter().enumerate() {
         if let Some(c) = c {
