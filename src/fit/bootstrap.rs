@@ -116,11 +116,20 @@ pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f6
         f_prop_n.push(f);
         accel_m_s2.push(a);
     }
+    let grade = c.grade_rad.clone();
+    log_replay(spec, estimator, [speed, grade, f_prop_n, accel_m_s2])
+}
+
+/// The replay of `estimator`'s world on the log's times and runs, its speed, grade, force
+/// and acceleration `signals`, the regression's rows the log's.
+fn log_replay(spec: &FitSpec, estimator: EstimatorRef, signals: [Vec<f64>; 4]) -> Replay {
+    let c = &spec.cycle;
+    let [v_m_s, grade_rad, f_prop_n, accel_m_s2] = signals;
     let cycle = DriveCycle {
-        x_m: positions(&c.t_s, &speed),
+        x_m: positions(&c.t_s, &v_m_s),
         t_s: c.t_s.clone(),
-        v_m_s: speed,
-        grade_rad: c.grade_rad.clone(),
+        v_m_s,
+        grade_rad,
         f_prop_n,
         accel_m_s2,
         run: c.run.clone(),
@@ -137,22 +146,9 @@ pub(super) fn replay(spec: &FitSpec, estimator: EstimatorRef, theta: &Vector3<f6
 /// times and force, from the smoothed speed at the first sample; the world draws the rest
 /// as the filters' model has it ([`filter_truth`]).
 fn filter_replay(spec: &FitSpec, estimator: EstimatorRef, smooth: Vec<f64>) -> Replay {
-    let c = &spec.cycle;
-    let cycle = DriveCycle {
-        x_m: positions(&c.t_s, &smooth),
-        t_s: c.t_s.clone(),
-        v_m_s: smooth,
-        grade_rad: vec![0.0; c.t_s.len()],
-        f_prop_n: c.f_prop_n.clone(),
-        accel_m_s2: vec![0.0; c.t_s.len()],
-        run: c.run.clone(),
-        run_heading: c.run_heading.clone(),
-    };
-    Replay {
-        source: format!("the fit of {} to {}", estimator.name(), spec.log.display()),
-        cycle,
-        used: Some(spec.used.clone()),
-    }
+    let n = spec.cycle.t_s.len();
+    let force = spec.cycle.f_prop_n.clone();
+    log_replay(spec, estimator, [smooth, vec![0.0; n], force, vec![0.0; n]])
 }
 
 /// The truth of a filter's bootstrap world: the filters' own model with the fit's 1/M
