@@ -336,17 +336,22 @@ pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
         root.fill(&WHITE).map_err(|e| fail(&e))?;
         let (top, bottom) = root.split_vertically(height - 30);
         for (panel, &(p, label)) in top.split_evenly((1, PANELS)).iter().zip(&SHOWN) {
-            let mine: Vec<&FitRow> = estimators
+            // Each estimator keeps its own line (index i) in every panel, also where it has
+            // no row of this parameter (a filter's Cd and Cr are known to it).
+            let mine: Vec<(usize, &FitRow)> = estimators
                 .iter()
-                .filter_map(|e| {
+                .enumerate()
+                .filter_map(|(i, e)| {
                     rows.iter()
                         .find(|r| r.estimator == *e && r.parameter == FIT_PARAMETERS[p])
+                        .map(|r| (i, r))
                 })
                 .collect();
+            let own = |r: &FitRow| r.filter.map_or([f64::NAN; 2], |f| [f.low, f.high]);
             let values = mine
                 .iter()
-                .flat_map(|r| [r.estimate, r.ci_low, r.ci_high])
-                .chain(mine.iter().filter_map(|r| r.reference))
+                .flat_map(|(_, r)| [r.estimate, r.ci_low, r.ci_high].into_iter().chain(own(r)))
+                .chain(mine.iter().filter_map(|(_, r)| r.reference))
                 .filter(|v| v.is_finite());
             let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                 (a.min(v), b.max(v))
@@ -385,7 +390,7 @@ pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(|e| fail(&e))?;
-            if let Some(r) = mine.iter().find_map(|r| r.reference) {
+            if let Some(r) = mine.iter().find_map(|(_, r)| r.reference) {
                 chart
                     .draw_series(DashedLineSeries::new(
                         [(r, -0.5), (r, n as f64 - 0.5)],
@@ -395,9 +400,22 @@ pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
                     ))
                     .map_err(|e| fail(&e))?;
             }
-            for (i, r) in mine.iter().enumerate() {
+            for &(i, r) in &mine {
                 let y = (n - 1 - i) as f64;
                 let color = Palette99::pick(i).to_rgba();
+                // A filter's own interval: a thin bar below the bootstrap's (its upper end
+                // clipped to the axis where the interval of M is unbounded).
+                if let [low, high] = own(r)
+                    && low.is_finite()
+                {
+                    let high = if high.is_finite() { high } else { hi };
+                    chart
+                        .draw_series([PathElement::new(
+                            vec![(low, y - 0.25), (high, y - 0.25)],
+                            color.stroke_width(1),
+                        )])
+                        .map_err(|e| fail(&e))?;
+                }
                 let style = color.stroke_width(2);
                 let cap = 0.12;
                 chart
@@ -414,7 +432,16 @@ pub(super) fn figure(rows: &[FitRow]) -> Result<String, FigureError> {
         }
         bottom
             .draw(&Text::new(
-                "dot: estimate; bar: 95 % bootstrap interval; dashed: the fit file's [reference]",
+                match rows.iter().any(|r| r.filter.is_some()) {
+                    true => {
+                        "dot: estimate; bar: 95 % bootstrap interval; thin bar below: a \
+                             filter's own 95 % interval; dashed: the fit file's [reference]"
+                    }
+                    false => {
+                        "dot: estimate; bar: 95 % bootstrap interval; dashed: the fit \
+                              file's [reference]"
+                    }
+                },
                 (20, 8),
                 ("sans-serif", 14),
             ))

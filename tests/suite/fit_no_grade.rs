@@ -141,6 +141,9 @@ fn a_filters_fit_reports_the_mass_only_with_its_own_interval_beside_the_bootstra
     let file = tmp.path().join("out/fit.parquet");
     let sd = f64_col(&read_table(&file), "filter_sd");
     assert!(sd.iter().all(|v| v.is_finite() && *v > 0.0));
+    // fit.svg draws the filter's own interval and says so.
+    let svg = std::fs::read_to_string(tmp.path().join("out/fit.svg")).unwrap();
+    assert!(svg.contains("own 95 % interval"));
     // The bootstrap keeps the worlds that ran: all of the EKF's (its mass near the truth's);
     // rls_mf's heavier fit stalls in a few of its drawn grades.
     for r in &result.rows {
