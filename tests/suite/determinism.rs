@@ -4,6 +4,9 @@
 
 use super::common::*;
 
+mod columns;
+use columns::{control_column, identification_column, spread_column};
+
 #[test]
 fn one_and_two_threads_write_identical_realisations() {
     let study = study("thesis.toml", 200);
@@ -73,34 +76,6 @@ const ADDED_COLUMNS: [&str; 18] = [
     "wind_gust_sd",
     "force_scale_sd",
 ];
-
-/// The control variates and the summary's control-variate measures: new results, not
-/// something the older engine implied. The hashes of the old columns skip them; they have
-/// their own pinned hash ([`control_hash`]).
-fn control_column(name: &str) -> bool {
-    (name.starts_with("cv_")
-        || name.ends_with("_cv")
-        || name.ends_with("_cv_mcse")
-        || name == "n_controls")
-        && !spread_column(name)
-}
-
-/// The summary's control-variate measures of the spread (EmpSE, MSE, RMSE, EmpSE / bound
-/// and the variance-ratio test by control variates): newer still, with their own pinned
-/// hash ([`spread_hash`]).
-fn spread_column(name: &str) -> bool {
-    let base = name.strip_suffix("_mcse").unwrap_or(name);
-    matches!(base, "emp_se_cv" | "mse_cv" | "rmse_cv")
-        || (base.starts_with("emp_over_") && base.ends_with("_cv"))
-        || name.ends_with("_p_cv")
-}
-
-/// The summary's metrics of why a cycle identifies (VIFs, correlations, the condition
-/// number): new results of the condition's noise-free rows, checked against independent
-/// implementations in `tests/suite/identification.rs` and analysis/identification.py.
-fn identification_column(name: &str) -> bool {
-    name.starts_with("vif_") || name.starts_with("corr_") || name == "condition_number"
-}
 
 /// XXH64 of every value of a table, column by column in row order (doubles by their bits,
 /// nulls marked), but the [`ADDED_COLUMNS`], the control-variate columns and the
