@@ -4,18 +4,14 @@
 use std::fmt::Write as _;
 
 use super::escape;
+use crate::model::vehicle::is_identification_metric;
 use crate::model::{ConditionInfo, Layout};
-
-/// Whether `name` is one of the identification metrics.
-fn is_identification(name: &str) -> bool {
-    name.starts_with("vif_") || name.starts_with("corr_") || name == "condition_number"
-}
 
 /// The section: one row per `listed` condition, its varying axes then each identification
 /// metric of the layout (empty where the layout has none).
 pub(super) fn section(layout: &Layout, infos: &[ConditionInfo], listed: &[usize]) -> String {
     let metrics: Vec<usize> = (0..layout.condition_metrics.len())
-        .filter(|&m| is_identification(layout.condition_metrics[m]))
+        .filter(|&m| is_identification_metric(layout.condition_metrics[m]))
         .collect();
     let Some(first) = infos.first() else {
         return String::new();

@@ -28,6 +28,11 @@ const KNOWN_MASS: [&str; 4] = [
     "condition_number",
 ];
 
+/// Whether `name` is one of these metrics (of any study).
+pub fn is_metric(name: &str) -> bool {
+    ALL.contains(&name)
+}
+
 /// The names of the metrics of a study fitting `parameters`, in the order of [`metrics`].
 pub(super) fn names(parameters: Parameters) -> &'static [&'static str] {
     match parameters {

@@ -24,6 +24,7 @@ mod layout;
 mod pcrlb;
 mod prepare;
 mod replayed;
+pub use identification::is_metric as is_identification_metric;
 pub use replayed::ReplayTruth;
 mod world;
 

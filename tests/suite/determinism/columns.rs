@@ -26,5 +26,5 @@ pub(super) fn spread_column(name: &str) -> bool {
 /// number): new results of the condition's noise-free rows, checked against independent
 /// implementations in `tests/suite/identification.rs` and analysis/identification.py.
 pub(super) fn identification_column(name: &str) -> bool {
-    name.starts_with("vif_") || name.starts_with("corr_") || name == "condition_number"
+    chassis_mc::model::vehicle::is_identification_metric(name)
 }
