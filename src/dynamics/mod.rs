@@ -12,6 +12,7 @@
 //! this equation (model errors) is in [`truth`].
 
 mod coastdown;
+mod designed;
 pub mod filter_truth;
 mod replay;
 mod speed_trace;
@@ -19,6 +20,7 @@ mod torque;
 pub mod truth;
 
 pub use coastdown::{CoastDown, Directions, RUN_PAIR};
+pub use designed::{Candidate, DesignSummary, DesignedDrive, DriveDesign, Driven, Shape};
 pub use replay::Replay;
 pub use speed_trace::{SpeedTrace, SpeedUnit, central_differences, positions};
 pub use torque::{TorqueDrive, simulate};
@@ -177,6 +179,17 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
     fn duration_step(&self) -> Option<f64> {
         None
     }
+
+    /// The keys of a drive still to be designed (`drive.mode = "designed"`), which the
+    /// study's preparation designs for its sensors and estimator (`design::drive`).
+    fn design(&self) -> Option<&DriveDesign> {
+        None
+    }
+
+    /// The drive as designed, when it was (its torque and what the search found).
+    fn designed(&self) -> Option<&DesignedDrive> {
+        None
+    }
 }
 
 /// A drive mode as study files name it (`[drive] mode = ...`).
@@ -192,7 +205,7 @@ pub struct DriveMode {
 }
 
 /// Every drive mode a study can name; the first is the default when `mode` is absent.
-pub static DRIVE_MODES: [DriveMode; 4] = [
+pub static DRIVE_MODES: [DriveMode; 5] = [
     DriveMode {
         name: "torque",
         keys: TorqueDrive::KEYS,
@@ -212,6 +225,11 @@ pub static DRIVE_MODES: [DriveMode; 4] = [
         name: "coastdown",
         keys: CoastDown::KEYS,
         parse: CoastDown::parse,
+    },
+    DriveMode {
+        name: "designed",
+        keys: DriveDesign::KEYS,
+        parse: DriveDesign::parse,
     },
 ];
 
@@ -265,6 +283,21 @@ pub enum SimulationError {
         /// What went wrong, and which key to change.
         reason: String,
     },
+    /// A designed drive cannot hold its speed limits (docs/model.md#designed-drive).
+    #[error("the designed drive cannot hold drive.{key} at t = {time_s:.2} s: {reason}")]
+    SpeedLimit {
+        /// Where \[s\].
+        time_s: f64,
+        /// The limit's key.
+        key: &'static str,
+        /// What happened.
+        reason: String,
+    },
+    /// A designed drive was driven before the study's preparation designed it.
+    #[error(
+        "the drive mode `designed` is designed when its study is prepared; it has no cycle before"
+    )]
+    Undesigned,
     /// The state became NaN or infinite.
     #[error("the simulation diverged (non-finite state) at t = {time_s:.2} s")]
     NonFinite {
@@ -281,7 +314,9 @@ impl SimulationError {
             | SimulationError::RanOffTerrain { time_s, .. }
             | SimulationError::TooSteep { time_s, .. }
             | SimulationError::CoastRun { time_s, .. }
+            | SimulationError::SpeedLimit { time_s, .. }
             | SimulationError::NonFinite { time_s } => *time_s,
+            SimulationError::Undesigned => 0.0,
         }
     }
 }

@@ -63,36 +63,43 @@ impl TorqueDrive {
     /// `initial_speed` and the torque keys.
     pub fn parse(p: &Params<'_>) -> Result<Arc<dyn CycleSource>, KeyError> {
         p.only(Self::KEYS)?;
-        let duration_s = p.positive("duration")?;
-        let time_step_s = p.positive("time_step")?;
-        let steps = (duration_s / time_step_s).round();
-        if (steps * time_step_s - duration_s).abs() > 1e-9 * duration_s || steps < 1.0 {
-            return Err(p.error(
-                "duration",
-                format!(
-                    "must be a whole multiple of drive.time_step ({time_step_s} s), got {duration_s} s"
-                ),
-            ));
-        }
-        if steps + 1.0 > MAX_SAMPLES as f64 {
-            return Err(p.error(
-                "time_step",
-                format!(
-                    "gives {} samples; at most {MAX_SAMPLES} are supported",
-                    steps + 1.0
-                ),
-            ));
-        }
+        let (duration_s, time_step_s, steps) = duration_steps(p)?;
         Ok(Arc::new(TorqueDrive {
             duration_s,
             time_step_s,
-            steps: steps as usize,
+            steps,
             initial_speed_m_s: p.non_negative("initial_speed")?,
             torque_mean_n_m: p.non_negative("torque_mean")?,
             torque_amplitude: p.non_negative("torque_amplitude")?,
             torque_frequency_rad_s: p.non_negative("torque_frequency")?,
         }))
     }
+}
+
+/// `drive.duration` and `drive.time_step` of a mode integrated at a fixed step: the duration,
+/// the step and the number of steps (the duration a whole multiple of the step).
+pub(super) fn duration_steps(p: &Params<'_>) -> Result<(f64, f64, usize), KeyError> {
+    let duration_s = p.positive("duration")?;
+    let time_step_s = p.positive("time_step")?;
+    let steps = (duration_s / time_step_s).round();
+    if (steps * time_step_s - duration_s).abs() > 1e-9 * duration_s || steps < 1.0 {
+        return Err(p.error(
+            "duration",
+            format!(
+                "must be a whole multiple of drive.time_step ({time_step_s} s), got {duration_s} s"
+            ),
+        ));
+    }
+    if steps + 1.0 > MAX_SAMPLES as f64 {
+        return Err(p.error(
+            "time_step",
+            format!(
+                "gives {} samples; at most {MAX_SAMPLES} are supported",
+                steps + 1.0
+            ),
+        ));
+    }
+    Ok((duration_s, time_step_s, steps as usize))
 }
 
 impl CycleSource for TorqueDrive {

@@ -107,10 +107,20 @@ impl Regression {
         noise: &NoiseLevels,
         parameters: Parameters,
     ) -> Result<[f64; 3], SolveError> {
+        let cov = self.compensated_sandwich_covariance(theta, noise, parameters)?;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// The covariance matrix of [`Regression::compensated_sandwich_se`].
+    pub fn compensated_sandwich_covariance(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+        parameters: Parameters,
+    ) -> Result<Matrix3<f64>, SolveError> {
         let bread = parameters.inverse(&self.xtx)?;
         let first = self.sandwich_covariance(theta, noise, parameters)?;
-        let cov = first + bread * self.compensation_meat(theta, noise) * bread;
-        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+        Ok(first + bread * self.compensation_meat(theta, noise) * bread)
     }
 
     /// Σᵢ of each row's terms of the compensated estimating function's variance beyond the
@@ -177,14 +187,63 @@ impl Regression {
         noise: &NoiseLevels,
         parameters: Parameters,
     ) -> Result<[f64; 3], SolveError> {
+        let cov = self.linearized_crlb_covariance(theta, noise, parameters)?;
+        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+    }
+
+    /// The covariance matrix of [`Regression::linearized_crlb_se`].
+    pub fn linearized_crlb_covariance(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+        parameters: Parameters,
+    ) -> Result<Matrix3<f64>, SolveError> {
         let inv_omega: Vec<f64> = self
             .equation_error_variance(theta, noise)
             .iter()
             .map(|o| 1.0 / o)
             .collect();
         let info = self.weighted_gram(&inv_omega);
-        let cov = parameters.inverse(&info)?;
-        Ok([0, 1, 2].map(|i| cov[(i, i)].sqrt()))
+        parameters.inverse(&info)
+    }
+
+    /// The covariance matrix of the first bound among `crlb_output`, `eiv_sandwich` and
+    /// `eiv_crlb_linearized` that applies to `noise` and for which `reports` holds (an
+    /// estimator's spread: what `design` predicts it by), and which bound it is; `None`
+    /// where none applies or its matrix is singular.
+    pub fn predicted_covariance(
+        &self,
+        theta: &[f64; 3],
+        noise: &NoiseLevels,
+        parameters: Parameters,
+        spread: Spread,
+        reports: impl Fn(&Bound) -> bool,
+    ) -> Option<(BoundKind, Matrix3<f64>)> {
+        [
+            BoundKind::CrlbOutput,
+            BoundKind::EivSandwich,
+            BoundKind::EivCrlbLinearized,
+        ]
+        .into_iter()
+        .find(|&k| {
+            let bound = &BOUNDS[k.index()];
+            (bound.applies)(noise) && reports(bound)
+        })
+        .and_then(|kind| {
+            let cov = match (kind, spread) {
+                (BoundKind::CrlbOutput, _) => parameters
+                    .inverse(&self.xtx)
+                    .map(|inv| inv * noise.sd_of(Signal::Acceleration).powi(2)),
+                (BoundKind::EivSandwich, Spread::Plain) => {
+                    self.sandwich_covariance(theta, noise, parameters)
+                }
+                (BoundKind::EivSandwich, Spread::Compensated) => {
+                    self.compensated_sandwich_covariance(theta, noise, parameters)
+                }
+                _ => self.linearized_crlb_covariance(theta, noise, parameters),
+            };
+            cov.ok().map(|c| (kind, c))
+        })
     }
 }
 

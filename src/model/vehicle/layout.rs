@@ -6,6 +6,7 @@ use std::cell::RefCell;
 use arrow::array::RecordBatch;
 use arrow::error::ArrowError;
 
+use super::designed_tables;
 use super::prepare::used_samples;
 use super::{
     ExtraColumn, PARAMETERS, VehicleAxis, VehicleModel, axes_of, cycles_batch, cycles_schema,
@@ -35,10 +36,14 @@ pub fn layout(study: &VehicleStudy) -> Layout {
     };
     let estimators = &study.estimators;
     Layout {
-        context: vec![format!(
-            "route: {terrain}; drive: {}",
-            study.drive.describe()
-        )],
+        context: {
+            let mut lines = vec![format!(
+                "route: {terrain}; drive: {}",
+                study.drive.describe()
+            )];
+            lines.extend(study.drive.designed().map(designed_tables::context));
+            lines
+        },
         axes: axes_of(study).map(VehicleAxis::column).collect(),
         condition_metrics: {
             let mut metrics = vec!["terrain_ms_grid", "terrain_ms_cycle"];
@@ -110,17 +115,30 @@ impl Model for VehicleModel {
     }
 
     fn extra_tables(&self) -> Vec<ExtraTable> {
-        vec![ExtraTable {
+        let mut tables = vec![ExtraTable {
             file: "cycles.parquet",
             table: "cycles",
             schema: cycles_schema(),
-        }]
+        }];
+        if self.study.drive.designed().is_some() {
+            tables.extend(designed_tables::tables());
+        }
+        tables
     }
 
     /// cycles.parquet: block `index` is cycle `index / sources` (of a scale and a truth,
     /// scale-major) with acceleration source `index % sources` (study order), whatever the
     /// other axes.
     fn extra_batch(&self, table: usize, index: usize) -> Option<Result<RecordBatch, ArrowError>> {
+        if table > 0 {
+            // A designed drive's trace and comparison, one batch each; its study has one
+            // cycle.
+            let designed = self.study.drive.designed().filter(|_| index == 0)?;
+            return Some(match table {
+                1 => designed_tables::trace_batch(designed, &self.cycles[0].cycle),
+                _ => designed_tables::candidates_batch(designed),
+            });
+        }
         let sources = &self.study.acceleration;
         let scale = self
             .cycles

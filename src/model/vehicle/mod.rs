@@ -16,6 +16,8 @@ use rayon::prelude::*;
 mod axes;
 mod bias_model;
 mod cycles_table;
+mod designed;
+mod designed_tables;
 mod draws;
 mod extras;
 mod identification;
@@ -125,6 +127,7 @@ impl VehicleModel {
     /// Prepare every condition of the validated `vs` run with `seed`; `error_at` names a key
     /// of the study it came from in an error.
     fn prepare(vs: VehicleStudy, seed: u64, error_at: &ErrorAt<'_>) -> Result<Self, StudyError> {
+        let vs = designed::resolve(vs, seed, error_at)?;
         let truth = vs.vehicle.theta();
         let free = vs.settings.parameters.free();
         let cycles = scale_cycles(&vs, error_at)?;

@@ -352,7 +352,7 @@ fn scale_segments(
 
 /// The regression of the samples `used` of `cycle` with acceleration `source`, one per
 /// grade bias (the measured grade θ + b).
-fn regressions(
+pub(super) fn regressions(
     vs: &VehicleStudy,
     cycle: &DriveCycle,
     used: &[bool],
