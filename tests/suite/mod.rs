@@ -15,6 +15,7 @@ mod fit;
 mod fit_no_grade;
 mod grid_cost;
 mod help_examples;
+mod designed_drive;
 mod identification;
 mod known_mass;
 mod layering;

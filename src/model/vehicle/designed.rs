@@ -16,7 +16,7 @@ use crate::estimate::bounds::BOUNDS;
 use crate::estimate::bounds::BoundKind;
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimator::EstimatorRef;
-use crate::study::{StudyError, VehicleStudy};
+use crate::study::{Study, StudyError, VehicleStudy};
 use crate::terrain::GradeTable;
 
 use super::PARAMETERS;
@@ -63,64 +63,13 @@ pub(super) fn resolve(
     let Some(design) = vs.drive.design().cloned() else {
         return Ok(vs);
     };
-    let conditions = grid(&vs).len();
-    if conditions != 1 {
-        return Err(error_at(
-            "drive.mode",
-            format!(
-                "a designed drive is designed for one condition (one terrain scale, one level of \
-                 each noise key, one acceleration source, one value of each model error); the \
-                 study has {conditions}"
-            ),
-        ));
-    }
-    let estimator = match &design.estimator {
-        Some(name) => *vs
-            .estimators
-            .iter()
-            .find(|e| e.0.name() == name)
-            .ok_or_else(|| {
-                error_at(
-                    "drive.estimator",
-                    format!("\"{name}\" is not one of estimation.estimators"),
-                )
-            })?,
-        None => vs.estimators[0],
-    };
-    let free = vs.settings.parameters.free();
-    let criterion = match design.criterion.as_str() {
-        "d" => Criterion::D,
-        "a" => Criterion::A,
-        name => match PARAMETERS.iter().position(|p| *p == name) {
-            Some(j) if free.contains(&j) => Criterion::Parameter(j),
-            Some(_) => {
-                return Err(error_at(
-                    "drive.criterion",
-                    format!("{name} is known (estimation.known_mass), not estimated"),
-                ));
-            }
-            None => {
-                return Err(error_at(
-                    "drive.criterion",
-                    format!("must be \"d\", \"a\" or one of {PARAMETERS:?}, got \"{name}\""),
-                ));
-            }
-        },
-    };
     let table = vs
         .terrain
         .as_ref()
         .expect("a designed drive is validated to have a terrain profile")
         .grade_table(vs.scales[0]);
-    let noise = grid(&vs)[0].noise;
-    let judge = Judge {
-        vs: &vs,
-        design: &design,
-        table: &table,
-        noise,
-        estimator,
-        criterion,
-    };
+    let judge = judge(&vs, &design, &table, error_at)?;
+    let estimator = judge.estimator;
     let (lo, hi) = (design.torque_min_n_m, design.torque_max_n_m);
     let objective = |levels: &[f64]| judge.of_planned(&design.planned(levels)).criterion;
     let found = search(
@@ -176,6 +125,97 @@ pub(super) fn resolve(
         design,
     });
     Ok(vs)
+}
+
+/// The judge of `design`'s profiles in the study `vs` on `table`: an error names the key of
+/// a study of more than one condition, an estimator it does not list, an unknown criterion.
+fn judge<'a>(
+    vs: &'a VehicleStudy,
+    design: &'a DriveDesign,
+    table: &'a GradeTable,
+    error_at: &ErrorAt<'_>,
+) -> Result<Judge<'a>, StudyError> {
+    let conditions = grid(vs).len();
+    if conditions != 1 {
+        return Err(error_at(
+            "drive.mode",
+            format!(
+                "a designed drive is designed for one condition (one terrain scale, one level of \
+                 each noise key, one acceleration source, one value of each model error); the \
+                 study has {conditions}"
+            ),
+        ));
+    }
+    let estimator = match &design.estimator {
+        Some(name) => *vs
+            .estimators
+            .iter()
+            .find(|e| e.0.name() == name)
+            .ok_or_else(|| {
+                error_at(
+                    "drive.estimator",
+                    format!("\"{name}\" is not one of estimation.estimators"),
+                )
+            })?,
+        None => vs.estimators[0],
+    };
+    let free = vs.settings.parameters.free();
+    let criterion = match design.criterion.as_str() {
+        "d" => Criterion::D,
+        "a" => Criterion::A,
+        name => match PARAMETERS.iter().position(|p| *p == name) {
+            Some(j) if free.contains(&j) => Criterion::Parameter(j),
+            Some(_) => {
+                return Err(error_at(
+                    "drive.criterion",
+                    format!("{name} is known (estimation.known_mass), not estimated"),
+                ));
+            }
+            None => {
+                return Err(error_at(
+                    "drive.criterion",
+                    format!("must be \"d\", \"a\" or one of {PARAMETERS:?}, got \"{name}\""),
+                ));
+            }
+        },
+    };
+    let noise = grid(vs)[0].noise;
+    Ok(Judge {
+        vs,
+        design,
+        table,
+        noise,
+        estimator,
+        criterion,
+    })
+}
+
+/// The criterion of the profile of segment `levels` \[N·m\] in `study`, whose drive is
+/// designed (`drive.mode = "designed"`): what the search minimises, +∞ where the profile
+/// cannot be driven within the limits. An error for another study, or one a designed drive
+/// refuses.
+pub fn designed_profile_criterion(study: &Study, levels: &[f64]) -> Result<f64, StudyError> {
+    let error_at = |key: &str, reason: String| study.error_at(key, reason);
+    let vs = study
+        .vehicle()
+        .ok_or_else(|| error_at("model", "is not a vehicle study".into()))?;
+    let design = vs
+        .drive
+        .design()
+        .ok_or_else(|| error_at("drive.mode", "is not \"designed\"".into()))?;
+    if levels.len() != design.segments {
+        return Err(error_at(
+            "drive.segments",
+            format!("is {}, but {} levels were given", design.segments, levels.len()),
+        ));
+    }
+    let table = vs
+        .terrain
+        .as_ref()
+        .expect("a designed drive is validated to have a terrain profile")
+        .grade_table(vs.scales[0]);
+    let judge = judge(vs, design, &table, &error_at)?;
+    Ok(judge.of_planned(&design.planned(levels)).criterion)
 }
 
 /// A square wave's name in the report.

@@ -26,6 +26,7 @@ mod layout;
 mod pcrlb;
 mod prepare;
 mod replayed;
+pub use designed::designed_profile_criterion;
 pub use identification::is_metric as is_identification_metric;
 pub use replayed::ReplayTruth;
 mod world;
