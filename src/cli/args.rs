@@ -262,7 +262,17 @@ fn design_about() -> String {
          report.html.\n\n\
          Example: chassis-mc design studies/design_thesis.toml --vary drive.duration --from \
          60 --to 600 --target 'drag_over_mass:rel_rmse<=0.001' --estimator bcls --out \
-         results/design",
+         results/design\n\n\
+         With a design file instead of a study (docs/model.md#design-campaign): its [design] \
+         table names the study, the targets (all must hold), the choices ([[design.choices]]: \
+         a study key and its options, or options that are tables of keys, each with a cost) and \
+         an amount ([design.amount]: drive.duration, drive.runs or terrain.scale from FROM to \
+         TO by STEP at a cost rate). Every combination at every amount is predicted by the \
+         bound; the cheapest predicted to meet every target is run by Monte Carlo, and the next \
+         when it misses. Prints the answer and writes design.parquet (every point, its cost, \
+         predicted and simulated measures, the Pareto front of cost against the first \
+         target's measure, the answer), figures/design.svg and report.html.\n\n\
+         Example: chassis-mc design studies/design_campaign.toml --out results/campaign",
         truth.join(", ")
     )
 }
@@ -270,20 +280,21 @@ fn design_about() -> String {
 // The arguments of `Design`.
 #[derive(Debug, clap::Args)]
 pub struct DesignArgs {
-    /// The study file (TOML).
+    /// The study file (TOML), or a design file (a `[design]` table: targets, priced choices
+    /// and an amount; then no --vary, --from, --to, --target).
     pub study: PathBuf,
     /// The key varied (`design --help` lists them).
     #[arg(long, value_name = "KEY", value_parser = DesignKey::parse, help = vary_help())]
-    pub vary: DesignKey,
+    pub vary: Option<DesignKey>,
     /// The lower end of the range searched.
     #[arg(long, value_name = "A", allow_negative_numbers = true)]
-    pub from: f64,
+    pub from: Option<f64>,
     /// The upper end of the range searched.
     #[arg(long, value_name = "B", allow_negative_numbers = true)]
-    pub to: f64,
+    pub to: Option<f64>,
     /// PARAMETER:MEASURE<=VALUE, e.g. drag_over_mass:rel_rmse<=0.001.
     #[arg(long, value_name = "TARGET", value_parser = DesignTarget::parse)]
-    pub target: DesignTarget,
+    pub target: Option<DesignTarget>,
     /// The estimator (one of the study's; default its first).
     #[arg(long, value_name = "E")]
     pub estimator: Option<String>,

@@ -18,6 +18,33 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         overrides,
     } = args;
     output_directory("--out", &out)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(overrides.threads().unwrap_or(0))
+        .build()
+        .map_err(|e| Failure::bad_argument(format!("--threads: {e}")))?;
+    let text = std::fs::read_to_string(&study).unwrap_or_default();
+    if crate::design::campaign::is_design_file(&text) {
+        if vary.is_some()
+            || from.is_some()
+            || to.is_some()
+            || target.is_some()
+            || estimator.is_some()
+        {
+            return Err(Failure::bad_argument(format!(
+                "{} is a design file: its [design] table gives the targets and choices; \
+                 --vary, --from, --to, --target and --estimator are for a study",
+                study.display()
+            )));
+        }
+        return campaign(&study, out, &pool);
+    }
+    let (Some(vary), Some(from), Some(to), Some(target)) = (vary, from, to, target) else {
+        return Err(Failure::bad_argument(format!(
+            "{} is a study: design needs --vary, --from, --to and --target (or a design file \
+             with a [design] table)",
+            study.display()
+        )));
+    };
     let study = overrides.load(&study)?;
     let request = DesignRequest {
         key: vary,
@@ -27,10 +54,6 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         estimator,
         out,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(overrides.threads().unwrap_or(0))
-        .build()
-        .map_err(|e| Failure::bad_argument(format!("--threads: {e}")))?;
     let result = pool.install(|| crate::design::design(&study, &request))?;
     println!(
         "{}",
@@ -55,6 +78,40 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         return Err(Failure::while_running(
             "no value in the range meets the target",
         ));
+    }
+    Ok(())
+}
+
+/// `design FILE` with a design file.
+fn campaign(
+    file: &std::path::Path,
+    out: std::path::PathBuf,
+    pool: &rayon::ThreadPool,
+) -> Result<(), Failure> {
+    use crate::design::campaign::{Campaign, answer_sentence};
+    let campaign = Campaign::load(file, out)?;
+    let result = pool.install(|| crate::design::campaign::campaign(&campaign))?;
+    for line in &result.log {
+        println!("{line}");
+    }
+    println!("{}", answer_sentence(&campaign, &result));
+    println!(
+        "estimator {}, {} realisations per Monte Carlo evaluation, {} designs predicted \
+         ({} by Monte Carlo); wrote:",
+        result.estimator,
+        result.realisations,
+        result.points.len(),
+        result
+            .points
+            .iter()
+            .filter(|p| p.simulated.is_some())
+            .count()
+    );
+    for f in &result.files {
+        println!("  {}", f.display());
+    }
+    if result.answer.is_none() {
+        return Err(Failure::while_running("no design meets every target"));
     }
     Ok(())
 }

@@ -16,7 +16,7 @@
 //! ([`Study::varied`](crate::study::Study::varied)), `target.rs` reads the target,
 //! `output.rs` writes `design.parquet`, `figures/design.svg` and `report.html`.
 
-pub mod drive;
+pub mod campaign;
 mod output;
 mod search;
 mod target;

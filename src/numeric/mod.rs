@@ -9,6 +9,7 @@
 pub mod dd;
 pub mod linalg;
 pub mod ode;
+pub mod profile_search;
 pub mod simd;
 pub mod sum;
 pub mod trig;

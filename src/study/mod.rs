@@ -24,7 +24,7 @@ mod noise;
 mod placement;
 mod raw;
 mod spacing;
-mod spans;
+pub mod spans;
 mod terrain;
 mod truth;
 mod validate;

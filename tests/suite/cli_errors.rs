@@ -146,7 +146,7 @@ fn cases() -> Vec<Case> {
             study: t.replace("[drive]", "[drive]\nmode = \"playback\""),
             key: "drive.mode",
             line: Some(line_of(&t, "[drive]") + 1),
-            reason: "unknown drive mode \"playback\"; expected one of [\"torque\", \"speed_trace\", \"replay\", \"coastdown\"]",
+            reason: "unknown drive mode \"playback\"; expected one of [\"torque\", \"speed_trace\", \"replay\", \"coastdown\", \"designed\"]",
         },
         Case {
             name: "a key the drive mode does not have",

@@ -27,8 +27,14 @@ fn the_designed_drive_holds_its_limits_beats_the_thesis_drive_and_every_square_w
     // Every sample within the limits (the governor's guarantee, exactly: no tolerance).
     let (v, torque) = (f64_col(&trace, "v"), f64_col(&trace, "torque"));
     assert_eq!(v.len(), 60_001);
-    assert!(v.iter().all(|v| (10.0..=35.0).contains(v)), "speed outside 10–35 m/s");
-    assert!(torque.iter().all(|t| (0.0..=450.0).contains(t)), "torque outside 0–450 N·m");
+    assert!(
+        v.iter().all(|v| (10.0..=35.0).contains(v)),
+        "speed outside 10–35 m/s"
+    );
+    assert!(
+        torque.iter().all(|t| (0.0..=450.0).contains(t)),
+        "torque outside 0–450 N·m"
+    );
 
     // On its own criterion, at least as good as every square wave between the limits at
     // periods 10, 20, 30, 60 and 100 s, starting high or low (segments of 5 s: the square
@@ -56,11 +62,10 @@ fn the_designed_drive_holds_its_limits_beats_the_thesis_drive_and_every_square_w
     // Its Monte Carlo EmpSE of 1/M at most a quarter of the thesis drive's (the study's own
     // torque from rest, 600 s, the same sensor and estimator) and of Cr at most half, with
     // each EmpSE moved 3 MCSE towards failing.
-    let thesis_text = ["scales", "velocity_sd", "estimators"].iter().zip([
-        "[1.0]",
-        "[0.1]",
-        "[\"bcls\"]",
-    ]);
+    let thesis_text =
+        ["scales", "velocity_sd", "estimators"]
+            .iter()
+            .zip(["[1.0]", "[0.1]", "[\"bcls\"]"]);
     let mut text = study_text("thesis.toml");
     for (key, value) in thesis_text {
         text = set_key(&text, key, value);
@@ -99,6 +104,10 @@ fn the_designed_drive_holds_its_limits_beats_the_thesis_drive_and_every_square_w
         .unwrap();
     let replayed = run_summary(&replayed);
     for column in ["mean", "emp_se"] {
-        assert_eq!(f64_col(&replayed, column), f64_col(&ours, column), "{column}");
+        assert_eq!(
+            f64_col(&replayed, column),
+            f64_col(&ours, column),
+            "{column}"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! A designed drive (`drive.mode = "designed"`, docs/model.md#designed-drive) made for its
 //! study: the torque profile whose drive minimises the criterion of the chosen estimator's
-//! bound under the study's noise, on its terrain, searched by `design::drive`; the study is
+//! bound under the study's noise, on its terrain, searched by `numeric::profile_search`; the study is
 //! then the designed drive's, an ordinary torque drive.
 
 use std::sync::Arc;
@@ -8,7 +8,6 @@ use std::sync::Arc;
 use super::ErrorAt;
 use super::axes::grid;
 use super::prepare::{regressions, used_samples};
-use crate::design::drive::{SquareWave, search};
 use crate::dynamics::{
     Candidate, DesignSummary, DesignedDrive, DriveDesign, Driven, Prefix, VehicleParams,
 };
@@ -16,6 +15,7 @@ use crate::estimate::bounds::BOUNDS;
 use crate::estimate::bounds::BoundKind;
 use crate::estimate::channels::NoiseLevels;
 use crate::estimate::estimator::EstimatorRef;
+use crate::numeric::profile_search::{SquareWave, search};
 use crate::study::{Study, StudyError, VehicleStudy};
 use crate::terrain::GradeTable;
 
@@ -206,7 +206,11 @@ pub fn designed_profile_criterion(study: &Study, levels: &[f64]) -> Result<f64, 
     if levels.len() != design.segments {
         return Err(error_at(
             "drive.segments",
-            format!("is {}, but {} levels were given", design.segments, levels.len()),
+            format!(
+                "is {}, but {} levels were given",
+                design.segments,
+                levels.len()
+            ),
         ));
     }
     let table = vs

@@ -1,5 +1,5 @@
 //! The search of a designed drive (docs/model.md#designed-drive): the segment levels of a
-//! torque profile between `lo` and `hi` that minimise a criterion, by argmin.
+//! piecewise profile between `lo` and `hi` that minimise a criterion, by argmin.
 //!
 //! Three stages, each an argmin solver run by its `Executor`:
 //! 1. every square wave between the limits whose half period is a whole number of segments
