@@ -271,10 +271,12 @@ pub fn expected_sums_bias(at: &FirstOrder<'_>) -> [f64; 3] {
 }
 
 /// The first-order bias of an estimator that compensates the noise: the noise adds none,
-/// so it is what the model errors alone make it estimate (its estimate on the noise-free
-/// rows), and zero without model errors (that estimate is then the truth, to rounding).
+/// so it is what the noise-free rows make it estimate — the model errors, and a
+/// differentiated acceleration's central differences, which are not the acceleration where
+/// the force changes within a step — and zero otherwise (that estimate is then the truth,
+/// to rounding).
 pub fn compensated_bias(at: &FirstOrder<'_>) -> [f64; 3] {
-    match at.model_errors {
+    match at.model_errors || at.regression.differentiation.is_some() {
         true => at.noise_free_bias,
         false => [0.0; 3],
     }

@@ -27,7 +27,13 @@ pub fn answer_sentence(campaign: &Campaign, result: &CampaignResult) -> String {
                 .targets
                 .iter()
                 .zip(p.simulated.as_deref().unwrap_or_default())
-                .map(|(t, (m, s))| format!("{} = {m:.4e} ± {s:.1e}", t.measure.name()))
+                .map(|(t, (m, s))| {
+                    format!(
+                        "{} {} = {m:.4e} ± {s:.1e}",
+                        crate::model::vehicle::PARAMETERS[t.parameter],
+                        t.measure.name()
+                    )
+                })
                 .collect();
             format!(
                 "cheapest design meeting {}: {}; Monte Carlo there: {} (MCSE). Rule: the \

@@ -53,6 +53,7 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
         rows,
         truth,
     };
+    let started = std::time::Instant::now();
     // Every combination's study, then every (combination, amount) predicted.
     let studies: Vec<Study> = (0..campaign.combinations())
         .map(|k| combination_study(campaign, k))
@@ -74,6 +75,13 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
             })
         })
         .collect::<Result<_, DesignError>>()?;
+    eprintln!(
+        "design: {} designs ({} combinations × {} amounts) predicted by the bound in {:.1} s",
+        points.len(),
+        studies.len(),
+        amounts.len(),
+        started.elapsed().as_secs_f64()
+    );
     mark_pareto(&mut points);
     // Candidates: each combination's first amount predicted to hold, cheapest first.
     let mut candidates: Vec<usize> = (0..studies.len())
@@ -85,6 +93,11 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
         let i = candidates.swap_remove(pos);
         let k = points[i].combination;
         let (study, model) = judge.variant(&studies[k], points[i].amount)?;
+        eprintln!(
+            "design: Monte Carlo of {} ({} realisations)",
+            describe(campaign, &points[i]),
+            study.realisations()
+        );
         points[i].simulated = Some(judge.simulated(&study, &model)?);
         let label = describe(campaign, &points[i]);
         if points[i].holds(campaign) == Some(true) {
