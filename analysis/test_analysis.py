@@ -15,7 +15,8 @@ on which they are ever read. ς over the cycle is recomputed by DuckDB from the 
 cycles.parquet (a compensated sum of 60 001 squares).
 
 identification.py recomputes each condition's VIFs, correlations and condition number from
-cycles.parquet with NumPy (1e-9 relative; see there). Then runs gusts_check.py and
+cycles.parquet with NumPy (1e-9 relative; see there), and designed_drive.py a designed drive's
+criterion and limits (studies/designed_drive.toml at R = 20). Then runs gusts_check.py and
 coastdown_check.py: the engine's Monte Carlo under random gusts,
 and its road_load analysis of a coast-down under speed noise, each against an independent
 NumPy one (means and SDs within 4 MCSEs; see those scripts).
@@ -191,6 +192,11 @@ def main():
         assert len(figures) == 3, f"thesis_figures drew {len(figures)} figures, expected 3"
         # VIFs, correlations and condition numbers from cycles.parquet by NumPy (1e-9).
         subprocess.run([sys.executable, HERE / "identification.py", run, "--check"], check=True)
+        # A designed drive: its limits on every sample and its criterion by NumPy (1e-9).
+        designed = tmp / "designed"
+        subprocess.run([BINARY, "run", ROOT / "studies" / "designed_drive.toml", "--out", designed,
+                        "--realisations", "20", "--quiet", "--no-figures"], check=True)
+        subprocess.run([sys.executable, HERE / "designed_drive.py", designed, "--check"], check=True)
 
         # The same study in 3 shards, then summarized: no realisations.parquet at the top.
         sharded = tmp / "sharded"

@@ -146,3 +146,85 @@ cost_rate = 1.0
     assert_eq!(answers, 1);
     assert!(bool_col(&table, "pareto").iter().any(|p| *p));
 }
+
+#[test]
+fn a_bad_design_file_is_exit_2_naming_file_key_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = study_path("design_campaign_study.toml");
+    let good = format!(
+        "[design]\nstudy = \"{}\"\ntargets = [\"inv_mass:rel_rmse<=0.01\"]\n\n\
+         [[design.choices]]\nkey = \"noise.velocity_sd\"\noptions = [1.0, 0.3]\ncosts = [0, 400]\n",
+        study.display()
+    );
+    let cases = [
+        (
+            "costs = [0, 400]",
+            "costs = [0]",
+            "design.choices[0].costs",
+            8,
+            "one per option",
+        ),
+        (
+            "targets = [\"inv_mass:rel_rmse<=0.01\"]",
+            "targets = [\"inv_mass:rel_rmse<0.01\"]",
+            "design.targets[0]",
+            3,
+            "",
+        ),
+        (
+            "[[design.choices]]",
+            "[design.amount]\nkey = \"noise.velocity_sd\"\nfrom = 1\nto = 2\nstep = 1\ncost_rate = 1\n\n[[design.choices]]",
+            "design.amount.key",
+            6,
+            "must be drive.duration",
+        ),
+    ];
+    for (from, to, key, line, reason) in cases {
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, good.replace(from, to)).unwrap();
+        let out = dir.path().join("out");
+        let (code, _, stderr) = cli(
+            &[
+                "design".as_ref(),
+                file.as_os_str(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            dir.path(),
+        );
+        assert_eq!(code, 2, "{key}: {stderr}");
+        assert!(stderr.contains("bad.toml"), "{key}: {stderr}");
+        assert!(stderr.contains(&format!("`{key}`")), "{key}: {stderr}");
+        assert!(stderr.contains(&format!("line {line}")), "{key}: {stderr}");
+        assert!(stderr.contains(reason), "{key}: {stderr}");
+        assert!(!out.exists(), "{key}: nothing is written");
+    }
+    // A study without --vary, and a design file with it, are refused with exit 2.
+    let out = dir.path().join("out");
+    let (code, _, stderr) = cli(
+        &[
+            "design".as_ref(),
+            study.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--vary"), "{stderr}");
+    let file = dir.path().join("good.toml");
+    std::fs::write(&file, &good).unwrap();
+    let (code, _, stderr) = cli(
+        &[
+            "design".as_ref(),
+            file.as_os_str(),
+            "--vary".as_ref(),
+            "drive.duration".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ],
+        dir.path(),
+    );
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("is a design file"), "{stderr}");
+}

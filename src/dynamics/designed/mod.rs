@@ -460,3 +460,6 @@ impl CycleSource for DriveDesign {
         Some(self)
     }
 }
+
+#[cfg(test)]
+mod tests;
