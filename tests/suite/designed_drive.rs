@@ -111,3 +111,34 @@ fn the_designed_drive_holds_its_limits_beats_the_thesis_drive_and_every_square_w
         );
     }
 }
+
+#[test]
+fn the_design_is_the_same_whatever_the_thread_count() {
+    // A minute of the designed drive, 12 segments: the search evaluates its profiles in
+    // parallel and must choose the same one on one thread as on two.
+    let mut text = study_text("designed_drive.toml");
+    text = set_key(&text, "duration", "60.0");
+    text = set_key(&text, "segments", "12");
+    text = set_key(&text, "polish_iterations", "20");
+    let study = Study::from_toml(&text, "short_design")
+        .unwrap()
+        .with_overrides(Some(10), None)
+        .unwrap();
+    let (one, _) = run(&study, Some(1));
+    let (two, _) = run(&study, Some(2));
+    for (file, columns) in [
+        ("designed_drive.parquet", &["t", "v", "torque"][..]),
+        (
+            "drive_design.parquet",
+            &["criterion_value", "governed_fraction"][..],
+        ),
+    ] {
+        let (a, b) = (
+            read_table(&one.path().join(file)),
+            read_table(&two.path().join(file)),
+        );
+        for c in columns {
+            assert_eq!(f64_col(&a, c), f64_col(&b, c), "{file}: {c}");
+        }
+    }
+}

@@ -24,8 +24,11 @@ pub use output::answer_sentence;
 /// A discrete choice: its options, each setting one or more study keys, and their costs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Choice {
-    /// What the choice is called in tables (its key, or `choice <i>`).
+    /// What the choice is called in tables: its key, or the keys its options set.
     pub name: String,
+    /// Whether it sets one key (its options' labels are values) rather than several (its
+    /// labels name the keys).
+    pub keyed: bool,
     /// Per option: its label and the study keys it sets (dotted) with their values.
     pub options: Vec<(String, Vec<(String, toml::Value)>)>,
     /// The cost of each option.
@@ -260,6 +263,7 @@ fn read_choice(p: &Params<'_>) -> Result<Choice, KeyError> {
     };
     Ok(Choice {
         name,
+        keyed: key.is_some(),
         options: labels.into_iter().zip(settings).collect(),
         costs,
     })
@@ -391,7 +395,10 @@ pub(crate) fn describe(campaign: &Campaign, p: &CampaignPoint) -> String {
         .choices
         .iter()
         .zip(&p.options)
-        .map(|(c, &j)| format!("{} = {}", c.name, c.options[j].0))
+        .map(|(c, &j)| match c.keyed {
+            true => format!("{} = {}", c.name, c.options[j].0),
+            false => c.options[j].0.clone(),
+        })
         .collect();
     if let (Some(a), Some(m)) = (p.amount, &campaign.amount) {
         parts.push(format!("{} = {a}", m.key.name()));
