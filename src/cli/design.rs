@@ -59,27 +59,38 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         "{}",
         answer_sentence(&request, result.answer, result.answer_sd, result.neighbour)
     );
+    let simulated = result.points.iter().filter(|p| p.simulated.is_some());
+    let values = format!("{} values evaluated", result.points.len());
+    let counts = (result.realisations, &values[..], simulated.count());
+    finished(
+        &result.estimator,
+        counts,
+        &result.files,
+        result.answer.is_some(),
+        "no value in the range meets the target",
+    )
+}
+
+/// The last lines of a design: what was run, the files written, and the exit status (1
+/// when there is no answer, with `none`).
+fn finished(
+    estimator: &str,
+    (realisations, evaluated, simulated): (u64, &str, usize),
+    files: &[std::path::PathBuf],
+    answered: bool,
+    none: &str,
+) -> Result<(), Failure> {
     println!(
-        "estimator {}, {} realisations per Monte Carlo evaluation, {} values evaluated \
-         ({} by Monte Carlo); wrote:",
-        result.estimator,
-        result.realisations,
-        result.points.len(),
-        result
-            .points
-            .iter()
-            .filter(|p| p.simulated.is_some())
-            .count()
+        "estimator {estimator}, {realisations} realisations per Monte Carlo evaluation, \
+         {evaluated} ({simulated} by Monte Carlo); wrote:"
     );
-    for f in &result.files {
+    for f in files {
         println!("  {}", f.display());
     }
-    if result.answer.is_none() {
-        return Err(Failure::while_running(
-            "no value in the range meets the target",
-        ));
+    match answered {
+        true => Ok(()),
+        false => Err(Failure::while_running(none)),
     }
-    Ok(())
 }
 
 /// `design FILE` with a design file.
@@ -95,23 +106,14 @@ fn campaign(
         println!("{line}");
     }
     println!("{}", answer_sentence(&campaign, &result));
-    println!(
-        "estimator {}, {} realisations per Monte Carlo evaluation, {} designs predicted \
-         ({} by Monte Carlo); wrote:",
-        result.estimator,
-        result.realisations,
-        result.points.len(),
-        result
-            .points
-            .iter()
-            .filter(|p| p.simulated.is_some())
-            .count()
-    );
-    for f in &result.files {
-        println!("  {}", f.display());
-    }
-    if result.answer.is_none() {
-        return Err(Failure::while_running("no design meets every target"));
-    }
-    Ok(())
+    let simulated = result.points.iter().filter(|p| p.simulated.is_some());
+    let designs = format!("{} designs predicted", result.points.len());
+    let counts = (result.realisations, &designs[..], simulated.count());
+    finished(
+        &result.estimator,
+        counts,
+        &result.files,
+        result.answer.is_some(),
+        "no design meets every target",
+    )
 }

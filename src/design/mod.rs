@@ -17,7 +17,7 @@
 //! `output.rs` writes `design.parquet`, `figures/design.svg` and `report.html`.
 
 pub mod campaign;
-mod output;
+pub(crate) mod output;
 mod search;
 mod target;
 

@@ -112,11 +112,30 @@ fn write_points(
                 .map(|p| Some(answer.is_some_and(|a| a.value == p.value))),
         )),
     ];
+    write_table(out, schema, columns, meta)
+}
+
+/// `design.parquet` of `columns` under `schema`, staged.
+pub(crate) fn write_table(
+    out: &Path,
+    schema: Arc<Schema>,
+    columns: Vec<ArrayRef>,
+    meta: &FileMetadata,
+) -> Result<PendingFile, OutputError> {
     let batch =
         RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
     let mut sink = ParquetSink::create(out, DESIGN_FILE, schema, meta, "design")?;
     sink.write(&batch)?;
     sink.finish()
+}
+
+/// Where `figures/design.svg` is drawn before it is committed, and the staged file.
+pub(crate) fn staged_figure(out: &Path) -> Result<(std::path::PathBuf, PendingFile), OutputError> {
+    let dir = out.join(output::temporary_name(figures::FIGURES));
+    std::fs::create_dir_all(&dir).map_err(|e| OutputError::io(&dir, e))?;
+    let path = dir.join("design.svg");
+    let pending = PendingFile::new(path.clone(), out.join(figures::FIGURES).join("design.svg"));
+    Ok((path, pending))
 }
 
 fn draw(
@@ -125,9 +144,7 @@ fn draw(
     estimator: &str,
     points: &[DesignPoint],
 ) -> Result<PendingFile, DesignError> {
-    let staging = out.join(output::temporary_name(figures::FIGURES));
-    std::fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    let path = staging.join("design.svg");
+    let (path, pending) = staged_figure(out)?;
     let predicted: Vec<(f64, f64)> = points
         .iter()
         .filter(|p| p.predicted.is_finite())
@@ -153,10 +170,7 @@ fn draw(
         &simulated,
         request.target.value,
     )?;
-    Ok(PendingFile::new(
-        path,
-        out.join(figures::FIGURES).join("design.svg"),
-    ))
+    Ok(pending)
 }
 
 fn write_report(

@@ -307,6 +307,22 @@ pub enum SimulationError {
 }
 
 impl SimulationError {
+    /// The error of an integrated drive's state at sample `i` (time `t` \[s\], position `x`
+    /// \[m\], speed `v` \[m/s\]), if any: non-finite, or stalled after the start.
+    pub fn check_state(i: usize, t: f64, x: f64, v: f64) -> Result<(), SimulationError> {
+        if !(x.is_finite() && v.is_finite()) {
+            return Err(SimulationError::NonFinite { time_s: t });
+        }
+        if i > 0 && v <= 0.0 {
+            return Err(SimulationError::Stalled {
+                time_s: t,
+                position_m: x,
+                speed_m_s: v,
+            });
+        }
+        Ok(())
+    }
+
     /// The time \[s\] at which the simulation failed.
     pub fn time_s(&self) -> f64 {
         match self {
@@ -348,6 +364,20 @@ pub struct DriveCycle {
 }
 
 impl DriveCycle {
+    /// An empty cycle of one run driven forwards, with room for `n` samples.
+    pub fn one_run(n: usize) -> Self {
+        DriveCycle {
+            t_s: Vec::with_capacity(n),
+            x_m: Vec::with_capacity(n),
+            v_m_s: Vec::with_capacity(n),
+            grade_rad: Vec::with_capacity(n),
+            f_prop_n: Vec::with_capacity(n),
+            accel_m_s2: Vec::with_capacity(n),
+            run: vec![0; n],
+            run_heading: vec![1.0],
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.t_s.len()

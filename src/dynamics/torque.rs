@@ -153,26 +153,9 @@ fn simulate_truth(
 ) -> Result<DriveCycle, SimulationError> {
     let h = drive.time_step_s;
     let n = drive.samples();
-    let mut cycle = DriveCycle {
-        t_s: Vec::with_capacity(n),
-        x_m: Vec::with_capacity(n),
-        v_m_s: Vec::with_capacity(n),
-        grade_rad: Vec::with_capacity(n),
-        f_prop_n: Vec::with_capacity(n),
-        accel_m_s2: Vec::with_capacity(n),
-        run: vec![0; n],
-        run_heading: vec![1.0],
-    };
+    let mut cycle = DriveCycle::one_run(n);
     let end_m = terrain.end_m();
-    let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
-        time_s: t,
-        distance_m: x,
-        speed_m_s: v,
-        grade_rad: grade,
-        heading: 1.0,
-        run: 0,
-        run_time_s: t,
-    };
+    let state = TruthSample::forwards;
     // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
     // leaving the table.
     let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
@@ -186,16 +169,7 @@ fn simulate_truth(
     let mut f = drive.propulsion_n(vehicle, 0.0);
     for i in 0..n {
         let t = i as f64 * h;
-        if !(x.is_finite() && v.is_finite()) {
-            return Err(SimulationError::NonFinite { time_s: t });
-        }
-        if i > 0 && v <= 0.0 {
-            return Err(SimulationError::Stalled {
-                time_s: t,
-                position_m: x,
-                speed_m_s: v,
-            });
-        }
+        SimulationError::check_state(i, t, x, v)?;
         let grade = terrain
             .grade_at(x)
             .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;

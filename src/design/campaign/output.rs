@@ -7,14 +7,15 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::Arc;
 
-use arrow::array::{ArrayRef, BooleanArray, Float64Array, RecordBatch, StringArray, UInt64Array};
+use arrow::array::{ArrayRef, BooleanArray, Float64Array, StringArray, UInt64Array};
 use arrow::datatypes::{DataType, Field, Schema};
 
 use super::{Campaign, CampaignPoint, CampaignResult, DesignError, describe};
+use crate::design::output::{staged_figure, write_table};
 use crate::design::{ANSWER_KEY, DESIGN_FILE};
 use crate::figures;
 use crate::output::lock::DirLock;
-use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, set};
+use crate::output::{self, FileMetadata, OutputError, PendingFile, set};
 use crate::report::escape;
 
 /// The answer in one sentence.
@@ -158,12 +159,7 @@ fn write_points(
     columns.push(Arc::new(BooleanArray::from_iter(
         (0..points.len()).map(|i| Some(result.answer == Some(i))),
     )));
-    let schema = Arc::new(Schema::new(fields));
-    let batch =
-        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
-    let mut sink = ParquetSink::create(out, DESIGN_FILE, schema, meta, "design")?;
-    sink.write(&batch)?;
-    sink.finish()
+    write_table(out, Arc::new(Schema::new(fields)), columns, meta)
 }
 
 fn draw(
@@ -171,9 +167,7 @@ fn draw(
     campaign: &Campaign,
     result: &CampaignResult,
 ) -> Result<PendingFile, DesignError> {
-    let staging = out.join(output::temporary_name(figures::FIGURES));
-    std::fs::create_dir_all(&staging).map_err(|e| OutputError::io(&staging, e))?;
-    let path = staging.join("design.svg");
+    let (path, pending) = staged_figure(out)?;
     let mut front: Vec<(f64, f64)> = result
         .points
         .iter()
@@ -201,10 +195,7 @@ fn draw(
         &simulated,
         target.value,
     )?;
-    Ok(PendingFile::new(
-        path,
-        out.join(figures::FIGURES).join("design.svg"),
-    ))
+    Ok(pending)
 }
 
 fn write_report(

@@ -352,26 +352,9 @@ fn integrate(
         .map(|d| d.final_drive_ratio / d.wheel_radius_m)
         .expect("the designed mode is validated to have a drivetrain");
     let end_m = table.end_m();
-    let mut cycle = DriveCycle {
-        t_s: Vec::with_capacity(n),
-        x_m: Vec::with_capacity(n),
-        v_m_s: Vec::with_capacity(n),
-        grade_rad: Vec::with_capacity(n),
-        f_prop_n: Vec::with_capacity(n),
-        accel_m_s2: Vec::with_capacity(n),
-        run: vec![0; n],
-        run_heading: vec![1.0],
-    };
+    let mut cycle = DriveCycle::one_run(n);
     let mut torque_n_m = Vec::with_capacity(n);
-    let state = |t: f64, x: f64, v: f64, grade: f64| TruthSample {
-        time_s: t,
-        distance_m: x,
-        speed_m_s: v,
-        grade_rad: grade,
-        heading: 1.0,
-        run: 0,
-        run_time_s: t,
-    };
+    let state = TruthSample::forwards;
     let grade_at = |t: f64, x: f64| {
         table
             .grade_at(x)
@@ -380,16 +363,7 @@ fn integrate(
     let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
     for i in 0..n {
         let t = i as f64 * h;
-        if !(x.is_finite() && v.is_finite()) {
-            return Err(SimulationError::NonFinite { time_s: t });
-        }
-        if i > 0 && v <= 0.0 {
-            return Err(SimulationError::Stalled {
-                time_s: t,
-                position_m: x,
-                speed_m_s: v,
-            });
-        }
+        SimulationError::check_state(i, t, x, v)?;
         let grade = grade_at(t, x)?;
         let here = state(t, x, v, grade);
         // One RK4 step from (x, v) under the constant force of `torque`.

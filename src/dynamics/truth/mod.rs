@@ -62,6 +62,23 @@ pub struct TruthSample {
     pub run_time_s: f64,
 }
 
+impl TruthSample {
+    /// A sample of a drive of one run driven forwards (every mode but a coast-down): at time
+    /// `time_s` \[s\], position `distance_m` \[m\], speed `speed_m_s` \[m/s\], grade
+    /// `grade_rad` \[rad\].
+    pub fn forwards(time_s: f64, distance_m: f64, speed_m_s: f64, grade_rad: f64) -> Self {
+        TruthSample {
+            time_s,
+            distance_m,
+            speed_m_s,
+            grade_rad,
+            heading: 1.0,
+            run: 0,
+            run_time_s: time_s,
+        }
+    }
+}
+
 /// How a model error drawn anew in every realisation draws: its own stream of normals (so
 /// that switching it on leaves every other draw as it was), and whether it changes the
 /// truth's motion.
