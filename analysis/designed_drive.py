@@ -1,8 +1,13 @@
 #!/usr/bin/env python3
 """A designed drive checked with NumPy from a run's own files (docs/model.md#designed-drive):
-the drive stays within its torque and speed limits on every sample (designed_drive.parquet),
-and the criterion the engine reports for it (drive_design.parquet, row `designed`) equals the
-one computed here from cycles.parquet.
+the drive stays within its torque and speed limits on every sample (designed_drive.parquet);
+its trace is the drive of its torque — the logged force is the torque times R_fd/r_wheel, each
+sample's acceleration is the vehicle's equation at its state and force, and each step's speed
+change is the trapezoid of the accelerations under the torque held over the step (the left
+limit at the step's end: a(t_{i+1}) − (F_{i+1} − F_i)/M; an error of O(h³), ≤ 1e-6 m/s here,
+where a torque applied one sample off would be ~h·ΔF/M ~ 1e-2 m/s); the trace is
+cycles.parquet's cycle; and the criterion the engine reports for it (drive_design.parquet, row
+`designed`) equals the one computed here from cycles.parquet.
 
 Handled: white speed noise with a model acceleration (noise.velocity_sd; no other noise
 channel), every parameter fitted, BCLS or OLS, and the criteria "d", "a" and a parameter's
@@ -63,6 +68,35 @@ def covariance(rows, study):
     return bread @ meat @ bread, theta
 
 
+def dynamics(trace, cycles, study):
+    """The trace against the vehicle's equation and the zero-order hold (see the docstring)."""
+    vehicle, drive = study["vehicle"], study["drive"]
+    m, g = vehicle["mass"], vehicle["gravity"]
+    k = 0.5 * vehicle["air_density"] * vehicle["frontal_area"]
+    gear = vehicle["final_drive_ratio"] / vehicle["wheel_radius"]
+    t, v, f, a, th = (trace[c].to_numpy() for c in ("t", "v", "f_prop", "accel", "grade"))
+    problems = []
+    checks = {
+        "force = torque R_fd / r_wheel": np.max(np.abs(f - trace["torque"].to_numpy() * gear)) / np.max(np.abs(f)),
+        "acceleration = the equation": np.max(np.abs(a - (f - vehicle["drag_coefficient"] * k * v * v
+                                                           - vehicle["rolling_resistance"] * m * g * np.cos(th)
+                                                           - m * g * np.sin(th)) / m)) / np.max(np.abs(a)),
+        "trace = cycles.parquet": max(np.max(np.abs(trace[c].to_numpy() - cycles[c].to_numpy()))
+                                      for c in ("t", "v", "grade", "f_prop", "accel")),
+    }
+    h = drive["time_step"]
+    left = a[1:] - (f[1:] - f[:-1]) / m
+    step_error = np.max(np.abs(np.diff(v) - 0.5 * h * (a[:-1] + left)))
+    for name, value in checks.items():
+        print(f"{name}: largest relative difference {value:.2e}")
+        if value > 1e-12:
+            problems.append(f"{name} differs by {value:.2e}")
+    print(f"speed steps against the trapezoid of the held torque: largest {step_error:.2e} m/s")
+    if step_error > 1e-6:
+        problems.append(f"a speed step differs from the held torque's by {step_error:.2e} m/s")
+    return problems
+
+
 def criterion(cov, theta, name):
     if name == "d":
         return np.linalg.slogdet(cov)[1]
@@ -93,6 +127,7 @@ def main():
         if outside:
             broken.append(f"{outside} samples of {column} outside [{lo}, {hi}]")
     cycles = pq.read_table(run / "cycles.parquet").to_pandas()
+    broken += dynamics(trace, cycles, study)
     rows = cycles[cycles["used"]]
     cov, theta = covariance(rows, study)
     ours = criterion(cov, theta, drive["criterion"])

@@ -360,6 +360,13 @@ impl Overrides {
             .map_err(RunError::from)?)
     }
 
+    /// `study` with `--realisations` and `--seed` applied.
+    pub fn apply(&self, study: Study) -> Result<Study, Failure> {
+        Ok(study
+            .with_overrides(self.realisations, self.seed)
+            .map_err(RunError::from)?)
+    }
+
     /// Worker threads (`None`: every core).
     pub fn threads(&self) -> Option<usize> {
         self.threads.map(|t| t as usize)

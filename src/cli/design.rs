@@ -2,7 +2,7 @@
 
 use crate::design::{DesignRequest, answer_sentence};
 
-use super::args::{DesignArgs, output_directory};
+use super::args::{DesignArgs, Overrides, output_directory};
 use super::failure::Failure;
 
 /// `design`: search, print the answer and the files written; exit 1 if no value holds.
@@ -22,6 +22,7 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
         .num_threads(overrides.threads().unwrap_or(0))
         .build()
         .map_err(|e| Failure::bad_argument(format!("--threads: {e}")))?;
+    // A file that cannot be read is the study loader's error to report (naming the file).
     let text = std::fs::read_to_string(&study).unwrap_or_default();
     if crate::design::campaign::is_design_file(&text) {
         if vary.is_some()
@@ -36,7 +37,7 @@ pub fn design(args: DesignArgs) -> Result<(), Failure> {
                 study.display()
             )));
         }
-        return campaign(&study, out, &pool);
+        return campaign(&study, out, &overrides, &pool);
     }
     let (Some(vary), Some(from), Some(to), Some(target)) = (vary, from, to, target) else {
         return Err(Failure::bad_argument(format!(
@@ -97,10 +98,12 @@ fn finished(
 fn campaign(
     file: &std::path::Path,
     out: std::path::PathBuf,
+    overrides: &Overrides,
     pool: &rayon::ThreadPool,
 ) -> Result<(), Failure> {
     use crate::design::campaign::{Campaign, answer_sentence};
-    let campaign = Campaign::load(file, out)?;
+    let mut campaign = Campaign::load(file, out)?;
+    campaign.study = overrides.apply(campaign.study)?;
     let result = pool.install(|| crate::design::campaign::campaign(&campaign))?;
     for line in &result.log {
         println!("{line}");

@@ -104,9 +104,11 @@ cost_rate = 1.0
         for &(acc, acc_cost) in &accelerometers {
             for &(scale, route_cost) in &routes {
                 let fixed = sd_cost + acc_cost + route_cost;
-                let longest_cheaper = ((answer.cost - fixed) / 60.0).ceil() * 60.0 - 60.0;
+                // The longest duration of the grid at which this combination is cheaper.
+                let longest_cheaper =
+                    (((answer.cost - fixed) / 60.0).ceil() * 60.0 - 60.0).min(900.0);
                 let mut durations = vec![answer_amount, answer_amount - 60.0];
-                if (60.0..=900.0).contains(&longest_cheaper) {
+                if longest_cheaper >= 60.0 && !durations.contains(&longest_cheaper) {
                     durations.push(longest_cheaper);
                 }
                 for duration in durations.into_iter().filter(|d| *d >= 60.0) {

@@ -65,9 +65,17 @@ pub struct Campaign {
     pub out: PathBuf,
 }
 
-/// Whether `text` is a design file (it has a `[design]` table) rather than a study.
+/// Whether `text` is a design file (it has a `[design]` table) rather than a study; a text
+/// that does not parse is one when a line opens `[design]` or `[[design.…` (its loader then
+/// names the syntax error's line).
 pub fn is_design_file(text: &str) -> bool {
-    toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("design"))
+    match toml::from_str::<toml::Table>(text) {
+        Ok(t) => t.contains_key("design"),
+        Err(_) => text.lines().any(|l| {
+            let l = l.trim_start();
+            l.starts_with("[design]") || l.starts_with("[design.") || l.starts_with("[[design.")
+        }),
+    }
 }
 
 impl Campaign {
@@ -143,6 +151,14 @@ impl Campaign {
             }
             Some(_) => return Err(fail(p.error("amount", "must be a table"))),
         };
+        if let Some(a) = &amount {
+            check_grid(a, &study).map_err(|reason| {
+                fail(KeyError {
+                    key: "design.amount.step".into(),
+                    reason,
+                })
+            })?;
+        }
         if choices.is_empty() && amount.is_none() {
             return Err(fail(p.error(
                 "choices",
@@ -300,6 +316,29 @@ fn read_amount(p: &Params<'_>) -> Result<Amount, KeyError> {
         values,
         cost_rate: p.non_negative("cost_rate")?,
     })
+}
+
+/// Whether every value of the amount's grid is one the key takes: a duration a whole number
+/// of the study's time steps, a number of runs a multiple of its step (a run each way).
+fn check_grid(amount: &Amount, study: &Study) -> Result<(), String> {
+    let step = match amount.key {
+        DesignKey::Duration => study.vehicle().and_then(|v| v.drive.duration_step()),
+        key => key.count_step().map(|s| s as f64),
+    };
+    let Some(step) = step else {
+        return Ok(());
+    };
+    match amount.values.iter().find(|v| {
+        let k = (*v / step).round();
+        k < 1.0 || (k * step - *v).abs() > 1e-9 * v.abs()
+    }) {
+        Some(v) => Err(format!(
+            "gives {} = {v}, which is not a whole multiple of {step} (the study's step of the \
+             key): choose from and step as multiples of it",
+            amount.key.name()
+        )),
+        None => Ok(()),
+    }
 }
 
 /// A TOML value as a label: a string without its quotes.

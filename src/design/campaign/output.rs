@@ -255,7 +255,7 @@ fn write_report(
         html,
         "</table>\n<p>design.parquet has every combination at every amount.</p>\n<figure>\n{svg}\n\
          <figcaption>figures/design.svg</figcaption>\n</figure>\n\
-         <h2>Study as designed</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
+         <h2>The study the choices edit</h2>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&study.to_toml())
     );
     output::write_pending(out, "report.html", html.as_bytes())

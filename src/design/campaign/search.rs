@@ -32,17 +32,6 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
         })?,
         None => 0,
     };
-    let free = vs.settings.parameters.free();
-    let rows: Vec<usize> = campaign
-        .targets
-        .iter()
-        .map(|t| {
-            free.iter().position(|&i| i == t.parameter).ok_or_else(|| {
-                DesignError::Request(format!("target {t}: the parameter is not estimated"))
-            })
-        })
-        .collect::<Result<_, _>>()?;
-    let truth = vs.vehicle.theta();
     let amounts: Vec<Option<f64>> = match &campaign.amount {
         Some(a) => a.values.iter().map(|&v| Some(v)).collect(),
         None => vec![None],
@@ -50,15 +39,13 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
     let judge = Judge {
         campaign,
         estimator,
-        rows,
-        truth,
     };
     let started = std::time::Instant::now();
     // Every combination's study, then every (combination, amount) predicted.
     let studies: Vec<Study> = (0..campaign.combinations())
         .map(|k| combination_study(campaign, k))
         .collect::<Result<_, _>>()?;
-    let mut points: Vec<CampaignPoint> = (0..studies.len() * amounts.len())
+    let points: Vec<Result<CampaignPoint, DesignError>> = (0..studies.len() * amounts.len())
         .into_par_iter()
         .map(|i| {
             let (k, a) = (i / amounts.len(), amounts[i % amounts.len()]);
@@ -69,12 +56,14 @@ pub(super) fn search(campaign: &Campaign) -> Result<Found, DesignError> {
                 cost: cost(campaign, &options, a),
                 options,
                 amount: a,
-                predicted: judge.predicted(&model),
+                predicted: judge.predicted(&model)?,
                 simulated: None,
                 pareto: false,
             })
         })
-        .collect::<Result<_, DesignError>>()?;
+        .collect();
+    // The first point in order that fails is the error, whatever the thread count.
+    let mut points: Vec<CampaignPoint> = points.into_iter().collect::<Result<_, _>>()?;
     eprintln!(
         "design: {} designs ({} combinations × {} amounts) predicted by the bound in {:.1} s",
         points.len(),
@@ -186,7 +175,10 @@ fn combination_study(campaign: &Campaign, k: usize) -> Result<Study, DesignError
     }
     let text = toml::to_string(&table).expect("a TOML table serialises");
     let origin = format!("{} with {}", base.origin(), edits.join(", "));
-    Ok(Study::from_toml_in(&text, &origin, base.dir())?)
+    // A line would point into the edited text, which is in no file: the error names the
+    // study, the edit and the key.
+    Study::from_toml_in(&text, &origin, base.dir())
+        .map_err(|e| DesignError::Study(crate::study::StudyError { line: None, ..e }))
 }
 
 /// Set the dotted `key` of `table` to `value`, making the tables on the way.
@@ -210,13 +202,12 @@ fn set_dotted(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<
     Ok(())
 }
 
-/// What judges a combination: the estimator, the targets' summary rows, the truth.
+/// What judges a combination: the campaign and the estimator's index. The truth and the
+/// fitted parameters are each combination's own (a choice may set the vehicle or
+/// `estimation.known_mass`).
 struct Judge<'a> {
     campaign: &'a Campaign,
     estimator: usize,
-    /// Per target, its parameter's index among the fitted ones.
-    rows: Vec<usize>,
-    truth: [f64; 3],
 }
 
 impl Judge<'_> {
@@ -250,16 +241,40 @@ impl Judge<'_> {
         Ok((study, model))
     }
 
-    fn predicted(&self, model: &VehicleModel) -> Vec<f64> {
+    /// Per target, the index of its parameter among `model`'s fitted ones (its summary
+    /// row), and the model's truth.
+    fn rows(&self, model: &VehicleModel) -> Result<(Vec<usize>, [f64; 3]), DesignError> {
+        let vs = model.study();
+        let free = vs.settings.parameters.free();
+        let rows = self
+            .campaign
+            .targets
+            .iter()
+            .map(|t| {
+                free.iter().position(|&i| i == t.parameter).ok_or_else(|| {
+                    DesignError::Request(format!(
+                        "{}: target {t}: the parameter is known, not estimated, in a combination \
+                         (estimation.known_mass)",
+                        self.campaign.file.display()
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok((rows, vs.vehicle.theta()))
+    }
+
+    fn predicted(&self, model: &VehicleModel) -> Result<Vec<f64>, DesignError> {
+        let (_, truth) = self.rows(model)?;
         let (bias, se) = model.first_order(0, self.estimator);
-        self.campaign
+        Ok(self
+            .campaign
             .targets
             .iter()
             .map(|t| {
                 let p = t.parameter;
-                t.measure.of(bias[p], se[p], self.truth[p])
+                t.measure.of(bias[p], se[p], truth[p])
             })
-            .collect()
+            .collect())
     }
 
     fn simulated(
@@ -267,18 +282,19 @@ impl Judge<'_> {
         study: &Study,
         model: &VehicleModel,
     ) -> Result<Vec<(f64, f64)>, DesignError> {
+        let (parameter_rows, truth) = self.rows(model)?;
         let rows = summarise_in_memory(study, model)?;
         Ok(self
             .campaign
             .targets
             .iter()
-            .zip(&self.rows)
+            .zip(&parameter_rows)
             .map(|(t, &p)| {
                 let row = rows
                     .iter()
                     .find(|r| r.estimator == self.estimator && r.parameter == p)
                     .expect("the summary has a row per estimator and parameter");
-                let truth = self.truth[t.parameter].abs();
+                let truth = truth[t.parameter].abs();
                 let (value, mcse) = match t.measure {
                     DesignMeasure::RelRmse => (row[Measure::Rmse].value, row[Measure::Rmse].mcse),
                     DesignMeasure::RelEmpSe => {

@@ -223,14 +223,16 @@ impl DriveDesign {
         }
     }
 
-    /// The study's own drive's torque \[N·m\] at each sample (`None` without it).
+    /// The study's own drive's torque \[N·m\] at each sample, within the torque limits
+    /// (`None` without it).
     pub fn reference_planned(&self) -> Option<Vec<f64>> {
         let [mean, amplitude, frequency] = self.reference?;
         Some(
             (0..self.samples())
                 .map(|i| {
                     let t = i as f64 * self.time_step_s;
-                    mean * (1.0 + amplitude * (frequency * t).sin())
+                    (mean * (1.0 + amplitude * (frequency * t).sin()))
+                        .clamp(self.torque_min_n_m, self.torque_max_n_m)
                 })
                 .collect(),
         )
@@ -266,10 +268,10 @@ impl DriveDesign {
                 return Ok((torque(hold), None));
             };
             let mut next = step(torque(hold))?;
-            if hold == Hold::Profile && next.state[1] > hi {
+            if next.state[1] > hi && hold != Hold::Min {
                 hold = Hold::Min;
                 next = step(torque(hold))?;
-            } else if hold == Hold::Profile && next.state[1] < lo {
+            } else if next.state[1] < lo && hold != Hold::Max {
                 hold = Hold::Max;
                 next = step(torque(hold))?;
             }
@@ -278,16 +280,17 @@ impl DriveDesign {
             }
             let v_next = next.state[1];
             if v_next > hi || v_next < lo {
-                let (key, limit, which) = match v_next > hi {
-                    true => ("speed_max", hi, self.torque_min_n_m),
-                    false => ("speed_min", lo, self.torque_max_n_m),
+                let (key, limit) = match v_next > hi {
+                    true => ("speed_max", hi),
+                    false => ("speed_min", lo),
                 };
                 return Err(SimulationError::SpeedLimit {
-                    time_s: t,
+                    time_s: t + self.time_step_s,
                     key,
                     reason: format!(
-                        "even {which} N·m takes the speed to {v_next:.3} m/s, beyond {limit} m/s \
-                             (the grade is too steep for the torque limits)"
+                        "even {} N·m takes the speed to {v_next:.3} m/s, beyond {limit} m/s \
+                         (the grade is too steep for the torque limits)",
+                        torque(hold)
                     ),
                 });
             }

@@ -87,12 +87,12 @@ pub(super) fn resolve(
         )
     })?;
     let judged = judge.of_planned(&design.planned(&found.levels));
-    let Some(driven) = judged.driven.clone() else {
+    let (Some(driven), true) = (judged.driven.clone(), judged.criterion.is_finite()) else {
         return Err(error_at(
             "drive.mode",
             format!(
                 "no torque profile within drive.torque_min and drive.torque_max could be driven \
-                 within the speed limits: {}",
+                 within the speed limits with a finite criterion: {}",
                 judged.failure.unwrap_or_default()
             ),
         ));
