@@ -23,6 +23,7 @@ mod line_fit;
 mod noise;
 mod placement;
 mod raw;
+mod road_load;
 mod spacing;
 pub mod spans;
 mod terrain;

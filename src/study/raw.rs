@@ -58,9 +58,28 @@ pub struct RawStudy {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawVehicle {
-    pub mass: f64,
-    pub drag_coefficient: f64,
-    pub rolling_resistance: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drag_coefficient: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rolling_resistance: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_a: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_b: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_c: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_mass: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_a_lbf: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_b_lbf_per_mph: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_load_c_lbf_per_mph2: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test_weight_lb: Option<f64>,
     pub frontal_area: f64,
     pub air_density: f64,
     pub gravity: f64,

@@ -16,6 +16,14 @@ use crate::terrain::TerrainSpec;
 #[derive(Debug, Clone, PartialEq)]
 pub struct TruthAxes([Vec<f64>; MODEL_ERROR_COUNT]);
 
+impl TruthAxes {
+    /// Set entry `i`'s levels (a value the study implies rather than lists: a road-load
+    /// vehicle's B/A).
+    pub(super) fn set(&mut self, i: usize, levels: Vec<f64>) {
+        self.0[i] = levels;
+    }
+}
+
 impl Default for TruthAxes {
     /// The truth is the equation: every entry at its neutral value.
     fn default() -> Self {

@@ -107,13 +107,17 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         .as_ref()
         .ok_or_else(|| c.missing_table("estimation"))?;
 
+    let frontal_area_m2 = c.positive("vehicle.frontal_area", v.frontal_area)?;
+    let air_density_kg_m3 = c.positive("vehicle.air_density", v.air_density)?;
+    let gravity_m_s2 = c.positive("vehicle.gravity", v.gravity)?;
+    let by = super::road_load::vehicle_by(v, frontal_area_m2, air_density_kg_m3, gravity_m_s2, c)?;
     let vehicle = VehicleParams {
-        mass_kg: c.positive("vehicle.mass", v.mass)?,
-        drag_coefficient: c.non_negative("vehicle.drag_coefficient", v.drag_coefficient)?,
-        rolling_resistance: c.non_negative("vehicle.rolling_resistance", v.rolling_resistance)?,
-        frontal_area_m2: c.positive("vehicle.frontal_area", v.frontal_area)?,
-        air_density_kg_m3: c.positive("vehicle.air_density", v.air_density)?,
-        gravity_m_s2: c.positive("vehicle.gravity", v.gravity)?,
+        mass_kg: by.mass_kg,
+        drag_coefficient: by.drag_coefficient,
+        rolling_resistance: by.rolling_resistance,
+        frontal_area_m2,
+        air_density_kg_m3,
+        gravity_m_s2,
         drivetrain: match (v.final_drive_ratio, v.wheel_radius) {
             (Some(ratio), Some(radius)) => Some(Drivetrain {
                 final_drive_ratio: c.positive("vehicle.final_drive_ratio", ratio)?,
@@ -302,7 +306,15 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
             ),
         ));
     }
-    let truth = validate_truth(raw.truth.as_ref(), c)?;
+    let mut truth = validate_truth(raw.truth.as_ref(), c)?;
+    if by.rolling_speed_coefficient != 0.0 {
+        super::road_load::set_rolling_speed(
+            &mut truth,
+            by.rolling_speed_coefficient,
+            raw.truth.as_ref(),
+            c,
+        )?;
+    }
     let filter_truth = validate_filter_truth(
         raw.truth.as_ref(),
         terrain.as_ref(),

@@ -35,6 +35,7 @@ mod profiles;
 mod readme;
 mod report;
 mod road_load;
+mod road_load_vehicle;
 mod routes;
 mod sensors;
 mod shards_resume;
