@@ -154,15 +154,22 @@ fn draw(
         .iter()
         .filter_map(|p| p.simulated.map(|(m, s)| (p.value, m, s)))
         .collect();
-    let title = format!(
-        "{} of {} ({}) against {}",
-        request.target.measure.name(),
-        PARAMETERS[request.target.parameter],
-        estimator,
-        request.key.name()
-    );
+    let measure = request.target.measure;
+    let title = match measure.of_parameter() {
+        true => format!(
+            "{} of {} ({}) against {}",
+            measure.name(),
+            PARAMETERS[request.target.parameter],
+            estimator,
+            request.key.name()
+        ),
+        false => format!("{} against {}", measure.name(), request.key.name()),
+    };
     let x_label = format!("{} [{}]", request.key.name(), request.key.unit());
-    let y_label = format!("{} (fraction of the truth)", request.target.measure.name());
+    let y_label = match measure.of_parameter() {
+        true => format!("{} (fraction of the truth)", measure.name()),
+        false => measure.name().to_string(),
+    };
     figures::design_chart(
         &path,
         [&title, &x_label, &y_label],
@@ -262,18 +269,25 @@ pub fn answer_sentence(
             });
             format!(
                 "{which} {} meeting {}: {} {} ({bracket}{sd}); there {} = {m:.4e} ± {s:.1e} \
-                 (MCSE), first-order prediction {:.4e}. Rule: a value holds when the Monte \
-                 Carlo estimate is at most the target.",
+                 (MCSE), {}. Rule: a value holds when the Monte Carlo estimate is {} the \
+                 target.",
                 request.key.name(),
                 request.target,
                 value_text(request.key, a.value),
                 request.key.unit(),
                 request.target.measure.name(),
-                a.predicted
+                match a.predicted.is_nan() {
+                    true => "no first-order prediction (decided by Monte Carlo alone)".to_string(),
+                    false => format!("first-order prediction {:.4e}", a.predicted),
+                },
+                match request.target.measure.of_parameter() {
+                    true => "at most",
+                    false => "at least",
+                }
             )
         }
         None => format!(
-            "{} holds at no {} in [{}, {}] (Monte Carlo estimate above the target at the best end)",
+            "{} holds at no {} in [{}, {}] (the Monte Carlo estimate misses the target at the best end)",
             request.target,
             request.key.name(),
             request.from,

@@ -86,6 +86,16 @@ impl<'a> Search<'a> {
             .expect("the summary has a row per estimator and parameter");
         let t = self.truth.abs();
         Ok(match self.request.target.measure {
+            DesignMeasure::PassProbability => {
+                let p = row.pass_probability.ok_or_else(|| {
+                    DesignError::Request(
+                        "--target pass_probability: the study has no [campaign] to judge its \
+                         runs by (docs/model.md#campaign)"
+                            .into(),
+                    )
+                })?;
+                (p.value, p.mcse)
+            }
             DesignMeasure::RelRmse => (row[Measure::Rmse].value / t, row[Measure::Rmse].mcse / t),
             DesignMeasure::RelEmpSe => {
                 (row[Measure::EmpSe].value / t, row[Measure::EmpSe].mcse / t)
@@ -138,12 +148,19 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         })?,
         None => 0,
     };
+    if !request.target.measure.of_parameter() && vs.campaign.is_none() {
+        return Err(DesignError::Request(format!(
+            "--target {}: the study has no [campaign] to judge its runs by \
+             (docs/model.md#campaign)",
+            request.target
+        )));
+    }
     let parameter = vs
         .settings
         .parameters
         .free()
         .iter()
-        .position(|&i| i == request.target.parameter)
+        .position(|&i| i == request.target.parameter || !request.target.measure.of_parameter())
         .ok_or_else(|| {
             DesignError::Request(format!(
                 "--target {}: the mass is known (estimation.known_mass = true), so 1/M is not \
@@ -163,7 +180,6 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         truth: vs.vehicle.theta()[request.target.parameter],
         step,
     };
-    let target = request.target.value;
     let largest = largest(request.key);
 
     // First-order predictions on a grid bracket the answer.
@@ -182,7 +198,7 @@ pub fn design(study: &Study, request: &DesignRequest) -> Result<DesignResult, De
         });
         variants.push((value, v));
     }
-    let holds = |m: f64| m <= target;
+    let holds = |m: f64| request.target.holds(m);
     // In search order (ascending for a duration or scale, descending for a noise level or a
     // model error), from the range's bad end to its good end: the first grid value predicted
     // to hold or, for a model error, the one just past the last predicted to fail.

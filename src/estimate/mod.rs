@@ -21,6 +21,7 @@
 //! The equations are in docs/model.md.
 
 pub mod bounds;
+pub mod campaign;
 pub mod channels;
 pub mod controls;
 pub mod conversions;

@@ -34,6 +34,7 @@ fn field(layout: &Layout, column: SummaryColumn) -> Field {
         SummaryColumn::Measure(..)
         | SummaryColumn::Bound(..)
         | SummaryColumn::Filter(..)
+        | SummaryColumn::PassProbability(..)
         | SummaryColumn::BiasModel => f64_field(name, true),
     }
 }
@@ -94,7 +95,8 @@ pub fn summary_batch(
                 )),
                 SummaryColumn::Measure(..)
                 | SummaryColumn::Bound(..)
-                | SummaryColumn::Filter(..) => Arc::new(Float64Array::from_iter(
+                | SummaryColumn::Filter(..)
+                | SummaryColumn::PassProbability(..) => Arc::new(Float64Array::from_iter(
                     rows.iter()
                         .map(|r| column.measure_value(r).and_then(finite_or_null)),
                 )),
@@ -179,7 +181,14 @@ fn decode(
     let n_controls = typed(SummaryColumn::NControls, DataType::Int64)?.as_primitive::<Int64Type>();
     let measures: Vec<(SummaryColumn, &ArrayRef)> = columns
         .iter()
-        .filter(|c| matches!(c, SummaryColumn::Measure(..) | SummaryColumn::Bound(..)))
+        .filter(|c| {
+            matches!(
+                c,
+                SummaryColumn::Measure(..)
+                    | SummaryColumn::Bound(..)
+                    | SummaryColumn::PassProbability(..)
+            )
+        })
         .map(|&c| Ok((c, typed(c, DataType::Float64)?)))
         .collect::<Result<_, OutputError>>()?;
     let axes: Vec<&ArrayRef> = (0..layout.axes.len())
@@ -212,6 +221,7 @@ fn decode(
             measures: [Estimate::undefined(); MEASURE_COUNT],
             n_controls: n_controls.value(i) as u64,
             filter: None,
+            pass_probability: None,
         };
         for (column, array) in &measures {
             column.set_measure(&mut row, number(array, i));

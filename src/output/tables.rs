@@ -12,6 +12,7 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Field, Schema, SchemaRef};
 
 use super::OutputError;
+use crate::estimate::campaign::CAMPAIGN_PASS;
 use crate::model::{Axis, AxisKind, AxisValue, ConditionInfo, Layout, Status};
 use crate::montecarlo::Chunk;
 use crate::stats::summary::Record;
@@ -140,6 +141,8 @@ pub struct RealisationBatches {
     controls: Vec<f64>,
     /// Per row, the filters' columns (NaN where absent).
     filter: Vec<[f64; 4]>,
+    /// Per row, `campaign_pass` (NaN where absent).
+    campaign: Vec<f64>,
     n_params: usize,
     n_bound_values: usize,
     n_controls: usize,
@@ -173,6 +176,9 @@ impl RealisationBatches {
                 .filter(|&&name| layout.extras.iter().any(|x| x.name == name))
                 .map(|name| name.to_string()),
         );
+        if layout.extras.iter().any(|x| x.name == CAMPAIGN_PASS) {
+            names.push(CAMPAIGN_PASS.to_string());
+        }
         names
     }
 
@@ -255,6 +261,18 @@ impl RealisationBatches {
                     .transpose()
             })
             .collect::<Result<_, _>>()?;
+        let campaign_col = layout
+            .extras
+            .iter()
+            .any(|x| x.name == CAMPAIGN_PASS)
+            .then(|| f64_col(CAMPAIGN_PASS))
+            .transpose()?;
+        let campaign = (0..n)
+            .map(|i| match &campaign_col {
+                Some(c) if !c.is_null(i) => c.value(i),
+                _ => f64::NAN,
+            })
+            .collect();
         let mut filter = Vec::with_capacity(n);
         let mut theta = Vec::with_capacity(n * np);
         let mut bounds = Vec::with_capacity(n * bound_cols.len());
@@ -303,6 +321,7 @@ impl RealisationBatches {
             bounds,
             controls,
             filter,
+            campaign,
             n_params: np,
             n_bound_values: bound_cols.len(),
             n_controls: control_cols.len(),
@@ -330,6 +349,7 @@ impl RealisationBatches {
             bounds: &self.bounds[i * self.n_bound_values..(i + 1) * self.n_bound_values],
             controls: &self.controls[i * self.n_controls..(i + 1) * self.n_controls],
             filter: self.filter[i],
+            campaign: self.campaign[i],
         }
     }
 

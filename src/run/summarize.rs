@@ -1,5 +1,6 @@
 //! Summaries from realisation files: of a run, or of every shard of a sharded run.
 
+use crate::estimate::campaign::CAMPAIGN_PASS;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -310,6 +311,7 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
     let all: Vec<usize> = (0..infos.len()).collect();
     // The filters' columns among the extras (None: the layout has none).
     let filter_extras = INPUTS.map(|name| layout.extras.iter().position(|x| x.name == name));
+    let campaign_extra = layout.extras.iter().position(|x| x.name == CAMPAIGN_PASS);
     for block in all.chunks(IN_MEMORY_BLOCK) {
         let slots = montecarlo::in_memory(model, study.seed(), block, 0..r, &montecarlo::Silent);
         let records = |i: usize| {
@@ -323,6 +325,7 @@ pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<Summa
                 bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
                 controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
                 filter: filter_extras.map(|x| x.map_or(f64::NAN, |x| s[layout.extra_at(e, x)])),
+                campaign: campaign_extra.map_or(f64::NAN, |x| s[layout.extra_at(e, x)]),
             })
         };
         for (k, &c) in block.iter().enumerate() {

@@ -10,6 +10,7 @@ use super::measures::Estimate;
 pub use super::summary::Measure;
 use super::summary::filter::{FilterMeasure, INPUTS};
 use super::summary::{BoundSummary, SummaryRow};
+use crate::estimate::campaign::CAMPAIGN_PASS;
 use crate::model::Layout;
 
 /// A measure of one bound B in a summary row.
@@ -165,6 +166,9 @@ pub enum SummaryColumn {
     /// A filter's measure or its MCSE (f64, null but on a filter's `inv_mass` row; the
     /// columns only where the realisations have the filters' columns).
     Filter(FilterMeasure, Part),
+    /// `pass_probability` or its MCSE (f64; the columns only where the realisations have
+    /// a campaign's `campaign_pass`, docs/model.md#campaign).
+    PassProbability(Part),
 }
 
 impl SummaryColumn {
@@ -202,6 +206,10 @@ impl SummaryColumn {
                 out.push(SummaryColumn::Filter(m, Part::Mcse));
             }
         }
+        if layout.extras.iter().any(|x| x.name == CAMPAIGN_PASS) {
+            out.push(SummaryColumn::PassProbability(Part::Value));
+            out.push(SummaryColumn::PassProbability(Part::Mcse));
+        }
         out
     }
 
@@ -223,6 +231,7 @@ impl SummaryColumn {
                 format!("{}{}", m.column(layout.bounds[b].name), part.suffix())
             }
             SummaryColumn::Filter(m, part) => format!("{}{}", m.name(), part.suffix()),
+            SummaryColumn::PassProbability(part) => format!("pass_probability{}", part.suffix()),
         }
     }
 
@@ -241,6 +250,9 @@ impl SummaryColumn {
                     .as_ref()
                     .map_or(f64::NAN, |f| part.get(f[m.index()])),
             ),
+            SummaryColumn::PassProbability(part) => {
+                Some(row.pass_probability.map_or(f64::NAN, |p| part.get(p)))
+            }
             _ => None,
         }
     }
@@ -261,6 +273,14 @@ impl SummaryColumn {
                     let undefined = Estimate::new(f64::NAN, f64::NAN);
                     let f = row.filter.get_or_insert([undefined; 4]);
                     part.set(&mut f[m.index()], v);
+                }
+            }
+            SummaryColumn::PassProbability(part) => {
+                if let Some(v) = v {
+                    let p = row
+                        .pass_probability
+                        .get_or_insert(Estimate::new(f64::NAN, f64::NAN));
+                    part.set(p, v);
                 }
             }
             _ => {}

@@ -15,6 +15,7 @@
 //! same validation.
 
 mod axes;
+mod campaign;
 mod checker;
 mod estimation;
 mod filter_keys;

@@ -92,6 +92,9 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
     if super::truth::truth_keys().contains(&key) {
         homes.push(("truth", None));
     }
+    if super::campaign::campaign_keys().contains(&key) {
+        homes.push(("campaign", None));
+    }
     homes
 }
 

@@ -49,6 +49,9 @@ pub struct RawStudy {
     /// key read by its model error, in `truth.rs`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth: Option<toml::Table>,
+    /// `[campaign]`: a coast-down campaign's criterion (read key by key, in `campaign.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub campaign: Option<toml::Table>,
     /// `[line_fit]`: the worked example of thesis §3.2–3.3 (model = "line_fit").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub line_fit: Option<RawLineFit>,

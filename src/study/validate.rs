@@ -141,6 +141,7 @@ pub(super) fn validate(
                 ("terrain", raw.terrain.is_some()),
                 ("noise", raw.noise.is_some()),
                 ("truth", raw.truth.is_some()),
+                ("campaign", raw.campaign.is_some()),
             ];
             if let Some((key, _)) = unused.iter().find(|(_, present)| *present) {
                 return Err(c.fail(key, "is not used by model \"line_fit\""));

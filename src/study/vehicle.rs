@@ -70,6 +70,8 @@ pub struct VehicleStudy {
     /// `estimation.grade_walk`'s levels, an axis of the conditions where a filter is listed
     /// (one level, the default, without the key).
     pub grade_walks: Vec<f64>,
+    /// `[campaign]`: the criterion a coast-down campaign is judged by (docs/model.md#campaign).
+    pub campaign: Option<std::sync::Arc<crate::estimate::campaign::Campaign>>,
 }
 
 /// What the drag regressor reads (`estimation.air_speed`; docs/model.md#air-speed).
@@ -324,7 +326,14 @@ pub(super) fn validate(raw: &RawStudy, c: &Checker<'_>) -> Result<VehicleStudy, 
         c,
     )?;
 
+    let campaign = super::campaign::validate_campaign(
+        raw.campaign.as_ref(),
+        &*drive,
+        air_speed == AirSpeed::Measured,
+        c,
+    )?;
     Ok(VehicleStudy {
+        campaign,
         vehicle,
         drive,
         selection,

@@ -196,6 +196,7 @@ fn the_two_pass_summarizer_agrees_with_direct_formulas() {
         bounds: std::slice::from_ref(&b[i]),
         controls: &[],
         filter: [f64::NAN; 4],
+        campaign: f64::NAN,
     };
     for &i in &order {
         s.first_pass(&record(i)).unwrap();

@@ -1,6 +1,7 @@
 mod common;
 
 mod bias_bounds;
+mod campaign;
 mod cli_errors;
 mod coastdown;
 mod coastdown_bias;

@@ -126,7 +126,17 @@ impl Campaign {
                     let text = item.as_str().ok_or_else(|| {
                         p.error(&key, "must be a string like \"inv_mass:rel_emp_se<=0.01\"")
                     })?;
-                    DesignTarget::parse(text).map_err(|reason| p.error(&key, reason))
+                    let target =
+                        DesignTarget::parse(text).map_err(|reason| p.error(&key, reason))?;
+                    if !target.measure.of_parameter() {
+                        return Err(p.error(
+                            &key,
+                            "a design file's targets are on the parameters' estimates; search \
+                             the runs a campaign needs with `design STUDY --vary drive.runs \
+                             --target 'pass_probability>=P'`",
+                        ));
+                    }
+                    Ok(target)
                 })
                 .collect::<Result<Vec<_>, _>>()
                 .map_err(fail)?,

@@ -303,6 +303,11 @@ impl Judge<'_> {
                     DesignMeasure::AbsRelBias => {
                         (row[Measure::Bias].value.abs(), row[Measure::Bias].mcse)
                     }
+                    DesignMeasure::PassProbability => {
+                        unreachable!(
+                            "a design file's targets are on parameters (refused when read)"
+                        )
+                    }
                 };
                 (value / truth, mcse / truth)
             })

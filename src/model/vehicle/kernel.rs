@@ -430,6 +430,7 @@ impl VehicleModel {
             })
             .collect();
         let layout = &self.layout;
+        let verdict = self.verdict(c, reg, rows.map(|(rows, _)| rows));
         for (ei, est) in self.study.estimators.iter().enumerate() {
             let estimate = est.estimate(&Realisation {
                 moments,
@@ -465,7 +466,7 @@ impl VehicleModel {
                 thesis_bound: thesis_bound.as_ref(),
             };
             for (x, extra) in self.extras.iter().enumerate() {
-                slots[layout.extra_at(ei, x)] = extra.value(&inputs, *est, &estimate);
+                slots[layout.extra_at(ei, x)] = extra.value(&inputs, *est, &estimate, verdict);
             }
         }
         let centred = cond.expected.centre(moments);

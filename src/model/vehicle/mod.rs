@@ -15,6 +15,7 @@ use rayon::prelude::*;
 
 mod axes;
 mod bias_model;
+mod campaign;
 mod cycles_table;
 mod designed;
 mod designed_tables;
@@ -77,6 +78,8 @@ struct Condition {
     /// The estimator settings of its realisations (the study's, at its level of the filters'
     /// grade walk).
     settings: EstimatorSettings,
+    /// The number of runs a campaign judges (docs/model.md#campaign).
+    campaign_runs: usize,
 }
 
 /// An error about key `key` (dotted) of the study a model is prepared from, for `reason`.
@@ -188,6 +191,7 @@ impl VehicleModel {
                 // The regressions and bias models are one per grade bias.
                 let bias = point.level_index(LevelAxis::GradeBias);
                 let regression = segment.regressions[source][bias].clone();
+                let campaign_runs = campaign::runs_of(prefixes[prefix], &regression);
                 let of_spread = |spread: Spread| -> Arc<Vec<[f64; 3]>> {
                     Arc::new(
                         BOUNDS
@@ -325,9 +329,14 @@ impl VehicleModel {
                     expected,
                     world,
                     settings,
+                    campaign_runs,
                 }
             })
             .collect();
+        for cond in &conditions {
+            let scale = vs.scales[cond.cycle_index / vs.truth.combinations()];
+            campaign::check_noise_free(&vs, &cond.regression, cond.campaign_runs, scale, error_at)?;
+        }
         // Members of a draw group read one set of draws: they must agree on everything but
         // the cycle (the group's first member is condition `group`).
         assert!(
@@ -340,7 +349,7 @@ impl VehicleModel {
             layout,
             conditions,
             cycles,
-            reads_rows: reads_rows(&vs.estimators),
+            reads_rows: reads_rows(&vs.estimators) || vs.campaign.is_some(),
             grade_sums: vs.estimators.iter().any(|e| e.reads_grade_sums()),
             extras: study_extras(&vs),
             controls,

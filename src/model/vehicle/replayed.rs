@@ -66,6 +66,7 @@ impl VehicleModel {
             truth: truth.model_errors,
             filter_truth: truth.filter,
             grade_walks: vec![settings.filter.grade_walk],
+            campaign: None,
         };
         let error_at: &ErrorAt<'_> = &|key: &str, reason: String| StudyError {
             file: origin.to_string(),

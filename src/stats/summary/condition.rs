@@ -2,6 +2,7 @@
 
 use std::collections::BTreeMap;
 
+use super::campaign::CampaignAcc;
 use super::filter::FilterAcc;
 use super::{BoundSummary, Measure, MeasureInputs, Record, SummaryError, SummaryRow};
 use crate::estimate::filtering::PCRLB_INV_MASS;
@@ -116,6 +117,8 @@ pub struct ConditionSummarizer<'a> {
     spread_weight: f64,
     /// [estimator]: the sums of a filter's own columns.
     filter: Vec<FilterAcc>,
+    /// [estimator]: a campaign's verdicts.
+    campaign: Vec<CampaignAcc>,
 }
 
 impl<'a> ConditionSummarizer<'a> {
@@ -163,6 +166,7 @@ impl<'a> ConditionSummarizer<'a> {
             current_estimators: vec![false; e],
             current_centred: vec![f64::NAN; e * p],
             filter: vec![FilterAcc::default(); e],
+            campaign: vec![CampaignAcc::default(); e],
         }
     }
 
@@ -223,6 +227,8 @@ impl<'a> ConditionSummarizer<'a> {
             });
         }
         self.rows[r.estimator] += 1;
+        // A campaign's verdict does not depend on the estimator's success.
+        self.campaign[r.estimator].add(r.campaign);
         if !r.ok {
             self.failed[r.estimator] += 1;
             return Ok(());
@@ -427,6 +433,7 @@ impl<'a> ConditionSummarizer<'a> {
                     measures: Measure::compute_all(&inputs),
                     filter: (Some(p) == inv_mass && self.filter[e].seen())
                         .then(|| self.filter[e].finish(pcrlb)),
+                    pass_probability: self.campaign[e].finish(),
                 });
             }
         }
@@ -470,31 +477,4 @@ fn bound_summary(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn seen_realisations_are_ranges_and_duplicates_are_found_in_any_order() {
-        let mut seen = Seen::default();
-        // Two shards' worth, the second first, as summarize may read them.
-        for r in (50..100).chain(0..50) {
-            assert!(seen.mark(r), "{r} is new");
-        }
-        assert_eq!(
-            seen.ranges.len(),
-            1,
-            "adjacent ranges merge: {:?}",
-            seen.ranges
-        );
-        assert_eq!(seen.ranges.get(&0), Some(&100));
-        for r in [0, 49, 50, 99] {
-            assert!(!seen.mark(r), "{r} again");
-        }
-        // A gap, then the gap filled from both sides.
-        assert!(seen.mark(102));
-        assert!(seen.mark(101));
-        assert!(seen.mark(100));
-        assert_eq!(seen.ranges.len(), 1);
-        assert_eq!(seen.ranges.get(&0), Some(&103));
-    }
-}
+mod tests;

@@ -12,6 +12,7 @@ use thiserror::Error;
 use super::measures::Estimate;
 use crate::model::{ConditionInfo, Layout};
 
+mod campaign;
 mod condition;
 pub mod filter;
 pub mod measure;
@@ -39,6 +40,9 @@ pub struct Record<'a> {
     pub controls: &'a [f64],
     /// The row's values of the filters' columns [`filter::INPUTS`] (NaN where absent).
     pub filter: [f64; 4],
+    /// The row's `campaign_pass` (1 pass, 0 fail; NaN where absent,
+    /// docs/model.md#campaign).
+    pub campaign: f64,
 }
 
 /// Rows that do not form a complete, consistent set of realisations.
@@ -157,6 +161,9 @@ pub struct SummaryRow {
     /// A filter's measures ([`filter::FilterMeasure`], in its order) on its `inv_mass` row
     /// (`None` elsewhere).
     pub filter: Option<[Estimate; 4]>,
+    /// `pass_probability`: the share of the condition's realisations whose campaign passes,
+    /// with its MCSE √(p(1 − p)/R) (`None` without a campaign; docs/model.md#campaign).
+    pub pass_probability: Option<Estimate>,
 }
 
 impl std::ops::Index<Measure> for SummaryRow {
