@@ -19,7 +19,9 @@ cycles.parquet with NumPy (1e-9 relative; see there), and designed_drive.py a de
 criterion and limits (studies/designed_drive.toml at R = 20). Then runs gusts_check.py and
 coastdown_check.py: the engine's Monte Carlo under random gusts,
 and its road_load analysis of a coast-down under speed noise, each against an independent
-NumPy one (means and SDs within 4 MCSEs; see those scripts).
+NumPy one (means and SDs within 4 MCSEs; see those scripts); and campaign_check.py: a
+coast-down campaign's pass probability against an independent NumPy Monte Carlo of the
+coast-down, its gusts and the EU criterion (within 3 combined MCSEs).
 
 First of all, every Python script in analysis/, benches/ and tools/ must answer `--help`
 with its usage and exit 0 at once, without running anything (check_help).
@@ -220,6 +222,13 @@ def main():
     print("analysis scripts agree with the engine's summary within 1e-12 relative")
     subprocess.run([sys.executable, HERE / "gusts_check.py"], check=True)
     subprocess.run([sys.executable, HERE / "coastdown_check.py"], check=True)
+    # A coast-down campaign's pass probability against an independent NumPy Monte Carlo
+    # (studies/coastdown_campaign.toml at its R = 400; NumPy R = 2000; 3 combined MCSE).
+    with tempfile.TemporaryDirectory() as tmp:
+        campaign = pathlib.Path(tmp) / "campaign"
+        subprocess.run([BINARY, "run", ROOT / "studies" / "coastdown_campaign.toml", "--out",
+                        campaign, "--quiet", "--no-figures"], check=True)
+        subprocess.run([sys.executable, HERE / "campaign_check.py", campaign], check=True)
 
 
 if __name__ == "__main__":

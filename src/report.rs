@@ -6,6 +6,7 @@
 use crate::stats::summary::Measure;
 use std::fmt::Write as _;
 
+mod fleet;
 mod html;
 mod identification;
 mod warnings;

@@ -15,6 +15,9 @@ use arrow::array::{Array, AsArray};
 use arrow::datatypes::{DataType, Float64Type};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
+mod text;
+pub use text::{TextColumns, read_text_columns};
+
 /// Why a data file cannot be used.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct TabularError {

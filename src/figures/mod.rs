@@ -23,6 +23,7 @@
 mod axis;
 mod chart;
 mod cycles;
+mod fleet;
 mod parameters;
 mod tradeoff;
 
@@ -101,6 +102,9 @@ fn draw_error(path: &Path, e: impl std::fmt::Display) -> FigureError {
 /// drawn depends on the results; a run checks all of them for a user's file before it
 /// starts, so that such a file cannot stop its commit after the work is done.
 pub fn possible_names(layout: &Layout, cycles: bool) -> Vec<String> {
+    if crate::stats::fleet::is_fleet(layout) {
+        return fleet::possible_names(layout);
+    }
     let mut names = Vec::new();
     for p in &layout.parameters {
         for figure in ["se", "bias", "ratio", "coverage", "tradeoff"] {
@@ -215,6 +219,9 @@ fn draw_into(
     t: &SummaryTable,
     cycles: Option<&Path>,
 ) -> Result<Vec<String>, FigureError> {
+    if crate::stats::fleet::is_fleet(layout) {
+        return fleet::draw_fleet(dir, layout, t);
+    }
     let x = x_axis(layout, t);
     let groups = group_labels(layout, t, &x);
     // One job per parameter (four figures each) and one for the cycles, in parallel.

@@ -7,6 +7,7 @@
 //! output work from the model's [`Layout`] alone, so a second model (the line fit of the
 //! thesis's worked example) reuses all of them unchanged.
 
+pub mod fleet;
 pub mod line_fit;
 pub mod vehicle;
 
@@ -353,6 +354,9 @@ pub struct ExtraTable {
 /// Prepare the model a study asks for (this simulates the vehicle's drive cycles; a
 /// condition that cannot be simulated is a [`StudyError`]).
 pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
+    if study.fleet().is_some() {
+        return Ok(Box::new(fleet::FleetModel::new(study)?));
+    }
     Ok(match &study.model() {
         ModelSpec::Vehicle(_) => Box::new(vehicle::VehicleModel::new(study)?),
         ModelSpec::LineFit(_) => Box::new(line_fit::LineFitModel::new(study)?),
@@ -361,6 +365,9 @@ pub fn prepare(study: &Study) -> Result<Box<dyn Model>, StudyError> {
 
 /// The row layout a study's model will have, without preparing it (no simulation).
 pub fn layout_of(study: &Study) -> Layout {
+    if study.fleet().is_some() {
+        return fleet::layout(study);
+    }
     match &study.model() {
         ModelSpec::Vehicle(v) => vehicle::layout(v),
         ModelSpec::LineFit(_) => line_fit::layout(),

@@ -114,6 +114,7 @@ pub fn page(p: &Page<'_>) -> String {
             let _ = writeln!(out, "<p class=\"warning\">{}</p>", escape(w));
         }
     }
+    out.push_str(&super::fleet::section(p.layout, p.infos, p.summary));
     out.push_str(&vehicle_parameters(p.layout, p.infos, p.summary, &listed));
     out.push_str(&super::identification::section(p.layout, p.infos, &listed));
     // Figures.

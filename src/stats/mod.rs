@@ -3,6 +3,7 @@
 
 pub mod columns;
 pub mod control;
+pub mod fleet;
 pub mod measures;
 pub mod plan;
 pub mod spread;

@@ -20,6 +20,7 @@ mod checker;
 mod estimation;
 mod filter_keys;
 mod fit;
+mod fleet;
 mod line_fit;
 mod noise;
 mod placement;
@@ -33,13 +34,14 @@ mod validate;
 mod vary;
 mod vehicle;
 
-use validate::{check_realisations, serde_error, validate};
+use validate::{check_realisations, serde_error};
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use axes::{AIR_SPEED_SD, GRADE_MAP_SD, LEVEL_AXIS_COUNT, LevelAxes, LevelAxis};
 pub use fit::{FitSpec, MIN_REALISATIONS};
+pub use fleet::{Fleet, FleetVehicle};
 pub use line_fit::{LineFitStudy, NoiseShape};
 pub use noise::NoiseAxes;
 use raw::RawStudy;
@@ -110,6 +112,8 @@ pub struct Study {
     dir: PathBuf,
     raw: RawStudy,
     spans: KeySpans,
+    /// `[fleet]`'s vehicles (the model's settings are then its first vehicle's).
+    fleet: Option<std::sync::Arc<Fleet>>,
 }
 
 impl Study {
@@ -175,7 +179,7 @@ impl Study {
         // Absolute, so that the directory recorded with the output stays valid from
         // anywhere (as given when it cannot be resolved).
         let dir = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
-        validate(raw, spans, origin, dir)
+        validate_any(raw, spans, origin, dir)
     }
 
     /// The directory the study's data files are named relative to.
@@ -224,11 +228,29 @@ impl Study {
     pub fn identity(&self) -> String {
         let mut raw = self.raw.clone();
         raw.realisations = 0;
+        let fleet = self.fleet.as_ref().map_or(String::new(), |f| {
+            format!("# fleet {:016x}\n", f.fingerprint())
+        });
         format!(
-            "{}# chassis-mc {}\n",
+            "{}{fleet}# chassis-mc {}\n",
             toml::to_string(&raw).expect("a validated study serialises"),
             env!("CARGO_PKG_VERSION")
         )
+    }
+
+    /// `[fleet]`'s vehicles, if the study has a fleet (docs/model.md#fleet).
+    pub fn fleet(&self) -> Option<&Fleet> {
+        self.fleet.as_deref()
+    }
+
+    /// The study of vehicle `v` of the fleet: this study with the vehicle's row in
+    /// `[vehicle]` and no `[fleet]`, validated (its errors name the vehicle and its row).
+    ///
+    /// # Panics
+    /// If the study has no fleet or `v` is not one of its vehicles.
+    pub fn fleet_vehicle(&self, v: usize) -> Result<Study, StudyError> {
+        let fleet = self.fleet.as_ref().expect("a study with a fleet");
+        fleet::vehicle_study(&self.raw, fleet, v, (&self.spans, &self.origin, &self.dir))
     }
 
     /// An error about key `key` of this study, with its line when the file has it.
@@ -256,4 +278,41 @@ impl Study {
             ModelSpec::Vehicle(_) => None,
         }
     }
+}
+
+/// Validate `raw`: a study file's checks, or, with `[fleet]`, every vehicle's.
+fn validate_any(
+    raw: RawStudy,
+    spans: KeySpans,
+    origin: &str,
+    dir: PathBuf,
+) -> Result<Study, StudyError> {
+    match raw.fleet.is_some() {
+        true => validate_fleet(raw, spans, origin, dir),
+        false => validate::validate(raw, spans, origin, dir),
+    }
+}
+
+/// A study with `[fleet]`: every vehicle of its table validated, the study standing for them
+/// its first vehicle's, with the study as written (its `[vehicle]` and `[fleet]`) as run.
+fn validate_fleet(
+    raw: RawStudy,
+    spans: KeySpans,
+    origin: &str,
+    dir: PathBuf,
+) -> Result<Study, StudyError> {
+    if raw.model != "vehicle" {
+        return Err(StudyError {
+            file: origin.to_string(),
+            key: Some("fleet".into()),
+            line: spans.line("fleet"),
+            reason: format!("is not used by model \"{}\"", raw.model),
+        });
+    }
+    let (fleet, mut study) = fleet::read_fleet(&raw, &spans, origin, &dir)?;
+    study.raw.vehicle = raw.vehicle;
+    study.raw.fleet = raw.fleet;
+    study.origin = origin.to_string();
+    study.fleet = Some(std::sync::Arc::new(fleet));
+    Ok(study)
 }

@@ -98,6 +98,15 @@ pub(super) fn home_of(key: &str) -> Vec<(&'static str, Option<&'static str>)> {
     homes
 }
 
+/// The keys of `[vehicle]`: those a fleet's columns may give.
+pub(super) fn vehicle_keys() -> &'static [&'static str] {
+    FIXED_KEYS
+        .iter()
+        .find(|(table, _)| *table == "vehicle")
+        .map(|(_, keys)| *keys)
+        .expect("[vehicle] has fixed keys")
+}
+
 /// Where a key unknown in `[table]` belongs instead, in words (`None`: nowhere).
 pub(super) fn elsewhere(table: &str, key: &str, variant: Option<(&str, &str)>) -> Option<String> {
     let homes = home_of(key);

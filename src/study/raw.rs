@@ -49,6 +49,9 @@ pub struct RawStudy {
     /// key read by its model error, in `truth.rs`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth: Option<toml::Table>,
+    /// `[fleet]`: one condition per vehicle of a table (read key by key, in `fleet/`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fleet: Option<toml::Table>,
     /// `[campaign]`: a coast-down campaign's criterion (read key by key, in `campaign.rs`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub campaign: Option<toml::Table>,

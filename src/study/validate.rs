@@ -226,6 +226,7 @@ pub(super) fn validate(
         dir,
         raw,
         spans,
+        fleet: None,
     })
 }
 

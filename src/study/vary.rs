@@ -4,7 +4,6 @@
 
 use std::sync::LazyLock;
 
-use super::validate::validate;
 use super::{Study, StudyError};
 use crate::dynamics::truth::{MODEL_ERROR_COUNT, MODEL_ERRORS, ModelErrorEntry};
 use crate::dynamics::{DRIVE_MODES, RUN_PAIR};
@@ -236,6 +235,6 @@ impl Study {
                 );
             }
         }
-        validate(raw, self.spans.clone(), &origin, self.dir.clone())
+        super::validate_any(raw, self.spans.clone(), &origin, self.dir.clone())
     }
 }

@@ -16,6 +16,7 @@ mod fault_pass;
 mod figures;
 mod fit;
 mod fit_no_grade;
+mod fleet;
 mod grid_cost;
 mod help_examples;
 mod identification;

@@ -119,6 +119,16 @@ impl VehicleModel {
     /// of each (scale, duration). A scale at which the vehicle stalls or runs off the
     /// terrain is an error naming that scale.
     pub fn new(study: &Study) -> Result<Self, StudyError> {
+        if let Some(fleet) = study.fleet() {
+            return Err(study.error_at(
+                "fleet",
+                format!(
+                    "this command works on one vehicle, and the study has a fleet of {} \
+                     (`chassis-mc run` runs a fleet; give one vehicle in [vehicle] here)",
+                    fleet.vehicles.len()
+                ),
+            ));
+        }
         let vs = study
             .vehicle()
             .ok_or_else(|| study.error_at("model", "is not a vehicle study"))?
