@@ -36,12 +36,34 @@ pub fn fleet_groups<'a>(
     rows: &[SummaryRow],
     info: impl Fn(&SummaryRow) -> &'a ConditionInfo,
 ) -> Vec<FleetGroup> {
-    // The other axes that take more than one value.
+    // The other axes that take more than one value for a vehicle (not those that differ
+    // only from vehicle to vehicle, as its rolling_speed_coefficient B/A does).
+    let first = rows.first().map(|r| &info(r).axes[0]);
+    let own: Vec<&SummaryRow> = rows
+        .iter()
+        .filter(|r| Some(&info(r).axes[0]) == first)
+        .collect();
+    // Each vehicle's conditions are a block of the same size in the same order; an axis
+    // labels a group when it takes the same value at the same place of every block (the
+    // number of runs does, a coast-down's length does not).
+    let per = {
+        let mut conditions: Vec<usize> = own.iter().map(|r| r.condition).collect();
+        conditions.dedup();
+        conditions.len().max(1)
+    };
+    let at = |a: usize, k: usize| {
+        own.iter()
+            .find(|r| r.condition % per == k)
+            .map(|r| &info(r).axes[a])
+    };
     let varying: Vec<usize> = (1..layout.axes.len())
         .filter(|&a| {
-            let mut values = rows.iter().map(|r| &info(r).axes[a]);
+            let mut values = own.iter().map(|r| &info(r).axes[a]);
             let first = values.next();
             values.any(|v| Some(v) != first)
+                && rows
+                    .iter()
+                    .all(|r| at(a, r.condition % per) == Some(&info(r).axes[a]))
         })
         .collect();
     let mut groups: Vec<FleetGroup> = Vec::new();

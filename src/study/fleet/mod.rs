@@ -78,7 +78,7 @@ pub(super) fn vehicle_study(
         vehicle.place,
         quote(&vehicle.id)
     );
-    let named = |mut e: StudyError| {
+    let named = |e: StudyError| {
         let mapped = e
             .key
             .as_deref()
@@ -98,10 +98,8 @@ pub(super) fn vehicle_study(
                     reason: format!("column {} = {value}: {}", quote(column), e.reason),
                 }
             }
-            None => {
-                e.file = format!("{} for {at}", e.file);
-                e
-            }
+            // The vehicle's origin names it and its row already.
+            None => e,
         }
     };
     let mut one = raw.clone();
@@ -118,7 +116,7 @@ pub(super) fn vehicle_study(
             .try_into::<RawVehicle>()
             .map_err(|e| {
                 named(StudyError {
-                    file: origin.to_string(),
+                    file: format!("{origin} for {at}"),
                     key: Some("vehicle".into()),
                     line: spans.line("vehicle"),
                     reason: e.message().to_string(),
@@ -128,7 +126,7 @@ pub(super) fn vehicle_study(
     validate(
         one,
         spans.clone(),
-        &format!("{origin}, vehicle {}", quote(&vehicle.id)),
+        &format!("{origin} for {at}"),
         dir.to_path_buf(),
     )
     .map_err(named)
