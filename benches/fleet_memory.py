@@ -93,7 +93,7 @@ def main():
         print(f"fleet of {'the table' if args.table else args.vehicles} vehicles, "
               f"{args.runs} runs, R = {args.realisations}"
               f"{'' if args.no_campaign else ', with the campaign'}: "
-              f"{m['wall_s']:.1f} s wall, peak RSS {m['max_rss_mb']:.0f} MB "
+              f"{m['wall_s']:.1f} s wall, peak RSS {m['max_rss_mb']:.0f} MiB "
               f"(summary {summary.stat().st_size / 1e6:.1f} MB)")
 
 
