@@ -287,11 +287,15 @@ pub fn answer_sentence(
             )
         }
         None => format!(
-            "{} holds at no {} in [{}, {}] (the Monte Carlo estimate misses the target at the best end)",
+            "{} holds at no {} in [{}, {}] (Monte Carlo estimate {} the target at the best end)",
             request.target,
             request.key.name(),
             request.from,
-            request.to
+            request.to,
+            match request.target.measure.of_parameter() {
+                true => "above",
+                false => "below",
+            }
         ),
     }
 }
