@@ -158,14 +158,16 @@ fn table_of(
     let is_listed = |c: usize| listed.binary_search(&c).is_ok();
     let mut any_ratio_cv = false;
     for (p, param) in layout.parameters.iter().enumerate() {
-        let truth = rows
-            .iter()
-            .find(|r| r.parameter == p)
-            .map_or(f64::NAN, |r| r.truth);
+        let mut truths = rows.iter().filter(|r| r.parameter == p).map(|r| r.truth);
+        let truth = truths.next().unwrap_or(f64::NAN);
+        let truth = match truths.all(|t| t == truth) {
+            true => format!("truth {truth:.6e}"),
+            false => "truth per condition (summary.parquet's `truth`)".to_string(),
+        };
         let _ = writeln!(
             out,
-            "\n{} — {} [{}], truth {:.6e}",
-            param.name, param.description, param.unit, truth
+            "\n{} — {} [{}], {truth}",
+            param.name, param.description, param.unit
         );
         let shown: Vec<&SummaryRow> = rows
             .iter()
@@ -307,6 +309,43 @@ fn table_of(
              that applies (README \"What the numbers mean\"; summary.parquet has every bound).",
             r.n + r.n_failed,
             failed_note(rows)
+        );
+    }
+    out.push_str(&campaign_lines(layout, infos, rows, listed, &varies));
+    out
+}
+
+/// A campaign's pass probability ± MCSE per listed condition (docs/model.md#campaign), the
+/// condition's varying axes beside it; empty without a campaign.
+fn campaign_lines(
+    layout: &Layout,
+    infos: &[ConditionInfo],
+    rows: &[SummaryRow],
+    listed: &[usize],
+    varies: &[bool],
+) -> String {
+    let mut out = String::new();
+    for &c in listed {
+        let Some(p) = rows
+            .iter()
+            .find(|r| r.condition == c)
+            .and_then(|r| r.pass_probability)
+        else {
+            continue;
+        };
+        if out.is_empty() {
+            out.push_str("\ncampaign: the chance that the condition's runs pass the criterion (pass_probability ± MCSE)\n");
+        }
+        let axes: Vec<String> = (0..layout.axes.len())
+            .filter(|&a| varies[a])
+            .map(|a| format!("{} {}", layout.axes[a].name, infos[c].axes[a]))
+            .collect();
+        let _ = writeln!(
+            out,
+            "{c:>4}  {}  {:.4} ± {:.4}",
+            axes.join(", "),
+            p.value,
+            p.mcse
         );
     }
     out

@@ -218,6 +218,10 @@ impl CycleSource for CoastDown {
     fn runs(&self) -> Option<&[usize]> {
         Some(&self.runs)
     }
+
+    fn alternates(&self) -> bool {
+        self.directions == Directions::Alternate
+    }
 }
 
 /// Simulate the coast-down's first `runs` runs on `table` (a flat road without one) and lay

@@ -162,6 +162,12 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
         None
     }
 
+    /// Whether a drive of runs drives every other run the other way (a coast-down's
+    /// `directions = "alternate"`); false for a drive of one run.
+    fn alternates(&self) -> bool {
+        false
+    }
+
     /// Whether the cycle needs the vehicle's drivetrain (`final_drive_ratio`,
     /// `wheel_radius`).
     fn needs_drivetrain(&self) -> bool {

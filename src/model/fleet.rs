@@ -9,8 +9,9 @@
 //! however often, its realisations are the same bits.
 //!
 //! Each vehicle's draws are its own: its realisations use the run's seed mixed with the
-//! vehicle's index ([`vehicle_seed`]), so two vehicles never share a noise sequence and the
-//! fleet's spread across vehicles is not narrowed by common draws.
+//! vehicle's id ([`vehicle_seed`]), so two vehicles never share a noise sequence, the
+//! fleet's spread across vehicles is not narrowed by common draws, and a vehicle's results
+//! do not move when other rows of the table are added, removed or reordered.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -36,17 +37,22 @@ pub fn layout(study: &Study) -> Layout {
             format!(
                 "fleet: {} vehicles of {}",
                 fleet.vehicles.len(),
-                fleet.file.display()
+                fleet.written
             ),
         );
     }
     layout
 }
 
-/// The seed vehicle `v`'s realisations are drawn with: the run's `seed` mixed with the
-/// vehicle's index by SplitMix64's finaliser (Steele, Lea & Flood 2014).
-pub fn vehicle_seed(seed: u64, v: usize) -> u64 {
-    let mut z = seed ^ (v as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+/// The seed the realisations of the vehicle called `id` are drawn with: the run's `seed`
+/// mixed with the FNV-1a hash of the id by SplitMix64's finaliser (Steele, Lea & Flood
+/// 2014).
+pub fn vehicle_seed(seed: u64, id: &str) -> u64 {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in id.as_bytes() {
+        hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    let mut z = seed ^ hash.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
@@ -138,6 +144,12 @@ impl FleetModel {
         })
     }
 
+    /// The seed of vehicle `v`'s realisations in a run with `seed`.
+    fn seed_of(&self, seed: u64, v: usize) -> u64 {
+        let fleet = self.study.fleet().expect("a study with a fleet");
+        vehicle_seed(seed, &fleet.vehicles[v].id)
+    }
+
     /// Vehicle `v`'s prepared model: from the cache, or prepared now. It is prepared on
     /// a thread of its own pool, which this thread waits for without taking up another task
     /// of the run (one that might wait for this very vehicle).
@@ -194,7 +206,7 @@ impl Model for FleetModel {
     fn realise(&self, seed: u64, c: usize, r: u64, slots: &mut [f64]) {
         let v = c / self.per_vehicle;
         self.model(v)
-            .realise(vehicle_seed(seed, v), c % self.per_vehicle, r, slots);
+            .realise(self.seed_of(seed, v), c % self.per_vehicle, r, slots);
     }
 
     fn draw_group(&self, c: usize) -> usize {
@@ -216,6 +228,6 @@ impl Model for FleetModel {
             "one vehicle's group"
         );
         self.model(v)
-            .realise_group(vehicle_seed(seed, v), &local, first, count, slots);
+            .realise_group(self.seed_of(seed, v), &local, first, count, slots);
     }
 }

@@ -213,6 +213,10 @@ fn vehicle_parameters(
     summary: &[SummaryRow],
     listed: &[usize],
 ) -> String {
+    // A fleet's truths differ by vehicle: its own section shows them relative to each.
+    if crate::stats::fleet::is_fleet(layout) {
+        return String::new();
+    }
     let index = |name: &str| layout.parameters.iter().position(|p| p.name == name);
     let (Some(pm), Some(pd), Some(pr)) = (
         index("inv_mass"),

@@ -197,7 +197,11 @@ fn model_error_warning(layout: &Layout, info: &ConditionInfo, r: &SummaryRow) ->
         "1" | "" => String::new(),
         u => format!(" {u}"),
     };
-    let errors: Vec<String> = info.model_errors.iter().map(ToString::to_string).collect();
+    let mut errors: Vec<String> = info.model_errors.iter().map(ToString::to_string).collect();
+    // A fleet's vehicle first: its B/A is one of the model errors, and says less than its name.
+    if crate::stats::fleet::is_fleet(layout) {
+        errors.insert(0, format!("vehicle {}", info.axes[0]));
+    }
     let wrong = match 100.0 * r.bias_model / r.truth {
         x if x.is_finite() => format!("{x:+.2} %"),
         _ => format!("{:+.3e}{unit} (its truth is 0)", r.bias_model),

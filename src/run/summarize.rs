@@ -128,6 +128,22 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     let origin = format!("{} (footer)", first.path().display());
     let dir = output::footer_dir(&first_footer, first.path());
     let study = Study::from_toml_in(&study_toml, &origin, &dir)?;
+    if let Some(fleet) = study.fleet() {
+        // The fleet's table is read again: it must still hold the vehicles the
+        // realisations were drawn for (their truths and ids come from it).
+        let line = format!("# fleet {:016x}\n", fleet.fingerprint());
+        if !identity.contains(&line) {
+            return Err(RunError::Study(study.error_at(
+                "fleet.file",
+                format!(
+                    "{} no longer holds the vehicles of this run (its rows or the filter changed \
+                     since): the truths and ids would not be those the realisations were drawn \
+                     for; restore the table, or run the study again",
+                    fleet.file.display()
+                ),
+            )));
+        }
+    }
     let model = model::prepare(&study)?;
     // A user's file where the summary writes is refused before the passes over the rows
     // (again below, under the lock, for a directory that did not exist yet).

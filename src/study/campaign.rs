@@ -100,6 +100,16 @@ pub(super) fn validate_campaign(
         .collect::<Result<_, _>>()?;
     let criterion = (entry.make)(&values)
         .map_err(|(key, reason)| c.fail(&format!("campaign.{key}"), reason))?;
+    if !criterion.reads_times() && !drive.alternates() {
+        return Err(c.fail(
+            "campaign.criterion",
+            format!(
+                "\"{}\" counts runs half each way, and drive.directions = \"one_way\" drives \
+                 every run forwards",
+                entry.name
+            ),
+        ));
+    }
     let intervals = match criterion.reads_times() {
         true => intervals(table, c)?,
         false => {

@@ -1,8 +1,9 @@
 //! Text columns of a user's table (a fleet of vehicles): CSV or Parquet, every cell as text,
 //! so that a table's labels, its filters' columns and its numbers are read alike and a cell
 //! is judged only where it is used. CSV as [`super::read_columns`] reads it (a BOM, blank and
-//! `#` comment lines, CRLF, quotes); a cell that is not UTF-8 is read as Latin-1 (the EPA
-//! test car list's encoding). Parquet: any column, cast to text (null an empty cell).
+//! `#` comment lines, CRLF, quotes); a cell that is not UTF-8 is read as Windows-1252 (the
+//! EPA test car list's encoding: Latin-1 with printable 0x80–0x9F). Parquet: any column,
+//! cast to text (null an empty cell).
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -56,11 +57,25 @@ impl TextColumns {
     }
 }
 
-/// A cell's bytes as text: UTF-8, or else Latin-1 (each byte its code point).
+/// Windows-1252's characters for the bytes 0x80–0x9F (where Latin-1 has control codes; the
+/// five bytes it leaves undefined kept as those codes).
+const CP1252_80_9F: [char; 32] = [
+    '€', '\u{81}', '‚', 'ƒ', '„', '…', '†', '‡', 'ˆ', '‰', 'Š', '‹', 'Œ', '\u{8d}', 'Ž', '\u{8f}',
+    '\u{90}', '‘', '’', '“', '”', '•', '–', '—', '˜', '™', 'š', '›', 'œ', '\u{9d}', 'ž', 'Ÿ',
+];
+
+/// A cell's bytes as text: UTF-8, or else Windows-1252 (Latin-1 with the printable
+/// characters of 0x80–0x9F: what spreadsheets export).
 fn text_of(bytes: &[u8]) -> String {
     match std::str::from_utf8(bytes) {
         Ok(s) => s.to_string(),
-        Err(_) => bytes.iter().map(|&b| char::from(b)).collect(),
+        Err(_) => bytes
+            .iter()
+            .map(|&b| match b {
+                0x80..=0x9F => CP1252_80_9F[usize::from(b - 0x80)],
+                _ => char::from(b),
+            })
+            .collect(),
     }
 }
 

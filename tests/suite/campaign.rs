@@ -169,6 +169,16 @@ fn a_bad_campaign_is_named() {
         let err = err.unwrap_err();
         assert!(err.contains(&format!("`{key}`")), "{edits:?}: {err}");
     }
+    // A fixed run count is half each way: not with every run driven forwards.
+    let mut text = study_text("coastdown_campaign.toml");
+    text = text[..text.find("[campaign]").unwrap()].to_string()
+        + "[campaign]\ncriterion = \"run_count\"\n";
+    text = text.replace(
+        "time_step = 0.1             # s (10 Hz)",
+        "time_step = 0.1\ndirections = \"one_way\"",
+    );
+    let err = Study::from_toml(&text, "one_way.toml").unwrap_err();
+    assert_eq!(err.key.as_deref(), Some("campaign.criterion"), "{err}");
     // A campaign judges a coast-down's runs.
     let text = study_text("thesis.toml") + "\n[campaign]\ncriterion = \"run_count\"\n";
     let err = Study::from_toml(&text, "thesis_campaign.toml").unwrap_err();

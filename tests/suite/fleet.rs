@@ -56,6 +56,16 @@ fn each_vehicle_is_its_rows_road_load_and_its_id_is_in_every_table() {
             ("drag_over_mass", 2.0 * c / (1.2 * 2.5) / m),
             ("rolling_resistance", a / (m * 9.81)),
         ];
+        // And B in the truth's speed-dependent rolling resistance: B/A [s/m].
+        let b = number(7) * lbf / mph;
+        let speeds = f64_col(&summary, "rolling_speed_coefficient");
+        for i in (0..summary.num_rows()).filter(|&i| ids[i] == cells[2]) {
+            assert!(
+                ((speeds[i] - b / a) / (b / a)).abs() < 1e-12,
+                "{}: B/A",
+                cells[2]
+            );
+        }
         for (parameter, value) in expected {
             let rows: Vec<usize> = (0..summary.num_rows())
                 .filter(|&i| ids[i] == cells[2] && parameters[i] == parameter)
@@ -133,8 +143,13 @@ fn a_bad_row_is_named_by_file_line_column_and_reason() {
         ] {
             assert!(err.contains(part), "{to}: no {part:?} in {err}");
         }
-        // Nothing ran: no output directory was made.
-        assert!(!dir.path().join("out").exists());
+        // At the command line: exit 2, and nothing written.
+        let out = dir.path().join("out");
+        let args = ["run", "fleet.toml", "--out", out.to_str().unwrap()].map(std::ffi::OsStr::new);
+        let (code, _, stderr) = cli(&args, dir.path());
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(&format!("line {line}")), "{stderr}");
+        assert!(!out.exists());
     }
     // Without the filter the HWY repeats name a vehicle twice.
     let dir = tempfile::tempdir().unwrap();
@@ -149,5 +164,33 @@ fn a_bad_row_is_named_by_file_line_column_and_reason() {
     assert!(
         err.contains("names a vehicle already read") && err.contains("fleet.filter"),
         "{err}"
+    );
+}
+
+#[test]
+fn summarize_refuses_a_table_whose_vehicles_changed_since_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = fleet_in(dir.path(), None, 2).unwrap();
+    let out = dir.path().join("out");
+    let args = [
+        "run",
+        "fleet.toml",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]
+    .map(std::ffi::OsStr::new);
+    assert_eq!(cli(&args, dir.path()).0, 0);
+    drop(study);
+    // The Camry's C doubled after the run: its truth would no longer be the run's.
+    let table = dir.path().join("data/epa_2022_fleet.csv");
+    let text = std::fs::read_to_string(&table).unwrap();
+    std::fs::write(&table, text.replacen("0.015068", "0.030136", 1)).unwrap();
+    let args = ["summarize", out.to_str().unwrap()].map(std::ffi::OsStr::new);
+    let (code, _, stderr) = cli(&args, dir.path());
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("fleet.file") && stderr.contains("no longer holds"),
+        "{stderr}"
     );
 }

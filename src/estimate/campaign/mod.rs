@@ -102,7 +102,11 @@ impl CoastTimes {
 /// after it \[s\]; NaN when it crosses not both.
 fn time_through(t_s: &[f64], speed: impl Fn(usize) -> f64, interval: &SpeedInterval) -> f64 {
     let crossing = |from: usize, level: f64| -> Option<(usize, f64)> {
-        // The first sample at or below the level that has a sample above it just before.
+        // The first sample at or below the level that has a sample above it just before;
+        // none when the run starts at or below it.
+        if from == 0 && t_s.first().is_some_and(|_| speed(0) <= level) {
+            return None;
+        }
         let k = (from.max(1)..t_s.len()).find(|&k| speed(k) <= level)?;
         let (a, b) = (speed(k - 1), speed(k));
         if a <= level {

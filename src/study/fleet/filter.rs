@@ -74,9 +74,15 @@ impl Filter {
                 }
             }
         } else {
-            let v: f64 = rest.parse().map_err(|_| {
-                format!("{form}; got {text:?} ({rest:?} is neither \"text\" nor a number)")
-            })?;
+            let v: f64 = rest
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "{form}; got {text:?} ({rest:?} is neither \"text\" nor a finite number)"
+                    )
+                })?;
             Value::Number(v)
         };
         if matches!(value, Value::Text(_)) && !matches!(op, Op::Eq | Op::Ne) {
@@ -123,5 +129,6 @@ mod tests {
         assert!(Filter::parse(r#""A" < "x""#).is_err());
         assert!(Filter::parse(r#""A" = 3"#).is_err());
         assert!(Filter::parse(r#""A" == "x"#).is_err());
+        assert!(Filter::parse(r#""A" != nan"#).is_err());
     }
 }

@@ -25,6 +25,8 @@ const OWN_KEYS: [&str; 4] = ["file", "id", "filter", "distinct"];
 pub struct Fleet {
     /// The table read.
     pub file: PathBuf,
+    /// Its name as the study gives it (`fleet.file`).
+    pub written: String,
     /// The vehicles.
     pub vehicles: Vec<FleetVehicle>,
 }
@@ -326,6 +328,7 @@ pub(super) fn read_fleet(
         });
     }
     let fleet = Fleet {
+        written: file.clone(),
         file: path,
         vehicles,
     };
