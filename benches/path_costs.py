@@ -14,7 +14,8 @@ Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then 
 BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
 grade noise σ_θ = 0.001 rad; and the heavy-duty truck (studies/heavy_duty.toml, its first
 hour) with OLS, with grade noise, and with a differentiated acceleration, grade noise and
-OLS + BCLS + WBCLS; and the filters without a grade sensor, `ekf` and `rls_mf` alone on the
+OLS + BCLS + WBCLS; the thesis cycle with a model error drawn in every realisation (gusts,
+a random force calibration, an elevation map's error); and the filters without a grade sensor, `ekf` and `rls_mf` alone on the
 thesis cycle (their bound along the path is made once per condition there, outside the
 marginal cost: examples/filter_costs.rs times it).
 
@@ -87,6 +88,9 @@ PATHS = [
     ("… differentiated + grade noise, OLS + BCLS + WBCLS",
      truck(estimators='["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
            estimation_extra='\nacceleration = "differentiated"')),
+    ("drawn: gusts σ_w = 2 m/s", thesis() + "\n[truth]\nwind_gust_sd = [2.0]\n"),
+    ("drawn: random force calibration 1 %", thesis() + "\n[truth]\nforce_scale_sd = [0.01]\n"),
+    ("drawn: elevation-map error σ_h = 0.1 m", thesis(extra_noise="\ngrade_map_sd = [0.1]")),
     ("no grade sensor: ekf", thesis(estimators='["ekf"]', estimation_extra='\ngrade = "none"')),
     ("no grade sensor: rls_mf", thesis(estimators='["rls_mf"]',
                                        estimation_extra='\ngrade = "none"')),

@@ -267,8 +267,13 @@ pub fn answer_sentence(
             let sd = answer_sd.map_or(String::new(), |d| {
                 format!(", ± {} from the Monte Carlo error", short(d))
             });
+            // A probability as one, a parameter's measure in scientific notation.
+            let (m, s) = match request.target.measure.of_parameter() {
+                true => (format!("{m:.4e}"), format!("{s:.1e}")),
+                false => (format!("{m:.4}"), format!("{s:.4}")),
+            };
             format!(
-                "{which} {} meeting {}: {} {} ({bracket}{sd}); there {} = {m:.4e} ± {s:.1e} \
+                "{which} {} meeting {}: {} {} ({bracket}{sd}); there {} = {m} ± {s} \
                  (MCSE), {}. Rule: a value holds when the Monte Carlo estimate is {} the \
                  target.",
                 request.key.name(),

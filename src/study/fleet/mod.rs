@@ -270,14 +270,20 @@ pub(super) fn read_fleet(
         })
         .collect();
     if kept.is_empty() {
-        return Err(fail(
-            "fleet.filter",
-            format!(
-                "keeps none of the {} rows of {}",
-                cells.len(),
-                path.display()
+        return Err(match filters.is_empty() {
+            true => fail(
+                "fleet.file",
+                format!("{} has no rows of vehicles", path.display()),
             ),
-        ));
+            false => fail(
+                "fleet.filter",
+                format!(
+                    "keeps none of the {} rows of {}",
+                    cells.len(),
+                    path.display()
+                ),
+            ),
+        });
     }
     let mut vehicles = Vec::with_capacity(kept.len());
     let mut ids = std::collections::HashMap::new();
