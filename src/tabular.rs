@@ -46,9 +46,10 @@ impl fmt::Display for TabularError {
 
 impl std::error::Error for TabularError {}
 
-/// Numeric columns read from one data file.
+/// Columns read from one data file: numbers (`T = f64`, [`read_columns`]) or text
+/// ([`TextColumns`], [`read_text_columns`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Columns {
+pub struct Columns<T = f64> {
     /// The file read.
     pub file: PathBuf,
     /// Where each row came from: its 1-based line in a CSV file, or its 1-based row number
@@ -56,15 +57,15 @@ pub struct Columns {
     pub origins: Vec<usize>,
     /// True when the file is Parquet (`origins` are row numbers, else line numbers).
     pub parquet: bool,
-    columns: Vec<(String, Vec<f64>)>,
+    columns: Vec<(String, Vec<T>)>,
 }
 
-impl Columns {
+impl<T> Columns<T> {
     /// The values of column `name` (one of those requested).
     ///
     /// # Panics
     /// If `name` was not requested.
-    pub fn get(&self, name: &str) -> &[f64] {
+    pub fn get(&self, name: &str) -> &[T] {
         &self
             .columns
             .iter()
@@ -88,7 +89,9 @@ impl Columns {
         let kind = if self.parquet { "row" } else { "line" };
         format!("{kind} {}", self.origins[i])
     }
+}
 
+impl Columns {
     /// Check that column `name` strictly increases.
     pub fn strictly_increasing(&self, name: &str) -> Result<(), TabularError> {
         let v = self.get(name);

@@ -48,10 +48,7 @@ pub fn layout(study: &Study) -> Layout {
 /// mixed with the FNV-1a hash of the id by SplitMix64's finaliser (Steele, Lea & Flood
 /// 2014).
 pub fn vehicle_seed(seed: u64, id: &str) -> u64 {
-    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in id.as_bytes() {
-        hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-    }
+    let hash = crate::numeric::hash::Fnv1a::of(id.as_bytes());
     let mut z = seed ^ hash.wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

@@ -3,10 +3,11 @@
 //! positive-definite systems (the normal equations); double-double arithmetic for the few
 //! computations that cancel more digits than `f64` has; a sine and cosine of small angles
 //! that vectorises and gives the same bits on every x86-64 CPU (the grade noise); the one RK4
-//! stepper; which vector instructions the fast paths may use (and the switch that forces
+//! stepper; FNV-1a fingerprints; which vector instructions the fast paths may use (and the switch that forces
 //! the portable code).
 
 pub mod dd;
+pub mod hash;
 pub mod linalg;
 pub mod ode;
 pub mod profile_search;

@@ -303,7 +303,5 @@ fn shares_draws(study_toml: &str) -> bool {
 
 /// FNV-1a (64 bit) of `text`: a short fingerprint to show.
 fn fnv1a(text: &str) -> u64 {
-    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
+    crate::numeric::hash::Fnv1a::of(text.as_bytes())
 }

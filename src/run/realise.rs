@@ -19,12 +19,11 @@ pub(super) fn identity(study: &Study, model: &dyn Model, infos: &[ConditionInfo]
     let mut canary = vec![0.0; model.layout().realisation_stride()];
     model.realise(study.seed(), 0, 0, &mut canary);
     let metrics = infos.iter().flat_map(|i| i.metrics.iter().copied());
-    let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
+    let mut fnv = crate::numeric::hash::Fnv1a::default();
     for v in canary.into_iter().chain(metrics) {
-        for byte in v.to_bits().to_le_bytes() {
-            hash = (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
-        }
+        fnv.eat(&v.to_bits().to_le_bytes());
     }
+    let hash = fnv.finish();
     format!("{}# numbers {hash:016x}\n", study.identity())
 }
 

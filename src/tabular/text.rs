@@ -6,56 +6,18 @@
 //! cast to text (null an empty cell).
 
 use std::fs::File;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use arrow::array::{Array, AsArray};
 use arrow::datatypes::DataType;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 
-use super::{MAX_INPUT_BYTES, TabularError, file_kind, positions, prepare_csv, read_regular};
+use super::{
+    Columns, MAX_INPUT_BYTES, TabularError, file_kind, positions, prepare_csv, read_regular,
+};
 
-/// Text columns read from one table.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TextColumns {
-    /// The file read.
-    pub file: PathBuf,
-    /// Where each row came from: its 1-based line (CSV) or row (Parquet).
-    pub origins: Vec<usize>,
-    /// True when the file is Parquet.
-    pub parquet: bool,
-    columns: Vec<(String, Vec<String>)>,
-}
-
-impl TextColumns {
-    /// The cells of column `name` (one of those requested).
-    ///
-    /// # Panics
-    /// If `name` was not requested.
-    pub fn get(&self, name: &str) -> &[String] {
-        &self
-            .columns
-            .iter()
-            .find(|(n, _)| n == name)
-            .unwrap_or_else(|| panic!("column {name} was not requested"))
-            .1
-    }
-
-    /// Number of rows.
-    pub fn len(&self) -> usize {
-        self.origins.len()
-    }
-
-    /// True when there are no rows.
-    pub fn is_empty(&self) -> bool {
-        self.origins.is_empty()
-    }
-
-    /// `line N` (CSV) or `row N` (Parquet) of row index `i`.
-    pub fn place(&self, i: usize) -> String {
-        let kind = if self.parquet { "row" } else { "line" };
-        format!("{kind} {}", self.origins[i])
-    }
-}
+/// Text columns read from one table (every cell as text).
+pub type TextColumns = Columns<String>;
 
 /// Windows-1252's characters for the bytes 0x80–0x9F (where Latin-1 has control codes; the
 /// five bytes it leaves undefined kept as those codes).
@@ -134,7 +96,7 @@ pub fn read_text_columns(path: &Path, wanted: &[&str]) -> Result<TextColumns, Ta
         }
         origins.push(record.position().map_or(0, |p| line_at(p.line())));
     }
-    Ok(TextColumns {
+    Ok(Columns {
         file: path.to_path_buf(),
         origins,
         parquet: false,
@@ -185,7 +147,7 @@ fn read_parquet_text(path: &Path, wanted: &[&str]) -> Result<TextColumns, Tabula
         }
         rows += batch.num_rows();
     }
-    Ok(TextColumns {
+    Ok(Columns {
         file: path.to_path_buf(),
         origins: (1..=rows).collect(),
         parquet: true,

@@ -46,20 +46,15 @@ impl Fleet {
     /// A number standing for every vehicle's id and values (the fleet's part of a run's
     /// identity: the table may change while the study file does not).
     pub fn fingerprint(&self) -> u64 {
-        let mut hash: u64 = 0xcbf2_9ce4_8422_2325; // FNV-1a, 64 bit
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-            }
-        };
+        let mut hash = crate::numeric::hash::Fnv1a::default();
         for v in &self.vehicles {
-            eat(v.id.as_bytes());
+            hash.eat(v.id.as_bytes());
             for (key, value) in &v.values {
-                eat(key.as_bytes());
-                eat(&value.to_bits().to_le_bytes());
+                hash.eat(key.as_bytes());
+                hash.eat(&value.to_bits().to_le_bytes());
             }
         }
-        hash
+        hash.finish()
     }
 }
 
