@@ -27,7 +27,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::sums::{GradeSums, Moments};
 use crate::dynamics::{DriveCycle, VehicleParams};
-use crate::numeric::sum::exact_sum;
+use crate::numeric::simd::Lanes;
+use crate::numeric::sum::{Dot, Plain, SquareDot, Terms, exact_sum_of};
 
 mod derived;
 mod differentiation;
@@ -221,23 +222,28 @@ impl Regression {
             sin_grade,
             cos_grade,
         } = columns;
-        let dot = |a: &[f64], b: &[f64]| exact_sum(a.iter().zip(b).map(|(p, q)| p * q));
-        let x2: Vec<f64> = v.iter().map(|v| -k * v * v).collect();
-        let cols: [&[f64]; 3] = [&f, &x2, &c];
+        let dot = |a: &[f64], b: &[f64]| exact_sum_of(&Dot(a, b));
+        let drag = |a: &[f64]| exact_sum_of(&DragDot { a, v: &v, k });
         let mut xtx = Matrix3::zeros();
         let mut xty = Vector3::zeros();
-        for i in 0..3 {
-            for j in 0..3 {
-                xtx[(i, j)] = dot(cols[i], cols[j]);
-            }
-            xty[i] = dot(cols[i], &y);
+        xtx[(0, 0)] = dot(&f, &f);
+        xtx[(0, 1)] = drag(&f);
+        xtx[(0, 2)] = dot(&f, &c);
+        xtx[(1, 1)] = exact_sum_of(&DragSquare { v: &v, k });
+        xtx[(1, 2)] = drag(&c);
+        xtx[(2, 2)] = dot(&c, &c);
+        for (i, j) in [(1, 0), (2, 0), (2, 1)] {
+            xtx[(i, j)] = xtx[(j, i)];
         }
-        let sum = |a: &[f64]| exact_sum(a.iter().copied());
+        xty[0] = dot(&f, &y);
+        xty[1] = drag(&y);
+        xty[2] = dot(&c, &y);
+        let sum = |a: &[f64]| exact_sum_of(&Plain(a));
         let grade_sums_noise_free = GradeSums {
             s_s: sum(&g_sin),
             s_1s: dot(&f, &g_sin),
             s_3s: dot(&c, &g_sin),
-            s_ws: exact_sum(v.iter().zip(g_sin.iter()).map(|(v, s)| v * v * s)),
+            s_ws: exact_sum_of(&SquareDot(&v, &g_sin)),
         };
         Regression {
             differentiation: None,
@@ -260,6 +266,38 @@ impl Regression {
             g,
             xtx,
             xty,
+        }
+    }
+
+    /// This regression with its force column F logged through `logged` (a calibration
+    /// drawn per realisation): only the sums that hold F are taken again, each exactly
+    /// rounded from the same products, so the result is bit for bit the regression built
+    /// from the logged force.
+    pub fn with_force(&self, logged: impl Fn(f64) -> f64) -> Regression {
+        let f: Column = self.f.iter().map(|&f| logged(f)).collect::<Vec<_>>().into();
+        let dot = |a: &[f64], b: &[f64]| exact_sum_of(&Dot(a, b));
+        let mut xtx = self.xtx;
+        xtx[(0, 0)] = dot(&f, &f);
+        xtx[(0, 1)] = exact_sum_of(&DragDot {
+            a: &f,
+            v: &self.v,
+            k: self.k,
+        });
+        xtx[(0, 2)] = dot(&f, &self.c);
+        xtx[(1, 0)] = xtx[(0, 1)];
+        xtx[(2, 0)] = xtx[(0, 2)];
+        let mut xty = self.xty;
+        xty[0] = dot(&f, &self.y);
+        let mut grade_sums_noise_free = self.grade_sums_noise_free;
+        grade_sums_noise_free.s_1s = dot(&f, &self.g_sin);
+        Regression {
+            sum_f: exact_sum_of(&Plain(&f)),
+            f,
+            xtx,
+            xty,
+            grade_sums_noise_free,
+            derived: Derived::default(),
+            ..self.clone()
         }
     }
 
@@ -294,6 +332,43 @@ impl Regression {
     /// consecutive rows ([`ar1_coefficients`] over the rows' times and runs).
     pub fn row_ar1_coefficients(&self, tau_s: f64) -> Vec<[f64; 2]> {
         ar1_coefficients(&self.t, &self.run, tau_s)
+    }
+}
+
+/// Σ aᵢ·xᵢ with x = −k V² column 2 (each xᵢ = (−k·Vᵢ)·Vᵢ rounded as the column holds it).
+struct DragDot<'a> {
+    a: &'a [f64],
+    v: &'a [f64],
+    k: f64,
+}
+
+impl Terms for DragDot<'_> {
+    fn len(&self) -> usize {
+        assert_eq!(self.a.len(), self.v.len(), "a column per row");
+        self.a.len()
+    }
+    #[inline(always)]
+    fn at<L: Lanes>(&self, l: L, i: usize) -> L::F64 {
+        let v = l.load(self.v, i);
+        l.load(self.a, i) * (l.splat(-self.k) * v * v)
+    }
+}
+
+/// Σ xᵢ² of column 2 (x as in [`DragDot`]).
+struct DragSquare<'a> {
+    v: &'a [f64],
+    k: f64,
+}
+
+impl Terms for DragSquare<'_> {
+    fn len(&self) -> usize {
+        self.v.len()
+    }
+    #[inline(always)]
+    fn at<L: Lanes>(&self, l: L, i: usize) -> L::F64 {
+        let v = l.load(self.v, i);
+        let x = l.splat(-self.k) * v * v;
+        x * x
     }
 }
 

@@ -6,6 +6,9 @@
 //! accumulator covering every `f64` exponent), so adding is exact and associative, merging
 //! two accumulators is exact, and the result is rounded to `f64` once, at the end.
 
+mod compensated;
+pub use compensated::{Dot, Plain, SquareDot, Terms, exact_sum_of};
+
 /// Bits per limb; limbs are `i64` so each has 31 bits of headroom for lazy carries.
 const LIMB_BITS: u32 = 32;
 /// Limbs to cover bit positions 2^-1074 … 2^1024 plus carry room.

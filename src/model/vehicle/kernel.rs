@@ -57,7 +57,8 @@ impl VehicleModel {
         let Some(world) = &cond.world else {
             return Ok(None);
         };
-        let (reg, inv_mass) = world.regression(&self.study, seed, self.stream_key(c), r)?;
+        let (reg, inv_mass) =
+            world.regression(&self.study, &cond.regression, (seed, self.stream_key(c), r))?;
         let ar1 = cond
             .noise
             .velocity_correlated()

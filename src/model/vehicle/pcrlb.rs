@@ -77,7 +77,7 @@ pub(super) fn metrics(
     let paths: Vec<Path> = match world {
         None => vec![Path::new(Cow::Borrowed(regression), inv_mass)],
         Some(world) => (0..TRUTHS)
-            .filter_map(|r| world.regression(vs, seed, key, r).ok())
+            .filter_map(|r| world.regression(vs, regression, (seed, key, r)).ok())
             .map(|(reg, own)| Path::new(Cow::Owned(reg), own.unwrap_or(inv_mass)))
             .collect(),
     };

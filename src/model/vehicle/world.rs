@@ -179,13 +179,24 @@ impl World {
     /// condition's are; and its own 1/M where the truth draws one. An error says why the
     /// realisation's truth cannot be used (the vehicle stalled or ran off the terrain, or
     /// too few rows are left).
+    ///
+    /// `condition` is the condition's own regression: a realisation that only draws a
+    /// calibration is it with the force logged anew ([`Regression::with_force`]).
     pub fn regression(
         &self,
         vs: &VehicleStudy,
-        seed: u64,
-        key: u64,
-        r: u64,
+        condition: &Regression,
+        (seed, key, r): (u64, u64, u64),
     ) -> Result<(Regression, Option<f64>), String> {
+        let only_calibration = self.truth.is_drawn()
+            && !self.truth.moves_per_realisation()
+            && self.grade_map.is_none()
+            && !self.filter_truth.is_drawn()
+            && self.grade_bias_rad == 0.0;
+        if only_calibration {
+            let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
+            return Ok((condition.with_force(|f| drawn.logged_force(f)), None));
+        }
         let nominal = &*self.cycle;
         let mut inv_mass = None;
         let (mut cycle, truth) = if self.filter_truth.is_drawn() {
