@@ -19,64 +19,23 @@
 //! | force, σ_F \[N\] | F̃ in column 1 | errors-in-variables in column 1: 1/M attenuated towards the part of F that column 3 cannot absorb (F varies only ±10 % about its mean, so even σ_F ≈ 50 N gives a large bias) | `eiv_sandwich`, `eiv_crlb_linearized` (first order) |
 
 use std::any::Any;
-use std::fmt;
-use std::ops::Deref;
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 
 use super::sums::{GradeSums, Moments};
 use crate::dynamics::{DriveCycle, VehicleParams};
-use crate::numeric::simd::Lanes;
-use crate::numeric::sum::{Dot, Plain, SquareDot, Terms, exact_sum_of};
+use crate::numeric::sum::{Dot, Plain, SquareDot, exact_sum_of};
 
+mod column;
 mod derived;
 mod differentiation;
+mod redrawn;
+mod terms;
+pub use column::Column;
 use derived::Derived;
 pub use differentiation::{Differentiation, ar1_coefficients};
-
-/// A column of a regression: the first `len` values of storage shared with the regression
-/// of a longer duration of the same cycle, whose rows begin with these
-/// ([`Regression::prefix`]; docs/model.md#row-selection). Reads as a slice.
-#[derive(Clone, PartialEq)]
-pub struct Column<T = f64> {
-    values: Arc<[T]>,
-    len: usize,
-}
-
-impl<T> Column<T> {
-    /// The first `n` values, sharing the storage.
-    pub fn prefix(&self, n: usize) -> Column<T> {
-        assert!(n <= self.len, "a prefix of {n} of {} values", self.len);
-        Column {
-            values: self.values.clone(),
-            len: n,
-        }
-    }
-}
-
-impl<T> From<Vec<T>> for Column<T> {
-    fn from(values: Vec<T>) -> Self {
-        let len = values.len();
-        Column {
-            values: values.into(),
-            len,
-        }
-    }
-}
-
-impl<T> Deref for Column<T> {
-    type Target = [T];
-    fn deref(&self) -> &[T] {
-        &self.values[..self.len]
-    }
-}
-
-impl<T: fmt::Debug> fmt::Debug for Column<T> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        (**self).fmt(f)
-    }
-}
+use terms::{DragDot, DragSquare, grade_columns};
 
 /// Row ranges a..b and a value of each: the weight segments and their noise-free sums
 /// without w (`wbcls::WeightSegments`), or the spans of a differentiated acceleration.
@@ -133,30 +92,36 @@ pub struct Regression {
 impl Regression {
     /// The regression of `cycle` for `vehicle`; constant sums are exactly rounded.
     pub fn new(cycle: &DriveCycle, vehicle: &VehicleParams) -> Self {
+        let sin_grade = Column::collected(cycle.grade_rad.iter().map(|t| t.sin()));
+        let cos_grade = Column::collected(cycle.grade_rad.iter().map(|t| t.cos()));
+        Self::with_sin_cos(cycle, sin_grade, cos_grade, vehicle)
+    }
+
+    /// [`Regression::new`] with the grade given by its sine and cosine at each sample (a
+    /// grade known by its tangent, as an elevation map's: docs/model.md#grade-map); the
+    /// cycle's `grade_rad` is not read.
+    pub fn with_sin_cos(
+        cycle: &DriveCycle,
+        sin_grade: Column,
+        cos_grade: Column,
+        vehicle: &VehicleParams,
+    ) -> Self {
         let g = vehicle.gravity_m_s2;
         let k = vehicle.drag_factor_kg_m();
-        let sin_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.sin()).collect();
-        let cos_grade: Vec<f64> = cycle.grade_rad.iter().map(|t| t.cos()).collect();
-        let c: Vec<f64> = cos_grade.iter().map(|cs| -g * cs).collect();
-        let g_sin: Vec<f64> = sin_grade.iter().map(|s| g * s).collect();
-        let y: Vec<f64> = cycle
-            .accel_m_s2
-            .iter()
-            .zip(&g_sin)
-            .map(|(a, gs)| a + gs)
-            .collect();
+        let (c, g_sin, y) = grade_columns(g, &cycle.accel_m_s2, &sin_grade, &cos_grade);
+        let column = |values: &[f64]| Column::collected(values.iter().copied());
         Self::with_sums(
             RowColumns {
-                t: cycle.t_s.clone().into(),
+                t: column(&cycle.t_s),
                 run: cycle.run.clone().into(),
-                f: cycle.f_prop_n.clone().into(),
-                c: c.into(),
-                v: cycle.v_m_s.clone().into(),
-                y: y.into(),
-                accel: cycle.accel_m_s2.clone().into(),
-                g_sin: g_sin.into(),
-                sin_grade: sin_grade.into(),
-                cos_grade: cos_grade.into(),
+                f: column(&cycle.f_prop_n),
+                c,
+                v: column(&cycle.v_m_s),
+                y,
+                accel: column(&cycle.accel_m_s2),
+                g_sin,
+                sin_grade,
+                cos_grade,
             },
             k,
             g,
@@ -269,38 +234,6 @@ impl Regression {
         }
     }
 
-    /// This regression with its force column F logged through `logged` (a calibration
-    /// drawn per realisation): only the sums that hold F are taken again, each exactly
-    /// rounded from the same products, so the result is bit for bit the regression built
-    /// from the logged force.
-    pub fn with_force(&self, logged: impl Fn(f64) -> f64) -> Regression {
-        let f: Column = self.f.iter().map(|&f| logged(f)).collect::<Vec<_>>().into();
-        let dot = |a: &[f64], b: &[f64]| exact_sum_of(&Dot(a, b));
-        let mut xtx = self.xtx;
-        xtx[(0, 0)] = dot(&f, &f);
-        xtx[(0, 1)] = exact_sum_of(&DragDot {
-            a: &f,
-            v: &self.v,
-            k: self.k,
-        });
-        xtx[(0, 2)] = dot(&f, &self.c);
-        xtx[(1, 0)] = xtx[(0, 1)];
-        xtx[(2, 0)] = xtx[(0, 2)];
-        let mut xty = self.xty;
-        xty[0] = dot(&f, &self.y);
-        let mut grade_sums_noise_free = self.grade_sums_noise_free;
-        grade_sums_noise_free.s_1s = dot(&f, &self.g_sin);
-        Regression {
-            sum_f: exact_sum_of(&Plain(&f)),
-            f,
-            xtx,
-            xty,
-            grade_sums_noise_free,
-            derived: Derived::default(),
-            ..self.clone()
-        }
-    }
-
     /// The value of type `T` derived from this regression's rows by `make`, made on the
     /// first call and shared by every later one (and by the regression's clones): what an
     /// estimator that reads rows computes once per regression, not per realisation.
@@ -335,43 +268,6 @@ impl Regression {
     }
 }
 
-/// Σ aᵢ·xᵢ with x = −k V² column 2 (each xᵢ = (−k·Vᵢ)·Vᵢ rounded as the column holds it).
-struct DragDot<'a> {
-    a: &'a [f64],
-    v: &'a [f64],
-    k: f64,
-}
-
-impl Terms for DragDot<'_> {
-    fn len(&self) -> usize {
-        assert_eq!(self.a.len(), self.v.len(), "a column per row");
-        self.a.len()
-    }
-    #[inline(always)]
-    fn at<L: Lanes>(&self, l: L, i: usize) -> L::F64 {
-        let v = l.load(self.v, i);
-        l.load(self.a, i) * (l.splat(-self.k) * v * v)
-    }
-}
-
-/// Σ xᵢ² of column 2 (x as in [`DragDot`]).
-struct DragSquare<'a> {
-    v: &'a [f64],
-    k: f64,
-}
-
-impl Terms for DragSquare<'_> {
-    fn len(&self) -> usize {
-        self.v.len()
-    }
-    #[inline(always)]
-    fn at<L: Lanes>(&self, l: L, i: usize) -> L::F64 {
-        let v = l.load(self.v, i);
-        let x = l.splat(-self.k) * v * v;
-        x * x
-    }
-}
-
 /// The per-row columns of a regression, before its sums.
 struct RowColumns {
     t: Column,
@@ -389,6 +285,12 @@ struct RowColumns {
 /// A short thesis-like cycle (60 s over a sinusoidal grade) for unit tests.
 #[cfg(test)]
 pub(crate) fn test_regression() -> Regression {
+    Regression::new(&test_cycle(), &VehicleParams::thesis())
+}
+
+/// The cycle of [`test_regression`].
+#[cfg(test)]
+pub(crate) fn test_cycle() -> DriveCycle {
     use crate::dynamics::{TorqueDrive, simulate};
     use crate::terrain::GradeTable;
     let vehicle = VehicleParams::thesis();
@@ -402,8 +304,7 @@ pub(crate) fn test_regression() -> Regression {
         torque_frequency_rad_s: 0.1,
     };
     let grades = (0..3000).map(|i| 0.08 * (i as f64 / 150.0).sin()).collect();
-    let cycle = simulate(&vehicle, &drive, &GradeTable::from_grades(grades)).unwrap();
-    Regression::new(&cycle, &vehicle)
+    simulate(&vehicle, &drive, &GradeTable::from_grades(grades)).unwrap()
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ use super::common::*;
 /// The thesis vehicle and torque from 10 m/s for `duration` s at 0.01 s, speed noise
 /// 0.1 m/s, `ekf` and `rls_mf` without the grade; the truth follows the filters' model
 /// (a random-walk grade, 1/M from the prior, the filters' process noise).
-fn filter_model_study(duration: f64, realisations: u64) -> (String, Study) {
+pub(super) fn filter_model_study(duration: f64, realisations: u64) -> (String, Study) {
     let text = study_text("thesis.toml");
     let text = set_key(&text, "duration", &format!("{duration}"));
     let text = set_key(&text, "initial_speed", "10.0");

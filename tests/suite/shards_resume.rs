@@ -253,9 +253,13 @@ fn leftovers_of_a_killed_run_are_cleared_not_fatal() {
 /// truck's drive (the first 10 minutes of heavy_duty.toml's hour at 0.1 s: five-row WBCLS
 /// segments); each with OLS alone, OLS and BCLS (realisations measured side by side where
 /// they can be, the grade term's sums for BCLS), OLS, BCLS and WBCLS, and all four (the
-/// rows scanned for WBCLS and RLS, each realisation measured on its own). Each with a name
-/// for the messages and its number of estimators.
-fn sensor_path_studies() -> Vec<(String, Study, usize)> {
+/// rows scanned for WBCLS and RLS, each realisation measured on its own). Then the paths
+/// whose realisations each have their own regression: the model errors drawn per
+/// realisation (gusts, a random force calibration, the elevation map's error, each on and
+/// off: each alone takes its own path, drawn_errors.rs checks them together) and the
+/// filters without a grade sensor on a truth that follows their model. Each
+/// with a name for the messages, its number of estimators and of conditions.
+fn sensor_path_studies() -> Vec<(String, Study, usize, u64)> {
     let axes = "[noise]\nvelocity_correlation_time = [0.0, 1.0]\ngrade_sd = [0.0, 0.001]";
     let thesis = set_key(&study_text("bias_compensation.toml"), "duration", "30.0");
     let thesis = set_key(&set_key(&thesis, "scales", "[1.0]"), "velocity_sd", "[1.0]");
@@ -281,9 +285,27 @@ fn sensor_path_studies() -> Vec<(String, Study, usize)> {
                 .with_overrides(Some(40), None)
                 .unwrap();
             let count = estimators.matches(',').count() + 1;
-            studies.push((format!("{name} {estimators}"), study, count));
+            studies.push((format!("{name} {estimators}"), study, count, 8));
         }
     }
+    let drawn = set_key(&study_text("thesis.toml"), "duration", "30.0");
+    let drawn = set_key(&drawn, "scales", "[1.0]");
+    let drawn = set_key(&drawn, "velocity_sd", "[0.3]\ngrade_map_sd = [0.0, 0.02]");
+    let drawn = set_key(&drawn, "estimators", "[\"ols\", \"bcls\"]");
+    let drawn =
+        format!("{drawn}\n[truth]\nwind_gust_sd = [0.0, 1.5]\nforce_scale_sd = [0.0, 0.03]\n");
+    let drawn = Study::from_toml(&drawn, "drawn")
+        .unwrap()
+        .with_overrides(Some(40), None)
+        .unwrap();
+    studies.push(("drawn model errors".into(), drawn, 2, 8));
+    let (filters, _) = super::no_grade_sensor::filter_model_study(30.0, 40);
+    let filters = set_key(&filters, "velocity_sd", "[0.1, 0.2]");
+    let filters = Study::from_toml(&filters, study_path("no_grade.toml").to_str().unwrap())
+        .unwrap()
+        .with_overrides(Some(40), None)
+        .unwrap();
+    studies.push(("filters without a grade sensor".into(), filters, 2, 2));
     studies
 }
 
@@ -299,7 +321,7 @@ fn sorted(table: &arrow::array::RecordBatch) -> arrow::array::RecordBatch {
 
 #[test]
 fn every_sensor_path_is_the_same_across_threads_shards_resume_and_extension() {
-    for (name, study, estimators) in sensor_path_studies() {
+    for (name, study, estimators, conditions) in sensor_path_studies() {
         let files = ["realisations.parquet", "summary.parquet", "cycles.parquet"];
         let same = |a: &std::path::Path, b: &std::path::Path, how: &str| {
             for file in files {
@@ -334,7 +356,11 @@ fn every_sensor_path_is_the_same_across_threads_shards_resume_and_extension() {
             .collect();
         let parts = arrow::compute::concat_batches(&parts[0].schema(), &parts).unwrap();
         let whole = read_table(&one.path().join("realisations.parquet"));
-        assert_eq!(whole.num_rows(), 8 * 40 * estimators, "{name}: eight paths");
+        assert_eq!(
+            whole.num_rows() as u64,
+            conditions * 40 * estimators as u64,
+            "{name}: {conditions} conditions"
+        );
         assert_eq!(
             sorted(&parts).columns(),
             sorted(&whole).columns(),
@@ -347,15 +373,19 @@ fn every_sensor_path_is_the_same_across_threads_shards_resume_and_extension() {
         let fewer = study.clone().with_overrides(Some(20), None).unwrap();
         run_study(&fewer, &options, &Silent).unwrap();
         let report = run_study(&study, &options, &Silent).unwrap();
-        assert_eq!(report.reused, 8 * 20, "{name}: the first 20 of each kept");
+        assert_eq!(
+            report.reused,
+            conditions * 20,
+            "{name}: the first 20 of each kept"
+        );
         same(one.path(), grown.path(), "extended from R = 20");
 
         // Asked to stop once three conditions are done (one part each): the parts written
         // before the stop is seen are kept (at least one), then the run resumes.
         let resumed = tempfile::tempdir().unwrap();
-        let report = stop_then_resume(&study, resumed.path(), 3 * 40);
+        let report = stop_then_resume(&study, resumed.path(), 3.min(conditions - 1) * 40);
         assert!(
-            (40..8 * 40).contains(&report.reused),
+            (40..conditions * 40).contains(&report.reused),
             "{name}: kept {}",
             report.reused
         );

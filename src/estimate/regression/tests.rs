@@ -65,3 +65,62 @@ fn a_differentiated_row_at_a_run_edge_is_refused() {
     used[4] = true;
     Regression::differentiated(&cycle, &used, 0.0, &VehicleParams::thesis());
 }
+
+/// Whether two regressions hold the same bits in every column and constant sum.
+fn assert_same_bits(a: &Regression, b: &Regression) {
+    let columns = |r: &Regression| {
+        [
+            &r.t,
+            &r.f,
+            &r.c,
+            &r.v,
+            &r.y,
+            &r.accel,
+            &r.g_sin,
+            &r.sin_grade,
+            &r.cos_grade,
+        ]
+        .map(|c| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+    };
+    assert_eq!(columns(a), columns(b));
+    let sums = |r: &Regression| {
+        let g = r.grade_sums_noise_free;
+        let mut all: Vec<f64> = r.xtx.iter().chain(r.xty.iter()).copied().collect();
+        all.extend([r.sum_f, r.sum_c, r.sum_y, g.s_s, g.s_1s, g.s_3s, g.s_ws]);
+        all.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    };
+    assert_eq!(sums(a), sums(b));
+}
+
+#[test]
+fn a_recalibrated_or_regraded_regression_is_the_one_built_whole_bit_for_bit() {
+    let vehicle = VehicleParams::thesis();
+    let cycle = test_cycle();
+    let base = Regression::new(&cycle, &vehicle);
+    // A calibration drawn per realisation: only the force column and its sums change.
+    let logged = |f: f64| f * 1.0137 + 3.0;
+    let mut recalibrated = cycle.clone();
+    recalibrated
+        .f_prop_n
+        .iter_mut()
+        .for_each(|f| *f = logged(*f));
+    assert_same_bits(
+        &base.with_force(logged),
+        &Regression::new(&recalibrated, &vehicle),
+    );
+    // Another grade, given by its sine and cosine (an elevation map's error).
+    let grade = |g: &f64| g + 0.01 * (g * 50.0).sin();
+    let sin = || Column::collected(cycle.grade_rad.iter().map(|g| grade(g).sin()));
+    let cos = || Column::collected(cycle.grade_rad.iter().map(|g| grade(g).cos()));
+    let regraded = base.with_grade(sin(), cos());
+    assert_same_bits(
+        &regraded,
+        &Regression::with_sin_cos(&cycle, sin(), cos(), &vehicle),
+    );
+    // Storage given back by a dropped regression and filled again holds the new values.
+    drop(regraded);
+    let again = base.with_grade(sin(), cos());
+    let mut whole = cycle.clone();
+    whole.grade_rad.iter_mut().for_each(|g| *g = grade(g));
+    assert_same_bits(&again, &Regression::new(&whole, &vehicle));
+}

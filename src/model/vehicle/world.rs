@@ -4,13 +4,13 @@
 //! is, from its own truth and map (docs/model.md#model-errors, docs/model.md#grade-map).
 
 use std::borrow::Cow;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use super::prepare::{measured_speeds, read_grade, used_samples};
 use crate::dynamics::filter_truth::FilterTruth;
 use crate::dynamics::{DriveCycle, Prefix, Road, Truth};
 use crate::estimate::channels::Acceleration;
-use crate::estimate::regression::Regression;
+use crate::estimate::regression::{Column, Regression};
 use crate::noise::NormalSequence;
 use crate::study::VehicleStudy;
 use crate::terrain::{GRID_STEP_M, GradeTable};
@@ -47,11 +47,70 @@ impl GradeMap {
 /// driving with `heading` (+1 forwards, −1 backwards, where the vehicle sees the route's
 /// grade negated, and the map's error too): atan(tan θ + heading·d(x)), d the map's forward
 /// differences `d` per grid step, linear between grid points (as the terrain's grade is).
+#[cfg(test)]
 fn mapped_grade(grade_rad: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
+    mapped_tangent(grade_rad.tan(), x_m, heading, d).atan()
+}
+
+/// The tangent of the grade measured from the map ([`mapped_grade`]) where the true grade's
+/// tangent is `tan_grade`: tan θ + heading·d(x).
+fn mapped_tangent(tan_grade: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
     let u = (x_m / GRID_STEP_M).max(0.0);
-    let j = (u.floor() as usize).min(d.len() - 2);
+    // u ≥ 0 (or NaN): truncation is its floor.
+    let j = (u as usize).min(d.len() - 2);
     let error = d[j] + (u - j as f64) * (d[j + 1] - d[j]);
-    (grade_rad.tan() + heading * error / GRID_STEP_M).atan()
+    tan_grade + heading * error / GRID_STEP_M
+}
+
+/// The sine and cosine of the grade whose tangent is `t` (|θ| < π/2): t/√(1 + t²) and
+/// 1/√(1 + t²), without the angle (docs/model.md#grade-map).
+#[inline]
+fn sin_cos_of_tangent(t: f64) -> (f64, f64) {
+    let r = 1.0 / (1.0 + t * t).sqrt();
+    (t * r, r)
+}
+
+/// The rows of a condition's regression as the map reads them: each used sample's position,
+/// heading and true grade's tangent, and the farthest position (computed once per
+/// condition; a realisation draws only the map's error).
+#[derive(Debug)]
+struct MapRows {
+    x_m: Vec<f64>,
+    heading: Vec<f64>,
+    tan_grade: Vec<f64>,
+    end_m: f64,
+}
+
+impl MapRows {
+    fn new(cycle: &DriveCycle, used: &[bool]) -> MapRows {
+        let rows: Vec<usize> = (0..cycle.len()).filter(|&i| used[i]).collect();
+        let x_m: Vec<f64> = rows.iter().map(|&i| cycle.x_m[i]).collect();
+        MapRows {
+            end_m: x_m.iter().fold(0.0, |end, &x| f64::max(end, x)),
+            heading: rows.iter().map(|&i| cycle.heading(i)).collect(),
+            tan_grade: rows.iter().map(|&i| cycle.grade_rad[i].tan()).collect(),
+            x_m,
+        }
+    }
+
+    /// The sine and cosine of the measured grade at each row under the map's forward
+    /// differences `d`.
+    fn sin_cos(&self, d: &[f64]) -> (Column, Column) {
+        let n = self.x_m.len();
+        let mut cos = None;
+        let sin = Column::filled(n, |sin| {
+            for (i, s) in sin.iter_mut().enumerate() {
+                *s = mapped_tangent(self.tan_grade[i], self.x_m[i], self.heading[i], d);
+            }
+            // The tangents become sines as the cosines are written.
+            cos = Some(Column::filled(n, |cos| {
+                for (s, c) in sin.iter_mut().zip(cos) {
+                    (*s, *c) = sin_cos_of_tangent(*s);
+                }
+            }));
+        });
+        (sin, cos.expect("the cosines are written with the sines"))
+    }
 }
 
 /// The times each run's drawn entries are realised at: a drive of one run, its sample times
@@ -99,6 +158,8 @@ pub(super) struct World {
     pub grade_map: Option<GradeMap>,
     /// A truth that follows the filters' model (drawn when it [is](FilterTruth::is_drawn)).
     filter_truth: FilterTruth,
+    /// The condition's rows as the map reads them, when only the map's error is drawn.
+    map_rows: OnceLock<MapRows>,
 }
 
 /// Where a condition's realisations are made: its cycle, road and row selection.
@@ -144,7 +205,19 @@ impl World {
             grade_bias_rad: place.grade_bias_rad,
             grade_map,
             filter_truth,
+            map_rows: OnceLock::new(),
         })
+    }
+
+    /// Whether the measured grade enters the regression by its sine and cosine alone, taken
+    /// from its tangent (a model acceleration without a grade bias), not as an angle.
+    fn grade_by_tangent(&self) -> bool {
+        self.source == Acceleration::Model && self.grade_bias_rad == 0.0
+    }
+
+    /// The normals of realisation `r`'s map error.
+    fn map_normals(seed: u64, key: u64, r: u64) -> NormalSequence {
+        NormalSequence::for_realisation(seed, key, crate::noise::Stream::GradeMap, r)
     }
 
     /// Realisation `r`'s true cycle when the world draws nothing but a truth that follows
@@ -197,6 +270,16 @@ impl World {
             let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
             return Ok((condition.with_force(|f| drawn.logged_force(f)), None));
         }
+        let only_map = !self.truth.is_drawn() && !self.filter_truth.is_drawn();
+        if let (Some(map), true) = (&self.grade_map, only_map && self.grade_by_tangent()) {
+            let rows = self.map_rows.get_or_init(|| {
+                let used = used_samples(&self.cycle, vs, self.prefix, self.source);
+                MapRows::new(&self.cycle, &used)
+            });
+            let d = map.differences(&mut Self::map_normals(seed, key, r), rows.end_m);
+            let (sin, cos) = rows.sin_cos(&d);
+            return Ok((read_grade(vs, condition.with_grade(sin, cos)), None));
+        }
         let nominal = &*self.cycle;
         let mut inv_mass = None;
         let (mut cycle, truth) = if self.filter_truth.is_drawn() {
@@ -244,26 +327,39 @@ impl World {
         if let Some(air) = measured_speeds(vs, &truth, &cycle) {
             cycle.v_m_s = air;
         }
+        // The measured grade's sine and cosine at the used rows, where the map reads it and
+        // the regression takes it by its tangent.
+        let mut mapped = None;
         if let Some(map) = &self.grade_map {
-            let mut normals =
-                NormalSequence::for_realisation(seed, key, crate::noise::Stream::GradeMap, r);
             // The map reaches as far as the rows the regression uses.
-            let end = cycle
-                .x_m
-                .iter()
-                .zip(&used)
-                .filter(|(_, u)| **u)
-                .fold(0.0, |end, (x, _)| f64::max(end, *x));
-            let d = map.differences(&mut normals, end);
-            for i in 0..cycle.len() {
-                let heading = cycle.heading(i);
-                cycle.grade_rad[i] = mapped_grade(cycle.grade_rad[i], cycle.x_m[i], heading, &d);
+            let rows = MapRows::new(&cycle, &used);
+            let d = map.differences(&mut Self::map_normals(seed, key, r), rows.end_m);
+            if self.grade_by_tangent() {
+                mapped = Some(rows.sin_cos(&d));
+            } else {
+                for i in 0..cycle.len() {
+                    let t = mapped_tangent(
+                        cycle.grade_rad[i].tan(),
+                        cycle.x_m[i],
+                        cycle.heading(i),
+                        &d,
+                    );
+                    cycle.grade_rad[i] = t.atan();
+                }
             }
         }
         Ok((
             match self.source {
                 Acceleration::Differentiated => {
                     Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle)
+                }
+                Acceleration::Model if mapped.is_some() => {
+                    let (sin, cos) = mapped.expect("the map's grade");
+                    let selected = cycle.select(&used);
+                    read_grade(
+                        vs,
+                        Regression::with_sin_cos(&selected, sin, cos, &vs.vehicle),
+                    )
                 }
                 Acceleration::Model => {
                     let mut selected = cycle.select(&used);
@@ -334,5 +430,56 @@ mod tests {
         assert_eq!(mapped_grade(0.0, 10.0, 1.0, &d), d[10].atan());
         // Driven backwards, the vehicle sees the map's grade negated.
         assert_eq!(mapped_grade(0.0, 10.0, -1.0, &d), -d[10].atan());
+    }
+
+    #[test]
+    fn the_grade_by_its_tangent_agrees_with_the_angle_s_sine_and_cosine() {
+        // The map's grade enters by t/√(1 + t²) and 1/√(1 + t²) where it entered as
+        // sin(atan t) and cos(atan t): four roundings against libm's near-correct ones, so
+        // within a few ulps (4 allowed) on the grades a road has.
+        for k in -4000..=4000 {
+            let t = f64::from(k) * 1.25e-4;
+            let (s, c) = sin_cos_of_tangent(t);
+            let a = t.atan();
+            assert!(
+                (s - a.sin()).abs() <= 4.0 * f64::EPSILON * a.sin().abs(),
+                "{t}"
+            );
+            assert!((c - a.cos()).abs() <= 4.0 * f64::EPSILON, "{t}");
+        }
+        // The regression's constant sums, built from the two, agree to 1e-12 relative to
+        // the sum of the terms' magnitudes (a few ulps per term; the sums are exactly
+        // rounded).
+        let vehicle = crate::dynamics::VehicleParams::thesis();
+        let cycle = crate::estimate::regression::test_cycle();
+        let tangents: Vec<f64> = (cycle.grade_rad.iter().enumerate())
+            .map(|(i, g)| g.tan() + 0.003 * (i as f64 * 0.01).sin())
+            .collect();
+        let mut by_angle = cycle.clone();
+        by_angle.grade_rad = tangents.iter().map(|t| t.atan()).collect();
+        let old = Regression::new(&by_angle, &vehicle);
+        let new = Regression::with_sin_cos(
+            &cycle,
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).0)),
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).1)),
+            &vehicle,
+        );
+        // Σ|terms| bounded by the sums of the rows' magnitudes.
+        let mut magnitudes = cycle.clone();
+        for column in [&mut magnitudes.f_prop_n, &mut magnitudes.accel_m_s2] {
+            column.iter_mut().for_each(|x| *x = x.abs());
+        }
+        let scales = Regression::with_sin_cos(
+            &magnitudes,
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).0.abs())),
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).1)),
+            &vehicle,
+        );
+        let all =
+            |r: &Regression| -> Vec<f64> { r.xtx.iter().chain(r.xty.iter()).copied().collect() };
+        for ((a, b), scale) in all(&old).into_iter().zip(all(&new)).zip(all(&scales)) {
+            let scale = scale.abs();
+            assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+        }
     }
 }
