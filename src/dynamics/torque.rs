@@ -2,6 +2,7 @@
 //! integrated by classical fixed-step RK4 at the sample step with θ(X) the linear
 //! interpolation of the grade table (docs/model.md#vehicle).
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
 use super::truth::TruthSample;
@@ -167,6 +168,7 @@ fn simulate_truth(
 
     let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
     let mut f = drive.propulsion_n(vehicle, 0.0);
+    let stage_forces = stage_forces(drive, vehicle);
     for i in 0..n {
         let t = i as f64 * h;
         SimulationError::check_state(i, t, x, v)?;
@@ -188,8 +190,7 @@ fn simulate_truth(
         // half step serves two stages and the one at the full step the next sample. The
         // full step's force is taken at the next sample's time t_{i+1} = (i+1)·Δt (the
         // time the cycle records), which can differ from t + Δt in the last bit.
-        let f_mid = drive.propulsion_n(vehicle, t + 0.5 * h);
-        let f_end = drive.propulsion_n(vehicle, (i + 1) as f64 * h);
+        let [f_mid, f_end] = stage_forces[i];
         [x, v] = rk4_step([x, v], h, [v, cycle.accel_m_s2[i]], |stage, [xs, vs]| {
             let (ts, fs) = match stage {
                 Stage::Half => (t + 0.5 * h, f_mid),
@@ -200,6 +201,44 @@ fn simulate_truth(
         f = f_end;
     }
     Ok(cycle)
+}
+
+/// The propulsion force of every RK4 step of `drive` for `vehicle`: at step i's half step
+/// t_i + Δt/2 (t_i = i·Δt) and at the next sample's time (i + 1)·Δt. The same for every
+/// realisation of a drive, so each thread keeps those of the last drive it integrated
+/// (a drive drawing gusts is integrated again in every realisation).
+fn stage_forces(drive: &TorqueDrive, vehicle: &VehicleParams) -> Arc<[[f64; 2]]> {
+    type Key = (TorqueDrive, Option<[u64; 2]>);
+    thread_local! {
+        static LAST: RefCell<Option<(Key, Arc<[[f64; 2]]>)>> = const { RefCell::new(None) };
+    }
+    let drivetrain = vehicle
+        .drivetrain
+        .map(|d| [d.final_drive_ratio.to_bits(), d.wheel_radius_m.to_bits()]);
+    let key = (drive.clone(), drivetrain);
+    let make = || -> Arc<[[f64; 2]]> {
+        let h = drive.time_step_s;
+        (0..drive.samples().saturating_sub(1))
+            .map(|i| {
+                let t = i as f64 * h;
+                [
+                    drive.propulsion_n(vehicle, t + 0.5 * h),
+                    drive.propulsion_n(vehicle, (i + 1) as f64 * h),
+                ]
+            })
+            .collect()
+    };
+    LAST.with(|last| {
+        let mut last = last.borrow_mut();
+        match &*last {
+            Some((k, forces)) if *k == key => forces.clone(),
+            _ => {
+                let forces = make();
+                *last = Some((key, forces.clone()));
+                forces
+            }
+        }
+    })
 }
 
 #[cfg(test)]

@@ -138,7 +138,8 @@ impl GradeTable {
         if u.is_nan() || u > last as f64 {
             return None;
         }
-        let i = (u.floor() as usize).min(last - 1);
+        // u > 0 here: truncation is its floor.
+        let i = (u as usize).min(last - 1);
         let f = u - i as f64;
         Some(self.grade_rad[i] + f * (self.grade_rad[i + 1] - self.grade_rad[i]))
     }

@@ -106,7 +106,8 @@ impl WindSeries {
             return t.partition_point(|&x| x <= t_s);
         }
         let step = (t[n - 1] - t[0]) / (n - 1) as f64;
-        let guess = ((t_s - t[0]) / step).floor();
+        // Truncated, not floored (the same for a guess ≥ 0; a guess only starts the search).
+        let guess = (t_s - t[0]) / step;
         let mut j = if guess.is_finite() && guess >= 0.0 {
             (guess as usize).saturating_add(1).min(n)
         } else {
