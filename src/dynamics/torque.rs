@@ -209,8 +209,9 @@ fn simulate_truth(
 /// (a drive drawing gusts is integrated again in every realisation).
 fn stage_forces(drive: &TorqueDrive, vehicle: &VehicleParams) -> Arc<[[f64; 2]]> {
     type Key = (TorqueDrive, Option<[u64; 2]>);
+    type Kept = Option<(Key, Arc<[[f64; 2]]>)>;
     thread_local! {
-        static LAST: RefCell<Option<(Key, Arc<[[f64; 2]]>)>> = const { RefCell::new(None) };
+        static LAST: RefCell<Kept> = const { RefCell::new(None) };
     }
     let drivetrain = vehicle
         .drivetrain
