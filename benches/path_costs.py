@@ -14,8 +14,11 @@ Paths: the thesis cycle (scale 1, 600 s at 100 Hz, σ_v = 1 m/s) with OLS, then 
 BCLS, WBCLS, RLS added; AR(1) speed noise (τ = 1 s); a differentiated acceleration; both;
 grade noise σ_θ = 0.001 rad; and the heavy-duty truck (studies/heavy_duty.toml, its first
 hour) with OLS, with grade noise, and with a differentiated acceleration, grade noise and
-OLS + BCLS + WBCLS; the thesis cycle with a model error drawn in every realisation (gusts,
-a random force calibration, an elevation map's error); and the filters without a grade sensor, `ekf` and `rls_mf` alone on the
+OLS + BCLS + WBCLS; the truck's 23-hour log at 1 Hz with gaps, replayed
+(tools/make_truck_log.py writes it on first use) with OLS, with grade noise, and with a
+differentiated acceleration, grade noise and OLS + BCLS + WBCLS; the thesis cycle with a
+model error drawn in every realisation (gusts, a random force calibration, an elevation
+map's error); and the filters without a grade sensor, `ekf` and `rls_mf` alone on the
 thesis cycle (their bound along the path is made once per condition there, outside the
 marginal cost: examples/filter_costs.rs times it).
 
@@ -73,6 +76,20 @@ def truck(**options):
                    **options)
 
 
+TRUCK_LOG = ROOT / "benches" / "data" / "truck_23h_1hz.csv"
+
+
+def truck_log(extra_noise="", estimators='["ols"]', estimation_extra=""):
+    """The truck of studies/heavy_duty.toml replayed from its 23-hour log at 1 Hz with gaps
+    (tools/make_truck_log.py, benches/data/truck_23h_1hz.csv), σ_v = 0.1 m/s."""
+    text = (ROOT / "studies" / "heavy_duty.toml").read_text()
+    vehicle = text[text.index("[vehicle]"):text.index("[drive]")]
+    return (f'name = "truck_log"\nseed = 2018\nrealisations = 1000\n\n{vehicle}'
+            f'[drive]\nmode = "replay"\nfile = "{TRUCK_LOG}"\nused_column = "used"\n\n'
+            f'[noise]\nvelocity_sd = [0.1]\noutput_sd = [0.0]{extra_noise}\n\n'
+            f'[estimation]\nestimators = {estimators}{estimation_extra}\n')
+
+
 PATHS = [
     ("thesis cycle, OLS", thesis()),
     ("+ BCLS", thesis(estimators='["ols", "bcls"]')),
@@ -88,6 +105,11 @@ PATHS = [
     ("… differentiated + grade noise, OLS + BCLS + WBCLS",
      truck(estimators='["ols", "bcls", "wbcls"]', extra_noise="\ngrade_sd = [0.001]",
            estimation_extra='\nacceleration = "differentiated"')),
+    ("truck log, 23 h at 1 Hz with gaps, OLS", truck_log()),
+    ("… with grade noise", truck_log(extra_noise="\ngrade_sd = [0.001]")),
+    ("… differentiated + grade noise, OLS + BCLS + WBCLS",
+     truck_log(extra_noise="\ngrade_sd = [0.001]", estimators='["ols", "bcls", "wbcls"]',
+               estimation_extra='\nacceleration = "differentiated"')),
     ("drawn: gusts σ_w = 2 m/s", thesis() + "\n[truth]\nwind_gust_sd = [2.0]\n"),
     ("drawn: random force calibration 1 %", thesis() + "\n[truth]\nforce_scale_sd = [0.01]\n"),
     ("drawn: elevation-map error σ_h = 0.1 m", thesis(extra_noise="\ngrade_map_sd = [0.1]")),
@@ -142,6 +164,9 @@ def main():
         ap.error("--rounds must be at least 1")
     paths = [p for i, p in enumerate(PATHS)
              if i == 0 or args.only is None or re.search(args.only, p[0])]
+    if any(str(TRUCK_LOG) in text for _, text in paths) and not TRUCK_LOG.exists():
+        subprocess.run([sys.executable, str(ROOT / "tools" / "make_truck_log.py"),
+                        "--binary", str(args.binary)], check=True)
     binaries = [args.before, args.binary] if args.before else [args.binary]
     # results[b][i]: per round, (s per realisation, s per sample, rows, s per sample of the
     # thesis path measured just before it with the same binary)
