@@ -7,7 +7,7 @@
 //! two accumulators is exact, and the result is rounded to `f64` once, at the end.
 
 mod compensated;
-pub use compensated::{Dot, Plain, SquareDot, Terms, exact_sum_of};
+pub use compensated::{Dot, LaneSums, Plain, SquareDot, Terms, exact_sum_of};
 
 /// Bits per limb; limbs are `i64` so each has 31 bits of headroom for lazy carries.
 const LIMB_BITS: u32 = 32;

@@ -77,6 +77,19 @@ impl Column<f64> {
         Column { values, len: n }
     }
 
+    /// K columns of `n` values each, written together by `fill` ([`Column::filled`]).
+    pub fn filled_together<const K: usize>(
+        n: usize,
+        fill: impl FnOnce([&mut [f64]; K]),
+    ) -> [Column; K] {
+        let mut columns: [Column; K] = std::array::from_fn(|_| Column::filled(n, |_| {}));
+        let slices = columns
+            .each_mut()
+            .map(|c| Arc::get_mut(&mut c.values).expect("new storage is held by nothing else"));
+        fill(slices);
+        columns
+    }
+
     /// The values of `values`, in spare storage when the thread has some ([`Column::filled`]).
     pub fn collected(values: impl ExactSizeIterator<Item = f64>) -> Column {
         Column::filled(values.len(), |out| {

@@ -127,37 +127,104 @@ fn compensated_avx2(avx2: Avx2, terms: &impl Terms) -> Option<f64> {
 fn compensated_lanes<L: Lanes4>(l: L, terms: &impl Terms) -> Option<f64> {
     const WIDTH: usize = 4;
     let n = terms.len();
-    if n >= 1 << 30 {
-        return None;
-    }
-    let zero = Running {
-        s: l.splat(0.0),
-        c: l.splat(0.0),
-        a: l.splat(0.0),
-    };
     // Two sums in flight hide the latency of the additions.
-    let mut acc = [zero; 2];
+    let mut acc = LaneSums::<L, 2>::new(l);
     let whole = n - n % (2 * WIDTH);
     for i in (0..whole).step_by(2 * WIDTH) {
-        acc[0].add(terms.at(l, i));
-        acc[1].add(terms.at(l, i + WIDTH));
+        acc.add([terms.at(l, i), terms.at(l, i + WIDTH)]);
     }
-    // The lanes, then the rest, into one scalar sum (each addition's error kept as above).
+    let [first, second] = acc.0.map(|lane| lane_total(l, lane));
+    let mut total = first;
+    merge(&mut total, second);
+    for i in whole..n {
+        total.add(terms.at(Scalar, i));
+    }
+    decide(total, n)
+}
+
+/// K compensated sums in the lanes of `L`, added to a block of lanes at a time: the
+/// running sums of a pass over rows that sums several terms of each row at once
+/// (a regression's constant sums). [`LaneSums::finish`] gives each exactly rounded sum the
+/// bound decides.
+pub struct LaneSums<L: Lanes, const K: usize>([Running<L::F64>; K], [Running<f64>; K]);
+
+impl<L: Lanes4, const K: usize> LaneSums<L, K> {
+    /// K empty sums.
+    #[inline(always)]
+    pub fn new(l: L) -> Self {
+        let zero = Running {
+            s: l.splat(0.0),
+            c: l.splat(0.0),
+            a: l.splat(0.0),
+        };
+        let scalar = Running {
+            s: 0.0,
+            c: 0.0,
+            a: 0.0,
+        };
+        LaneSums([zero; K], [scalar; K])
+    }
+
+    /// The terms of one block of lanes, one per sum.
+    #[inline(always)]
+    pub fn add(&mut self, terms: [L::F64; K]) {
+        for (sum, p) in self.0.iter_mut().zip(terms) {
+            sum.add(p);
+        }
+    }
+
+    /// The terms of one row beyond the blocks, one per sum.
+    #[inline(always)]
+    pub fn add_row(&mut self, terms: [f64; K]) {
+        for (sum, p) in self.1.iter_mut().zip(terms) {
+            sum.add(p);
+        }
+    }
+
+    /// Each sum of `n` terms in all, exactly rounded where the bound decides it (`None`
+    /// where it cannot: the caller sums those terms exactly, [`exact_sum_of`]).
+    #[inline(always)]
+    pub fn finish(self, l: L, n: usize) -> [Option<f64>; K] {
+        let mut out = [None; K];
+        for ((o, lanes), rows) in out.iter_mut().zip(self.0).zip(self.1) {
+            let mut total = lane_total(l, lanes);
+            merge(&mut total, rows);
+            *o = decide(total, n);
+        }
+        out
+    }
+}
+
+/// A sum in lanes as one scalar sum (each addition's error kept).
+#[inline(always)]
+fn lane_total<L: Lanes4>(l: L, lanes: Running<L::F64>) -> Running<f64> {
     let mut total = Running {
         s: 0.0,
         c: 0.0,
         a: 0.0,
     };
-    for lane in acc {
-        let [s, c, a] = [lane.s, lane.c, lane.a].map(|v| l.lanes(v));
-        for k in 0..WIDTH {
-            total.add(s[k]);
-            total.c += c[k];
-            total.a += a[k];
-        }
+    let [s, c, a] = [lanes.s, lanes.c, lanes.a].map(|v| l.lanes(v));
+    for k in 0..4 {
+        total.add(s[k]);
+        total.c += c[k];
+        total.a += a[k];
     }
-    for i in whole..n {
-        total.add(terms.at(Scalar, i));
+    total
+}
+
+/// `other` added into `total` (its sum by TwoSum, its errors and magnitudes summed).
+#[inline(always)]
+fn merge(total: &mut Running<f64>, other: Running<f64>) {
+    total.add(other.s);
+    total.c += other.c;
+    total.a += other.a;
+}
+
+/// The exactly rounded sum of `n` terms summed into `total`, when the bound proves it.
+#[inline(always)]
+fn decide(total: Running<f64>, n: usize) -> Option<f64> {
+    if n >= 1 << 30 {
+        return None;
     }
     let (r, t) = two_sum(total.s, total.c);
     // Additions of terms, of lanes and of errors: under 2n + 16 in all.
@@ -216,6 +283,39 @@ mod tests {
             fast_paths > 300,
             "{fast_paths} of 400 sums took the fast route"
         );
+    }
+
+    #[test]
+    fn several_sums_in_one_pass_are_each_exact_or_handed_over() {
+        // Sum 0 of a row's terms is well conditioned; sum 1 ends at a tie (1 + 2⁻⁵³), which
+        // the bound cannot decide.
+        let n = 4 * 1000 + 3;
+        let rows: Vec<[f64; 2]> = (0..n)
+            .map(|i| {
+                let x = (i as f64 * 0.37).sin() + 2.0;
+                let tie = match i {
+                    0 => 1.0,
+                    1 => 2f64.powi(-53),
+                    _ => 0.0,
+                };
+                [x, tie]
+            })
+            .collect();
+        let mut sums = LaneSums::<Quad, 2>::new(Quad);
+        let whole = n - n % 4;
+        for i in (0..whole).step_by(4) {
+            let lanes = |k: usize| Quad.load(&[0, 1, 2, 3].map(|j| rows[i + j][k]), 0);
+            sums.add([lanes(0), lanes(1)]);
+        }
+        for row in &rows[whole..] {
+            sums.add_row(*row);
+        }
+        let [well, tie] = sums.finish(Quad, n);
+        assert_eq!(
+            well.map(f64::to_bits),
+            Some(exact_sum(rows.iter().map(|r| r[0])).to_bits())
+        );
+        assert_eq!(tie, None);
     }
 
     #[test]
