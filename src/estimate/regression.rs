@@ -35,7 +35,6 @@ mod terms;
 pub use column::Column;
 use derived::Derived;
 pub use differentiation::{Differentiation, ar1_coefficients};
-pub use terms::sin_cos_of_tangent;
 use terms::{DragDot, DragSquare, grade_columns};
 
 /// Row ranges a..b and a value of each: the weight segments and their noise-free sums

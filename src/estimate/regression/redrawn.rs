@@ -8,11 +8,11 @@
 use nalgebra::Vector3;
 
 use super::derived::Derived;
-use super::{Column, DragDot, Regression, sin_cos_of_tangent};
+use super::{Column, DragDot, Regression};
 use crate::estimate::sums::GradeSums;
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
-use crate::numeric::simd::{Lanes, Lanes4, Quad, Scalar};
+use crate::numeric::simd::{Lanes4, Quad, Real};
 use crate::numeric::sum::{Dot, LaneSums, Plain, SquareDot, exact_sum_of};
 
 impl Regression {
@@ -39,20 +39,24 @@ impl Regression {
         reg
     }
 
-    /// This regression with the grade of row i replaced by the one whose tangent is
-    /// `tangent(i)` (an elevation map's error drawn per realisation), its sine and cosine
-    /// [`sin_cos_of_tangent`]: the force, speed and acceleration stay, the sums that hold
-    /// only them are kept, and the grade's columns and sums are taken in one pass. Bit for
-    /// bit [`Regression::with_sin_cos`] of the rows with that grade's sine and cosine.
-    pub fn with_grade_by_tangent(&self, tangent: impl Fn(usize) -> f64) -> Regression {
+    /// This regression with the grade of each row replaced by the one whose sine and cosine
+    /// are given (an elevation map's error drawn per realisation): the force, speed and
+    /// acceleration stay, the sums that hold only them are kept and the rest taken again,
+    /// so the result is bit for bit [`Regression::with_sin_cos`] of the rows with that
+    /// grade.
+    pub fn with_grade(&self, sin_grade: Column, cos_grade: Column) -> Regression {
+        assert!(
+            sin_grade.len() == self.len() && cos_grade.len() == self.len(),
+            "a grade per row"
+        );
         assert!(
             self.differentiation.is_none(),
             "a model acceleration's regression"
         );
         let n = self.len();
         let mut fast = [None; GRADE_SUMS];
-        let [sin_grade, cos_grade, c, g_sin, y] = Column::filled_together(n, |out| {
-            fast = grade_pass(self, &tangent, out);
+        let [c, g_sin, y] = Column::filled_together(n, |out| {
+            fast = grade_pass(self, &sin_grade, &cos_grade, out);
         });
         // Each sum the bound could not decide, exactly from its terms.
         let dot = |a: &[f64], b: &[f64]| exact_sum_of(&Dot(a, b));
@@ -109,22 +113,22 @@ impl Regression {
 /// grade term's four, Σc and Σy.
 const GRADE_SUMS: usize = 12;
 
-/// One pass over the rows of `reg` with the grade whose tangent at row i is `tangent(i)`:
-/// writes sin θ, cos θ ([`sin_cos_of_tangent`]), c = −g cos θ, g sin θ and
-/// y = dV/dt + g sin θ into `out` (as [`Regression::with_sin_cos`] makes them) and sums the
-/// [`GRADE_SUMS`] terms of each row, each as its exactly rounded sum takes it (`None` where
-/// the bound cannot decide). Compiled for AVX2 where the CPU has it.
+/// One pass over the rows of `reg` with the grade of sine `sin` and cosine `cos`: writes
+/// c = −g cos θ, g sin θ and y = dV/dt + g sin θ into `out` (as `grade_columns` makes them)
+/// and sums the [`GRADE_SUMS`] terms of each row, each as its exactly rounded sum takes it
+/// (`None` where the bound cannot decide). Compiled for AVX2 where the CPU has it.
 fn grade_pass(
     reg: &Regression,
-    tangent: &impl Fn(usize) -> f64,
-    out: [&mut [f64]; 5],
+    sin: &[f64],
+    cos: &[f64],
+    out: [&mut [f64]; 3],
 ) -> [Option<f64>; GRADE_SUMS] {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = Avx2::detect() {
         // SAFETY: the token proves the CPU has AVX2.
-        return unsafe { grade_pass_avx2(avx2, reg, tangent, out) };
+        return unsafe { grade_pass_avx2(avx2, reg, sin, cos, out) };
     }
-    grade_pass_lanes(Quad, reg, tangent, out)
+    grade_pass_lanes(Quad, reg, sin, cos, out)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -132,87 +136,69 @@ fn grade_pass(
 fn grade_pass_avx2(
     avx2: Avx2,
     reg: &Regression,
-    tangent: &impl Fn(usize) -> f64,
-    out: [&mut [f64]; 5],
+    sin: &[f64],
+    cos: &[f64],
+    out: [&mut [f64]; 3],
 ) -> [Option<f64>; GRADE_SUMS] {
-    grade_pass_lanes(avx2, reg, tangent, out)
+    grade_pass_lanes(avx2, reg, sin, cos, out)
 }
 
-/// [`grade_pass`] in the lanes of `l`, the rows beyond the last whole block one by one
-/// (the same operations in each).
+/// [`grade_pass`] in the lanes of `l`, the rows beyond the last whole block one by one.
 #[inline(always)]
 fn grade_pass_lanes<L: Lanes4>(
     l: L,
     reg: &Regression,
-    tangent: &impl Fn(usize) -> f64,
-    out: [&mut [f64]; 5],
+    sin: &[f64],
+    cos: &[f64],
+    [c_out, s_out, y_out]: [&mut [f64]; 3],
 ) -> [Option<f64>; GRADE_SUMS] {
     let n = reg.len();
-    assert!(out.iter().all(|o| o.len() == n), "a value per row");
+    let (f, v, accel) = (&reg.f[..], &reg.v[..], &reg.accel[..]);
+    assert!(sin.len() == n && cos.len() == n && c_out.len() == n);
+    assert!(s_out.len() == n && y_out.len() == n);
     let mut sums = LaneSums::<L, GRADE_SUMS>::new(l);
     let whole = n - n % L::WIDTH;
-    let [sin_out, cos_out, c_out, s_out, y_out] = out;
+    let (minus_g, g, minus_k) = (l.splat(-reg.g), l.splat(reg.g), l.splat(-reg.k));
     for i in (0..whole).step_by(L::WIDTH) {
-        let mut t = [0.0; 4];
-        for (j, t) in t.iter_mut().enumerate() {
-            *t = tangent(i + j);
-        }
-        let row = grade_row(l, reg, l.load(&t, 0), i);
-        for (v, out) in row.columns.into_iter().zip([
-            &mut *sin_out,
-            &mut *cos_out,
-            &mut *c_out,
-            &mut *s_out,
-            &mut *y_out,
-        ]) {
-            l.store(v, out, i);
-        }
-        sums.add(row.terms);
+        let (fi, vi) = (l.load(f, i), l.load(v, i));
+        let c = minus_g * l.load(cos, i);
+        let s = g * l.load(sin, i);
+        let y = l.load(accel, i) + s;
+        let w = minus_k * vi * vi;
+        l.store(c, c_out, i);
+        l.store(s, s_out, i);
+        l.store(y, y_out, i);
+        sums.add(grade_terms(fi, vi, w, c, s, y));
     }
     for i in whole..n {
-        let row = grade_row(Scalar, reg, tangent(i), i);
-        let [sin, cos, c, s, y] = row.columns;
-        (sin_out[i], cos_out[i], c_out[i], s_out[i], y_out[i]) = (sin, cos, c, s, y);
-        sums.add_row(row.terms);
+        let c = -reg.g * cos[i];
+        let s = reg.g * sin[i];
+        let y = accel[i] + s;
+        let w = -reg.k * v[i] * v[i];
+        (c_out[i], s_out[i], y_out[i]) = (c, s, y);
+        sums.add_row(grade_terms(f[i], v[i], w, c, s, y));
     }
     sums.finish(l, n)
 }
 
-/// A row's (or a block's) grade columns [sin θ, cos θ, c, g sin θ, y] and the
-/// [`GRADE_SUMS`] terms.
-struct GradeRow<R> {
-    columns: [R; 5],
-    terms: [R; GRADE_SUMS],
-}
-
-/// The grade columns and sum terms of the rows from `i` (as many as `l` holds) of `reg`
-/// with the grade's tangent `t`, each product rounded as its sum's
-/// [`Terms`](crate::numeric::sum::Terms) rounds it.
+/// The [`GRADE_SUMS`] terms of a row with force `f`, speed `v`, column 2 `w`, column 3 `c`,
+/// grade term `s` and output `y`, each product rounded as its sum's [`Terms`](crate::numeric::sum::Terms) rounds it.
 #[inline(always)]
-fn grade_row<L: Lanes>(l: L, reg: &Regression, t: L::F64, i: usize) -> GradeRow<L::F64> {
-    let (sin, cos) = sin_cos_of_tangent(l.splat(1.0), t);
-    let (f, v) = (l.load(&reg.f, i), l.load(&reg.v, i));
-    let c = l.splat(-reg.g) * cos;
-    let s = l.splat(reg.g) * sin;
-    let y = l.load(&reg.accel, i) + s;
-    let w = l.splat(-reg.k) * v * v;
-    GradeRow {
-        columns: [sin, cos, c, s, y],
-        terms: [
-            f * c,
-            c * w,
-            c * c,
-            f * y,
-            y * w,
-            c * y,
-            s,
-            f * s,
-            c * s,
-            v * v * s,
-            c,
-            y,
-        ],
-    }
+fn grade_terms<R: Real>(f: R, v: R, w: R, c: R, s: R, y: R) -> [R; GRADE_SUMS] {
+    [
+        f * c,
+        c * w,
+        c * c,
+        f * y,
+        y * w,
+        c * y,
+        s,
+        f * s,
+        c * s,
+        v * v * s,
+        c,
+        y,
+    ]
 }
 
 impl Drop for Regression {

@@ -2,7 +2,7 @@
 //! lanes, and the grade's columns of a set of rows.
 
 use super::Column;
-use crate::numeric::simd::{Lanes, Real};
+use crate::numeric::simd::Lanes;
 use crate::numeric::sum::Terms;
 
 /// Σ aᵢ·xᵢ with x = −k V² column 2 (each xᵢ = (−k·Vᵢ)·Vᵢ rounded as the column holds it).
@@ -54,12 +54,4 @@ pub(super) fn grade_columns(
     let g_sin = Column::collected(sin.iter().map(|s| g * s));
     let y = Column::collected(accel.iter().zip(g_sin.iter()).map(|(a, gs)| a + gs));
     (c, g_sin, y)
-}
-
-/// The sine and cosine of the grade whose tangent is `t` (|θ| < π/2): t/√(1 + t²) and
-/// 1/√(1 + t²), without the angle (docs/model.md#grade-map); `one` is 1 in every lane.
-#[inline(always)]
-pub fn sin_cos_of_tangent<R: Real>(one: R, t: R) -> (R, R) {
-    let r = one / (one + t * t).sqrt();
-    (t * r, r)
 }

@@ -108,26 +108,19 @@ fn a_recalibrated_or_regraded_regression_is_the_one_built_whole_bit_for_bit() {
         &base.with_force(logged),
         &Regression::new(&recalibrated, &vehicle),
     );
-    // Another grade, given by its tangent (an elevation map's error): its columns and sums
-    // in one pass, in lanes, against the rows built whole from the same sines and cosines.
-    let tangent = |i: usize| cycle.grade_rad[i].tan() + 0.01 * (i as f64 * 0.05).sin();
-    let sin_cos = |i: usize| sin_cos_of_tangent(1.0, tangent(i));
-    let sin = || Column::collected((0..cycle.len()).map(|i| sin_cos(i).0));
-    let cos = || Column::collected((0..cycle.len()).map(|i| sin_cos(i).1));
-    let regraded = base.with_grade_by_tangent(tangent);
+    // Another grade, given by its sine and cosine (an elevation map's error).
+    let grade = |g: &f64| g + 0.01 * (g * 50.0).sin();
+    let sin = || Column::collected(cycle.grade_rad.iter().map(|g| grade(g).sin()));
+    let cos = || Column::collected(cycle.grade_rad.iter().map(|g| grade(g).cos()));
+    let regraded = base.with_grade(sin(), cos());
     assert_same_bits(
         &regraded,
         &Regression::with_sin_cos(&cycle, sin(), cos(), &vehicle),
     );
     // Storage given back by a dropped regression and filled again holds the new values.
     drop(regraded);
-    let again = base.with_grade_by_tangent(|i| tangent(i) * 0.5);
-    let half = |i: usize| sin_cos_of_tangent(1.0, tangent(i) * 0.5);
-    let whole = Regression::with_sin_cos(
-        &cycle,
-        Column::collected((0..cycle.len()).map(|i| half(i).0)),
-        Column::collected((0..cycle.len()).map(|i| half(i).1)),
-        &vehicle,
-    );
-    assert_same_bits(&again, &whole);
+    let again = base.with_grade(sin(), cos());
+    let mut whole = cycle.clone();
+    whole.grade_rad.iter_mut().for_each(|g| *g = grade(g));
+    assert_same_bits(&again, &Regression::new(&whole, &vehicle));
 }

@@ -12,6 +12,8 @@ use crate::dynamics::{DriveCycle, Prefix, Road, Truth};
 use crate::estimate::channels::Acceleration;
 use crate::estimate::regression::{Column, Regression};
 use crate::noise::NormalSequence;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
 use crate::study::VehicleStudy;
 use crate::terrain::{GRID_STEP_M, GradeTable};
 
@@ -62,11 +64,12 @@ fn mapped_tangent(tan_grade: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
     tan_grade + heading * error / GRID_STEP_M
 }
 
-/// The sine and cosine of the grade whose tangent is `t`
-/// ([`regression::sin_cos_of_tangent`](crate::estimate::regression::sin_cos_of_tangent)).
+/// The sine and cosine of the grade whose tangent is `t` (|θ| < π/2): t/√(1 + t²) and
+/// 1/√(1 + t²), without the angle (docs/model.md#grade-map).
 #[inline]
 fn sin_cos_of_tangent(t: f64) -> (f64, f64) {
-    crate::estimate::regression::sin_cos_of_tangent(1.0, t)
+    let r = 1.0 / (1.0 + t * t).sqrt();
+    (t * r, r)
 }
 
 /// The rows of a condition's regression as the map reads them: each used sample's position,
@@ -92,23 +95,40 @@ impl MapRows {
         }
     }
 
-    /// The tangent of the measured grade at row i under the map's forward differences
-    /// `d`.
-    #[inline(always)]
-    fn tangent(&self, d: &[f64], i: usize) -> f64 {
-        mapped_tangent(self.tan_grade[i], self.x_m[i], self.heading[i], d)
-    }
-
-    /// The sines and cosines of the measured grade at every row under `d` (the general
-    /// path, where the cycle is made again).
+    /// The sine and cosine of the measured grade at each row under the map's forward
+    /// differences `d`.
     fn sin_cos(&self, d: &[f64]) -> (Column, Column) {
         let n = self.x_m.len();
         let [sin, cos] = Column::filled_together(n, |[sin, cos]| {
-            for (i, (s, c)) in sin.iter_mut().zip(cos).enumerate() {
-                (*s, *c) = sin_cos_of_tangent(self.tangent(d, i));
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx2) = Avx2::detect() {
+                // SAFETY: the token proves the CPU has AVX2.
+                return unsafe { self.sin_cos_avx2(avx2, d, sin, cos) };
             }
+            self.sin_cos_into(d, sin, cos);
         });
         (sin, cos)
+    }
+
+    /// [`MapRows::sin_cos_into`] compiled for AVX2 (the same IEEE operations, four rows at
+    /// a time where the compiler can).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn sin_cos_avx2(&self, _: Avx2, d: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        self.sin_cos_into(d, sin, cos);
+    }
+
+    /// The sines and cosines of [`MapRows::sin_cos`] written into `sin` and `cos`.
+    #[inline(always)]
+    fn sin_cos_into(&self, d: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        let rows = self.x_m.iter().zip(&self.heading).zip(&self.tan_grade);
+        for (s, ((x, heading), tan)) in sin.iter_mut().zip(rows) {
+            *s = mapped_tangent(*tan, *x, *heading, d);
+        }
+        // The tangents become sines as the cosines are written.
+        for (s, c) in sin.iter_mut().zip(cos) {
+            (*s, *c) = sin_cos_of_tangent(*s);
+        }
     }
 }
 
@@ -276,8 +296,8 @@ impl World {
                 MapRows::new(&self.cycle, &used)
             });
             let d = map.differences(&mut Self::map_normals(seed, key, r), rows.end_m);
-            let regression = condition.with_grade_by_tangent(|i| rows.tangent(&d, i));
-            return Ok((read_grade(vs, regression), None));
+            let (sin, cos) = rows.sin_cos(&d);
+            return Ok((read_grade(vs, condition.with_grade(sin, cos)), None));
         }
         let nominal = &*self.cycle;
         let mut inv_mass = None;

@@ -3,7 +3,7 @@
 //! [`Quad`](super::Quad)'s array, so the same bits.
 
 use std::arch::x86_64::*;
-use std::ops::{Add, Div, Mul, Sub};
+use std::ops::{Add, Mul, Sub};
 
 use super::lanes::{Lanes, Lanes4, Real};
 
@@ -42,14 +42,8 @@ macro_rules! op {
 op!(Add, add, _mm256_add_pd);
 op!(Sub, sub, _mm256_sub_pd);
 op!(Mul, mul, _mm256_mul_pd);
-op!(Div, div, _mm256_div_pd);
 
 impl Real for F64x4 {
-    #[inline(always)]
-    fn sqrt(self) -> F64x4 {
-        // SAFETY: an F64x4 exists only where the CPU has AVX2.
-        F64x4(unsafe { _mm256_sqrt_pd(self.0) })
-    }
     #[inline(always)]
     fn abs(self) -> F64x4 {
         // SAFETY: an F64x4 exists only where the CPU has AVX2.

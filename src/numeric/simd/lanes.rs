@@ -6,15 +6,10 @@
 //! register, with the same bits (no FMA, no reassociation: each lane's operations are the
 //! scalar ones in the same order).
 
-use std::ops::{Add, Div, Mul, Sub};
+use std::ops::{Add, Mul, Sub};
 
-/// A number the arithmetic is written over: `+`, `−`, `×`, `÷` and √ lane by lane, as
-/// IEEE 754 does them (each correctly rounded).
-pub trait Real:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
-{
-    /// √x, lane by lane.
-    fn sqrt(self) -> Self;
+/// A number the arithmetic is written over: `+`, `−`, `×` lane by lane, as IEEE 754 does them.
+pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
     /// |x| (the sign bit cleared), lane by lane.
     fn abs(self) -> Self;
     /// The magnitude of `self` with the sign of `sign`, lane by lane.
@@ -22,10 +17,6 @@ pub trait Real:
 }
 
 impl Real for f64 {
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
     #[inline(always)]
     fn abs(self) -> Self {
         f64::abs(self)
@@ -177,19 +168,7 @@ impl Mul for F64x4Portable {
     }
 }
 
-impl Div for F64x4Portable {
-    type Output = Self;
-    #[inline(always)]
-    fn div(self, o: Self) -> Self {
-        self.map2(o, |a, b| a / b)
-    }
-}
-
 impl Real for F64x4Portable {
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        F64x4Portable(self.0.map(f64::sqrt))
-    }
     #[inline(always)]
     fn abs(self) -> Self {
         F64x4Portable(self.0.map(f64::abs))
