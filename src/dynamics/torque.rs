@@ -208,7 +208,8 @@ fn simulate_truth(
 /// realisation of a drive, so each thread keeps those of the last drive it integrated
 /// (a drive drawing gusts is integrated again in every realisation).
 fn stage_forces(drive: &TorqueDrive, vehicle: &VehicleParams) -> Arc<[[f64; 2]]> {
-    type Key = (TorqueDrive, Option<[u64; 2]>);
+    // Every number the forces are made of, by its bits (−0 is not +0).
+    type Key = ([u64; 7], Option<[u64; 2]>);
     type Kept = Option<(Key, Arc<[[f64; 2]]>)>;
     thread_local! {
         static LAST: RefCell<Kept> = const { RefCell::new(None) };
@@ -216,7 +217,18 @@ fn stage_forces(drive: &TorqueDrive, vehicle: &VehicleParams) -> Arc<[[f64; 2]]>
     let drivetrain = vehicle
         .drivetrain
         .map(|d| [d.final_drive_ratio.to_bits(), d.wheel_radius_m.to_bits()]);
-    let key = (drive.clone(), drivetrain);
+    let key = (
+        [
+            drive.duration_s.to_bits(),
+            drive.time_step_s.to_bits(),
+            drive.steps as u64,
+            drive.initial_speed_m_s.to_bits(),
+            drive.torque_mean_n_m.to_bits(),
+            drive.torque_amplitude.to_bits(),
+            drive.torque_frequency_rad_s.to_bits(),
+        ],
+        drivetrain,
+    );
     let make = || -> Arc<[[f64; 2]]> {
         let h = drive.time_step_s;
         (0..drive.samples().saturating_sub(1))

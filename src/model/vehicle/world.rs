@@ -287,7 +287,12 @@ impl World {
             && self.grade_bias_rad == 0.0;
         if only_calibration {
             let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
-            return Ok((condition.with_force(|f| drawn.logged_force(f)), None));
+            // The condition's rows are the realisation's unless braking rows are left out
+            // and the calibration (a scale) turns the force's sign.
+            let keeps_signs = drawn.logged_force(1.0) > 0.0 && drawn.logged_force(-1.0) < 0.0;
+            if !vs.selection.exclude_braking || keeps_signs {
+                return Ok((condition.with_force(|f| drawn.logged_force(f)), None));
+            }
         }
         let only_map = !self.truth.is_drawn() && !self.filter_truth.is_drawn();
         if let (Some(map), true) = (&self.grade_map, only_map && self.grade_by_tangent()) {

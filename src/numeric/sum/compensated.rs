@@ -11,7 +11,8 @@
 //! ≤ u(1 + γₙ)·Σ|pᵢ| (u = 2⁻⁵³, sᵢ a partial sum), and summing the eᵢ in floating point
 //! errs by at most γₙ·Σ|eᵢ|. So |S − (s + c)| ≤ γₙ·n·u·(1 + γₙ)·Σ|pᵢ| with c the computed
 //! sum of the errors (Ogita, Rump and Oishi, "Accurate sum and dot product", SIAM J. Sci.
-//! Comput. 26, 2005, §4), which 2·(n·u)²·A bounds with A the computed Σ|pᵢ| for n < 2³⁰.
+//! Comput. 26, 2005, §4), which 2·(m·u)²·A bounds with m = 2n + 16 (every addition of terms,
+//! of lanes and of errors) and A the computed Σ|pᵢ|, for n < 2³⁰.
 
 use super::exact_sum;
 #[cfg(target_arch = "x86_64")]
