@@ -422,7 +422,7 @@ fn refactors_keep_the_drawn_entries_bit_for_bit() {
             // 0ba1550, R = 16). Re-pinned again when the map's grade came to enter by its
             // tangent's sine and cosine, not sin(atan t) (docs/model.md#grade-map): the
             // conditions with the map moved, their regression's sums within 1e-12
-            // relative (world.rs's test), the estimates within 5e-12 (compared column by
+            // relative (world/map.rs's test), the estimates within 5e-12 (compared column by
             // column against commit 66f7b02, R = 16); cycles.parquet did not.
             0x689e_59ca_c092_186f,
             0x11ce_45cc_a477_9735,

@@ -1,0 +1,204 @@
+//! The elevation map's error drawn in every realisation: its forward differences along the
+//! grid, the measured grade's tangent, sine and cosine at a regression's rows
+//! (docs/model.md#grade-map).
+
+use crate::dynamics::DriveCycle;
+use crate::estimate::regression::Column;
+use crate::noise::NormalSequence;
+#[cfg(target_arch = "x86_64")]
+use crate::numeric::simd::Avx2;
+use crate::terrain::GRID_STEP_M;
+
+/// The elevation map's error: a stationary AR(1) process along the distance on the terrain
+/// grid (σ_h \[m\], correlation length L \[m\]); the measured grade is the forward
+/// difference of the erroneous elevation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(in crate::model::vehicle) struct GradeMap {
+    /// σ_h \[m\].
+    pub sd_m: f64,
+    /// L \[m\].
+    pub length_m: f64,
+}
+
+impl GradeMap {
+    /// The forward differences dⱼ = eⱼ₊₁ − eⱼ of one realisation's map error e on the
+    /// grid x = 0, 1, … m, far enough to cover `end_m`, from `normals`.
+    pub(super) fn differences(&self, normals: &mut NormalSequence, end_m: f64) -> Vec<f64> {
+        let points = (end_m.max(0.0) / GRID_STEP_M).floor() as usize + 3;
+        let mut e = vec![0.0; points];
+        normals.fill(&mut e);
+        let phi = (-GRID_STEP_M / self.length_m).exp();
+        let innovation = self.sd_m * (1.0 - phi * phi).sqrt();
+        e[0] *= self.sd_m;
+        for j in 1..points {
+            e[j] = phi * e[j - 1] + innovation * e[j];
+        }
+        e.windows(2).map(|w| w[1] - w[0]).collect()
+    }
+}
+
+/// The grade \[rad\] measured from the map at `x_m` where the true grade is `grade_rad`,
+/// driving with `heading` (+1 forwards, −1 backwards, where the vehicle sees the route's
+/// grade negated, and the map's error too): atan(tan θ + heading·d(x)), d the map's forward
+/// differences `d` per grid step, linear between grid points (as the terrain's grade is).
+#[cfg(test)]
+fn mapped_grade(grade_rad: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
+    mapped_tangent(grade_rad.tan(), x_m, heading, d).atan()
+}
+
+/// The tangent of the grade measured from the map ([`mapped_grade`]) where the true grade's
+/// tangent is `tan_grade`: tan θ + heading·d(x).
+pub(super) fn mapped_tangent(tan_grade: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
+    let u = (x_m / GRID_STEP_M).max(0.0);
+    // u ≥ 0 (or NaN): truncation is its floor.
+    let j = (u as usize).min(d.len() - 2);
+    let error = d[j] + (u - j as f64) * (d[j + 1] - d[j]);
+    tan_grade + heading * error / GRID_STEP_M
+}
+
+/// The sine and cosine of the grade whose tangent is `t` (|θ| < π/2): t/√(1 + t²) and
+/// 1/√(1 + t²), without the angle (docs/model.md#grade-map).
+#[inline]
+fn sin_cos_of_tangent(t: f64) -> (f64, f64) {
+    let r = 1.0 / (1.0 + t * t).sqrt();
+    (t * r, r)
+}
+
+/// The rows of a condition's regression as the map reads them: each used sample's position,
+/// heading and true grade's tangent, and the farthest position (computed once per
+/// condition; a realisation draws only the map's error).
+#[derive(Debug)]
+pub(super) struct MapRows {
+    x_m: Vec<f64>,
+    heading: Vec<f64>,
+    tan_grade: Vec<f64>,
+    pub(super) end_m: f64,
+}
+
+impl MapRows {
+    pub(super) fn new(cycle: &DriveCycle, used: &[bool]) -> MapRows {
+        let rows: Vec<usize> = (0..cycle.len()).filter(|&i| used[i]).collect();
+        let x_m: Vec<f64> = rows.iter().map(|&i| cycle.x_m[i]).collect();
+        MapRows {
+            end_m: x_m.iter().fold(0.0, |end, &x| f64::max(end, x)),
+            heading: rows.iter().map(|&i| cycle.heading(i)).collect(),
+            tan_grade: rows.iter().map(|&i| cycle.grade_rad[i].tan()).collect(),
+            x_m,
+        }
+    }
+
+    /// The sine and cosine of the measured grade at each row under the map's forward
+    /// differences `d`.
+    pub(super) fn sin_cos(&self, d: &[f64]) -> (Column, Column) {
+        let n = self.x_m.len();
+        let [sin, cos] = Column::filled_together(n, |[sin, cos]| {
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx2) = Avx2::detect() {
+                // SAFETY: the token proves the CPU has AVX2.
+                return unsafe { self.sin_cos_avx2(avx2, d, sin, cos) };
+            }
+            self.sin_cos_into(d, sin, cos);
+        });
+        (sin, cos)
+    }
+
+    /// [`MapRows::sin_cos_into`] compiled for AVX2 (the same IEEE operations, four rows at
+    /// a time where the compiler can).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn sin_cos_avx2(&self, _: Avx2, d: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        self.sin_cos_into(d, sin, cos);
+    }
+
+    /// The sines and cosines of [`MapRows::sin_cos`] written into `sin` and `cos`.
+    #[inline(always)]
+    fn sin_cos_into(&self, d: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        let rows = self.x_m.iter().zip(&self.heading).zip(&self.tan_grade);
+        for (s, ((x, heading), tan)) in sin.iter_mut().zip(rows) {
+            *s = mapped_tangent(*tan, *x, *heading, d);
+        }
+        // The tangents become sines as the cosines are written.
+        for (s, c) in sin.iter_mut().zip(cos) {
+            (*s, *c) = sin_cos_of_tangent(*s);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::regression::Regression;
+
+    #[test]
+    fn the_maps_grade_error_has_the_variance_of_its_forward_difference() {
+        // Var(e_{j+1} − e_j) = 2σ²(1 − φ), φ = exp(−Δx/L), for the stationary AR(1) e.
+        let map = GradeMap {
+            sd_m: 0.5,
+            length_m: 50.0,
+        };
+        let mut normals = NormalSequence::for_realisation(7, 0, crate::noise::Stream::GradeMap, 0);
+        let d = map.differences(&mut normals, 400_000.0);
+        let n = d.len() as f64;
+        let var = d.iter().map(|x| x * x).sum::<f64>() / n;
+        let expected = 2.0 * 0.25 * (1.0 - (-1.0f64 / 50.0).exp());
+        // d is a moving difference of an AR(1) with L = 50 grid steps: its sample variance
+        // over 4e5 steps has a relative SE of about sqrt(2/4e5) ≈ 0.22 % (d's autocorrelation
+        // beyond lag 1 is tiny); 5 % is over 20 SE.
+        assert!((var / expected - 1.0).abs() < 0.05, "{var} vs {expected}");
+        // At a grid point on a flat road the measured grade is atan(d_j).
+        assert_eq!(mapped_grade(0.0, 10.0, 1.0, &d), d[10].atan());
+        // Driven backwards, the vehicle sees the map's grade negated.
+        assert_eq!(mapped_grade(0.0, 10.0, -1.0, &d), -d[10].atan());
+    }
+
+    #[test]
+    fn the_grade_by_its_tangent_agrees_with_the_angle_s_sine_and_cosine() {
+        // The map's grade enters by t/√(1 + t²) and 1/√(1 + t²) where it entered as
+        // sin(atan t) and cos(atan t): four roundings against libm's near-correct ones, so
+        // within a few ulps (4 allowed) on the grades a road has.
+        for k in -4000..=4000 {
+            let t = f64::from(k) * 1.25e-4;
+            let (s, c) = sin_cos_of_tangent(t);
+            let a = t.atan();
+            assert!(
+                (s - a.sin()).abs() <= 4.0 * f64::EPSILON * a.sin().abs(),
+                "{t}"
+            );
+            assert!((c - a.cos()).abs() <= 4.0 * f64::EPSILON, "{t}");
+        }
+        // The regression's constant sums, built from the two, agree to 1e-12 relative to
+        // the sum of the terms' magnitudes (a few ulps per term; the sums are exactly
+        // rounded).
+        let vehicle = crate::dynamics::VehicleParams::thesis();
+        let cycle = crate::estimate::regression::test_cycle();
+        let tangents: Vec<f64> = (cycle.grade_rad.iter().enumerate())
+            .map(|(i, g)| g.tan() + 0.003 * (i as f64 * 0.01).sin())
+            .collect();
+        let mut by_angle = cycle.clone();
+        by_angle.grade_rad = tangents.iter().map(|t| t.atan()).collect();
+        let old = Regression::new(&by_angle, &vehicle);
+        let new = Regression::with_sin_cos(
+            &cycle,
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).0)),
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).1)),
+            &vehicle,
+        );
+        // Σ|terms| bounded by the sums of the rows' magnitudes.
+        let mut magnitudes = cycle.clone();
+        for column in [&mut magnitudes.f_prop_n, &mut magnitudes.accel_m_s2] {
+            column.iter_mut().for_each(|x| *x = x.abs());
+        }
+        let scales = Regression::with_sin_cos(
+            &magnitudes,
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).0.abs())),
+            Column::collected(tangents.iter().map(|&t| sin_cos_of_tangent(t).1)),
+            &vehicle,
+        );
+        let all =
+            |r: &Regression| -> Vec<f64> { r.xtx.iter().chain(r.xty.iter()).copied().collect() };
+        for ((a, b), scale) in all(&old).into_iter().zip(all(&new)).zip(all(&scales)) {
+            let scale = scale.abs();
+            assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+        }
+    }
+}
