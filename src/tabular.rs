@@ -408,11 +408,56 @@ fn read_parquet(path: &Path, wanted: &[&str]) -> Result<Columns, TabularError> {
     let reader = builder
         .build()
         .map_err(|e| fail(None, None, format!("not a readable Parquet file: {e}")))?;
+    let batches = reader.map(|b| b.map_err(|e| fail(None, None, format!("cannot read: {e}"))));
+    numeric_columns(path, &index, wanted, batches)
+}
+
+/// The columns `wanted` (each must exist) of a table held in memory, with at least
+/// `min_rows` rows: `name` says what the table is in errors (in place of a file), which
+/// name its rows 1-based as a Parquet file's.
+pub fn table_columns(
+    name: &Path,
+    schema: &arrow::datatypes::Schema,
+    batches: &[arrow::record_batch::RecordBatch],
+    wanted: &[&str],
+    min_rows: usize,
+) -> Result<Columns, TabularError> {
+    let names: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
+    let index = positions(name, &names, wanted)?;
+    let columns = numeric_columns(name, &index, wanted, batches.iter().cloned().map(Ok))?;
+    if columns.len() < min_rows {
+        return Err(TabularError {
+            file: name.to_path_buf(),
+            column: None,
+            place: None,
+            reason: format!(
+                "has {} data rows; at least {min_rows} are needed",
+                columns.len()
+            ),
+        });
+    }
+    Ok(columns)
+}
+
+/// The columns `wanted`, at positions `index`, of a table's `batches`: numbers, each finite
+/// and present; an error names the file (or table), the column and the 1-based row.
+fn numeric_columns(
+    path: &Path,
+    index: &[usize],
+    wanted: &[&str],
+    batches: impl Iterator<Item = Result<arrow::record_batch::RecordBatch, TabularError>>,
+) -> Result<Columns, TabularError> {
+    let fail = |place: Option<String>, column: Option<&str>, reason: String| TabularError {
+        file: path.to_path_buf(),
+        column: column.map(str::to_string),
+        place,
+        reason,
+    };
     let mut values = vec![Vec::new(); wanted.len()];
     let mut rows = 0usize;
-    for batch in reader {
-        let batch = batch.map_err(|e| fail(None, None, format!("cannot read: {e}")))?;
-        for ((column, &k), out) in wanted.iter().zip(&index).zip(&mut values) {
+    for batch in batches {
+        let batch = batch?;
+        for ((column, &k), out) in wanted.iter().zip(index).zip(&mut values) {
             let array = batch.column(k);
             let numeric = array.data_type().is_numeric() && *array.data_type() != DataType::Null;
             if !numeric {

@@ -18,12 +18,14 @@ use chassis_mc::check::StudyCheck;
 use chassis_mc::design::{DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence};
 use chassis_mc::fit::{FitError, FitSpec};
 use chassis_mc::montecarlo::Observer;
-use chassis_mc::output::{FileMetadata, ParquetSink};
-use chassis_mc::run::{RunError, RunOptions, run_study};
+use chassis_mc::run::{RunError, RunOptions, Shard, TableInMemory, run_study};
 use chassis_mc::study::{Study, StudyError};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+
+mod tables;
+use tables::ArrowTable;
 
 /// How often the waiting thread takes the GIL back (progress, notices, Ctrl-C).
 const POLL: Duration = Duration::from_millis(100);
@@ -163,7 +165,9 @@ where
 fn from_run_error(py: Python<'_>, e: RunError) -> PyErr {
     match e {
         RunError::Study(s) => study_error(py, &s),
-        RunError::Interrupted { .. } => PyKeyboardInterrupt::new_err(e.to_string()),
+        RunError::Interrupted { .. } | RunError::Stopped => {
+            PyKeyboardInterrupt::new_err(e.to_string())
+        }
         e => {
             let bad = e.is_bad_input();
             run_error(py, e.to_string(), bad)
@@ -406,45 +410,26 @@ fn _study_from_toml(py: Python<'_>, text: &str, origin: &str, dir: PathBuf) -> P
         .map_err(|e| study_error(py, &e))
 }
 
-/// Why the model's tables could not be written.
-enum TablesError {
-    Run(RunError),
-    Batch(String),
-}
-
-impl<E: Into<RunError>> From<E> for TablesError {
-    fn from(e: E) -> Self {
-        TablesError::Run(e.into())
-    }
-}
-
-/// Write the tables a run of `study` writes besides its realisations and summary (the
-/// vehicle's cycles.parquet), computed again from the study, into the directory `dir`;
-/// returns the files written (none for a model without such tables).
+/// The tables a run of `study` computes besides its realisations and summary (the
+/// vehicle's cycles.parquet), computed again from the study in memory: (file name, table)
+/// pairs, none for a model without such tables.
 #[pyfunction]
-fn write_cycles(py: Python<'_>, study: &PyStudy, dir: PathBuf) -> PyResult<Vec<PathBuf>> {
+#[pyo3(signature = (study, threads=None))]
+fn cycles(
+    py: Python<'_>,
+    study: &PyStudy,
+    threads: Option<usize>,
+) -> PyResult<Vec<(&'static str, ArrowTable)>> {
     let watch = Watch::default();
-    let written = supervise(py, &watch, None, None, || {
-        let model = chassis_mc::model::prepare(&study.0)?;
-        let meta = FileMetadata::of_study(&study.0, study.0.identity());
-        let mut files = Vec::new();
-        for (t, table) in model.extra_tables().iter().enumerate() {
-            let mut sink =
-                ParquetSink::create(&dir, table.file, table.schema.clone(), &meta, table.table)?;
-            for batch in (0..).map_while(|i| model.extra_batch(t, i)) {
-                let batch = batch.map_err(|e| {
-                    TablesError::Batch(format!("{}: {e}", dir.join(table.file).display()))
-                })?;
-                sink.write(&batch)?;
-            }
-            files.push(sink.finish()?.commit()?);
-        }
-        Ok::<_, TablesError>(files)
-    })?;
-    written.map_err(|e| match e {
-        TablesError::Run(e) => from_run_error(py, e),
-        TablesError::Batch(message) => run_error(py, message, false),
-    })
+    let tables = supervise(py, &watch, None, None, || {
+        chassis_mc::run::extra_tables_in_memory(&study.0, threads)
+    })?
+    .map_err(|e| from_run_error(py, e))?;
+    Ok(tables.into_iter().map(|t| (t.file, table(t))).collect())
+}
+
+fn table(t: TableInMemory) -> ArrowTable {
+    ArrowTable::new(t.schema, t.batches)
 }
 
 /// What a call in progress tells the waiting thread.
@@ -555,28 +540,99 @@ fn supervise<T: Send>(
     })
 }
 
-/// Run `study` into `out` (the CLI's `run`): returns (files written, realisations kept from
-/// an earlier run, realisations computed).
+/// What `run` returns: the tables it computed and, with an output directory, the files.
+#[pyclass(module = "chassis_mc._core", name = "RunOutput", frozen, get_all)]
+struct RunOutput {
+    /// summary.parquet's table, in memory.
+    summary: Py<ArrowTable>,
+    /// realisations.parquet's table in memory, or None when it was written to `out` (read
+    /// from there: it may hold rows of an earlier run).
+    realisations: Option<Py<ArrowTable>>,
+    /// The files written (none without `out`).
+    files: Vec<PathBuf>,
+    /// Realisations kept from an earlier run in `out`.
+    reused: u64,
+    /// Realisations computed.
+    computed: u64,
+}
+
+/// Run `study` (the CLI's `run`): into `out` when given, else held in memory with no file
+/// created; `shard` (index, count) runs one shard of every condition into
+/// `out/shard=index/`, as `--shard index/count`.
 #[pyfunction]
-#[pyo3(signature = (study, out, threads=None, figures=true, progress=None, notice=None))]
+#[pyo3(signature = (study, out=None, threads=None, figures=true, progress=None, notice=None, shard=None))]
+#[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
     study: &PyStudy,
-    out: PathBuf,
+    out: Option<PathBuf>,
     threads: Option<usize>,
     figures: bool,
     progress: Option<&Bound<'_, PyAny>>,
     notice: Option<&Bound<'_, PyAny>>,
-) -> PyResult<(Vec<PathBuf>, u64, u64)> {
+    shard: Option<(u64, u64)>,
+) -> PyResult<RunOutput> {
+    let watch = Watch::default();
+    let Some(out) = out else {
+        let ran = supervise(py, &watch, progress, notice, || {
+            chassis_mc::run::run_in_memory(&study.0, threads, &watch)
+        })?
+        .map_err(|e| from_run_error(py, e))?;
+        return Ok(RunOutput {
+            summary: Py::new(py, table(ran.summary))?,
+            realisations: Some(Py::new(py, table(ran.realisations))?),
+            files: Vec::new(),
+            reused: 0,
+            computed: ran.computed,
+        });
+    };
     let mut options = RunOptions::new(out);
     options.threads = threads;
-    options.figures = figures;
-    let watch = Watch::default();
+    options.figures = figures && shard.is_none();
+    options.shard = match shard {
+        Some((index, count)) => Some(
+            Shard::parse(&format!("{index}/{count}"))
+                .map_err(|e| PyValueError::new_err(format!("shard: {e}")))?,
+        ),
+        None => None,
+    };
     let report = supervise(py, &watch, progress, notice, || {
         run_study(&study.0, &options, &watch)
     })?
     .map_err(|e| from_run_error(py, e))?;
-    Ok((report.files, report.reused, report.computed))
+    summary_output(py, report)
+}
+
+/// The [`RunOutput`] of a run or summary into a directory: its summary rows as a table.
+fn summary_output(py: Python<'_>, report: chassis_mc::run::RunReport) -> PyResult<RunOutput> {
+    let summary = chassis_mc::output::summary_batch(&report.layout, &report.infos, &report.summary)
+        .map_err(|e| run_error(py, e.to_string(), false))?;
+    Ok(RunOutput {
+        summary: Py::new(py, ArrowTable::new(summary.schema(), vec![summary]))?,
+        realisations: None,
+        files: report.files,
+        reused: report.reused,
+        computed: report.computed,
+    })
+}
+
+/// `summarize`: the realisations of `inputs` (shard directories or realisation files of one
+/// study) summarised into `out`, as the CLI's `summarize`, and assembled into
+/// `out/realisations.parquet`: the files of one run of the study, byte for byte.
+#[pyfunction]
+#[pyo3(signature = (inputs, out, figures=true))]
+fn summarize(
+    py: Python<'_>,
+    inputs: Vec<PathBuf>,
+    out: PathBuf,
+    figures: bool,
+) -> PyResult<RunOutput> {
+    let watch = Watch::default();
+    let report = supervise(py, &watch, None, None, || {
+        chassis_mc::run::summarize_assembled(&inputs, &out, figures)
+    })?
+    .map_err(|e| from_run_error(py, e))?;
+    summary_output(py, report)
 }
 
 /// `check`: (the report the CLI prints, ms per realisation per condition, estimated run
@@ -652,55 +708,146 @@ fn design(
     ))
 }
 
+/// What `fit` returns.
+#[pyclass(module = "chassis_mc._core", name = "FitOutput", frozen, get_all)]
+struct FitOutput {
+    /// The tables the command prints.
+    text: String,
+    /// fit.parquet's table.
+    table: Py<ArrowTable>,
+    /// systematic.parquet's table, or None without `[systematic]`.
+    systematic: Option<Py<ArrowTable>>,
+    /// The files written (none without `out`).
+    files: Vec<PathBuf>,
+}
+
 /// `fit`: a fit file (`kind` `path`, `text` or `dict`, its relative log path resolved
-/// against `base` as in [`load_study`]), its log read from `log` when given; returns (the
-/// tables the CLI prints, the files written).
+/// against `base` as in [`load_study`]), its log read from the file `log` or from the table
+/// `log_table` (name, any object with `__arrow_c_stream__`) when given; written to `out`
+/// when given, else nothing is written.
 #[pyfunction]
-#[pyo3(signature = (kind, value, out, log=None, base=None))]
+#[pyo3(signature = (kind, value, out=None, log=None, base=None, log_table=None))]
 fn fit(
     py: Python<'_>,
     kind: &str,
     value: &Bound<'_, PyAny>,
-    out: PathBuf,
+    out: Option<PathBuf>,
     log: Option<PathBuf>,
     base: Option<PathBuf>,
-) -> PyResult<(String, Vec<PathBuf>)> {
-    let spec = match kind {
-        "path" => FitSpec::load_with_log(&value.extract::<PathBuf>()?, log.as_deref()),
-        _ => {
+    log_table: Option<(String, Bound<'_, PyAny>)>,
+) -> PyResult<FitOutput> {
+    let held = log_table
+        .map(|(name, t)| tables::import(&t).map(|(schema, batches)| (name, schema, batches)))
+        .transpose()?;
+    let given = held
+        .as_ref()
+        .map(|(name, schema, batches)| chassis_mc::study::LogTable {
+            name,
+            schema,
+            batches,
+        });
+    let spec = match (kind, given) {
+        ("path", None) => FitSpec::load_with_log(&value.extract::<PathBuf>()?, log.as_deref()),
+        ("path", Some(t)) => {
+            let path = value.extract::<PathBuf>()?;
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                study_error(
+                    py,
+                    &StudyError {
+                        file: path.display().to_string(),
+                        key: None,
+                        line: None,
+                        reason: format!("cannot read: {e}"),
+                    },
+                )
+            })?;
+            let dir = match path.parent() {
+                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+                _ => PathBuf::from("."),
+            };
+            FitSpec::parse_with_table(&text, &path.display().to_string(), &dir, t)
+        }
+        (_, given) => {
             let source = source_text(py, kind, value, base, "fit file")?;
-            FitSpec::parse_with_log(&source.text, &source.origin, &source.dir, log.as_deref())
-                .map_err(|e| source.hint(e))
+            match given {
+                Some(t) => FitSpec::parse_with_table(&source.text, &source.origin, &source.dir, t),
+                None => FitSpec::parse_with_log(
+                    &source.text,
+                    &source.origin,
+                    &source.dir,
+                    log.as_deref(),
+                ),
+            }
+            .map_err(|e| source.hint(e))
         }
     }
     .map_err(|e| study_error(py, &e))?;
+    drop(held);
     let watch = Watch::default();
-    let result = supervise(py, &watch, None, None, || chassis_mc::fit::fit(&spec, &out))?
-        .map_err(|e| from_fit_error(py, e))?;
+    let result = supervise(py, &watch, None, None, || match &out {
+        Some(out) => chassis_mc::fit::fit(&spec, out),
+        None => chassis_mc::fit::fit_in_memory(&spec),
+    })?
+    .map_err(|e| from_fit_error(py, e))?;
     let printed = format!(
         "{}{}",
         chassis_mc::fit::table(&result.rows),
         chassis_mc::fit::budget_table(&result.systematic)
     );
-    Ok((printed, result.files))
+    let batch = |b: Result<arrow::record_batch::RecordBatch, arrow::error::ArrowError>| {
+        b.map(|b| ArrowTable::new(b.schema(), vec![b]))
+            .map_err(|e| run_error(py, e.to_string(), false))
+    };
+    let systematic = match result.systematic.is_empty() {
+        true => None,
+        false => Some(Py::new(
+            py,
+            batch(chassis_mc::fit::budget_batch(&result.systematic))?,
+        )?),
+    };
+    Ok(FitOutput {
+        text: printed,
+        table: Py::new(py, batch(chassis_mc::fit::rows_batch(&result.rows))?)?,
+        systematic,
+        files: result.files,
+    })
 }
 
-/// `simulate-log`: realisation `realisation` of a one-condition study as a CSV log at
-/// `path`; returns its number of samples.
+/// `simulate-log`: realisation `realisation` of a one-condition study as a measured log, in
+/// memory (columns of LOG_HEADER, float64), also written as CSV to `path` when given.
 #[pyfunction]
-#[pyo3(signature = (study, path, realisation=0, force=false))]
+#[pyo3(signature = (study, path=None, realisation=0, force=false))]
 fn simulate_log(
     py: Python<'_>,
     study: &PyStudy,
-    path: PathBuf,
+    path: Option<PathBuf>,
     realisation: u64,
     force: bool,
-) -> PyResult<usize> {
+) -> PyResult<ArrowTable> {
+    use arrow::array::{ArrayRef, Float64Array};
+    use arrow::datatypes::{DataType, Field, Schema};
     let watch = Watch::default();
-    supervise(py, &watch, None, None, || {
-        chassis_mc::fit::simulate_log(&study.0, realisation, Path::new(&path), force)
+    let log = supervise(py, &watch, None, None, || {
+        let log = chassis_mc::fit::simulated_log(&study.0, realisation)?;
+        if let Some(path) = &path {
+            chassis_mc::fit::write_log(&log, path, force)?;
+        }
+        Ok(log)
     })?
-    .map_err(|e| from_fit_error(py, e))
+    .map_err(|e| from_fit_error(py, e))?;
+    let names = chassis_mc::fit::LOG_HEADER.split(',');
+    let schema = std::sync::Arc::new(Schema::new(
+        names
+            .map(|n| Field::new(n, DataType::Float64, false))
+            .collect::<Vec<_>>(),
+    ));
+    let columns: Vec<ArrayRef> = log
+        .into_iter()
+        .map(|c| std::sync::Arc::new(Float64Array::from(c)) as ArrayRef)
+        .collect();
+    let batch = arrow::record_batch::RecordBatch::try_new(schema.clone(), columns)
+        .map_err(|e| run_error(py, e.to_string(), false))?;
+    Ok(ArrowTable::new(schema, vec![batch]))
 }
 
 /// The `chassis-mc` command line with `argv` (the first is the program's name); returns its
@@ -717,7 +864,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_study, m)?)?;
     m.add_function(wrap_pyfunction!(parses_as_toml, m)?)?;
     m.add_function(wrap_pyfunction!(_study_from_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(write_cycles, m)?)?;
+    m.add_class::<ArrowTable>()?;
+    m.add_class::<RunOutput>()?;
+    m.add_class::<FitOutput>()?;
+    m.add_function(wrap_pyfunction!(cycles, m)?)?;
+    m.add_function(wrap_pyfunction!(summarize, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(check, m)?)?;
     m.add_function(wrap_pyfunction!(design, m)?)?;

@@ -16,8 +16,8 @@ mod simulate_log;
 mod systematic;
 
 pub use crate::study::FitSpec;
-pub use outputs::{budget_table, format_value, table};
-pub use simulate_log::simulate_log;
+pub use outputs::{budget_batch, budget_table, format_value, rows_batch, table};
+pub use simulate_log::{LOG_HEADER, simulate_log, simulated_log, write_log};
 pub use systematic::SystematicRow;
 
 use std::path::{Path, PathBuf};
@@ -239,6 +239,16 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 
 /// Fit `spec`'s log and write `fit.parquet` and `report.html` into `out`.
 pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
+    fit_to(spec, Some(out))
+}
+
+/// [`fit`] with nothing written: the rows are the result's (the tables of fit.parquet and
+/// systematic.parquet by [`rows_batch`] and [`budget_batch`]), `files` is empty.
+pub fn fit_in_memory(spec: &FitSpec) -> Result<FitResult, FitError> {
+    fit_to(spec, None)
+}
+
+fn fit_to(spec: &FitSpec, out: Option<&Path>) -> Result<FitResult, FitError> {
     let reg = spec.regression();
     let fits = estimates(&reg, &spec.noise, &spec.estimators, &spec.settings);
     // Every refusal before anything is created.
@@ -331,9 +341,6 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         boots.push(boot);
     }
 
-    std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
-    let _lock = DirLock::acquire(out)?;
-    set::ensure_complete(out)?;
     let mut rows = Vec::new();
     let mut budget = Vec::new();
     for ((((est, theta), boot), shifts), filter_sd) in
@@ -395,6 +402,28 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
             }
         }
     }
+    let files = match out {
+        Some(out) => write(spec, out, &rows, &budget)?,
+        None => Vec::new(),
+    };
+    Ok(FitResult {
+        rows,
+        systematic: budget,
+        files,
+    })
+}
+
+/// Write fit.parquet, systematic.parquet (or remove an earlier one), fit.svg and the report
+/// into `out`, committed together; returns the files written.
+fn write(
+    spec: &FitSpec,
+    out: &Path,
+    rows: &[FitRow],
+    budget: &[SystematicRow],
+) -> Result<Vec<PathBuf>, FitError> {
+    std::fs::create_dir_all(out).map_err(|e| OutputError::io(out, e))?;
+    let _lock = DirLock::acquire(out)?;
+    set::ensure_complete(out)?;
     let meta = FileMetadata {
         study_toml: spec.text.clone(),
         study_dir: spec.dir.display().to_string(),
@@ -403,25 +432,21 @@ pub fn fit(spec: &FitSpec, out: &Path) -> Result<FitResult, FitError> {
         identity: String::new(),
         extra: Vec::new(),
     };
-    let svg = outputs::figure(&rows)?;
+    let svg = outputs::figure(rows)?;
     let figure = output::write_pending(out, FIT_FIGURE, svg.as_bytes())?;
     let mut pending = vec![
-        outputs::write_rows(out, &rows, &meta)?,
+        outputs::write_rows(out, rows, &meta)?,
         figure,
-        report::write_report(out, spec, &rows, &budget, &svg)?,
+        report::write_report(out, spec, rows, budget, &svg)?,
     ];
     if !budget.is_empty() {
-        pending.push(outputs::write_budget(out, &budget, &meta)?);
+        pending.push(outputs::write_budget(out, budget, &meta)?);
     }
     // An earlier fit's budget is replaced, or removed when this one has none.
     let files = set::commit(out, pending, &|p| {
         p == FIT_FILE || p == FIT_FIGURE || p == "report.html" || p == SYSTEMATIC_FILE
     })?;
-    Ok(FitResult {
-        rows,
-        systematic: budget,
-        files,
-    })
+    Ok(files)
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use arrow::array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow::datatypes::{DataType, Field, Schema};
+use arrow::error::ArrowError;
 
 use crate::figures::FigureError;
 use crate::output::{FileMetadata, OutputError, ParquetSink, PendingFile};
@@ -22,6 +23,14 @@ pub(super) fn write_rows(
     rows: &[FitRow],
     meta: &FileMetadata,
 ) -> Result<PendingFile, OutputError> {
+    let batch = rows_batch(rows).map_err(|e| OutputError::arrow(out, e))?;
+    let mut sink = ParquetSink::create(out, FIT_FILE, batch.schema(), meta, "fit")?;
+    sink.write(&batch)?;
+    sink.finish()
+}
+
+/// fit.parquet's table: one row per estimator × parameter (README, "fit").
+pub fn rows_batch(rows: &[FitRow]) -> Result<RecordBatch, ArrowError> {
     let mut fields = vec![
         Field::new("estimator", DataType::Utf8, false),
         Field::new("parameter", DataType::Utf8, false),
@@ -77,11 +86,7 @@ pub(super) fn write_rows(
             rows.iter().map(|r| r.boot_n as i64),
         )));
     }
-    let batch =
-        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
-    let mut sink = ParquetSink::create(out, FIT_FILE, schema, meta, "fit")?;
-    sink.write(&batch)?;
-    sink.finish()
+    RecordBatch::try_new(schema, columns)
 }
 
 /// The rows of the table and the figure, in the order a vehicle engineer reads them: M, Cd
@@ -280,6 +285,14 @@ pub(super) fn write_budget(
     budget: &[SystematicRow],
     meta: &FileMetadata,
 ) -> Result<PendingFile, OutputError> {
+    let batch = budget_batch(budget).map_err(|e| OutputError::arrow(out, e))?;
+    let mut sink = ParquetSink::create(out, SYSTEMATIC_FILE, batch.schema(), meta, "systematic")?;
+    sink.write(&batch)?;
+    sink.finish()
+}
+
+/// systematic.parquet's table: one row per estimator × parameter × model error.
+pub fn budget_batch(budget: &[SystematicRow]) -> Result<RecordBatch, ArrowError> {
     let schema = Arc::new(Schema::new(vec![
         Field::new("estimator", DataType::Utf8, false),
         Field::new("parameter", DataType::Utf8, false),
@@ -308,11 +321,7 @@ pub(super) fn write_budget(
         col(|r| r.rel_shift),
         col(|r| r.ci_half_width),
     ];
-    let batch =
-        RecordBatch::try_new(schema.clone(), columns).map_err(|e| OutputError::arrow(out, e))?;
-    let mut sink = ParquetSink::create(out, SYSTEMATIC_FILE, schema, meta, "systematic")?;
-    sink.write(&batch)?;
-    sink.finish()
+    RecordBatch::try_new(schema, columns)
 }
 
 /// The figure of [`FIT_FIGURE`] as SVG text: one panel per parameter (M, Cd, Cr), one line

@@ -29,6 +29,40 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
     if !force {
         ensure_replaceable(path)?;
     }
+    write_log(&simulated_log(study, r)?, path, true)
+}
+
+/// Write `log` (the columns of [`simulated_log`]) as [`simulate_log`] does to `path`; a
+/// file there is replaced only when it is a log the engine wrote, or with `force`. Returns
+/// its number of samples.
+pub fn write_log(log: &[Vec<f64>; 5], path: &Path, force: bool) -> Result<usize, FitError> {
+    if !force {
+        ensure_replaceable(path)?;
+    }
+    let n = log[0].len();
+    let mut csv = format!("{LOG_HEADER}\n");
+    for i in 0..n {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{}",
+            log[0][i], log[1][i], log[2][i], log[3][i], log[4][i]
+        );
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(crate::output::temporary_name(&name));
+    let pending = crate::output::PendingFile::new(tmp.clone(), path.to_path_buf());
+    std::fs::write(&tmp, csv).map_err(|e| OutputError::io(&tmp, e))?;
+    pending.commit()?;
+    Ok(n)
+}
+
+/// The columns of [`simulate_log`]'s log of realisation `r` of `study`, in the order of
+/// [`LOG_HEADER`], held in memory (the CSV holds each value's shortest decimal that reads
+/// back as the same number, so the file and these columns agree bit for bit).
+pub fn simulated_log(study: &Study, r: u64) -> Result<[Vec<f64>; 5], FitError> {
     let model = VehicleModel::new(study)?;
     if model.condition_count() != 1 {
         return Err(study
@@ -95,28 +129,18 @@ pub fn simulate_log(study: &Study, r: u64, path: &Path, force: bool) -> Result<u
         &cycle.grade_rad,
         &cycle.accel_m_s2,
     ];
-    let logged = |k: usize, i: usize| truth[k][i] + noise[k].as_ref().map_or(0.0, |e| e[i]);
-    let mut csv = format!("{LOG_HEADER}\n");
-    for i in 0..n {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{}",
-            cycle.t_s[i],
-            logged(0, i),
-            logged(1, i),
-            logged(2, i),
-            logged(3, i)
-        );
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(crate::output::temporary_name(&name));
-    let pending = crate::output::PendingFile::new(tmp.clone(), path.to_path_buf());
-    std::fs::write(&tmp, csv).map_err(|e| OutputError::io(&tmp, e))?;
-    pending.commit()?;
-    Ok(n)
+    let logged = |k: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| truth[k][i] + noise[k].as_ref().map_or(0.0, |e| e[i]))
+            .collect()
+    };
+    Ok([
+        cycle.t_s.clone(),
+        logged(0),
+        logged(1),
+        logged(2),
+        logged(3),
+    ])
 }
 
 /// The column of `signal` in the log after the time (the order of [`LOG_HEADER`]).

@@ -10,7 +10,6 @@
 //! the calling thread. Memory is bounded by the chunk size, not by R.
 
 use std::collections::BTreeMap;
-use std::convert::Infallible;
 use std::ops::Range;
 
 use rayon::prelude::*;
@@ -192,6 +191,39 @@ pub fn in_memory<M>(
 where
     M: Model + ?Sized,
 {
+    held(model, seed, conditions, realisations, observer, false)
+        .expect("a run that is never stopped completes")
+}
+
+/// [`in_memory`] that stops after the chunk in progress when the observer asks
+/// ([`Observer::stop_requested`]): `None` then.
+pub fn in_memory_until_stopped<M>(
+    model: &M,
+    seed: u64,
+    conditions: &[usize],
+    realisations: Range<u64>,
+    observer: &dyn Observer,
+) -> Option<Vec<f64>>
+where
+    M: Model + ?Sized,
+{
+    held(model, seed, conditions, realisations, observer, true)
+}
+
+/// Asked to stop.
+struct Stopped;
+
+fn held<M>(
+    model: &M,
+    seed: u64,
+    conditions: &[usize],
+    realisations: Range<u64>,
+    observer: &dyn Observer,
+    stoppable: bool,
+) -> Option<Vec<f64>>
+where
+    M: Model + ?Sized,
+{
     let stride = model.layout().realisation_stride();
     let r = usize::try_from(realisations.end - realisations.start).expect("fits in memory");
     let mut slots = vec![f64::NAN; conditions.len() * r * stride];
@@ -210,10 +242,10 @@ where
     let stored = execute(model, seed, work, DEFAULT_CHUNK, observer, |chunk| {
         let at = (position[&chunk.condition] * r + (chunk.first - start) as usize) * stride;
         slots[at..at + chunk.slots.len()].copy_from_slice(chunk.slots);
-        Ok::<(), Infallible>(())
+        match stoppable && observer.stop_requested() {
+            true => Err(Stopped),
+            false => Ok(()),
+        }
     });
-    match stored {
-        Ok(()) => slots,
-        Err(never) => match never {},
-    }
+    stored.ok().map(|()| slots)
 }

@@ -128,7 +128,7 @@ impl FileMetadata {
         m
     }
 
-    fn key_values(&self, table: &str) -> Vec<KeyValue> {
+    pub(crate) fn key_values(&self, table: &str) -> Vec<KeyValue> {
         let mut kv = vec![
             KeyValue::new(keys::TABLE.into(), table.to_string()),
             KeyValue::new(keys::STUDY.into(), self.study_toml.clone()),

@@ -16,10 +16,14 @@ use crate::figures::{self, FigureError};
 use crate::model::{self, ConditionInfo, Layout, Model};
 use crate::montecarlo::{DEFAULT_CHUNK, Observer};
 pub use crate::output::files;
+pub use memory::{
+    RunInMemory, TableInMemory, extra_tables_in_memory, run_in_memory, summarise_in_memory,
+};
 pub use shard::Shard;
-pub use summarize::{realisation_files, summarise_files, summarise_in_memory, summarize};
+pub use summarize::{realisation_files, summarise_files, summarize, summarize_assembled};
 
 mod guard;
+mod memory;
 mod realise;
 mod rows;
 mod shard;
@@ -64,6 +68,10 @@ pub enum RunError {
         /// The staging directory holding the completed parts.
         parts: PathBuf,
     },
+    /// The caller asked a run held in memory ([`run_in_memory`]) to stop: it had no
+    /// output directory, so nothing was kept.
+    #[error("interrupted: a run without an output directory keeps nothing")]
+    Stopped,
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {reason}")]
     Threads {
@@ -83,9 +91,10 @@ impl RunError {
             RunError::Study(_) => true,
             RunError::Output(e) => e.is_bad_input(),
             RunError::Figures(e) => e.is_bad_input(),
-            RunError::Summary { .. } | RunError::Threads { .. } | RunError::Interrupted { .. } => {
-                false
-            }
+            RunError::Summary { .. }
+            | RunError::Threads { .. }
+            | RunError::Interrupted { .. }
+            | RunError::Stopped => false,
         }
     }
 }
@@ -399,4 +408,4 @@ pub(super) fn write_summary(
 }
 
 /// Rows per row group of summary.parquet.
-const SUMMARY_GROUP_ROWS: usize = 4096;
+pub(super) const SUMMARY_GROUP_ROWS: usize = 4096;

@@ -1,6 +1,5 @@
 //! Summaries from realisation files: of a run, or of every shard of a sharded run.
 
-use crate::estimate::campaign::CAMPAIGN_PASS;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -9,13 +8,11 @@ use super::{
     RunError, RunReport, draw_figures, files, remove_temporaries, write_extra_tables, write_report,
     write_summary,
 };
-use crate::model::{self, ConditionInfo, Layout, Model, Status};
-use crate::montecarlo;
+use crate::model::{self, ConditionInfo, Layout};
 use crate::output::lock::DirLock;
-use crate::output::{self, FileMetadata, OpenedFile, OutputError, keys, set};
+use crate::output::{self, FileMetadata, OpenedFile, OutputError, keys, set, store};
 use crate::stats::measures::Z_95;
-use crate::stats::summary::filter::INPUTS;
-use crate::stats::summary::{ConditionSummarizer, Record, SummaryError, SummaryRow};
+use crate::stats::summary::{ConditionSummarizer, SummaryRow};
 use crate::study::{Study, StudyError};
 
 /// The realisation files in `input` (the file itself, or in a directory its
@@ -67,6 +64,26 @@ fn find_realisation_files(input: &Path) -> Result<Vec<PathBuf>, OutputError> {
 /// present exactly once. The new files replace the summary, tables and figures of
 /// `out_dir`'s output set together; a realisation file there stays.
 pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<RunReport, RunError> {
+    summarize_into(inputs, out_dir, figures, false)
+}
+
+/// [`summarize`] that also assembles the realisation rows of `inputs` into `out_dir`'s
+/// realisations.parquet, in order: the files one run of the study writes, byte for byte,
+/// from its shards (the Python package's `summarize`).
+pub fn summarize_assembled(
+    inputs: &[PathBuf],
+    out_dir: &Path,
+    figures: bool,
+) -> Result<RunReport, RunError> {
+    summarize_into(inputs, out_dir, figures, true)
+}
+
+fn summarize_into(
+    inputs: &[PathBuf],
+    out_dir: &Path,
+    figures: bool,
+    assemble: bool,
+) -> Result<RunReport, RunError> {
     // A directory that exists is locked before it is read, so a run writing it is named.
     let early = match out_dir.is_dir() {
         true => Some(DirLock::acquire(out_dir)?),
@@ -147,7 +164,10 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
     let model = model::prepare(&study)?;
     // A user's file where the summary writes is refused before the passes over the rows
     // (again below, under the lock, for a directory that did not exist yet).
-    let writes = super::written_beside(&*model, figures);
+    let mut writes = super::written_beside(&*model, figures);
+    if assemble {
+        writes.push(files::REALISATIONS.to_string());
+    }
     if early.is_some() {
         set::ensure_complete(out_dir)?;
         set::ensure_owned(out_dir, &writes)?;
@@ -171,6 +191,9 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         extra: Vec::new(),
     };
     let mut pending = write_summary(out_dir, &layout, &infos, &summary, &meta)?;
+    if assemble {
+        pending.push(assembled(&opened, &layout, infos.len(), out_dir, &meta)?);
+    }
     pending.extend(write_extra_tables(&*model, out_dir, &meta)?);
     drop(model); // the figures and the report need only the layout and the conditions
     if figures {
@@ -199,6 +222,41 @@ pub fn summarize(inputs: &[PathBuf], out_dir: &Path, figures: bool) -> Result<Ru
         reused: 0,
         computed: 0,
     })
+}
+
+/// The realisation rows of `opened` (every realisation of each of `conditions` exactly
+/// once, as the summary has checked) in order, in `out_dir`'s realisations.parquet under
+/// its temporary name: the rows rechunked as a run writes them.
+fn assembled(
+    opened: &[OpenedFile],
+    layout: &Layout,
+    conditions: usize,
+    out_dir: &Path,
+    meta: &FileMetadata,
+) -> Result<output::PendingFile, RunError> {
+    let mut sources = Vec::new();
+    for file in opened {
+        sources.extend(store::existing_file(file.path(), &meta.identity, &|_| {})?);
+    }
+    let segments = store::plan(&vec![0..meta.realisations; conditions], &sources);
+    if let Some(missing) = segments.iter().find(|s| s.source.is_none()) {
+        return Err(OutputError::format(
+            opened.first().map_or(out_dir, |f| f.path()),
+            format!(
+                "condition {}'s realisations {}..{} are in none of the files",
+                missing.condition, missing.range.start, missing.range.end
+            ),
+        )
+        .into());
+    }
+    let sink = output::ParquetSink::create(
+        out_dir,
+        files::REALISATIONS,
+        output::realisation_schema(layout),
+        meta,
+        "realisations",
+    )?;
+    Ok(store::Assembler::new(&sources, &segments, sink).finish()?)
 }
 
 /// What differs between the runs two realisation files' footers record, `this` against
@@ -289,76 +347,3 @@ pub fn summarise_files(
     first.into_iter().try_for_each(ConditionRows::finish)?;
     Ok(out)
 }
-
-/// The summary of `model`'s realisations 0..R of every condition (R = the study's), computed
-/// in memory and written nowhere: for callers that evaluate a study many times (`design`).
-pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<SummaryRow>, RunError> {
-    let layout = model.layout();
-    let infos = model.infos();
-    let stride = layout.realisation_stride();
-    let r = study.realisations();
-    // Every slot of every realisation of a block of conditions is held at once: at most
-    // 2^28 (2 GiB).
-    let count = usize::try_from(r)
-        .ok()
-        .and_then(|r| r.checked_mul(infos.len().min(IN_MEMORY_BLOCK) * stride))
-        .filter(|&n| n <= 1 << 28)
-        .ok_or_else(|| {
-            RunError::Study(study.error_at(
-                "realisations",
-                format!(
-                    "{r} realisations of {} conditions do not fit in memory for an in-memory \
-                     summary; use fewer",
-                    infos.len()
-                ),
-            ))
-        })?;
-    let inconsistent = |source: SummaryError| RunError::Summary {
-        path: PathBuf::from("(in memory)"),
-        source,
-    };
-    debug_assert!(count <= 1 << 28);
-    let p = layout.parameters.len();
-    let bounds = layout.bounds.len() * p;
-    let mut out = Vec::with_capacity(infos.len() * layout.estimators.len() * p);
-    // A block of conditions at a time: the slots held do not grow with the grid (each
-    // realisation is a pure function of its seed, condition and index, so the blocks give
-    // what one call over every condition gives).
-    let all: Vec<usize> = (0..infos.len()).collect();
-    // The filters' columns among the extras (None: the layout has none).
-    let filter_extras = INPUTS.map(|name| layout.extras.iter().position(|x| x.name == name));
-    let campaign_extra = layout.extras.iter().position(|x| x.name == CAMPAIGN_PASS);
-    for block in all.chunks(IN_MEMORY_BLOCK) {
-        let slots = montecarlo::in_memory(model, study.seed(), block, 0..r, &montecarlo::Silent);
-        let records = |i: usize| {
-            let s = &slots[i * stride..(i + 1) * stride];
-            (0..layout.estimators.len()).map(move |e| Record {
-                condition: block[i / r as usize],
-                realisation: (i % r as usize) as u64,
-                estimator: e,
-                ok: s[layout.status_at(e)] == Status::Ok as u8 as f64,
-                theta: &s[layout.theta_at(e, 0)..layout.theta_at(e, 0) + p],
-                bounds: &s[layout.bound_at(e, 0, 0)..layout.bound_at(e, 0, 0) + bounds],
-                controls: &s[layout.control_at(0)..layout.control_at(0) + layout.controls.len()],
-                filter: filter_extras.map(|x| x.map_or(f64::NAN, |x| s[layout.extra_at(e, x)])),
-                campaign: campaign_extra.map_or(f64::NAN, |x| s[layout.extra_at(e, x)]),
-            })
-        };
-        for (k, &c) in block.iter().enumerate() {
-            let mut summarizer = ConditionSummarizer::new(layout, c, &infos[c], r, Z_95);
-            let rows = k * r as usize..(k + 1) * r as usize;
-            for rec in rows.clone().flat_map(records) {
-                summarizer.first_pass(&rec).map_err(inconsistent)?;
-            }
-            summarizer.end_first_pass().map_err(inconsistent)?;
-            for rec in rows.flat_map(records) {
-                summarizer.second_pass(&rec).map_err(inconsistent)?;
-            }
-            out.extend(summarizer.finish());
-        }
-    }
-    Ok(out)
-}
-
-/// Conditions an in-memory summary computes at once.
-const IN_MEMORY_BLOCK: usize = 256;

@@ -32,6 +32,8 @@ mod filters;
 mod log;
 pub(super) mod placement;
 pub(super) use estimation::RawFitEstimation;
+use log::LogSource;
+pub use log::LogTable;
 pub(super) use log::RawLog;
 
 /// Fewest bootstrap realisations a fit takes (for a 95 % percentile interval), and fewest
@@ -98,7 +100,7 @@ pub struct FitSpec {
     pub origin: String,
     /// Its directory (relative paths resolve against it).
     pub dir: PathBuf,
-    /// The log file.
+    /// The log file (or, for a table handed over, its name).
     pub log: PathBuf,
     /// The measured cycle (speed, force, grade, acceleration as logged or differentiated).
     pub cycle: DriveCycle,
@@ -171,6 +173,28 @@ impl FitSpec {
         dir: &Path,
         log: Option<&Path>,
     ) -> Result<FitSpec, StudyError> {
+        let log = log.map(|p| LogSource::File(p.to_path_buf()));
+        Self::parse_from(text, origin, dir, log)
+    }
+
+    /// Check the fit file `text` read from `origin` in `dir`, its log the table `log` held in
+    /// memory (no file is read for it, and `log.file` may be left out); its errors name the
+    /// table by `log.name`, and its rows 1-based.
+    pub fn parse_with_table(
+        text: &str,
+        origin: &str,
+        dir: &Path,
+        log: LogTable<'_>,
+    ) -> Result<FitSpec, StudyError> {
+        Self::parse_from(text, origin, dir, Some(LogSource::Table(log)))
+    }
+
+    fn parse_from(
+        text: &str,
+        origin: &str,
+        dir: &Path,
+        log: Option<LogSource<'_>>,
+    ) -> Result<FitSpec, StudyError> {
         let spans = KeySpans::new(text);
         let raw: RawFit =
             toml::from_str(text).map_err(|e| serde_error(&e, &spans, text, origin, elsewhere))?;
@@ -199,7 +223,7 @@ fn validate(
     raw: RawFit,
     c: &Checker<'_>,
     text: &str,
-    log: Option<&Path>,
+    log: Option<LogSource<'_>>,
 ) -> Result<FitSpec, StudyError> {
     if raw.name.as_ref().is_some_and(|n| n.trim().is_empty()) {
         return Err(c.fail("name", "must not be empty"));
@@ -251,10 +275,10 @@ fn validate(
 
     // [log]: its keys; the file is read once everything else has passed.
     let l = &raw.log;
-    let file = match log {
-        Some(log) => log.to_path_buf(),
+    let source = match log {
+        Some(log) => log,
         None if l.file.is_empty() => return Err(c.fail("log.file", "must name a file")),
-        None => c.dir().join(&l.file),
+        None => LogSource::File(c.dir().join(&l.file)),
     };
     let speed_unit = c.named("log.speed_unit", &l.speed_unit, &SpeedUnit::ALL)?;
     let min_speed = match l.min_speed {
@@ -370,7 +394,15 @@ fn validate(
 
     let systematic = validate_systematic(raw.systematic.as_ref(), c)?;
 
-    let (cycle, used) = log::read_log(l, &file, force, torque_factor, speed_unit, grade_column, c)?;
+    let (cycle, used) = log::read_log(
+        l,
+        &source,
+        force,
+        torque_factor,
+        speed_unit,
+        grade_column,
+        c,
+    )?;
     filters::check_filter_log(&estimators, &cycle.t_s, c)?;
     if used.iter().filter(|u| **u).count() < 3 {
         return Err(c.fail(
@@ -392,7 +424,7 @@ fn validate(
     Ok(FitSpec {
         origin: c.origin().to_string(),
         dir: c.dir().to_path_buf(),
-        log: file,
+        log: source.path(),
         cycle,
         used,
         acceleration,

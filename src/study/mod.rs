@@ -40,7 +40,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use axes::{AIR_SPEED_SD, GRADE_MAP_SD, LEVEL_AXIS_COUNT, LevelAxes, LevelAxis};
-pub use fit::{FitSpec, MIN_REALISATIONS};
+pub use fit::{FitSpec, LogTable, MIN_REALISATIONS};
 pub use fleet::{Fleet, FleetVehicle};
 pub use line_fit::{LineFitStudy, NoiseShape};
 pub use noise::NoiseAxes;

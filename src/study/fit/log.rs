@@ -9,8 +9,36 @@ use crate::dynamics::{DriveCycle, SpeedUnit, central_differences, positions};
 use crate::estimate::filters::GradeSource;
 use crate::study::StudyError;
 use crate::study::checker::Checker;
-use crate::tabular::read_columns;
+use crate::tabular::{read_columns, table_columns};
 use crate::terrain::GradeUnit;
+
+/// A log handed over as a table held in memory (e.g. a DataFrame from the Python package),
+/// in place of `log.file`.
+#[derive(Debug, Clone, Copy)]
+pub struct LogTable<'a> {
+    /// What the table is called in errors (`the DataFrame given as log`).
+    pub name: &'a str,
+    /// Its columns.
+    pub schema: &'a arrow::datatypes::Schema,
+    /// Its rows.
+    pub batches: &'a [arrow::record_batch::RecordBatch],
+}
+
+/// Where the log's rows are: a file (CSV or Parquet) or a table in memory.
+pub(super) enum LogSource<'a> {
+    File(std::path::PathBuf),
+    Table(LogTable<'a>),
+}
+
+impl LogSource<'_> {
+    /// The file, or the table's name as a path (what `FitSpec::log` reports).
+    pub(super) fn path(&self) -> std::path::PathBuf {
+        match self {
+            LogSource::File(path) => path.clone(),
+            LogSource::Table(t) => t.name.into(),
+        }
+    }
+}
 
 /// `[log]`: the log file and its columns.
 #[derive(Debug, Deserialize)]
@@ -80,7 +108,7 @@ pub(super) fn grade_column<'a>(
 /// faster, and with a differentiated acceleration not the first or last.
 pub(super) fn read_log(
     l: &RawLog,
-    file: &Path,
+    source: &LogSource<'_>,
     force: &str,
     torque_factor: Option<f64>,
     speed_unit: SpeedUnit,
@@ -91,7 +119,11 @@ pub(super) fn read_log(
     let mut wanted = vec![time, speed, force];
     wanted.extend(grade.map(|(column, _)| column));
     wanted.extend(l.acceleration_column.as_deref());
-    let cols = read_columns(file, &wanted, 3).map_err(|e| c.fail("log.file", e.to_string()))?;
+    let cols = match source {
+        LogSource::File(file) => read_columns(file, &wanted, 3),
+        LogSource::Table(t) => table_columns(Path::new(t.name), t.schema, t.batches, &wanted, 3),
+    }
+    .map_err(|e| c.fail("log.file", e.to_string()))?;
     cols.strictly_increasing(time)
         .map_err(|e| c.fail("log.file", e.to_string()))?;
     let t = cols.get(time).to_vec();
