@@ -70,7 +70,11 @@ __all__ = [
     "load",
     "loads",
     "run",
+    "ShardResult",
+    "ShardTask",
+    "shards",
     "simulate_log",
+    "summarize",
 ]
 
 __version__: str = _core.__version__
@@ -277,6 +281,15 @@ class _Reporter:
             print(file=sys.stderr, flush=True)
 
 
+def _table(held: Any) -> pa.Table:
+    """A table the Rust side holds (``_core.ArrowTable``), as a pyarrow Table: read through
+    the Arrow C stream interface, in memory (no file, no copy of the columns)."""
+    from_stream = getattr(pa.RecordBatchReader, "from_stream", None)
+    if from_stream is not None:  # pyarrow >= 15
+        return from_stream(held).read_all()
+    return pa.RecordBatchReader._import_from_c_capsule(held.__arrow_c_stream__()).read_all()
+
+
 def _read(path: pathlib.Path) -> Optional[pa.Table]:
     """A Parquet file read whole into memory, or None when it was not written."""
     if not path.exists():
@@ -318,9 +331,10 @@ def _cycles(study: "_core.Study", out: Optional[pathlib.Path]) -> Optional[pa.Ta
             identity = footer.get(b"chassis_mc.identity", b"").decode()
             if identity.startswith(study.identity()):
                 return pq.read_table(path, memory_map=False)
-    with tempfile.TemporaryDirectory(prefix="chassis-mc-cycles-") as tmp:
-        _core.write_cycles(study, tmp)
-        return _read(pathlib.Path(tmp) / "cycles.parquet")
+    for name, held in _core.cycles(study):
+        if name == "cycles.parquet":
+            return _table(held)
+    return None
 
 
 @dataclass
@@ -407,33 +421,38 @@ def run(
     threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     reporter = _Reporter(progress)
-    with _Output(out) as output:
-        draw = output.kept is not None if figures is None else figures
-        try:
-            files, reused, computed = _core.run(
-                loaded,
-                os.fspath(output.path),
-                threads,
-                draw,
-                reporter.callback,
-                reporter.notice,
-            )
-        finally:
-            reporter.close()
-        summary = _read(output.path / "summary.parquet")
-        table = _read(output.path / "realisations.parquet")
-        assert summary is not None and table is not None, "a run writes both tables"
-        report = output.path / "report.html"
-        return RunResult(
-            summary=summary,
-            realisations=table,
-            study=loaded,
-            report_path=report if output.kept is not None and report.exists() else None,
-            out=output.kept,
-            files=[pathlib.Path(f) for f in files],
-            reused=reused,
-            computed=computed,
+    kept = None if out is None else pathlib.Path(out)
+    draw = kept is not None if figures is None else bool(figures)
+    if kept is None and draw:
+        raise ValueError("figures=True needs out= (a run without out writes no file)")
+    try:
+        ran = _core.run(
+            loaded,
+            None if kept is None else os.fspath(kept),
+            threads,
+            draw,
+            reporter.callback,
+            reporter.notice,
         )
+    finally:
+        reporter.close()
+    if ran.realisations is not None:
+        table = _table(ran.realisations)
+    else:
+        # written to out, where rows of an earlier run it extended are too
+        table = _read(kept / "realisations.parquet")
+        assert table is not None, "a run writes realisations.parquet"
+    report = None if kept is None else kept / "report.html"
+    return RunResult(
+        summary=_table(ran.summary),
+        realisations=table,
+        study=loaded,
+        report_path=report if report is not None and report.exists() else None,
+        out=kept,
+        files=[pathlib.Path(f) for f in ran.files],
+        reused=ran.reused,
+        computed=ran.computed,
+    )
 
 
 @dataclass
@@ -567,16 +586,16 @@ class FitResult:
 
 @dataclass
 class _LogTable:
-    """A log given as a table, written to `path` for the fit to read: `name` says what it
-    was in errors (never the temporary path), `index` holds a DataFrame's index labels."""
+    """A log given as a table, handed to the fit in memory: `name` says what it was in
+    errors, `index` holds a DataFrame's index labels."""
 
-    path: str
     name: str
+    table: pa.Table
     index: Any = None
 
     def place(self, row: int) -> str:
-        """`row N` (1-based, as the engine counts a Parquet file's rows) with its position
-        in the table and, for a DataFrame, its index label."""
+        """`row N` (1-based, as the engine counts a table's rows) with its position in the
+        table and, for a DataFrame, its index label."""
         where = f"row {row} (position {row - 1}"
         if self.index is not None and 0 <= row - 1 < len(self.index):
             label = self.index[row - 1]
@@ -585,10 +604,9 @@ class _LogTable:
         return where + ")"
 
     def renamed(self, error: ChassisMcError) -> ChassisMcError:
-        """`error` saying `name` where it names the temporary file."""
+        """`error` with each row it names given with its position and index label."""
 
         def rename(text: str) -> str:
-            text = text.replace(f"{self.path}: ", f"{self.name}: ").replace(self.path, self.name)
             pattern = re.escape(self.name) + r': (column "[^"]*", )?row (\d+):'
             return re.sub(
                 pattern,
@@ -623,7 +641,7 @@ def _unconvertible(frame: Any, name: str) -> StudyError:
             failure = str(e)
         numbers = pd.to_numeric(column, errors="coerce")
         odd = (column.notna() & numbers.isna()).to_numpy().nonzero()[0]
-        log = _LogTable("", name, frame.index)
+        log = _LogTable(name, pa.table({}), frame.index)
         if len(odd):
             value = column.iloc[int(odd[0])]
             reason = (
@@ -636,10 +654,10 @@ def _unconvertible(frame: Any, name: str) -> StudyError:
     raise AssertionError("pyarrow converts each column alone but not the whole DataFrame")
 
 
-def _log_file(log: Any, directory: pathlib.Path) -> Union[str, _LogTable]:
+def _log_table(log: Any) -> Union[str, _LogTable]:
     """A log given as a path (returned as it is), a pandas DataFrame or a pyarrow Table: a
-    table is written as Parquet with its numeric columns as float64 (the values exactly as
-    given) to `directory`, and named in errors as what it was given as."""
+    table with its numeric columns as float64 (the values exactly as given), handed over in
+    memory and named in errors as what it was given as."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
     index = None
@@ -658,14 +676,12 @@ def _log_file(log: Any, directory: pathlib.Path) -> Union[str, _LogTable]:
             f"log: a path, a pandas DataFrame or a pyarrow Table, not a {type(log).__name__}"
         )
     columns = []
-    for column_name, column in zip(table.column_names, table.columns):
+    for column in table.columns:
         if pa.types.is_integer(column.type) or pa.types.is_floating(column.type):
             column = column.cast(pa.float64())
-        columns.append((column_name, column))
-    table = pa.table({column_name: column for column_name, column in columns})
-    path = directory / "log.parquet"
-    pq.write_table(table, path, compression="zstd")
-    return _LogTable(os.fspath(path), name, index)
+        columns.append(column)
+    # by position: two columns of one name stay two (the fit names them as such)
+    return _LogTable(name, pa.Table.from_arrays(columns, names=table.column_names), index)
 
 
 def fit(
@@ -691,25 +707,25 @@ def fit(
         raise TypeError("fit takes a fit file (path, TOML text or dict), not a Study")
     kind, value = _kind(fit, "fit")
     directory = _base(base, kind, "fit")
-    with _Output(out) as output, tempfile.TemporaryDirectory(prefix="chassis-mc-log-") as tmp:
-        given = None if log is None else _log_file(log, pathlib.Path(tmp))
-        log_path = given.path if isinstance(given, _LogTable) else given
-        try:
-            text, files = _core.fit(kind, value, os.fspath(output.path), log_path, directory)
-        except ChassisMcError as e:
-            if not isinstance(given, _LogTable):
-                raise
-            # the temporary file is no name the caller knows: name what they gave
-            raise given.renamed(e) from None
-        table = _read(output.path / "fit.parquet")
-        assert table is not None, "a fit writes fit.parquet"
-        return FitResult(
-            table=table,
-            systematic=_read(output.path / "systematic.parquet"),
-            text=text,
-            out=output.kept,
-            files=[pathlib.Path(f) for f in files],
-        )
+    given = None if log is None else _log_table(log)
+    log_path = given if isinstance(given, str) else None
+    log_table = (given.name, given.table) if isinstance(given, _LogTable) else None
+    kept = None if out is None else pathlib.Path(out)
+    try:
+        done = _core.fit(kind, value, None if kept is None else os.fspath(kept), log_path,
+                         directory, log_table)
+    except ChassisMcError as e:
+        if not isinstance(given, _LogTable):
+            raise
+        # name the rows as the caller knows them: position and index label
+        raise given.renamed(e) from None
+    return FitResult(
+        table=_table(done.table),
+        systematic=None if done.systematic is None else _table(done.systematic),
+        text=done.text,
+        out=kept,
+        files=[pathlib.Path(f) for f in done.files],
+    )
 
 
 def simulate_log(
@@ -729,13 +745,129 @@ def simulate_log(
     log is never overwritten by mistake (:class:`RunError` with ``bad_input``)."""
     realisation = _count("realisation", realisation, 0, 2**64 - 1)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
-    import pyarrow.csv as pacsv
+    path = None if out is None else os.fspath(out)
+    return _table(_core.simulate_log(loaded, path, realisation, bool(force)))
 
-    if out is not None:
-        path = pathlib.Path(out)
-        _core.simulate_log(loaded, os.fspath(path), realisation, bool(force))
-        return pacsv.read_csv(path)
-    with tempfile.TemporaryDirectory(prefix="chassis-mc-") as tmp:
-        path = pathlib.Path(tmp) / "log.csv"
-        _core.simulate_log(loaded, os.fspath(path), realisation)
-        return pacsv.read_csv(path)
+
+@dataclass(frozen=True)
+class ShardResult:
+    """A shard run by :meth:`ShardTask.run`: where its rows are, for :func:`summarize`.
+
+    Attributes:
+        directory: ``out/shard=K``, holding the shard's realisations.parquet.
+        index: K (0-based). count: N.
+        computed: realisations computed. reused: realisations kept from an earlier,
+            interrupted run of the same shard there.
+    """
+
+    directory: pathlib.Path
+    index: int
+    count: int
+    computed: int
+    reused: int
+
+
+@dataclass(frozen=True)
+class ShardTask:
+    """Shard K of N of a study: realisations ⌊K·R/N⌋ … ⌊(K+1)·R/N⌋ − 1 of every condition,
+    as ``chassis-mc run STUDY --shard K/N``. It pickles (the study with it), so any worker
+    process can run it: each realisation's draws depend only on the study's seed, its
+    condition and its index, never on the worker or the split.
+
+    Attributes:
+        study: the study as run (overrides applied). index: K. count: N.
+    """
+
+    study: "_core.Study"
+    index: int
+    count: int
+
+    def run(
+        self,
+        out: Union[str, "os.PathLike[str]"],
+        *,
+        threads: Optional[int] = None,
+        progress: Progress = False,
+    ) -> ShardResult:
+        """Run the shard into ``out/shard=K/`` (``out`` on storage every worker and the
+        summarising process see; created if missing); an interrupted shard there resumes.
+        Returns a :class:`ShardResult` for :func:`summarize`."""
+        reporter = _Reporter(progress)
+        try:
+            ran = _core.run(self.study, os.fspath(out), _threads(threads), False,
+                            reporter.callback, reporter.notice, (self.index, self.count))
+        finally:
+            reporter.close()
+        return ShardResult(pathlib.Path(out) / f"shard={self.index}", self.index, self.count,
+                           ran.computed, ran.reused)
+
+
+def shards(
+    study: Source,
+    n: int,
+    *,
+    realisations: Optional[int] = None,
+    seed: Optional[int] = None,
+    base: Optional[Base] = None,
+) -> List[ShardTask]:
+    """Split a study into ``n`` picklable tasks (``realisations``, ``seed`` and ``base`` as
+    in :func:`load`), each run by ``task.run(out)`` on any worker (Dask, Ray,
+    ``multiprocessing``, a SLURM array); :func:`summarize` of their results gives the files
+    of one local run of the study, byte for byte (README, "Python on a cluster")."""
+    count, reason = _whole("n", n, 1, 2**63 - 1)
+    if reason is not None:
+        raise ValueError(f"n {reason}")
+    loaded = load(study, realisations=realisations, seed=seed, base=base)
+    return [ShardTask(loaded, k, count) for k in range(count)]
+
+
+def summarize(
+    shards: Any,
+    out: Union[str, "os.PathLike[str]"],
+    *,
+    figures: bool = True,
+) -> RunResult:
+    """Combine shards of one study into ``out``, as ``chassis-mc summarize``: the
+    summary, the model's tables (cycles), the figures (``figures=True``) and the report,
+    and the shards' realisations assembled in order into ``out/realisations.parquet``,
+    which together are the files of one local run of the study, byte for byte.
+
+    ``shards``: :class:`ShardResult` objects, shard directories (``out/shard=K``) or
+    realisation files, in any order (one path or a list); every realisation of every
+    condition must be in exactly one of them. Returns the :class:`RunResult` of ``out``.
+    """
+    items = shards if isinstance(shards, (list, tuple)) else [shards]
+    inputs = []
+    for item in items:
+        if isinstance(item, ShardResult):
+            inputs.append(os.fspath(item.directory))
+        elif isinstance(item, RunResult) and item.out is not None:
+            inputs.append(os.fspath(item.out))
+        elif isinstance(item, (str, os.PathLike)):
+            inputs.append(os.fspath(item))
+        else:
+            raise TypeError(
+                "summarize takes ShardResults, shard directories or realisation files, not "
+                f"a {type(item).__name__}"
+            )
+    kept = pathlib.Path(out)
+    done = _core.summarize(inputs, os.fspath(kept), bool(figures))
+    table = _read(kept / "realisations.parquet")
+    assert table is not None, "summarize assembles realisations.parquet"
+    footer = pq.read_metadata(kept / "realisations.parquet").metadata or {}
+    study = _core._study_from_toml(
+        footer[b"chassis_mc.study"].decode(),
+        f"{kept / 'realisations.parquet'} (footer)",
+        footer.get(b"chassis_mc.study_dir", b".").decode(),
+    )
+    report = kept / "report.html"
+    return RunResult(
+        summary=_table(done.summary),
+        realisations=table,
+        study=study,
+        report_path=report if report.exists() else None,
+        out=kept,
+        files=[pathlib.Path(f) for f in done.files],
+        reused=0,
+        computed=0,
+    )

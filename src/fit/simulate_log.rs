@@ -41,12 +41,9 @@ pub fn write_log(log: &[Vec<f64>; 5], path: &Path, force: bool) -> Result<usize,
     }
     let n = log[0].len();
     let mut csv = format!("{LOG_HEADER}\n");
-    for i in 0..n {
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{}",
-            log[0][i], log[1][i], log[2][i], log[3][i], log[4][i]
-        );
+    let [t, v, f, g, a] = log;
+    for ((((t, v), f), g), a) in t.iter().zip(v).zip(f).zip(g).zip(a) {
+        let _ = writeln!(csv, "{t},{v},{f},{g},{a}");
     }
     let name = path
         .file_name()

@@ -20,6 +20,7 @@ mod fleet;
 mod grid_cost;
 mod help_examples;
 mod identification;
+mod in_memory;
 mod known_mass;
 mod layering;
 mod line_fit;
