@@ -205,7 +205,8 @@ def load(
             return study
         return study.with_overrides(realisations, seed)
     kind, value = _kind(study)
-    return _core.load_study(kind, value, realisations, seed, _base(base, kind))
+    return _core.load_study(**{kind: value}, realisations=realisations, seed=seed,
+                            base=_base(base, kind))
 
 
 def loads(
@@ -222,7 +223,8 @@ def loads(
         raise TypeError(f"loads takes TOML text (a str), not a {type(text).__name__}")
     realisations = _override("realisations", realisations, 1, _core.MAX_REALISATIONS)
     seed = _override("seed", seed, 0, _core.MAX_SEED)
-    return _core.load_study("text", text, realisations, seed, _base(base, "text"))
+    return _core.load_study(text=text, realisations=realisations, seed=seed,
+                            base=_base(base, "text"))
 
 
 class _Reporter:
@@ -489,8 +491,9 @@ def check(
     cannot be run."""
     threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
-    text, per, seconds, size = _core.check(loaded, threads)
-    return CheckResult(text, list(per), seconds, size)
+    found = _core.check(loaded, threads)
+    return CheckResult(found.text, list(found.ms_per_realisation), found.estimated_seconds,
+                       found.output_bytes)
 
 
 @dataclass
@@ -544,19 +547,19 @@ def design(
     threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)
     with _Output(out) as output:
-        sentence, answer, sd, used, r, files = _core.design(
+        found = _core.design(
             loaded, vary, float(from_), float(to), target, os.fspath(output.path),
             estimator, threads,
         )
         return DesignResult(
-            sentence=sentence,
-            answer=answer,
-            answer_sd=sd,
-            estimator=used,
-            realisations=r,
+            sentence=found.sentence,
+            answer=found.answer,
+            answer_sd=found.answer_sd,
+            estimator=found.estimator,
+            realisations=found.realisations,
             points=_read(output.path / "design.parquet"),
             out=output.kept,
-            files=[pathlib.Path(f) for f in files],
+            files=[pathlib.Path(f) for f in found.files],
         )
 
 
@@ -712,8 +715,8 @@ def fit(
     log_table = (given.name, given.table) if isinstance(given, _LogTable) else None
     kept = None if out is None else pathlib.Path(out)
     try:
-        done = _core.fit(kind, value, None if kept is None else os.fspath(kept), log_path,
-                         directory, log_table)
+        done = _core.fit(**{kind: value}, out=None if kept is None else os.fspath(kept),
+                         log=log_path, base=directory, log_table=log_table)
     except ChassisMcError as e:
         if not isinstance(given, _LogTable):
             raise

@@ -8,7 +8,7 @@
 //! check for Ctrl-C: a KeyboardInterrupt asks a run to stop after the chunk it is writing
 //! (its completed parts stay in the output directory, so running it again resumes).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
@@ -16,14 +16,15 @@ use std::time::Duration;
 
 use chassis_mc::check::StudyCheck;
 use chassis_mc::design::{DesignError, DesignKey, DesignRequest, DesignTarget, answer_sentence};
-use chassis_mc::fit::{FitError, FitSpec};
+use chassis_mc::fit::FitError;
 use chassis_mc::montecarlo::Observer;
 use chassis_mc::run::{RunError, RunOptions, Shard, TableInMemory, run_study};
 use chassis_mc::study::{Study, StudyError};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::types::PyDict;
 
+mod source;
 mod tables;
 use tables::ArrowTable;
 
@@ -32,6 +33,9 @@ const POLL: Duration = Duration::from_millis(100);
 
 /// The origin a study or fit file given as a dict is reported under.
 const DICT_ORIGIN: &str = "<dict>";
+
+/// How a pickled object is rebuilt: the function and its arguments (values, origin, dir).
+type Reduced<'py> = (Bound<'py, PyAny>, (Bound<'py, PyAny>, String, PathBuf));
 
 /// A validated study (`chassis_mc.load` returns one; every call takes one).
 #[pyclass(module = "chassis_mc._core", name = "Study", frozen)]
@@ -81,17 +85,21 @@ impl PyStudy {
         self.0.identity()
     }
 
-    /// Pickled as its TOML as run, origin and directory; unpickling validates it again
-    /// (and reads its data files, e.g. a speed trace, from the same paths).
+    /// Pickled as its values as run (a dict of its tables and keys), origin and directory;
+    /// unpickling validates it again (and reads its data files, e.g. a speed trace, from the
+    /// same paths).
     fn __reduce__<'py>(
         &self,
         py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, String, PathBuf))> {
-        let rebuild = py.import("chassis_mc._core")?.getattr("_study_from_toml")?;
+    ) -> PyResult<Reduced<'py>> {
+        let rebuild = py
+            .import("chassis_mc._core")?
+            .getattr("_study_from_values")?;
+        let values = source::py_value(py, &toml::Value::Table(self.0.to_table()))?;
         Ok((
             rebuild,
             (
-                self.0.to_toml(),
+                values,
                 self.0.origin().to_string(),
                 self.0.dir().to_path_buf(),
             ),
@@ -196,213 +204,53 @@ fn from_design_error(py: Python<'_>, e: DesignError) -> PyErr {
     }
 }
 
-/// A Python value as TOML, `key` naming where it is for an error.
-fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String> {
-    // bool before int: Python's bool is an int
-    if let Ok(b) = value.cast::<PyBool>() {
-        return Ok(toml::Value::Boolean(b.is_true()));
-    }
-    if value.is_instance_of::<PyInt>() {
-        return value
-            .extract::<i64>()
-            .map(toml::Value::Integer)
-            .map_err(|_| format!("{key}: integer out of the range of a 64-bit TOML integer"));
-    }
-    if value.is_instance_of::<PyFloat>() {
-        return Ok(toml::Value::Float(value.extract::<f64>().expect("a float")));
-    }
-    if let Ok(s) = value.cast::<PyString>() {
-        return Ok(toml::Value::String(s.to_string()));
-    }
-    if let Ok(d) = value.cast::<PyDict>() {
-        return toml_table(d, key).map(toml::Value::Table);
-    }
-    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
-        let mut items = Vec::new();
-        for (i, item) in value.try_iter().map_err(|e| e.to_string())?.enumerate() {
-            let item = item.map_err(|e| e.to_string())?;
-            items.push(toml_value(&item, &format!("{key}[{i}]"))?);
-        }
-        return Ok(toml::Value::Array(items));
-    }
-    // numpy scalars and the like: integers by __index__, reals by __float__
-    if value.hasattr("__index__").unwrap_or(false)
-        && let Ok(i) = value.extract::<i64>()
-    {
-        return Ok(toml::Value::Integer(i));
-    }
-    if value.hasattr("__float__").unwrap_or(false)
-        && let Ok(x) = value.extract::<f64>()
-    {
-        return Ok(toml::Value::Float(x));
-    }
-    let type_name = value
-        .get_type()
-        .name()
-        .map(|n| n.to_string())
-        .unwrap_or_else(|_| "?".into());
-    Err(format!(
-        "{key}: a {type_name} is not a study value (give a bool, int, float, str, list or dict)"
-    ))
-}
-
-fn toml_table(dict: &Bound<'_, PyDict>, prefix: &str) -> Result<toml::Table, String> {
-    let mut table = toml::Table::new();
-    for (k, v) in dict.iter() {
-        let Ok(k) = k.extract::<String>() else {
-            return Err(format!("{prefix}: every key must be a str"));
-        };
-        let key = match prefix {
-            "" => k.clone(),
-            p => format!("{p}.{k}"),
-        };
-        if v.is_none() {
-            // TOML has no null: a key given as None is left out (its default applies)
-            continue;
-        }
-        table.insert(k, toml_value(&v, &key)?);
-    }
-    Ok(table)
-}
-
-/// TOML text from a dict; an error names the key whose value TOML cannot hold.
-fn dict_text(py: Python<'_>, dict: &Bound<'_, PyDict>) -> PyResult<String> {
-    let table = toml_table(dict, "").map_err(|reason| {
-        let (key, reason) = match reason.split_once(": ") {
-            Some((k, r)) if !k.is_empty() => (Some(k.to_string()), r.to_string()),
-            _ => (None, reason),
-        };
-        study_error(
-            py,
-            &StudyError {
-                file: DICT_ORIGIN.into(),
-                key,
-                line: None,
-                reason,
-            },
-        )
-    })?;
-    Ok(toml::to_string(&table).expect("a TOML table serialises"))
-}
-
-/// A study or fit file without a file of its own (TOML text or a dict): its text, the
-/// origin its errors name, the directory its relative data paths resolve against (`base`,
-/// else the working directory) and whether that is the working directory by default.
-struct Source {
-    what: &'static str,
-    text: String,
-    origin: String,
-    dir: PathBuf,
-    dir_is_default: bool,
-}
-
-/// TOML text given as `text` or as a `dict`. (A path is read by the library itself.)
-fn source_text(
-    py: Python<'_>,
-    kind: &str,
-    value: &Bound<'_, PyAny>,
-    base: Option<PathBuf>,
-    what: &'static str,
-) -> PyResult<Source> {
-    let (text, origin) = match kind {
-        "text" => (value.extract()?, "<string>".to_string()),
-        "dict" => (dict_text(py, value.cast()?)?, DICT_ORIGIN.to_string()),
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "{what}: unknown source kind {other:?}"
-            )));
-        }
-    };
-    let dir_is_default = base.is_none();
-    let dir = base.unwrap_or_else(|| std::env::current_dir().unwrap_or_else(|_| ".".into()));
-    Ok(Source {
-        what,
-        text,
-        origin,
-        dir,
-        dir_is_default,
-    })
-}
-
-impl Source {
-    /// `e` with a hint when its key holds a relative path that does not exist in the
-    /// working directory, which the caller may not have meant (no `base` was given).
-    fn hint(&self, mut e: StudyError) -> StudyError {
-        if self.dir_is_default
-            && let Some(key) = &e.key
-            && let Some(toml::Value::String(path)) = value_at(&self.text, key)
-            && Path::new(&path).is_relative()
-            && !self.dir.join(&path).exists()
-        {
-            let given = if self.origin == DICT_ORIGIN {
-                "a dict"
-            } else {
-                "TOML text"
-            };
-            e.reason = format!(
-                "{} (a {} given as {given} resolves its relative paths against the current \
-                 directory, {}, unless base= names the directory they are relative to)",
-                e.reason,
-                self.what,
-                self.dir.display()
-            );
-        }
-        e
-    }
-}
-
-/// The value at a dotted `key` (`drive.trace`, `terrain.profiles[1].file`) of TOML `text`.
-fn value_at(text: &str, key: &str) -> Option<toml::Value> {
-    let mut value = toml::Value::Table(text.parse::<toml::Table>().ok()?);
-    for part in key.split('.') {
-        let (name, indices) = match part.find('[') {
-            Some(i) => (&part[..i], &part[i..]),
-            None => (part, ""),
-        };
-        value = value.as_table()?.get(name)?.clone();
-        for index in indices.split(['[', ']']).filter(|s| !s.is_empty()) {
-            value = value.as_array()?.get(index.parse::<usize>().ok()?)?.clone();
-        }
-    }
-    Some(value)
-}
-
 /// Whether `text` parses as TOML (the package's test of a str that names no file).
 #[pyfunction]
 fn parses_as_toml(text: &str) -> bool {
     text.parse::<toml::Table>().is_ok()
 }
 
-/// Load and validate a study: `kind` is `path`, `text` or `dict`; `realisations` and `seed`
-/// override the study's, as `--realisations` and `--seed` do; `base` is the directory the
-/// relative data paths of TOML text or a dict resolve against (default: the working
-/// directory).
+/// Load and validate a study given as exactly one of `path`, `text` (TOML) or `dict` (its
+/// tables and keys as Python values, which cross as typed values: no TOML text);
+/// `realisations` and `seed` override the study's, as `--realisations` and `--seed` do;
+/// `base` is the directory the relative data paths of TOML text or a dict resolve against
+/// (default: the working directory).
 #[pyfunction]
-#[pyo3(signature = (kind, value, realisations=None, seed=None, base=None))]
+#[pyo3(signature = (*, path=None, text=None, dict=None, realisations=None, seed=None, base=None))]
+#[allow(clippy::too_many_arguments)]
 fn load_study(
     py: Python<'_>,
-    kind: &str,
-    value: &Bound<'_, PyAny>,
+    path: Option<PathBuf>,
+    text: Option<String>,
+    dict: Option<Bound<'_, PyDict>>,
     realisations: Option<u64>,
     seed: Option<u64>,
     base: Option<PathBuf>,
 ) -> PyResult<PyStudy> {
-    let study = match kind {
-        // the library's own reading of a file, with its errors
-        "path" => Study::load(&value.extract::<PathBuf>()?),
-        _ => {
-            let source = source_text(py, kind, value, base, "study")?;
-            Study::from_toml_in(&source.text, &source.origin, &source.dir)
-                .map_err(|e| source.hint(e))
-        }
-    };
-    let study = study
+    let source = source::Source::given(py, path, text, dict, base, "study")?;
+    let study = source
+        .study()
         .and_then(|s| s.with_overrides(realisations, seed))
         .map_err(|e| study_error(py, &e))?;
     Ok(PyStudy(study))
 }
 
-/// A study from its TOML as run, its origin and directory (how a pickled Study comes back).
+/// A study from its values as run (a dict), its origin and directory: how a pickled Study
+/// comes back, validated again.
+#[pyfunction]
+fn _study_from_values(
+    py: Python<'_>,
+    values: Bound<'_, PyDict>,
+    origin: &str,
+    dir: PathBuf,
+) -> PyResult<PyStudy> {
+    let table = source::table_of(py, &values)?;
+    Study::from_table_in(table, origin, &dir)
+        .map(PyStudy)
+        .map_err(|e| study_error(py, &e))
+}
+
+/// A study from the TOML text of an output file's footer, its origin and directory.
 #[pyfunction]
 fn _study_from_toml(py: Python<'_>, text: &str, origin: &str, dir: PathBuf) -> PyResult<PyStudy> {
     Study::from_toml_in(text, origin, &dir)
@@ -635,40 +483,61 @@ fn summarize(
     summary_output(py, report)
 }
 
-/// `check`: (the report the CLI prints, ms per realisation per condition, estimated run
-/// time in s, estimated output in bytes).
+/// What `check` returns.
+#[pyclass(module = "chassis_mc._core", name = "CheckOutput", frozen, get_all)]
+struct CheckOutput {
+    /// The report the command prints.
+    text: String,
+    /// Per condition, the measured time of one realisation [ms].
+    ms_per_realisation: Vec<f64>,
+    /// The estimated run time [s].
+    estimated_seconds: f64,
+    /// The estimated size of every output file [bytes].
+    output_bytes: f64,
+}
+
+/// `check`: the report the CLI prints, with its figures.
 #[pyfunction]
 #[pyo3(signature = (study, threads=None))]
-fn check(
-    py: Python<'_>,
-    study: &PyStudy,
-    threads: Option<usize>,
-) -> PyResult<(String, Vec<f64>, f64, f64)> {
+fn check(py: Python<'_>, study: &PyStudy, threads: Option<usize>) -> PyResult<CheckOutput> {
     let watch = Watch::default();
     let found: StudyCheck = supervise(py, &watch, None, None, || {
         chassis_mc::check::check(&study.0, threads)
     })?
     .map_err(|e| from_run_error(py, e))?;
-    let text = chassis_mc::cli::check::check_report(&study.0, &found);
-    let per: Vec<f64> = found
-        .per_realisation
-        .iter()
-        .map(|d| d.as_secs_f64() * 1e3)
-        .collect();
-    Ok((
-        text,
-        per,
-        found.estimated_run_time().as_secs_f64(),
-        found.total_bytes(),
-    ))
+    Ok(CheckOutput {
+        text: chassis_mc::cli::check::check_report(&study.0, &found),
+        ms_per_realisation: found
+            .per_realisation
+            .iter()
+            .map(|d| d.as_secs_f64() * 1e3)
+            .collect(),
+        estimated_seconds: found.estimated_run_time().as_secs_f64(),
+        output_bytes: found.total_bytes(),
+    })
 }
 
-/// `design`: (the answer sentence, the answer's value or None, its standard deviation or
-/// None, the estimator, the realisations per evaluation, the files written).
+/// What `design` returns.
+#[pyclass(module = "chassis_mc._core", name = "DesignOutput", frozen, get_all)]
+struct DesignOutput {
+    /// The answer in words, as the command prints it.
+    sentence: String,
+    /// The answer's value, or None when no value in the range meets the target.
+    answer: Option<f64>,
+    /// The answer's standard deviation from the Monte Carlo error, or None.
+    answer_sd: Option<f64>,
+    /// The estimator the target applies to.
+    estimator: String,
+    /// Realisations per Monte Carlo evaluation.
+    realisations: u64,
+    /// The files written.
+    files: Vec<PathBuf>,
+}
+
+/// `design`: the search the CLI's `design` runs, written to `out`.
 #[pyfunction]
 #[pyo3(signature = (study, vary, from_, to, target, out, estimator=None, threads=None))]
 #[allow(clippy::too_many_arguments)]
-#[allow(clippy::type_complexity)]
 fn design(
     py: Python<'_>,
     study: &PyStudy,
@@ -679,7 +548,7 @@ fn design(
     out: PathBuf,
     estimator: Option<String>,
     threads: Option<usize>,
-) -> PyResult<(String, Option<f64>, Option<f64>, String, u64, Vec<PathBuf>)> {
+) -> PyResult<DesignOutput> {
     let key = DesignKey::parse(vary).map_err(|e| PyValueError::new_err(format!("vary: {e}")))?;
     let target =
         DesignTarget::parse(target).map_err(|e| PyValueError::new_err(format!("target: {e}")))?;
@@ -697,15 +566,14 @@ fn design(
         pool.install(|| chassis_mc::design::design(&study.0, &request))
     })?
     .map_err(|e| from_design_error(py, e))?;
-    let sentence = answer_sentence(&request, result.answer, result.answer_sd, result.neighbour);
-    Ok((
-        sentence,
-        result.answer.map(|a| a.value),
-        result.answer_sd,
-        result.estimator,
-        result.realisations,
-        result.files,
-    ))
+    Ok(DesignOutput {
+        sentence: answer_sentence(&request, result.answer, result.answer_sd, result.neighbour),
+        answer: result.answer.map(|a| a.value),
+        answer_sd: result.answer_sd,
+        estimator: result.estimator,
+        realisations: result.realisations,
+        files: result.files,
+    })
 }
 
 /// What `fit` returns.
@@ -721,16 +589,18 @@ struct FitOutput {
     files: Vec<PathBuf>,
 }
 
-/// `fit`: a fit file (`kind` `path`, `text` or `dict`, its relative log path resolved
-/// against `base` as in [`load_study`]), its log read from the file `log` or from the table
-/// `log_table` (name, any object with `__arrow_c_stream__`) when given; written to `out`
-/// when given, else nothing is written.
+/// `fit`: a fit file given as exactly one of `path`, `text` or `dict` (its relative log
+/// path resolved against `base` as in [`load_study`]), its log read from the file `log` or
+/// from the table `log_table` (name, any object with `__arrow_c_stream__`) when given;
+/// written to `out` when given, else nothing is written.
 #[pyfunction]
-#[pyo3(signature = (kind, value, out=None, log=None, base=None, log_table=None))]
+#[pyo3(signature = (*, path=None, text=None, dict=None, out=None, log=None, base=None, log_table=None))]
+#[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
-    kind: &str,
-    value: &Bound<'_, PyAny>,
+    path: Option<PathBuf>,
+    text: Option<String>,
+    dict: Option<Bound<'_, PyDict>>,
     out: Option<PathBuf>,
     log: Option<PathBuf>,
     base: Option<PathBuf>,
@@ -746,42 +616,10 @@ fn fit(
             schema,
             batches,
         });
-    let spec = match (kind, given) {
-        ("path", None) => FitSpec::load_with_log(&value.extract::<PathBuf>()?, log.as_deref()),
-        ("path", Some(t)) => {
-            let path = value.extract::<PathBuf>()?;
-            let text = std::fs::read_to_string(&path).map_err(|e| {
-                study_error(
-                    py,
-                    &StudyError {
-                        file: path.display().to_string(),
-                        key: None,
-                        line: None,
-                        reason: format!("cannot read: {e}"),
-                    },
-                )
-            })?;
-            let dir = match path.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-                _ => PathBuf::from("."),
-            };
-            FitSpec::parse_with_table(&text, &path.display().to_string(), &dir, t)
-        }
-        (_, given) => {
-            let source = source_text(py, kind, value, base, "fit file")?;
-            match given {
-                Some(t) => FitSpec::parse_with_table(&source.text, &source.origin, &source.dir, t),
-                None => FitSpec::parse_with_log(
-                    &source.text,
-                    &source.origin,
-                    &source.dir,
-                    log.as_deref(),
-                ),
-            }
-            .map_err(|e| source.hint(e))
-        }
-    }
-    .map_err(|e| study_error(py, &e))?;
+    let source = source::Source::given(py, path, text, dict, base, "fit file")?;
+    let spec = source
+        .fit(log.as_deref(), given)
+        .map_err(|e| study_error(py, &e))?;
     drop(held);
     let watch = Watch::default();
     let result = supervise(py, &watch, None, None, || match &out {
@@ -864,9 +702,12 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_study, m)?)?;
     m.add_function(wrap_pyfunction!(parses_as_toml, m)?)?;
     m.add_function(wrap_pyfunction!(_study_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(_study_from_values, m)?)?;
     m.add_class::<ArrowTable>()?;
     m.add_class::<RunOutput>()?;
     m.add_class::<FitOutput>()?;
+    m.add_class::<CheckOutput>()?;
+    m.add_class::<DesignOutput>()?;
     m.add_function(wrap_pyfunction!(cycles, m)?)?;
     m.add_function(wrap_pyfunction!(summarize, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

@@ -189,6 +189,30 @@ impl FitSpec {
         Self::parse_from(text, origin, dir, Some(LogSource::Table(log)))
     }
 
+    /// Check a fit file given as values (a TOML table with no text, e.g. a dict from
+    /// Python) in `dir`, its log read from the file `log` or the table `log_table` when
+    /// given; errors name the key by its path, with no line.
+    pub fn from_table_in(
+        table: toml::Table,
+        origin: &str,
+        dir: &Path,
+        log: Option<&Path>,
+        log_table: Option<LogTable<'_>>,
+    ) -> Result<FitSpec, StudyError> {
+        let raw: RawFit = serde_path_to_error::deserialize(toml::Value::Table(table.clone()))
+            .map_err(|e| super::validate::value_error(&e, origin, elsewhere))?;
+        let spans = KeySpans::new("");
+        let c = Checker::new(&spans, origin, dir, elsewhere);
+        // The text its outputs record (their footer, the report), written from the values.
+        let text = toml::to_string(&table).expect("a TOML table serialises");
+        let log = match (log, log_table) {
+            (_, Some(t)) => Some(LogSource::Table(t)),
+            (Some(p), None) => Some(LogSource::File(p.to_path_buf())),
+            (None, None) => None,
+        };
+        validate(raw, &c, &text, log)
+    }
+
     fn parse_from(
         text: &str,
         origin: &str,

@@ -182,6 +182,20 @@ impl Study {
         validate_any(raw, spans, origin, dir)
     }
 
+    /// Validate a study given as values, a TOML table with no text of its own (e.g. a dict
+    /// from Python), whose data files are relative to `dir`: checked by the same code as a
+    /// file, its errors naming the key by its path (`vehicle.mass`) with no line.
+    pub fn from_table_in(
+        table: toml::Table,
+        origin: &str,
+        dir: &Path,
+    ) -> Result<Study, StudyError> {
+        let raw: RawStudy = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| validate::value_error(&e, origin, placement::elsewhere))?;
+        let dir = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+        validate_any(raw, KeySpans::new(""), origin, dir)
+    }
+
     /// The directory the study's data files are named relative to.
     pub fn dir(&self) -> &Path {
         &self.dir
@@ -221,6 +235,12 @@ impl Study {
     /// The study as run, as canonical TOML (overrides applied); reloads to the same study.
     pub fn to_toml(&self) -> String {
         toml::to_string(&self.raw).expect("a validated study serialises")
+    }
+
+    /// The study as run (overrides applied) as TOML values: what [`Study::to_toml`] writes,
+    /// and what [`Study::from_table_in`] reads back.
+    pub fn to_table(&self) -> toml::Table {
+        toml::Table::try_from(&self.raw).expect("a validated study serialises")
     }
 
     /// What makes two runs' realisations interchangeable: the study as run without its

@@ -75,6 +75,51 @@ pub(super) fn serde_error(
     }
 }
 
+/// Turn the error of deserialising a study given as values (a TOML table with no text, e.g.
+/// a dict from Python) into one naming the key by its path; no line. The same reasons as
+/// [`serde_error`]'s: a missing key is named itself, an unknown one that `place` finds a
+/// home for says where it belongs.
+pub(super) fn value_error(
+    err: &serde_path_to_error::Error<toml::de::Error>,
+    origin: &str,
+    place: Placement,
+) -> StudyError {
+    let message = err.inner().message().trim().to_string();
+    let path = err.path().to_string();
+    let path = match path.as_str() {
+        "." => String::new(),
+        p => p.to_string(),
+    };
+    let fail = |key: String, reason: String| StudyError {
+        file: origin.to_string(),
+        key: (!key.is_empty()).then_some(key),
+        line: None,
+        reason,
+    };
+    if let Some(field) = message
+        .strip_prefix("missing field `")
+        .and_then(|rest| rest.strip_suffix('`'))
+    {
+        let key = match path.is_empty() {
+            true => field.to_string(),
+            false => format!("{path}.{field}"),
+        };
+        return fail(key, "required key is missing".into());
+    }
+    let (table, field) = path.rsplit_once('.').unwrap_or(("", &path));
+    let reason = match place(table, field, None) {
+        Some(place) if message.starts_with("unknown field") => {
+            let table = match table {
+                "" => "at the top level".to_string(),
+                t => format!("in [{t}]"),
+            };
+            format!("unknown field `{field}` {table}: {place}")
+        }
+        _ => message,
+    };
+    fail(path, reason)
+}
+
 /// For a line that does not parse, the dotted key it seems to assign (`key = …` under the
 /// nearest `[table]` header above it), so that syntax errors can name a key too.
 fn key_on_line(text: &str, line: usize) -> Option<String> {
