@@ -438,12 +438,8 @@ def run(
         )
     finally:
         reporter.close()
-    if ran.realisations is not None:
-        table = _table(ran.realisations)
-    else:
-        # written to out, where rows of an earlier run it extended are too
-        table = _read(kept / "realisations.parquet")
-        assert table is not None, "a run writes realisations.parquet"
+    # with out, the rows the file holds (an earlier run's it kept too), as they were written
+    table = _table(ran.realisations)
     report = None if kept is None else kept / "report.html"
     return RunResult(
         summary=_table(ran.summary),

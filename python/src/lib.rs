@@ -88,10 +88,7 @@ impl PyStudy {
     /// Pickled as its values as run (a dict of its tables and keys), origin and directory;
     /// unpickling validates it again (and reads its data files, e.g. a speed trace, from the
     /// same paths).
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<Reduced<'py>> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py>> {
         let rebuild = py
             .import("chassis_mc._core")?
             .getattr("_study_from_values")?;
@@ -393,8 +390,8 @@ fn supervise<T: Send>(
 struct RunOutput {
     /// summary.parquet's table, in memory.
     summary: Py<ArrowTable>,
-    /// realisations.parquet's table in memory, or None when it was written to `out` (read
-    /// from there: it may hold rows of an earlier run).
+    /// realisations.parquet's table in memory (with `out`, the rows the file holds, earlier
+    /// runs' it kept among them), or None for a shard.
     realisations: Option<Py<ArrowTable>>,
     /// The files written (none without `out`).
     files: Vec<PathBuf>,
@@ -437,6 +434,8 @@ fn run(
     let mut options = RunOptions::new(out);
     options.threads = threads;
     options.figures = figures && shard.is_none();
+    // the table comes back with the file, not read from it again (a shard's is not needed)
+    options.keep_realisations = shard.is_none();
     options.shard = match shard {
         Some((index, count)) => Some(
             Shard::parse(&format!("{index}/{count}"))
@@ -451,13 +450,21 @@ fn run(
     summary_output(py, report)
 }
 
-/// The [`RunOutput`] of a run or summary into a directory: its summary rows as a table.
+/// The [`RunOutput`] of a run or summary into a directory: its summary rows as a table, and
+/// the realisation file's rows when the run kept them.
 fn summary_output(py: Python<'_>, report: chassis_mc::run::RunReport) -> PyResult<RunOutput> {
     let summary = chassis_mc::output::summary_batch(&report.layout, &report.infos, &report.summary)
         .map_err(|e| run_error(py, e.to_string(), false))?;
+    let realisations = match report.realisations {
+        Some(batches) => {
+            let schema = chassis_mc::output::realisation_schema(&report.layout);
+            Some(Py::new(py, ArrowTable::new(schema, batches))?)
+        }
+        None => None,
+    };
     Ok(RunOutput {
         summary: Py::new(py, ArrowTable::new(summary.schema(), vec![summary]))?,
-        realisations: None,
+        realisations,
         files: report.files,
         reused: report.reused,
         computed: report.computed,

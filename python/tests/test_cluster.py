@@ -273,3 +273,18 @@ def test_the_readme_has_python_examples_for_a_cluster():
     assert any("LocalCluster" in b for b in blocks)
     assert any("SLURMCluster" in b for b in blocks)
     assert any("ray.remote" in b for b in blocks)
+
+
+def test_a_run_into_out_returns_the_files_tables_without_reading_them(tmp_path):
+    # With out, the tables come back from the run itself, not read from the files: they
+    # are the files' rows bit for bit, an earlier run's kept rows among them when it extends
+    # one (R = 20, then 30 into the same directory).
+    out = tmp_path / "out"
+    chassis_mc.run(THESIS, out=out, realisations=20, progress=False, figures=False)
+    extended = chassis_mc.run(THESIS, out=out, realisations=30, progress=False, figures=False)
+    assert (extended.reused, extended.computed) == (11 * 20, 11 * 10)
+    for table, name in [(extended.summary, "summary.parquet"),
+                        (extended.realisations, "realisations.parquet")]:
+        read = pq.read_table(out / name)
+        assert table.column_names == read.column_names
+        assert bits(table) == bits(read), name

@@ -180,7 +180,11 @@ fn properties(
 pub struct ParquetSink {
     writer: ArrowWriter<HashingWriter>,
     pending: PendingFile,
+    kept: Option<Kept>,
 }
+
+/// Where a sink keeps a copy of every batch it writes ([`ParquetSink::keeping`]).
+pub type Kept = std::sync::Arc<std::sync::Mutex<Vec<RecordBatch>>>;
 
 /// A file that hashes the bytes written to it (XXH64, as [`set::checksum`] reads them
 /// back), so a file's checksum costs no second read. The Parquet writer only appends.
@@ -224,11 +228,26 @@ impl ParquetSink {
         };
         let writer = ArrowWriter::try_new(file, schema, Some(props))
             .map_err(|e| OutputError::parquet(&pending.tmp_path, e))?;
-        Ok(ParquetSink { writer, pending })
+        Ok(ParquetSink {
+            writer,
+            pending,
+            kept: None,
+        })
+    }
+
+    /// The same sink keeping a copy of every batch it writes in `kept` (its columns shared,
+    /// not copied): a caller that wants the table in memory as well as in the file, without
+    /// reading it back.
+    pub fn keeping(mut self, kept: Kept) -> Self {
+        self.kept = Some(kept);
+        self
     }
 
     /// Append a batch.
     pub fn write(&mut self, batch: &RecordBatch) -> Result<(), OutputError> {
+        if let Some(kept) = &self.kept {
+            kept.lock().expect("kept batches").push(batch.clone());
+        }
         self.writer
             .write(batch)
             .map_err(|e| OutputError::parquet(&self.pending.tmp_path, e))
@@ -251,6 +270,7 @@ impl ParquetSink {
         let ParquetSink {
             writer,
             mut pending,
+            ..
         } = self;
         let written = writer
             .into_inner()

@@ -10,6 +10,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use arrow::record_batch::RecordBatch;
 use thiserror::Error;
 
 use crate::figures::{self, FigureError};
@@ -112,6 +113,8 @@ pub struct RunOptions {
     pub shard: Option<Shard>,
     /// Draw the figures into `out_dir/figures/` (not for a shard).
     pub figures: bool,
+    /// Keep the realisation file's rows in memory too ([`RunReport::realisations`]).
+    pub keep_realisations: bool,
 }
 
 impl RunOptions {
@@ -123,6 +126,7 @@ impl RunOptions {
             chunk: DEFAULT_CHUNK,
             shard: None,
             figures: true,
+            keep_realisations: false,
         }
     }
 }
@@ -160,6 +164,8 @@ pub struct RunReport {
     pub reused: u64,
     /// Realisations computed by this run.
     pub computed: u64,
+    /// The rows of the realisation file written, with [`RunOptions::keep_realisations`].
+    pub realisations: Option<Vec<RecordBatch>>,
 }
 
 /// Staging directory for parts, inside the directory of the realisation file.
@@ -261,7 +267,7 @@ fn run_prepared(
         },
     );
     drop(model);
-    let (realisations, reused, computed) = realised?;
+    let (realisations, reused, computed, kept) = realised?;
     let extra = extra?;
 
     // The summary, from the assembled file itself (two passes), so `run` and `summarize`
@@ -302,6 +308,7 @@ fn run_prepared(
         files,
         reused,
         computed,
+        realisations: kept.map(|k| std::mem::take(&mut *k.lock().expect("kept batches"))),
     })
 }
 

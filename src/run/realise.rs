@@ -8,7 +8,7 @@ use std::path::Path;
 use super::{RunError, RunOptions, STAGING, files};
 use crate::model::{ConditionInfo, Model};
 use crate::montecarlo::{self, Observer, Work};
-use crate::output::{self, FileMetadata, OutputError, ParquetSink, PendingFile, keys, store};
+use crate::output::{self, FileMetadata, Kept, OutputError, ParquetSink, PendingFile, keys, store};
 use crate::study::Study;
 
 /// What makes realisations of two runs interchangeable: the study without its realisation
@@ -28,7 +28,8 @@ pub(super) fn identity(study: &Study, model: &dyn Model, infos: &[ConditionInfo]
 }
 
 /// Make every needed realisation exist and assemble them, in order, into the realisation
-/// file (still under its temporary name). Returns it with the counts reused and computed.
+/// file (still under its temporary name). Returns it with the counts reused and computed,
+/// and with [`RunOptions::keep_realisations`] its rows as written.
 pub(super) fn realise(
     study: &Study,
     model: &dyn Model,
@@ -37,7 +38,7 @@ pub(super) fn realise(
     observer: &dyn Observer,
     dir: &Path,
     meta: &FileMetadata,
-) -> Result<(PendingFile, u64, u64), RunError> {
+) -> Result<(PendingFile, u64, u64, Option<Kept>), RunError> {
     let staging = dir.join(STAGING);
     let layout = model.layout();
     let schema = output::realisation_schema(layout);
@@ -109,6 +110,7 @@ pub(super) fn realise(
         Some(shard) => meta.with(keys::SHARD, shard.to_string()),
         None => meta.clone(),
     };
+    let kept: Option<Kept> = options.keep_realisations.then(Kept::default);
     let create = || {
         ParquetSink::create(
             dir,
@@ -117,6 +119,10 @@ pub(super) fn realise(
             &file_meta,
             "realisations",
         )
+        .map(|sink| match &kept {
+            Some(kept) => sink.keeping(kept.clone()),
+            None => sink,
+        })
     };
     let mut assembler = match streaming {
         true => Some(store::Assembler::new(&sources, &segments, create()?)),
@@ -176,7 +182,7 @@ pub(super) fn realise(
         },
     )?;
     if let Some(assembler) = assembler {
-        return Ok((assembler.finish()?, total - computed, computed));
+        return Ok((assembler.finish()?, total - computed, computed, kept));
     }
     // 3. With draw groups: every needed row now exists in a part or the earlier file. (Were
     //    one missing, the summary's completeness check would name the condition.)
@@ -187,5 +193,5 @@ pub(super) fn realise(
         "every computed row is in a committed part"
     );
     let assembler = store::Assembler::new(&sources, &segments, create()?);
-    Ok((assembler.finish()?, total - computed, computed))
+    Ok((assembler.finish()?, total - computed, computed, kept))
 }

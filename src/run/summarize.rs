@@ -221,6 +221,7 @@ fn summarize_into(
         files,
         reused: 0,
         computed: 0,
+        realisations: None,
     })
 }
 
