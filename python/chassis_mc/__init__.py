@@ -3,7 +3,8 @@
 Every function calls the same Rust library as the ``chassis-mc`` command (installed by the
 same wheel), so a study run here writes the bytes the command writes for the same study and
 seed. Results come back as pyarrow Tables (``.to_pandas()`` for pandas; DuckDB reads them
-directly), read from the Parquet files the run wrote. The columns and units are in the
+directly), handed over in memory through the Arrow C stream interface: a call without
+``out`` creates no file. The columns and units are in the
 README ("Outputs") and docs/model.md.
 
 A study (or a fit file) is given as a path (``str`` or ``os.PathLike``), as TOML text, or
@@ -34,7 +35,7 @@ the argument); ``threads`` out of range raises ValueError; a failure while runni
 worker processes), a result without its cycles table, which it reads again when asked for.
 
 Ctrl-C (KeyboardInterrupt) stops a run after the chunk it is writing; its completed parts
-stay in ``out`` and the same call resumes from them.
+stay in ``out`` and the same call resumes from them (a run without ``out`` keeps nothing).
 """
 
 from __future__ import annotations
@@ -352,9 +353,8 @@ class RunResult:
             then kept.
         study: the study as run (overrides applied).
         report_path: report.html in ``out``, or None (no ``out``, or no report written).
-        out: the output directory, or None when the run wrote to a temporary one.
-        files: the files written (under ``out``; in the removed temporary directory
-            otherwise).
+        out: the output directory, or None for a run held in memory (no file written).
+        files: the files written under ``out`` (none without it).
         reused: realisations kept from an earlier, interrupted or smaller run in ``out``.
         computed: realisations computed by this call.
 
@@ -403,8 +403,8 @@ def run(
     Args:
         study: a path, TOML text, a dict, or a :class:`Study` from :func:`load`.
         out: the output directory (created if missing; an interrupted or smaller run there
-            is resumed or extended). Without it the run writes to a temporary directory,
-            reads the tables into memory and removes it.
+            is resumed or extended). Without it nothing is written: the run is held in
+            memory and its tables cross to Python through the Arrow C stream interface.
         realisations: realisations per condition, overriding the study's: a whole number
             from 1 to 2^40 (out of range: :class:`StudyError` with ``key="realisations"``).
         seed: master seed, overriding the study's: a whole number from 0 to 2^63 − 1.
@@ -412,13 +412,15 @@ def run(
             every core; out of range: ValueError). Results do not depend on it.
         progress: True for a bar (tqdm) or a plain line, False for none, or a callable
             taking (done, total).
-        figures: draw the SVG figures into ``out/figures`` (default: when ``out`` is given).
+        figures: draw the SVG figures into ``out/figures`` (default: when ``out`` is given;
+            True without ``out`` is a ValueError).
         base: the directory the relative data paths of TOML text or a dict resolve against
             (default: the current directory; see :func:`load`).
 
     Raises:
         StudyError: the study cannot be run. RunError: a failure while running.
-        KeyboardInterrupt: Ctrl-C; the completed parts stay in ``out`` for the next call.
+        KeyboardInterrupt: Ctrl-C; the completed parts stay in ``out`` for the next call
+            (a run without ``out`` keeps nothing).
     """
     threads = _threads(threads)
     loaded = load(study, realisations=realisations, seed=seed, base=base)

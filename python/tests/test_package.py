@@ -163,7 +163,8 @@ INTERRUPTED = textwrap.dedent(
         os.kill(os.getpid(), signal.SIGINT)
     threading.Thread(target=ctrl_c, daemon=True).start()
     try:
-        chassis_mc.run(sys.argv[1], out=sys.argv[2], realisations=int(sys.argv[3]),
+        out = None if sys.argv[2] == "-" else sys.argv[2]  # "-": a run held in memory
+        chassis_mc.run(sys.argv[1], out=out, realisations=int(sys.argv[3]),
                        threads=1, progress=progress)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr, flush=True)
@@ -198,6 +199,24 @@ def test_ctrl_c_stops_a_run_and_running_it_again_gives_the_uninterrupted_bytes(t
     assert resumed.computed + resumed.reused == whole.computed
     for name in ["realisations.parquet", "summary.parquet", "cycles.parquet"]:
         assert (out / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
+
+
+def test_ctrl_c_stops_a_run_held_in_memory(tmp_path):
+    # Without out the run is held in memory: Ctrl-C stops it after the chunk in progress
+    # (well before its 11 conditions are done) with a KeyboardInterrupt, and nothing is
+    # written (the working directory stays empty).
+    realisations = 3000
+    child = subprocess.Popen(
+        [sys.executable, "-c", INTERRUPTED, str(THESIS), "-", str(realisations),
+         str(2 * realisations)],
+        stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+    )
+    rest = child.stderr.read()
+    assert child.wait(timeout=600) == 3, rest
+    assert "interrupted" in rest
+    shown = [int(line.split()[1]) for line in rest.splitlines() if line.startswith("progress")]
+    assert shown and max(shown) < 11 * realisations, shown[-3:]
+    assert list(tmp_path.iterdir()) == []
 
 
 FIT = ROOT / "studies" / "fit_example.toml"
