@@ -228,11 +228,21 @@ pub fn read_columns(
             ));
         }
     };
+    at_least(columns, min_rows)
+}
+
+/// `columns` when they have at least `min_rows` rows, else the error saying so.
+fn at_least(columns: Columns, min_rows: usize) -> Result<Columns, TabularError> {
     if columns.len() < min_rows {
-        return Err(fail(format!(
-            "has {} data rows; at least {min_rows} are needed",
-            columns.len()
-        )));
+        return Err(TabularError {
+            file: columns.file.clone(),
+            column: None,
+            place: None,
+            reason: format!(
+                "has {} data rows; at least {min_rows} are needed",
+                columns.len()
+            ),
+        });
     }
     Ok(columns)
 }
@@ -425,18 +435,7 @@ pub fn table_columns(
     let names: Vec<String> = schema.fields().iter().map(|f| f.name().clone()).collect();
     let index = positions(name, &names, wanted)?;
     let columns = numeric_columns(name, &index, wanted, batches.iter().cloned().map(Ok))?;
-    if columns.len() < min_rows {
-        return Err(TabularError {
-            file: name.to_path_buf(),
-            column: None,
-            place: None,
-            reason: format!(
-                "has {} data rows; at least {min_rows} are needed",
-                columns.len()
-            ),
-        });
-    }
-    Ok(columns)
+    at_least(columns, min_rows)
 }
 
 /// The columns `wanted`, at positions `index`, of a table's `batches`: numbers, each finite

@@ -571,7 +571,7 @@ class FitResult:
         systematic: systematic.parquet (the systematic-error budget), or None without a
             ``[systematic]`` table.
         text: the tables the command prints.
-        out: the output directory, or None for a temporary one.
+        out: the output directory, or None when nothing was written.
         files: the files written.
     """
 
@@ -700,7 +700,7 @@ def fit(
             pandas DataFrame or a pyarrow Table with the columns ``[log]`` names. An error
             in a table names it (``the DataFrame given as log``), its column and its row
             (1-based, with its position and index label).
-        out: the output directory; without it a temporary one, removed after.
+        out: the output directory; without it nothing is written.
         base: the directory a relative ``log.file`` of TOML text or a dict resolves against
             (default: the current directory; a fit file's resolves against its own).
     """
@@ -799,8 +799,9 @@ class ShardTask:
                             reporter.callback, reporter.notice, (self.index, self.count))
         finally:
             reporter.close()
-        return ShardResult(pathlib.Path(out) / f"shard={self.index}", self.index, self.count,
-                           ran.computed, ran.reused)
+        # the directory the shard wrote: that of its realisation file
+        directory = pathlib.Path(ran.files[0]).parent
+        return ShardResult(directory, self.index, self.count, ran.computed, ran.reused)
 
 
 def shards(
@@ -811,14 +812,15 @@ def shards(
     seed: Optional[int] = None,
     base: Optional[Base] = None,
 ) -> List[ShardTask]:
-    """Split a study into ``n`` picklable tasks (``realisations``, ``seed`` and ``base`` as
-    in :func:`load`), each run by ``task.run(out)`` on any worker (Dask, Ray,
+    """Split a study into ``n`` picklable tasks, 1 ≤ n ≤ its realisations per condition
+    (``realisations``, ``seed`` and ``base`` as in :func:`load`), each run by ``task.run(out)`` on any worker (Dask, Ray,
     ``multiprocessing``, a SLURM array); :func:`summarize` of their results gives the files
     of one local run of the study, byte for byte (README, "Python on a cluster")."""
-    count, reason = _whole("n", n, 1, 2**63 - 1)
-    if reason is not None:
-        raise ValueError(f"n {reason}")
     loaded = load(study, realisations=realisations, seed=seed, base=base)
+    # every shard holds at least one realisation of every condition
+    count, reason = _whole("n", n, 1, loaded.realisations)
+    if reason is not None:
+        raise ValueError(f"n {reason} (the study's realisations per condition)")
     return [ShardTask(loaded, k, count) for k in range(count)]
 
 

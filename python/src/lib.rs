@@ -419,6 +419,11 @@ fn run(
 ) -> PyResult<RunOutput> {
     let watch = Watch::default();
     let Some(out) = out else {
+        if shard.is_some() {
+            return Err(PyValueError::new_err(
+                "a shard is run into an output directory (out=): its rows are for summarize",
+            ));
+        }
         let ran = supervise(py, &watch, progress, notice, || {
             chassis_mc::run::run_in_memory(&study.0, threads, &watch)
         })?
@@ -453,17 +458,20 @@ fn run(
 /// The [`RunOutput`] of a run or summary into a directory: its summary rows as a table, and
 /// the realisation file's rows when the run kept them.
 fn summary_output(py: Python<'_>, report: chassis_mc::run::RunReport) -> PyResult<RunOutput> {
-    let summary = chassis_mc::output::summary_batch(&report.layout, &report.infos, &report.summary)
+    use chassis_mc::output::{footer_schema, realisation_schema, summary_batch, summary_schema};
+    let meta = &report.metadata;
+    let schema = footer_schema(summary_schema(&report.layout), meta, "summary");
+    let summary = summary_batch(&report.layout, &report.infos, &report.summary)
         .map_err(|e| run_error(py, e.to_string(), false))?;
     let realisations = match report.realisations {
         Some(batches) => {
-            let schema = chassis_mc::output::realisation_schema(&report.layout);
+            let schema = footer_schema(realisation_schema(&report.layout), meta, "realisations");
             Some(Py::new(py, ArrowTable::new(schema, batches))?)
         }
         None => None,
     };
     Ok(RunOutput {
-        summary: Py::new(py, ArrowTable::new(summary.schema(), vec![summary]))?,
+        summary: Py::new(py, ArrowTable::new(schema, vec![summary]))?,
         realisations,
         files: report.files,
         reused: report.reused,
@@ -669,30 +677,21 @@ fn simulate_log(
     realisation: u64,
     force: bool,
 ) -> PyResult<ArrowTable> {
-    use arrow::array::{ArrayRef, Float64Array};
-    use arrow::datatypes::{DataType, Field, Schema};
     let watch = Watch::default();
     let log = supervise(py, &watch, None, None, || {
+        if let Some(path) = path.as_deref().filter(|_| !force) {
+            // refused before the simulation, not after it
+            chassis_mc::fit::ensure_replaceable(path)?;
+        }
         let log = chassis_mc::fit::simulated_log(&study.0, realisation)?;
         if let Some(path) = &path {
-            chassis_mc::fit::write_log(&log, path, force)?;
+            chassis_mc::fit::write_log(&log, path, true)?;
         }
         Ok(log)
     })?
     .map_err(|e| from_fit_error(py, e))?;
-    let names = chassis_mc::fit::LOG_HEADER.split(',');
-    let schema = std::sync::Arc::new(Schema::new(
-        names
-            .map(|n| Field::new(n, DataType::Float64, false))
-            .collect::<Vec<_>>(),
-    ));
-    let columns: Vec<ArrayRef> = log
-        .into_iter()
-        .map(|c| std::sync::Arc::new(Float64Array::from(c)) as ArrayRef)
-        .collect();
-    let batch = arrow::record_batch::RecordBatch::try_new(schema.clone(), columns)
-        .map_err(|e| run_error(py, e.to_string(), false))?;
-    Ok(ArrowTable::new(schema, vec![batch]))
+    let batch = chassis_mc::fit::log_batch(log).map_err(|e| run_error(py, e.to_string(), false))?;
+    Ok(ArrowTable::new(batch.schema(), vec![batch]))
 }
 
 /// The `chassis-mc` command line with `argv` (the first is the program's name); returns its

@@ -84,18 +84,7 @@ impl Source {
     ) -> Result<FitSpec, StudyError> {
         match (&self.given, table) {
             (Given::Path(path), None) => FitSpec::load_with_log(path, log),
-            (Given::Path(path), Some(t)) => {
-                let text =
-                    chassis_mc::tabular::read_regular(path, chassis_mc::study::MAX_STUDY_BYTES)
-                        .and_then(|b| String::from_utf8(b).map_err(|_| "is not UTF-8 text".into()))
-                        .map_err(|reason| StudyError {
-                            file: self.origin.clone(),
-                            key: None,
-                            line: None,
-                            reason,
-                        })?;
-                FitSpec::parse_with_table(&text, &self.origin, &parent(path), t)
-            }
+            (Given::Path(path), Some(t)) => FitSpec::load_with_table(path, t),
             (Given::Text(text), Some(t)) => {
                 FitSpec::parse_with_table(text, &self.origin, &self.dir, t)
             }
@@ -136,14 +125,6 @@ impl Source {
             );
         }
         e
-    }
-}
-
-/// The directory of a file's relative paths: its own.
-fn parent(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
     }
 }
 

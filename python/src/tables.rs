@@ -35,20 +35,15 @@ impl ArrowTable {
 #[pymethods]
 impl ArrowTable {
     /// An Arrow C stream of the table's batches in a PyCapsule (the consumer takes it over;
-    /// a capsule never consumed releases it). `requested_schema` is not supported and must
-    /// be None.
+    /// a capsule never consumed releases it). A `requested_schema` is not followed: the
+    /// stream has the table's own schema, which the protocol allows (the consumer casts).
     #[pyo3(signature = (requested_schema=None))]
     fn __arrow_c_stream__<'py>(
         &self,
         py: Python<'py>,
         requested_schema: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyCapsule>> {
-        if requested_schema.is_some_and(|s| !s.is_none()) {
-            return Err(PyTypeError::new_err(
-                "a chassis_mc table is exported with its own schema (requested_schema must be \
-                 None)",
-            ));
-        }
+        let _ = requested_schema;
         let reader = RecordBatchIterator::new(
             self.batches.clone().into_iter().map(Ok),
             self.schema.clone(),

@@ -145,6 +145,8 @@ CHILD = textwrap.dedent(
             found[name] = (x.table, x.text)
         elif name == "task":
             found[name] = (x.study.to_toml(), x.index, x.count)
+        else:  # dataclasses of plain values and tables: equal to the original
+            found[name] = x
     sys.stdout.buffer.write(pickle.dumps(found))
     """
 )
@@ -160,8 +162,14 @@ def test_every_public_object_pickles_into_a_fresh_process(tmp_path):
     with pytest.raises(chassis_mc.RunError) as run_error:
         chassis_mc.run(study, out=tmp_path / "file", progress=False)
     task = chassis_mc.shards(study, 3)[1]
+    shard = task.run(tmp_path / "shards")
+    checked = chassis_mc.check(study)
+    designed = chassis_mc.design(
+        ROOT / "studies" / "design_thesis.toml", vary="drive.duration", from_=60, to=600,
+        target="drag_over_mass:rel_rmse<=0.001", estimator="bcls", realisations=50)
     objects = {"study": study, "run": run, "fit": fit, "study_error": study_error.value,
-               "run_error": run_error.value, "task": task}
+               "run_error": run_error.value, "task": task, "shard": shard,
+               "check": checked, "design": designed}
     done = subprocess.run([sys.executable, "-c", CHILD], input=pickle.dumps(objects),
                           capture_output=True, timeout=300)
     assert done.returncode == 0, done.stderr.decode()
@@ -179,6 +187,9 @@ def test_every_public_object_pickles_into_a_fresh_process(tmp_path):
                                getattr(e, "reason", None), getattr(e, "bad_input", None))
     assert found["study_error"][3] is not None  # the key at fault came across
     assert found["task"] == (study.to_toml(), 1, 3)
+    assert found["shard"] == shard and shard.computed == 11 * (13 - 6)
+    assert found["check"] == checked
+    assert found["design"] == designed and designed.points is not None
 
 
 def assert_same_files(a: pathlib.Path, b: pathlib.Path) -> None:
@@ -203,9 +214,9 @@ def test_shards_on_a_dask_cluster_summarize_to_the_bytes_of_one_run(tmp_path, wh
             distributed.Client(cluster) as client:
         futures = client.map(chassis_mc.ShardTask.run, tasks, out=str(shared))
         results = client.gather(futures)
-        # each shard ran in a worker process, not here
-        workers = {w for w in client.who_has(futures).values() for w in w}
-        assert len(workers) >= 1
+        # the workers are other processes: the shards ran there, not here
+        pids = set(client.run(os.getpid).values())
+        assert len(pids) == 2 and os.getpid() not in pids
     assert sorted(r.index for r in results) == [0, 1, 2, 3]
     assert sum(r.computed for r in results) == 11 * 101
     combined = chassis_mc.summarize(list(reversed(results)), tmp_path / "combined",
@@ -232,11 +243,17 @@ def test_shards_in_a_multiprocessing_pool_summarize_to_the_bytes_of_one_run(tmp_
     assert_same_files(tmp_path / "by_path", whole)
 
 
-def test_shards_refuses_a_count_that_is_not_a_whole_number():
-    with pytest.raises(ValueError, match="n must be a whole number"):
-        chassis_mc.shards(THESIS, 0)
+def test_shards_refuses_a_count_that_is_not_a_whole_number_or_leaves_a_shard_empty():
+    with pytest.raises(ValueError, match="n must be a whole number from 1 to 20"):
+        chassis_mc.shards(THESIS, 0, realisations=20)
+    # more shards than realisations would leave some without a row
+    with pytest.raises(ValueError, match="got 21"):
+        chassis_mc.shards(THESIS, 21, realisations=20)
+    assert len(chassis_mc.shards(THESIS, 20, realisations=20)) == 20
     with pytest.raises(TypeError):
         chassis_mc.shards(THESIS, 2.0)
+    with pytest.raises(ValueError, match="out="):
+        chassis_mc._core.run(chassis_mc.load(THESIS, realisations=2), None, shard=(0, 2))
 
 
 # The README's Python examples, each run as written in a fresh interpreter, in a directory

@@ -17,7 +17,9 @@ mod systematic;
 
 pub use crate::study::FitSpec;
 pub use outputs::{budget_batch, budget_table, format_value, rows_batch, table};
-pub use simulate_log::{LOG_HEADER, simulate_log, simulated_log, write_log};
+pub use simulate_log::{
+    LOG_HEADER, ensure_replaceable, log_batch, simulate_log, simulated_log, write_log,
+};
 pub use systematic::SystematicRow;
 
 use std::path::{Path, PathBuf};

@@ -3,6 +3,11 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{ArrayRef, Float64Array, RecordBatch};
+use arrow::datatypes::{DataType, Field, Schema};
+use arrow::error::ArrowError;
 
 use crate::estimate::channels::{Channel, Signal};
 use crate::model::Model;
@@ -140,6 +145,19 @@ pub fn simulated_log(study: &Study, r: u64) -> Result<[Vec<f64>; 5], FitError> {
     ])
 }
 
+/// The log of [`simulated_log`] as a table: the columns of [`LOG_HEADER`], float64.
+pub fn log_batch(log: [Vec<f64>; 5]) -> Result<RecordBatch, ArrowError> {
+    let fields: Vec<Field> = LOG_HEADER
+        .split(',')
+        .map(|name| Field::new(name, DataType::Float64, false))
+        .collect();
+    let columns: Vec<ArrayRef> = log
+        .into_iter()
+        .map(|c| Arc::new(Float64Array::from(c)) as ArrayRef)
+        .collect();
+    RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
+}
+
 /// The column of `signal` in the log after the time (the order of [`LOG_HEADER`]).
 fn signal_index(signal: Signal) -> usize {
     Signal::LOGGED
@@ -150,7 +168,7 @@ fn signal_index(signal: Signal) -> usize {
 
 /// Fail unless the file at `path` (if any) is a log the engine wrote: a user's file there
 /// (a real measured log) is never replaced without `force`.
-fn ensure_replaceable(path: &Path) -> Result<(), FitError> {
+pub fn ensure_replaceable(path: &Path) -> Result<(), FitError> {
     let Ok(meta) = std::fs::symlink_metadata(path) else {
         return Ok(());
     };

@@ -128,7 +128,7 @@ impl FileMetadata {
         m
     }
 
-    pub(crate) fn key_values(&self, table: &str) -> Vec<KeyValue> {
+    fn key_values(&self, table: &str) -> Vec<KeyValue> {
         let mut kv = vec![
             KeyValue::new(keys::TABLE.into(), table.to_string()),
             KeyValue::new(keys::STUDY.into(), self.study_toml.clone()),
@@ -174,6 +174,21 @@ fn properties(
         .set_created_by(format!("chassis-mc {}", env!("CARGO_PKG_VERSION")))
         .set_key_value_metadata(Some(meta.key_values(table)))
         .build()
+}
+
+/// `schema` with the key-value metadata a file of `table` written with `meta` carries in
+/// its footer (the study as run, its identity, seed and R): a table held in memory keeps
+/// the provenance its file would.
+pub fn footer_schema(schema: SchemaRef, meta: &FileMetadata, table: &str) -> SchemaRef {
+    let metadata: std::collections::HashMap<String, String> = meta
+        .key_values(table)
+        .into_iter()
+        .filter_map(|kv| kv.value.map(|v| (kv.key, v)))
+        .collect();
+    std::sync::Arc::new(arrow::datatypes::Schema::new_with_metadata(
+        schema.fields().clone(),
+        metadata,
+    ))
 }
 
 /// A Parquet file being written under a temporary name.

@@ -6,10 +6,9 @@
 //! is the executor a run uses), the same rows built from them, and the summary by the same
 //! two passes over the same records in the same order.
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 
-use arrow::datatypes::{Schema, SchemaRef};
+use arrow::datatypes::SchemaRef;
 use arrow::record_batch::RecordBatch;
 
 use super::realise::identity;
@@ -49,7 +48,7 @@ pub struct RunInMemory {
 }
 
 /// Slots an in-memory computation holds at once: 2^28 (2 GiB).
-const MAX_SLOTS: usize = 1 << 28;
+pub const MAX_SLOTS: usize = 1 << 28;
 
 /// Conditions an in-memory summary computes at once.
 const IN_MEMORY_BLOCK: usize = 256;
@@ -70,13 +69,9 @@ pub fn run_in_memory(
         let r = study.realisations();
         let total = r * infos.len() as u64;
         observer.planned(total, 0);
-        let block = block_size(
-            study,
-            &layout,
-            infos.len(),
-            "give an output directory (out=)",
-        )?;
-        let schema = with_footer(output::realisation_schema(&layout), &meta, "realisations");
+        let block = block_size(study, &layout, "split the run into shards")?;
+        let schema =
+            output::footer_schema(output::realisation_schema(&layout), &meta, "realisations");
         let mut batches = Vec::new();
         let mut rows = Vec::new();
         let all: Vec<usize> = (0..infos.len()).collect();
@@ -109,7 +104,8 @@ pub fn run_in_memory(
             summarise_block(&layout, &infos, conditions, r, &slots, &mut rows)?;
         }
         drop(model);
-        let summary_schema = with_footer(output::summary_schema(&layout), &meta, "summary");
+        let summary_schema =
+            output::footer_schema(output::summary_schema(&layout), &meta, "summary");
         let summary = rows
             .chunks(SUMMARY_GROUP_ROWS)
             .map(|group| {
@@ -147,7 +143,7 @@ pub fn extra_tables_in_memory(
         let meta = FileMetadata::of_study(study, identity(study, &*model, &infos));
         let mut tables = Vec::new();
         for (t, table) in model.extra_tables().iter().enumerate() {
-            let schema = with_footer(table.schema.clone(), &meta, table.table);
+            let schema = output::footer_schema(table.schema.clone(), &meta, table.table);
             let batches = (0..)
                 .map_while(|i| model.extra_batch(t, i))
                 .map(|b| {
@@ -165,24 +161,9 @@ pub fn extra_tables_in_memory(
     })
 }
 
-/// `schema` with the key-value metadata of a file of `table` written with `meta`.
-fn with_footer(schema: SchemaRef, meta: &FileMetadata, table: &str) -> SchemaRef {
-    let metadata: HashMap<String, String> = meta
-        .key_values(table)
-        .into_iter()
-        .filter_map(|kv| kv.value.map(|v| (kv.key, v)))
-        .collect();
-    std::sync::Arc::new(Schema::new_with_metadata(schema.fields().clone(), metadata))
-}
-
 /// Conditions held at once so that their slots stay within [`MAX_SLOTS`], or the study's
 /// error when one condition's do not fit (`instead` says what to do).
-fn block_size(
-    study: &Study,
-    layout: &Layout,
-    conditions: usize,
-    instead: &str,
-) -> Result<usize, RunError> {
+fn block_size(study: &Study, layout: &Layout, instead: &str) -> Result<usize, RunError> {
     let r = study.realisations();
     let per = usize::try_from(r)
         .ok()
@@ -192,7 +173,9 @@ fn block_size(
             RunError::Study(study.error_at(
                 "realisations",
                 format!(
-                    "{r} realisations of {conditions} conditions do not fit in memory; {instead}"
+                    "{r} realisations of one condition ({} numbers each) are more than the \
+                     {MAX_SLOTS} numbers held in memory at once; {instead}",
+                    layout.realisation_stride()
                 ),
             ))
         })?;
@@ -204,7 +187,7 @@ fn block_size(
 pub fn summarise_in_memory(study: &Study, model: &dyn Model) -> Result<Vec<SummaryRow>, RunError> {
     let layout = model.layout();
     let infos = model.infos();
-    let block = block_size(study, layout, infos.len(), "use fewer")?;
+    let block = block_size(study, layout, "use fewer")?;
     let mut out = Vec::new();
     // A block of conditions at a time: the slots held do not grow with the grid (each
     // realisation is a pure function of its seed, condition and index, so the blocks give

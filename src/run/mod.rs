@@ -166,6 +166,8 @@ pub struct RunReport {
     pub computed: u64,
     /// The rows of the realisation file written, with [`RunOptions::keep_realisations`].
     pub realisations: Option<Vec<RecordBatch>>,
+    /// What the footers of the files written say (the study as run, its identity).
+    pub metadata: FileMetadata,
 }
 
 /// Staging directory for parts, inside the directory of the realisation file.
@@ -309,6 +311,7 @@ fn run_prepared(
         reused,
         computed,
         realisations: kept.map(|k| std::mem::take(&mut *k.lock().expect("kept batches"))),
+        metadata: meta,
     })
 }
 

@@ -222,6 +222,7 @@ fn summarize_into(
         reused: 0,
         computed: 0,
         realisations: None,
+        metadata: meta,
     })
 }
 

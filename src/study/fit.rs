@@ -143,20 +143,15 @@ impl FitSpec {
     /// Read and check `path`, its log read from `log` when given (see
     /// [`FitSpec::parse_with_log`]).
     pub fn load_with_log(path: &Path, log: Option<&Path>) -> Result<FitSpec, StudyError> {
-        let origin = path.display().to_string();
-        let text = crate::tabular::read_regular(path, super::MAX_STUDY_BYTES)
-            .and_then(|b| String::from_utf8(b).map_err(|_| "is not UTF-8 text".to_string()))
-            .map_err(|reason| StudyError {
-                file: origin.clone(),
-                key: None,
-                line: None,
-                reason,
-            })?;
-        let dir = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
+        let (text, origin, dir) = read_fit_file(path)?;
         Self::parse_with_log(&text, &origin, &dir, log)
+    }
+
+    /// Read and check `path`, its log the table `log` held in memory (see
+    /// [`FitSpec::parse_with_table`]).
+    pub fn load_with_table(path: &Path, log: LogTable<'_>) -> Result<FitSpec, StudyError> {
+        let (text, origin, dir) = read_fit_file(path)?;
+        Self::parse_with_table(&text, &origin, &dir, log)
     }
 
     /// Check the fit file `text` read from `origin` in `dir`.
@@ -164,9 +159,8 @@ impl FitSpec {
         Self::parse_with_log(text, origin, dir, None)
     }
 
-    /// Check the fit file `text` read from `origin` in `dir`, its log read from `log` when
-    /// given instead of from `log.file` (which may then be left out): a log handed over as
-    /// a table (e.g. by the Python package) and written to a file.
+    /// Check the fit file `text` read from `origin` in `dir`, its log read from the file
+    /// `log` when given instead of from `log.file` (which may then be left out).
     pub fn parse_with_log(
         text: &str,
         origin: &str,
@@ -241,6 +235,24 @@ impl FitSpec {
             GradeSource::None => reg.without_grade(),
         }
     }
+}
+
+/// A fit file's text, the origin its errors name and its directory.
+fn read_fit_file(path: &Path) -> Result<(String, String, PathBuf), StudyError> {
+    let origin = path.display().to_string();
+    let text = crate::tabular::read_regular(path, super::MAX_STUDY_BYTES)
+        .and_then(|b| String::from_utf8(b).map_err(|_| "is not UTF-8 text".to_string()))
+        .map_err(|reason| StudyError {
+            file: origin.clone(),
+            key: None,
+            line: None,
+            reason,
+        })?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    Ok((text, origin, dir))
 }
 
 fn validate(
