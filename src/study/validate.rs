@@ -47,18 +47,7 @@ pub(super) fn serde_error(
     }
     match located {
         Some((key, key_line)) => {
-            // A key of another table (`min_speed` under [vehicle]): say where it belongs.
-            let (table, field) = key.rsplit_once('.').unwrap_or(("", &key));
-            let reason = match place(table, field, None) {
-                Some(place) if message.starts_with("unknown field") => {
-                    let table = match table {
-                        "" => "at the top level".to_string(),
-                        t => format!("in [{t}]"),
-                    };
-                    format!("unknown field `{field}` {table}: {place}")
-                }
-                _ => message,
-            };
+            let reason = reason_at(&key, message, place);
             StudyError {
                 file: origin.to_string(),
                 key: Some(key),
@@ -106,8 +95,15 @@ pub(super) fn value_error(
         };
         return fail(key, "required key is missing".into());
     }
-    let (table, field) = path.rsplit_once('.').unwrap_or(("", &path));
-    let reason = match place(table, field, None) {
+    let reason = reason_at(&path, message, place);
+    fail(path, reason)
+}
+
+/// The reason of serde's `message` about the dotted `key`: for an unknown key that `place`
+/// finds a home for (`min_speed` under [vehicle]), where it belongs; else the message.
+fn reason_at(key: &str, message: String, place: Placement) -> String {
+    let (table, field) = key.rsplit_once('.').unwrap_or(("", key));
+    match place(table, field, None) {
         Some(place) if message.starts_with("unknown field") => {
             let table = match table {
                 "" => "at the top level".to_string(),
@@ -116,8 +112,7 @@ pub(super) fn value_error(
             format!("unknown field `{field}` {table}: {place}")
         }
         _ => message,
-    };
-    fail(path, reason)
+    }
 }
 
 /// For a line that does not parse, the dotted key it seems to assign (`key = …` under the

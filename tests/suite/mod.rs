@@ -44,5 +44,6 @@ mod sensors;
 mod shards_resume;
 mod shared_noise;
 mod spread;
+mod study_values;
 mod terrain_metric;
 mod thesis_table3;
