@@ -1,7 +1,8 @@
 //! `wbcls`: weighted bias-compensated least squares (see docs/model.md#wbcls).
 //!
 //! BCLS, then the equation-error variance Ω̂ from that estimate, then BCLS with weights
-//! 1/Ω̂, twice. The rows are cut into consecutive segments of [`SEGMENT_S`]; a segment's
+//! 1/Ω̂, twice. The rows are cut into consecutive segments of [`SEGMENT_S`] (and at least
+//! [`MIN_SEGMENT_ROWS`] rows); a segment's
 //! weight takes the speed inside Ω̂ from the measured speed of its neighbouring segments
 //! (not its own), so each weight is independent of the noise of the rows it weights (for
 //! AR(1) speed noise the neighbours are taken three correlation times away, where the
@@ -29,6 +30,11 @@ use crate::numeric::simd::{Lanes4, Quad};
 
 /// Length of the segments that share one weight \[s\] (a segment holds at least one row).
 pub const SEGMENT_S: f64 = 0.5;
+
+/// The fewest rows of a segment (but the last): at the thesis's 100 Hz a 0.5 s segment
+/// holds 50, at a real log's 1 Hz one row would make a segment, its moments and its weight
+/// cost as much as the rest of the row's work together (docs/model.md#wbcls).
+pub const MIN_SEGMENT_ROWS: usize = 16;
 
 /// How many times the weights are recomputed from the latest estimate.
 pub const ITERATIONS: usize = 2;
@@ -223,8 +229,9 @@ fn row_variance(theta: &[f64; 3], k: f64, v2: f64, c2: f64, noise: &NoiseLevels)
     })
 }
 
-/// The weight segments of `wbcls`: consecutive row ranges of at least [`SEGMENT_S`] each
-/// (the last may be shorter; a range holds at least one row), and over each the noise-free
+/// The weight segments of `wbcls`: consecutive row ranges of at least [`SEGMENT_S`] and
+/// [`MIN_SEGMENT_ROWS`] rows each (the last may be shorter; a range holds at least one
+/// row), and over each the noise-free
 /// sums of the terms without w: those of x₁ and x₃ alone (Σx₁², Σx₁x₃, Σx₃², Σx₁, Σx₃), and
 /// Σx₁y, Σx₃y, Σy in four lanes as [`segment_moments`](super::moments::segment_sums::segment_moments) sums a segment (so a segment whose ỹ
 /// is y takes them to the same bits); the rest zero. Made once per regression
@@ -245,7 +252,7 @@ impl WeightSegments {
             let mut ranges = Vec::new();
             let mut start = 0;
             for i in 1..t.len() {
-                if t[i] - t[start] >= SEGMENT_S {
+                if t[i] - t[start] >= SEGMENT_S && i - start >= MIN_SEGMENT_ROWS {
                     ranges.push((start, i));
                     start = i;
                 }
