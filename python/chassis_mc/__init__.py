@@ -750,6 +750,5 @@ def simulate_log(
     return _table(_core.simulate_log(loaded, path, realisation, bool(force)))
 
 
-
 # Shards of a study for a cluster (Dask, Ray, multiprocessing), in their own module.
 from ._cluster import ShardResult, ShardTask, shards, summarize  # noqa: E402

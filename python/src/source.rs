@@ -146,11 +146,8 @@ fn value_at(root: toml::Table, key: &str) -> Option<toml::Value> {
 
 /// A dict's values as a TOML table; an error names the key whose value TOML cannot hold.
 pub(crate) fn table_of(py: Python<'_>, dict: &Bound<'_, PyDict>) -> PyResult<toml::Table> {
-    toml_table(dict, "").map_err(|reason| {
-        let (key, reason) = match reason.split_once(": ") {
-            Some((k, r)) if !k.is_empty() => (Some(k.to_string()), r.to_string()),
-            _ => (None, reason),
-        };
+    toml_table(dict, "").map_err(|(key, reason)| {
+        let key = (!key.is_empty()).then_some(key);
         study_error(
             py,
             &StudyError {
@@ -190,7 +187,11 @@ pub(crate) fn py_value<'py>(py: Python<'py>, value: &toml::Value) -> PyResult<Bo
 }
 
 /// A Python value as TOML, `key` naming where it is for an error.
-fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String> {
+/// Why a value cannot be a study's: the dotted key where it is (empty: the top level) and
+/// the reason.
+type ValueError = (String, String);
+
+fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, ValueError> {
     // bool before int: Python's bool is an int
     if let Ok(b) = value.cast::<PyBool>() {
         return Ok(toml::Value::Boolean(b.is_true()));
@@ -199,7 +200,12 @@ fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String
         return value
             .extract::<i64>()
             .map(toml::Value::Integer)
-            .map_err(|_| format!("{key}: integer out of the range of a 64-bit TOML integer"));
+            .map_err(|_| {
+                (
+                    key.to_string(),
+                    "integer out of the range of a 64-bit TOML integer".to_string(),
+                )
+            });
     }
     if value.is_instance_of::<PyFloat>() {
         return Ok(toml::Value::Float(value.extract::<f64>().expect("a float")));
@@ -212,8 +218,9 @@ fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String
     }
     if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
         let mut items = Vec::new();
-        for (i, item) in value.try_iter().map_err(|e| e.to_string())?.enumerate() {
-            let item = item.map_err(|e| e.to_string())?;
+        let failed = |e: PyErr| (key.to_string(), e.to_string());
+        for (i, item) in value.try_iter().map_err(failed)?.enumerate() {
+            let item = item.map_err(failed)?;
             items.push(toml_value(&item, &format!("{key}[{i}]"))?);
         }
         return Ok(toml::Value::Array(items));
@@ -234,16 +241,21 @@ fn toml_value(value: &Bound<'_, PyAny>, key: &str) -> Result<toml::Value, String
         .name()
         .map(|n| n.to_string())
         .unwrap_or_else(|_| "?".into());
-    Err(format!(
-        "{key}: a {type_name} is not a study value (give a bool, int, float, str, list or dict)"
+    Err((
+        key.to_string(),
+        format!("a {type_name} is not a study value (give a bool, int, float, str, list or dict)"),
     ))
 }
 
-fn toml_table(dict: &Bound<'_, PyDict>, prefix: &str) -> Result<toml::Table, String> {
+fn toml_table(dict: &Bound<'_, PyDict>, prefix: &str) -> Result<toml::Table, ValueError> {
     let mut table = toml::Table::new();
     for (k, v) in dict.iter() {
         let Ok(k) = k.extract::<String>() else {
-            return Err(format!("{prefix}: every key must be a str"));
+            let reason = match prefix {
+                "" => "every key must be a str".to_string(),
+                p => format!("every key of {p} must be a str"),
+            };
+            return Err((prefix.to_string(), reason));
         };
         let key = match prefix {
             "" => k.clone(),

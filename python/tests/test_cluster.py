@@ -82,8 +82,11 @@ def strace_works() -> bool:
     """Whether strace is here and may trace (a container can forbid ptrace)."""
     if shutil.which("strace") is None or not sys.platform.startswith("linux"):
         return False
-    probe = subprocess.run(["strace", "-f", "-qq", "-o", os.devnull, "true"],
-                           capture_output=True)
+    try:
+        probe = subprocess.run(["strace", "-f", "-qq", "-o", os.devnull, "true"],
+                               capture_output=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
     return probe.returncode == 0
 
 

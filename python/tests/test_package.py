@@ -123,6 +123,20 @@ def test_a_dict_with_a_bad_key_names_the_key_path():
     assert untyped.value.key == "vehicle.mass"
 
 
+def test_a_dict_key_that_is_not_a_str_is_named_by_where_it_is():
+    study = thesis_dict()
+    study[3] = 1.0
+    with pytest.raises(chassis_mc.StudyError) as top:
+        chassis_mc.load(study)
+    assert (top.value.key, top.value.reason) == (None, "every key must be a str")
+    study = thesis_dict()
+    study["vehicle"][5] = 1.0
+    with pytest.raises(chassis_mc.StudyError) as inner:
+        chassis_mc.load(study)
+    assert inner.value.key == "vehicle"
+    assert inner.value.reason == "every key of vehicle must be a str"
+
+
 def test_a_file_error_carries_its_line(tmp_path):
     text = THESIS.read_text().replace("seed = ", "seed = -", 1)
     path = tmp_path / "bad.toml"

@@ -28,7 +28,8 @@ use super::sums::{Column as Factor, Sum};
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad};
 
-/// Length of the segments that share one weight \[s\] (a segment holds at least one row).
+/// The least length of the segments that share one weight \[s\] (but the last; a segment
+/// holds at least one row).
 pub const SEGMENT_S: f64 = 0.5;
 
 /// The fewest rows of a segment (but the last): at the thesis's 100 Hz a 0.5 s segment
@@ -82,7 +83,8 @@ impl Estimator for Wbcls {
         let weight_segments = WeightSegments::of(r.regression);
         let segments = &weight_segments.ranges[..];
         let moments = &r.scan::<SegmentScan>().done[..];
-        let local = neighbour_means(moments, sd * sd, segments_left_out(r.noise));
+        let skip = segments_left_out(r.noise, weight_segments.shortest_s);
+        let local = neighbour_means(moments, sd * sd, skip);
         let derivative = derivative_variance(r, segments);
         for _ in 0..ITERATIONS {
             let weighting = Weighting {
@@ -162,16 +164,17 @@ impl Weighting<'_> {
 
 /// How many segments on each side of a segment are skipped before its neighbours, the
 /// most any channel needs: none for noise independent between rows,
-/// [`CORRELATION_TIMES_LEFT_OUT`] correlation times for noise correlated in time, and at
-/// least one for noise that enters neighbouring rows (a segment's edge rows read the
-/// neighbours' samples).
-fn segments_left_out(noise: &NoiseLevels) -> usize {
+/// [`CORRELATION_TIMES_LEFT_OUT`] correlation times for noise correlated in time (counted
+/// in segments of the shortest span `shortest_s`, so that the skipped ones span at least
+/// that), and at least one for noise that enters neighbouring rows (a segment's edge rows
+/// read the neighbours' samples).
+fn segments_left_out(noise: &NoiseLevels, shortest_s: f64) -> usize {
     Channel::ALL
         .iter()
         .map(|c| {
             let tau = c.correlation_time_s(noise);
             let correlated = if tau > 0.0 {
-                (CORRELATION_TIMES_LEFT_OUT * tau / SEGMENT_S).ceil() as usize
+                (CORRELATION_TIMES_LEFT_OUT * tau / shortest_s).ceil() as usize
             } else {
                 0
             };
@@ -242,6 +245,9 @@ pub(crate) struct WeightSegments {
     pub(crate) ranges: Vec<(usize, usize)>,
     /// The noise-free sums without w over each.
     pub(crate) sums: Vec<Moments>,
+    /// The shortest time from a segment's first row to the next segment's (at least
+    /// [`SEGMENT_S`]; [`SEGMENT_S`] with one segment) \[s\].
+    pub(crate) shortest_s: f64,
 }
 
 impl WeightSegments {
@@ -257,6 +263,12 @@ impl WeightSegments {
                     start = i;
                 }
             }
+            // the full segments' spans (each at least SEGMENT_S by the rule above)
+            let shortest_s = ranges
+                .iter()
+                .map(|&(a, b)| t[b] - t[a])
+                .reduce(f64::min)
+                .unwrap_or(SEGMENT_S);
             if !t.is_empty() {
                 ranges.push((start, t.len()));
             }
@@ -279,13 +291,17 @@ impl WeightSegments {
                     m
                 })
                 .collect();
-            WeightSegments { ranges, sums }
+            WeightSegments {
+                ranges,
+                sums,
+                shortest_s,
+            }
         })
     }
 }
 
-/// The moments of each weight segment of `wbcls` ([`SEGMENT_S`] long,
-/// [`WeightSegments`]), each taken by [`segment_moments`](super::moments::segment_sums::segment_moments) once the rows have reached
+/// The moments of each weight segment of `wbcls` (at least [`SEGMENT_S`] and
+/// [`MIN_SEGMENT_ROWS`] rows long, [`WeightSegments`]), each taken by [`segment_moments`](super::moments::segment_sums::segment_moments) once the rows have reached
 /// its end.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SegmentScan {
