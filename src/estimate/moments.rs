@@ -18,7 +18,7 @@ mod block;
 mod lane_sums;
 mod rows;
 pub mod segment_sums;
-pub use block::{Block, MeasuredBlock, RowsView, Wanted};
+pub use block::{Block, MeasuredBlock, RowsOut, RowsView, Wanted};
 pub use rows::Rows;
 
 /// The sums of w = V² without speed noise — Σw, ΣwF, Σwc, Σw², Σwy — block by block in
@@ -277,6 +277,48 @@ impl<'r> MomentAccumulator<'r> {
         draws: BlockNoise<'_>,
         derivative: Option<&[f64]>,
     ) {
+        self.add_general_into(start, len, draws, derivative, None);
+    }
+
+    /// Whether the blocks are measured on the general path with their rows kept: then
+    /// [`add_block_into`](Self::add_block_into) writes a block's rows where they are kept.
+    pub fn measures_rows(&self) -> bool {
+        !self.use_fast_path && self.keep_rows
+    }
+
+    /// [`add_block`](Self::add_block) on the general path with the rows kept
+    /// ([`measures_rows`](Self::measures_rows)), the block's measured rows written into
+    /// `out` rather than the block's own columns: whether its channels moved x̃₁ and
+    /// whether they moved x̃₃ and s̃ ([`MeasuredBlock::moved`]) are returned.
+    #[inline]
+    pub fn add_block_into(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+        out: RowsOut<'_>,
+    ) -> [bool; 2] {
+        assert!(
+            self.measures_rows(),
+            "rows written on the general path only"
+        );
+        self.add_general_into(start, len, draws, derivative, Some(out));
+        self.block
+            .as_ref()
+            .expect("the block just measured")
+            .moved()
+    }
+
+    /// The general path's block, its rows written into `out` when given.
+    fn add_general_into(
+        &mut self,
+        start: usize,
+        len: usize,
+        draws: BlockNoise<'_>,
+        derivative: Option<&[f64]>,
+        out: Option<RowsOut<'_>>,
+    ) {
         let block = self.block.get_or_insert_with(MeasuredBlock::new);
         let wanted = Wanted {
             regressors: !self.noise_free_f_c,
@@ -291,17 +333,8 @@ impl<'r> MomentAccumulator<'r> {
             draws,
             derivative,
         };
-        let m = block.measure_and_sum(b, wanted);
+        let m = block.measure_and_sum(b, wanted, out);
         self.general.add(&m);
-    }
-
-    /// The rows of the block last added on the general path (`None` on the fast path, and
-    /// where the rows are not kept), for the estimators that read rows: the same values the
-    /// sums were taken of.
-    pub fn measured(&self) -> Option<&MeasuredBlock> {
-        self.block
-            .as_deref()
-            .filter(|_| !self.use_fast_path && self.keep_rows)
     }
 
     /// The realisation's moments.

@@ -24,7 +24,7 @@ pub struct Gust {
 
 impl Gust {
     /// A stationary AR(1) series of the gust at `times_s` from the next normals of `normals`.
-    fn series(&self, normals: &mut NormalSequence, times_s: &[f64]) -> WindSeries {
+    fn series(&self, normals: &mut NormalSequence, times_s: &Arc<[f64]>) -> WindSeries {
         let mut w = vec![0.0; times_s.len()];
         normals.fill(&mut w);
         let mut previous = 0.0;
@@ -38,10 +38,7 @@ impl Gust {
             };
             previous = *z;
         }
-        WindSeries {
-            times_s: times_s.to_vec(),
-            wind_m_s: w,
-        }
+        WindSeries::new(times_s.clone(), w)
     }
 }
 
@@ -56,7 +53,7 @@ impl ModelError for Gust {
     fn realise(
         &self,
         normals: &mut NormalSequence,
-        run_times_s: &[Vec<f64>],
+        run_times_s: &[Arc<[f64]>],
     ) -> Arc<dyn ModelError> {
         // Each run's series from the next normals of the stream: the runs' gusts are
         // independent, each starting stationary.
@@ -72,13 +69,42 @@ impl ModelError for Gust {
 /// beyond the ends.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WindSeries {
-    /// Times from the cycle's start \[s\], increasing.
-    pub times_s: Vec<f64>,
+    /// Times from the cycle's start \[s\], increasing (shared by every realisation's
+    /// series of a run).
+    times_s: Arc<[f64]>,
     /// The wind at each \[m/s\], positive a headwind.
-    pub wind_m_s: Vec<f64>,
+    wind_m_s: Vec<f64>,
+    /// (n − 1) / (tₙ₋₁ − t₀), which turns a time into the guess of its index for evenly
+    /// spaced times ([`WindSeries::first_after`]).
+    per_step: f64,
 }
 
 impl WindSeries {
+    /// The wind `wind_m_s` \[m/s\] at the increasing times `times_s` \[s\] (as many).
+    pub fn new(times_s: Arc<[f64]>, wind_m_s: Vec<f64>) -> WindSeries {
+        assert_eq!(times_s.len(), wind_m_s.len(), "a wind at each time");
+        let n = times_s.len();
+        let per_step = match n {
+            0 | 1 => 0.0,
+            _ => (n - 1) as f64 / (times_s[n - 1] - times_s[0]),
+        };
+        WindSeries {
+            times_s,
+            wind_m_s,
+            per_step,
+        }
+    }
+
+    /// The times \[s\].
+    pub fn times_s(&self) -> &[f64] {
+        &self.times_s
+    }
+
+    /// The wind at each time \[m/s\].
+    pub fn wind_m_s(&self) -> &[f64] {
+        &self.wind_m_s
+    }
+
     /// The wind \[m/s\] at time `t_s` from the cycle's start: exactly the sample's value at
     /// a sample time.
     pub fn at(&self, t_s: f64) -> f64 {
@@ -105,9 +131,9 @@ impl WindSeries {
         if n < 2 || t_s.is_nan() {
             return t.partition_point(|&x| x <= t_s);
         }
-        let step = (t[n - 1] - t[0]) / (n - 1) as f64;
-        // Truncated, not floored (the same for a guess ≥ 0; a guess only starts the search).
-        let guess = (t_s - t[0]) / step;
+        // Truncated, not floored (the same for a guess ≥ 0; a guess only starts the search,
+        // so its rounding moves no index).
+        let guess = (t_s - t[0]) * self.per_step;
         let mut j = if guess.is_finite() && guess >= 0.0 {
             (guess as usize).saturating_add(1).min(n)
         } else {
@@ -156,7 +182,7 @@ impl ModelError for ForceScaleDrawn {
     fn realise(
         &self,
         normals: &mut NormalSequence,
-        _run_times_s: &[Vec<f64>],
+        _run_times_s: &[Arc<[f64]>],
     ) -> Arc<dyn ModelError> {
         let mut z = [0.0];
         normals.fill(&mut z);
@@ -232,8 +258,8 @@ mod tests {
             sd_m_s: 1.5,
             time_s: 1e6,
         };
-        let times: Vec<f64> = (0..50).map(|i| i as f64 * 0.1).collect();
-        let realised = |runs: &[Vec<f64>]| {
+        let times: Arc<[f64]> = (0..50).map(|i| i as f64 * 0.1).collect();
+        let realised = |runs: &[Arc<[f64]>]| {
             let mut normals = NormalSequence::for_realisation(3, 1, crate::noise::Stream::Gusts, 9);
             gust.realise(&mut normals, runs)
         };
@@ -275,10 +301,7 @@ mod tests {
         let even: Vec<f64> = (0..1001).map(|i| i as f64 * 0.01).collect();
         let uneven: Vec<f64> = (0..300).map(|i| (i as f64).powf(1.3) * 0.1).collect();
         for times in [even, uneven] {
-            let series = WindSeries {
-                wind_m_s: vec![0.0; times.len()],
-                times_s: times.clone(),
-            };
+            let series = WindSeries::new(times.clone().into(), vec![0.0; times.len()]);
             let last = *times.last().unwrap();
             let mut probes: Vec<f64> = times.clone();
             probes.extend(times.windows(2).map(|w| 0.5 * (w[0] + w[1])));

@@ -140,7 +140,7 @@ pub trait ModelError: Send + Sync + fmt::Debug {
     fn realise(
         &self,
         _normals: &mut NormalSequence,
-        _run_times_s: &[Vec<f64>],
+        _run_times_s: &[Arc<[f64]>],
     ) -> Arc<dyn ModelError> {
         unreachable!("only a drawn model error is realised")
     }
@@ -263,7 +263,7 @@ impl Truth {
     /// The truth of realisation `r`: each drawn entry realised from its own stream of
     /// (`seed`, `key`, its stream, `r`) for a cycle sampled at `times_s` (from 0); the
     /// steady entries as they are.
-    pub fn realise(&self, seed: u64, key: u64, r: u64, run_times_s: &[Vec<f64>]) -> Truth {
+    pub fn realise(&self, seed: u64, key: u64, r: u64, run_times_s: &[Arc<[f64]>]) -> Truth {
         Truth {
             entries: self
                 .entries

@@ -43,6 +43,8 @@ pub struct MeasuredBlock {
     len: usize,
     force_moved: bool,
     grade_moved: bool,
+    /// Whether the last pass wrote its rows into a [`RowsOut`] rather than these columns.
+    rows_elsewhere: bool,
     f: [f64; BLOCK],
     w: [f64; BLOCK],
     c: [f64; BLOCK],
@@ -58,6 +60,7 @@ impl MeasuredBlock {
             len: 0,
             force_moved: false,
             grade_moved: false,
+            rows_elsewhere: false,
             f: [0.0; BLOCK],
             w: [0.0; BLOCK],
             c: [0.0; BLOCK],
@@ -83,8 +86,18 @@ impl MeasuredBlock {
         self.measure_one_pass(avx2, b);
     }
 
+    /// Whether the last pass's channels moved x̃₁ and whether they moved x̃₃ and s̃ (where
+    /// they did not, the block's rows take the regression's).
+    pub fn moved(&self) -> [bool; 2] {
+        [self.force_moved, self.grade_moved]
+    }
+
     /// The block's rows on `reg` (the regression it was measured on).
     pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
+        assert!(
+            !self.rows_elsewhere,
+            "the block's rows were written into the kept rows"
+        );
         let (len, range) = (self.len, self.start..self.start + self.len);
         let f = self.force_moved.then(|| &self.f[..len]);
         let (c, s) = match self.grade_moved {
@@ -145,4 +158,22 @@ pub struct Wanted {
     /// The measured rows, for [`MeasuredBlock::view`]: without, the vectorised pass writes
     /// no columns and the block's rows are not to be read.
     pub rows: bool,
+}
+
+/// Where a pass of the general path writes its measured rows instead of the block's own
+/// columns: the kept rows' columns at the block's place ([`Rows`](super::rows::Rows)), so
+/// that they are not copied there afterwards. A column given as `None` (one the rows take
+/// from the regression) is written into the block's own, as without.
+#[derive(Debug)]
+pub struct RowsOut<'a> {
+    /// x̃₁ = F̃ \[N\].
+    pub f: Option<&'a mut [f64]>,
+    /// w = Ṽ² \[m²/s²\].
+    pub w: &'a mut [f64],
+    /// x̃₃ = −g cos θ̃ \[m/s²\].
+    pub c: Option<&'a mut [f64]>,
+    /// s̃ = g sin θ̃ \[m/s²\].
+    pub s: Option<&'a mut [f64]>,
+    /// ỹ \[m/s²\].
+    pub y: &'a mut [f64],
 }

@@ -1,7 +1,7 @@
 //! The measured rows of one realisation, kept for the estimators that read rows ([`Rows`]):
 //! the columns the noise moves, block by block, the regression's standing in for the rest.
 
-use super::block::{Block, MeasuredBlock, OUTPUT, RowsView};
+use super::block::{Block, MeasuredBlock, OUTPUT, RowsOut, RowsView};
 use super::lane_sums::ZEROS;
 use crate::estimate::channels::{BlockNoise, Channel, NoiseLevels, measured_speed};
 use crate::estimate::regression::Regression;
@@ -22,7 +22,8 @@ pub struct Rows {
     /// The length of the room for w handed out by [`Rows::w_room`] and not yet taken by
     /// [`Rows::push_block`].
     w_ahead: Option<usize>,
-    /// x̃₁ = F̃ \[N\] (`None`: noise-free).
+    /// x̃₁ = F̃ \[N\] (`None`: noise-free). Like w, each copied column is as long as the
+    /// regression and holds the first `len` rows.
     f: Option<Vec<f64>>,
     /// x̃₃ = −g cos θ̃ \[m/s²\] (`None`: noise-free).
     c: Option<Vec<f64>>,
@@ -53,9 +54,8 @@ impl Rows {
         self.fast = (!general).then(|| noise.speed_channel());
         let column = |v: &mut Option<Vec<f64>>, copied: bool| {
             if copied {
-                let v = v.get_or_insert_with(Vec::new);
-                v.clear();
-                v.reserve(n);
+                // The values from an earlier realisation are written over before read.
+                v.get_or_insert_with(Vec::new).resize(n, 0.0);
             } else if let Some(v) = v {
                 // Keep the memory for a later condition that copies it.
                 v.clear();
@@ -79,7 +79,7 @@ impl Rows {
     /// left one untouched.
     pub fn view<'a>(&'a self, reg: &'a Regression) -> RowsView<'a> {
         let pick = |own: &'a Option<Vec<f64>>, copied: bool, theirs: &'a [f64]| match own {
-            Some(v) if copied => v.as_slice(),
+            Some(v) if copied => &v[..self.len],
             _ => theirs,
         };
         RowsView {
@@ -139,22 +139,24 @@ impl Rows {
                     *w = vt * vt;
                 }
             }
-            self.len += len;
             if let (Some(y), true) = (&mut self.y, self.copies[2]) {
-                let from = y.len();
+                let y = &mut y[self.len..self.len + len];
                 match draws[OUTPUT] {
                     Some(eta) => {
                         let sd_y = levels[OUTPUT];
-                        y.extend(reg.y[range].iter().zip(eta).map(|(y, eta)| y + sd_y * eta));
+                        for ((y, noise_free), eta) in y.iter_mut().zip(&reg.y[range]).zip(eta) {
+                            *y = noise_free + sd_y * eta;
+                        }
                     }
-                    None => y.extend_from_slice(&reg.y[range]),
+                    None => y.copy_from_slice(&reg.y[range]),
                 }
                 if let Some(d) = derivative {
-                    for (y, d) in y[from..].iter_mut().zip(d) {
+                    for (y, d) in y.iter_mut().zip(d) {
                         *y += d;
                     }
                 }
             }
+            self.len += len;
             return;
         }
         let mut block = MeasuredBlock::new();
@@ -173,9 +175,8 @@ impl Rows {
     /// moves; the regression's stand in for the others).
     pub fn push_measured(&mut self, reg: &Regression, block: &MeasuredBlock) {
         let rows = block.view(reg);
-        let len = rows.w.len();
-        self.w[self.len..self.len + len].copy_from_slice(rows.w);
-        self.len += len;
+        let range = self.len..self.len + rows.w.len();
+        self.w[range.clone()].copy_from_slice(rows.w);
         for (own, copied, theirs) in [
             (&mut self.f, self.copies[0], rows.f),
             (&mut self.c, self.copies[1], rows.c),
@@ -183,8 +184,47 @@ impl Rows {
             (&mut self.s, self.copies[3], rows.s),
         ] {
             if let (Some(own), true) = (own, copied) {
-                own.extend_from_slice(theirs);
+                own[range.clone()].copy_from_slice(theirs);
             }
         }
+        self.len = range.end;
+    }
+
+    /// On the general path, the room for the next block's `len` rows in these columns, for
+    /// the pass to write them there ([`MomentAccumulator::add_block_into`]); the block is
+    /// then taken by [`take_room`](Self::take_room).
+    ///
+    /// [`MomentAccumulator::add_block_into`]: super::MomentAccumulator::add_block_into
+    pub fn room(&mut self, len: usize) -> RowsOut<'_> {
+        assert!(self.fast.is_none(), "the general path's room");
+        let range = self.len..self.len + len;
+        let [f, c, y, s] = [&mut self.f, &mut self.c, &mut self.y, &mut self.s];
+        let [copy_f, copy_c, copy_y, copy_s] = self.copies;
+        fn room(
+            v: &mut Option<Vec<f64>>,
+            copied: bool,
+            range: std::ops::Range<usize>,
+        ) -> Option<&mut [f64]> {
+            v.as_mut().filter(|_| copied).map(|v| &mut v[range])
+        }
+        RowsOut {
+            f: room(f, copy_f, range.clone()),
+            w: &mut self.w[range.clone()],
+            c: room(c, copy_c, range.clone()),
+            s: room(s, copy_s, range.clone()),
+            y: room(y, copy_y, range).expect("the general path copies ỹ"),
+        }
+    }
+
+    /// Take the `len` rows written into [`room`](Self::room), whose channels moved x̃₁ and
+    /// x̃₃ as `moved` says: the columns these rows copy are exactly those.
+    pub fn take_room(&mut self, len: usize, moved: [bool; 2]) {
+        let [force, grade] = moved;
+        assert_eq!(
+            [force, grade, grade],
+            [self.copies[0], self.copies[1], self.copies[3]],
+            "the rows copy the columns the block's channels move"
+        );
+        self.len += len;
     }
 }

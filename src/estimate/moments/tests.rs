@@ -305,22 +305,48 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
                         grade,
                         rows,
                     };
-                    let kept = block.measure_and_sum(b, wanted(true));
+                    let kept = block.measure_and_sum(b, wanted(true), None);
                     // The rows kept are the measured rows.
                     let what = format!("{noise:?} kept rows {start}+{len}");
                     assert_same_rows(blocks[0].view(&reg), block.view(&reg), &what);
+                    // Written where the rows are kept instead: the same rows and sums.
+                    let [mut f, mut w, mut c, mut s, mut y] = [(); 5].map(|_| vec![0.0; len]);
+                    let out = RowsOut {
+                        f: Some(&mut f),
+                        w: &mut w,
+                        c: Some(&mut c),
+                        s: Some(&mut s),
+                        y: &mut y,
+                    };
+                    let elsewhere = block.measure_and_sum(b, wanted(true), Some(out));
+                    let [force, grade] = block.moved();
+                    let range = start..start + len;
+                    let written = RowsView {
+                        f: if force { &f } else { &reg.f[range.clone()] },
+                        w: &w,
+                        c: if grade { &c } else { &reg.c[range.clone()] },
+                        y: &y,
+                        s: if grade { &s } else { &reg.g_sin[range] },
+                        noise_free_f_c: !force && !grade,
+                        noise_free_y: false,
+                    };
+                    let what = format!("{noise:?} rows written elsewhere {start}+{len}");
+                    assert_same_rows(blocks[0].view(&reg), written, &what);
                     let mut got = vec![
                         kept,
-                        block.measure_and_sum(b, wanted(false)),
-                        block.measure_and_sum_in(Quad, b, wanted(true)),
-                        block.measure_and_sum_in(Quad, b, wanted(false)),
+                        elsewhere,
+                        block.measure_and_sum(b, wanted(false), None),
+                        block.measure_and_sum_in(Quad, b, wanted(true), None),
+                        block.measure_and_sum_in(Quad, b, wanted(false), None),
                     ];
                     // The AVX2 build too where the dispatch takes the AVX-512VL one.
                     #[cfg(target_arch = "x86_64")]
                     if let Some(avx2) = Avx2::detect() {
                         for rows in [true, false] {
                             // SAFETY: the token proves the CPU has AVX2.
-                            got.push(unsafe { block.measure_and_sum_avx2(avx2, b, wanted(rows)) });
+                            got.push(unsafe {
+                                block.measure_and_sum_avx2(avx2, b, wanted(rows), None)
+                            });
                         }
                     }
                     let bits = |m: &Moments| {

@@ -188,17 +188,25 @@ impl VehicleModel {
             let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
             // On the fast path with the rows kept, the sums write w into the rows as they
             // take it (one computation of it for both).
+            // On the general path the pass writes the rows where they are kept.
             match &mut rows {
-                Some((rows, _)) if acc.writes_w() => {
-                    acc.add_block_writing_w(start, len, draws, derivative, rows.w_room(len));
+                Some((rows, _)) if acc.measures_rows() => {
+                    let moved = acc.add_block_into(start, len, draws, derivative, rows.room(len));
+                    rows.take_room(len, moved);
                 }
-                _ => acc.add_block(start, len, draws, derivative),
+                Some((rows, _)) => {
+                    match acc.writes_w() {
+                        true => {
+                            let w = rows.w_room(len);
+                            acc.add_block_writing_w(start, len, draws, derivative, w);
+                        }
+                        false => acc.add_block(start, len, draws, derivative),
+                    }
+                    rows.push_block(reg, &noise, start, len, draws, derivative);
+                }
+                None => acc.add_block(start, len, draws, derivative),
             }
             if let Some((rows, scans)) = &mut rows {
-                match acc.measured() {
-                    Some(block) => rows.push_measured(reg, block),
-                    None => rows.push_block(reg, &noise, start, len, draws, derivative),
-                }
                 // The sums the estimators read over the rows, while the block is in cache.
                 scans.advance(rows.view(reg), start + len);
             }

@@ -25,7 +25,7 @@ use crate::terrain::GradeTable;
 /// on its time step, over twice its calm length (its samples, then as many again), since
 /// gusts may lengthen a run; beyond that a gust series holds its last value
 /// (docs/model.md#coastdown).
-fn run_times(cycle: &DriveCycle, start: f64) -> Vec<Vec<f64>> {
+fn run_times(cycle: &DriveCycle, start: f64) -> Vec<Arc<[f64]>> {
     if cycle.runs() <= 1 {
         return vec![cycle.t_s.iter().map(|t| t - start).collect()];
     }
@@ -50,7 +50,7 @@ pub(super) struct World {
     /// The condition's noise-free cycle (the steady entries only), and per run the times
     /// the drawn entries are realised at ([`run_times`]).
     cycle: Arc<DriveCycle>,
-    run_times_s: Vec<Vec<f64>>,
+    run_times_s: Vec<Arc<[f64]>>,
     /// Its grade table, when the study has a terrain profile.
     table: Option<Arc<GradeTable>>,
     /// Its terrain scale.
@@ -188,8 +188,10 @@ impl World {
                 let used = used_samples(&self.cycle, vs, self.prefix, self.source);
                 MapRows::new(&self.cycle, &used)
             });
-            let d = map.differences(&mut Self::map_normals(seed, key, r), rows.end_m);
-            let (sin, cos) = rows.sin_cos(&d);
+            let (sin, cos) =
+                map.differences(&mut Self::map_normals(seed, key, r), rows.end_m, |d| {
+                    rows.sin_cos(d)
+                });
             return Ok((read_grade(vs, condition.with_grade(sin, cos)), None));
         }
         let nominal = &*self.cycle;
@@ -245,20 +247,21 @@ impl World {
         if let Some(map) = &self.grade_map {
             // The map reaches as far as the rows the regression uses.
             let rows = MapRows::new(&cycle, &used);
-            let d = map.differences(&mut Self::map_normals(seed, key, r), rows.end_m);
-            if self.grade_by_tangent() {
-                mapped = Some(rows.sin_cos(&d));
-            } else {
-                for i in 0..cycle.len() {
-                    let t = mapped_tangent(
-                        cycle.grade_rad[i].tan(),
-                        cycle.x_m[i],
-                        cycle.heading(i),
-                        &d,
-                    );
-                    cycle.grade_rad[i] = t.atan();
+            map.differences(&mut Self::map_normals(seed, key, r), rows.end_m, |d| {
+                if self.grade_by_tangent() {
+                    mapped = Some(rows.sin_cos(d));
+                } else {
+                    for i in 0..cycle.len() {
+                        let t = mapped_tangent(
+                            cycle.grade_rad[i].tan(),
+                            cycle.x_m[i],
+                            cycle.heading(i),
+                            d,
+                        );
+                        cycle.grade_rad[i] = t.atan();
+                    }
                 }
-            }
+            });
         }
         Ok((
             match self.source {
@@ -267,14 +270,14 @@ impl World {
                 }
                 Acceleration::Model if mapped.is_some() => {
                     let (sin, cos) = mapped.expect("the map's grade");
-                    let selected = cycle.select(&used);
+                    let selected = cycle.into_selected(&used);
                     read_grade(
                         vs,
                         Regression::with_sin_cos(&selected, sin, cos, &vs.vehicle),
                     )
                 }
                 Acceleration::Model => {
-                    let mut selected = cycle.select(&used);
+                    let mut selected = cycle.into_selected(&used);
                     if self.grade_bias_rad != 0.0 {
                         selected
                             .grade_rad

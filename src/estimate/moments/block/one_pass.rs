@@ -7,7 +7,7 @@
 //! `numeric::simd`: four samples at a time in the portable lanes or in an AVX2 register, the
 //! samples after the last group one at a time.
 
-use super::{Block, MeasuredBlock, Wanted};
+use super::{Block, MeasuredBlock, RowsOut, Wanted};
 use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
 use crate::estimate::sums::Column;
 use crate::estimate::sums::{GradeSums, Moments};
@@ -257,7 +257,7 @@ impl MeasuredBlock {
     /// [`measure`](Self::measure) in one pass over the samples in the lanes of `l`.
     #[inline(always)]
     pub(in crate::estimate::moments) fn measure_one_pass<L: Lanes4>(&mut self, l: L, b: Block<'_>) {
-        self.pass::<L, false, false, false>(l, b, true);
+        self.pass::<L, false, false, false>(l, b, true, None);
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
@@ -265,19 +265,25 @@ impl MeasuredBlock {
     /// `wanted` says which sums besides those of w and ỹ, and whether the rows are kept.
     /// The sums are added in the pass, in the lanes the samples are measured in (on x86-64
     /// one AVX2 register, with AVX-512VL where the CPU has it: the same operations, more
-    /// registers).
-    pub fn measure_and_sum(&mut self, b: Block<'_>, wanted: Wanted) -> Moments {
+    /// registers). With `out`, the rows are written there instead of into the block's own
+    /// columns (`wanted.rows` must be set).
+    pub fn measure_and_sum(
+        &mut self,
+        b: Block<'_>,
+        wanted: Wanted,
+        out: Option<RowsOut<'_>>,
+    ) -> Moments {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = Avx2::detect() {
             // SAFETY: the token proves AVX2; the CPU has AVX-512F and VL where asked.
             return unsafe {
                 match crate::numeric::simd::avx512vl() {
-                    true => self.measure_and_sum_avx512(avx2, b, wanted),
-                    false => self.measure_and_sum_avx2(avx2, b, wanted),
+                    true => self.measure_and_sum_avx512(avx2, b, wanted, out),
+                    false => self.measure_and_sum_avx2(avx2, b, wanted, out),
                 }
             };
         }
-        self.measure_and_sum_in(Quad, b, wanted)
+        self.measure_and_sum_in(Quad, b, wanted, out)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -287,8 +293,9 @@ impl MeasuredBlock {
         avx2: Avx2,
         b: Block<'_>,
         wanted: Wanted,
+        out: Option<RowsOut<'_>>,
     ) -> Moments {
-        self.measure_and_sum_in(avx2, b, wanted)
+        self.measure_and_sum_in(avx2, b, wanted, out)
     }
 
     /// The AVX2 pass compiled with AVX-512VL as well: the same 256-bit operations (no FMA:
@@ -296,8 +303,14 @@ impl MeasuredBlock {
     /// seventeen lane sums and the constants of the pass (fewer of them on the stack).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    fn measure_and_sum_avx512(&mut self, avx2: Avx2, b: Block<'_>, wanted: Wanted) -> Moments {
-        self.measure_and_sum_in(avx2, b, wanted)
+    fn measure_and_sum_avx512(
+        &mut self,
+        avx2: Avx2,
+        b: Block<'_>,
+        wanted: Wanted,
+        out: Option<RowsOut<'_>>,
+    ) -> Moments {
+        self.measure_and_sum_in(avx2, b, wanted, out)
     }
 
     /// [`measure_and_sum`](Self::measure_and_sum) in the lanes of `l`.
@@ -307,13 +320,15 @@ impl MeasuredBlock {
         l: L,
         b: Block<'_>,
         wanted: Wanted,
+        out: Option<RowsOut<'_>>,
     ) -> Moments {
         let rows = wanted.rows;
+        assert!(rows || out.is_none(), "rows written elsewhere are wanted");
         let lanes = match (wanted.regressors, wanted.grade) {
-            (true, true) => self.pass::<L, true, true, true>(l, b, rows),
-            (true, false) => self.pass::<L, true, true, false>(l, b, rows),
-            (false, true) => self.pass::<L, true, false, true>(l, b, rows),
-            (false, false) => self.pass::<L, true, false, false>(l, b, rows),
+            (true, true) => self.pass::<L, true, true, true>(l, b, rows, out),
+            (true, false) => self.pass::<L, true, true, false>(l, b, rows, out),
+            (false, true) => self.pass::<L, true, false, true>(l, b, rows, out),
+            (false, false) => self.pass::<L, true, false, false>(l, b, rows, out),
         };
         moments(&lanes, b.len, wanted.regressors, wanted.grade)
     }
@@ -330,21 +345,23 @@ impl MeasuredBlock {
         l: L,
         b: Block<'_>,
         rows: bool,
+        out: Option<RowsOut<'_>>,
     ) -> LaneSums {
         let x = Flat::new(b);
         (self.start, self.len) = (b.start, b.len);
         self.grade_moved = x.moves(Column::C);
         self.force_moved = x.moves(Column::F);
+        self.rows_elsewhere = out.is_some();
         if !(SUMS && REGRESSORS) {
-            return self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows);
+            return self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows, out);
         }
         macro_rules! by_channels {
             ($($i:literal)*) => {
                 match x.channels() {
                     $(ch if ch == PASSES[$i] => {
-                        self.groups::<L, SUMS, REGRESSORS, GRADE, { PASSES[$i] }>(l, &x, rows)
+                        self.groups::<L, SUMS, REGRESSORS, GRADE, { PASSES[$i] }>(l, &x, rows, out)
                     })*
-                    _ => self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows),
+                    _ => self.groups::<L, SUMS, REGRESSORS, GRADE, RUNTIME>(l, &x, rows, out),
                 }
             };
         }
@@ -367,17 +384,34 @@ impl MeasuredBlock {
         l: L,
         x: &Flat,
         rows: bool,
+        out: Option<RowsOut<'_>>,
     ) -> LaneSums {
         assert!(CH == RUNTIME || CH == x.channels(), "the pass's channels");
         let len = x.len;
         let (force, grade) = (self.force_moved, self.grade_moved);
-        let [f_out, w_out, c_out, s_out, y_out] = [
+        let own = [
             &mut self.f[..len],
             &mut self.w[..len],
             &mut self.c[..len],
             &mut self.s[..len],
             &mut self.y[..len],
         ];
+        let [f_out, w_out, c_out, s_out, y_out] = match out {
+            None => own,
+            Some(o) => {
+                let [f, _, c, s, _] = own;
+                [
+                    o.f.unwrap_or(f),
+                    o.w,
+                    o.c.unwrap_or(c),
+                    o.s.unwrap_or(s),
+                    o.y,
+                ]
+            }
+        };
+        for column in [&f_out, &w_out, &c_out, &s_out, &y_out] {
+            assert_eq!(column.len(), len, "a column of the block's rows");
+        }
         let wanted = |k: usize| {
             k < REGRESSOR_TERMS || (REGRESSORS && k < GRADE_TERMS) || (GRADE && k >= GRADE_TERMS)
         };
@@ -432,6 +466,7 @@ impl MeasuredBlock {
         (self.start, self.len) = (b.start, b.len);
         self.grade_moved = x.moves(Column::C);
         self.force_moved = x.moves(Column::F);
+        self.rows_elsewhere = false;
         for j in 0..x.len {
             // SAFETY: j < len.
             let r = unsafe { x.measure::<Scalar, RUNTIME>(Scalar, j) };

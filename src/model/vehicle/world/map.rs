@@ -21,11 +21,28 @@ pub(in crate::model::vehicle) struct GradeMap {
 }
 
 impl GradeMap {
+    /// How many forward differences [`GradeMap::differences`] draws to cover `end_m`: those
+    /// of the grid points 0 ..= ⌊end_m⌋ + 2.
+    pub(super) fn differences_to_cover(end_m: f64) -> usize {
+        (end_m.max(0.0) / GRID_STEP_M).floor() as usize + 2
+    }
+
     /// The forward differences dⱼ = eⱼ₊₁ − eⱼ of one realisation's map error e on the
-    /// grid x = 0, 1, … m, far enough to cover `end_m`, from `normals`.
-    pub(super) fn differences(&self, normals: &mut NormalSequence, end_m: f64) -> Vec<f64> {
-        let points = (end_m.max(0.0) / GRID_STEP_M).floor() as usize + 3;
-        let mut e = vec![0.0; points];
+    /// grid x = 0, 1, … m, far enough to cover `end_m`, from `normals`: in a buffer of the
+    /// calling thread's, kept from one realisation to the next (a fresh one each time was
+    /// page faults), which `read` is given.
+    pub(super) fn differences<T>(
+        &self,
+        normals: &mut NormalSequence,
+        end_m: f64,
+        read: impl FnOnce(&[f64]) -> T,
+    ) -> T {
+        thread_local! {
+            static BUFFER: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
+        }
+        let mut e = BUFFER.take();
+        let points = Self::differences_to_cover(end_m) + 1;
+        e.resize(points, 0.0);
         normals.fill(&mut e);
         let phi = (-GRID_STEP_M / self.length_m).exp();
         let innovation = self.sd_m * (1.0 - phi * phi).sqrt();
@@ -33,7 +50,13 @@ impl GradeMap {
         for j in 1..points {
             e[j] = phi * e[j - 1] + innovation * e[j];
         }
-        e.windows(2).map(|w| w[1] - w[0]).collect()
+        // In place: dⱼ is written after eⱼ₊₁ and eⱼ are read.
+        for j in 0..points - 1 {
+            e[j] = e[j + 1] - e[j];
+        }
+        let out = read(&e[..points - 1]);
+        BUFFER.set(e);
+        out
     }
 }
 
@@ -49,10 +72,23 @@ fn mapped_grade(grade_rad: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
 /// The tangent of the grade measured from the map ([`mapped_grade`]) where the true grade's
 /// tangent is `tan_grade`: tan θ + heading·d(x).
 pub(super) fn mapped_tangent(tan_grade: f64, x_m: f64, heading: f64, d: &[f64]) -> f64 {
+    tangent_in_cell(tan_grade, heading, d, grid_cell(x_m, d.len()))
+}
+
+/// Where `x_m` falls on the grid of `len` forward differences: the index j of the cell
+/// (at most `len` − 2) and the fraction u − j of the way through it, u = x / grid step.
+#[inline(always)]
+fn grid_cell(x_m: f64, len: usize) -> (usize, f64) {
     let u = (x_m / GRID_STEP_M).max(0.0);
     // u ≥ 0 (or NaN): truncation is its floor.
-    let j = (u as usize).min(d.len() - 2);
-    let error = d[j] + (u - j as f64) * (d[j + 1] - d[j]);
+    let j = (u as usize).min(len - 2);
+    (j, u - j as f64)
+}
+
+/// [`mapped_tangent`] at the grid cell `(j, fraction)` of [`grid_cell`].
+#[inline(always)]
+fn tangent_in_cell(tan_grade: f64, heading: f64, d: &[f64], (j, fraction): (usize, f64)) -> f64 {
+    let error = d[j] + fraction * (d[j + 1] - d[j]);
     tan_grade + heading * error / GRID_STEP_M
 }
 
@@ -66,12 +102,18 @@ fn sin_cos_of_tangent(t: f64) -> (f64, f64) {
 
 /// The rows of a condition's regression as the map reads them: each used sample's position,
 /// heading and true grade's tangent, and the farthest position (computed once per
-/// condition; a realisation draws only the map's error).
+/// condition; a realisation draws only the map's error). Each row's grid cell is found
+/// once here, for the forward differences a realisation draws to cover `end_m`.
 #[derive(Debug)]
 pub(super) struct MapRows {
-    x_m: Vec<f64>,
     heading: Vec<f64>,
     tan_grade: Vec<f64>,
+    /// Each row's grid cell j and its fraction through it ([`grid_cell`]).
+    cell: Vec<usize>,
+    fraction: Vec<f64>,
+    /// The number of forward differences [`GradeMap::differences`] draws to cover `end_m`,
+    /// which the cells are found for.
+    differences: usize,
     pub(super) end_m: f64,
 }
 
@@ -79,18 +121,28 @@ impl MapRows {
     pub(super) fn new(cycle: &DriveCycle, used: &[bool]) -> MapRows {
         let rows: Vec<usize> = (0..cycle.len()).filter(|&i| used[i]).collect();
         let x_m: Vec<f64> = rows.iter().map(|&i| cycle.x_m[i]).collect();
+        let end_m = x_m.iter().fold(0.0, |end, &x| f64::max(end, x));
+        let differences = GradeMap::differences_to_cover(end_m);
+        let (cell, fraction) = x_m.iter().map(|&x| grid_cell(x, differences)).unzip();
         MapRows {
-            end_m: x_m.iter().fold(0.0, |end, &x| f64::max(end, x)),
+            end_m,
             heading: rows.iter().map(|&i| cycle.heading(i)).collect(),
             tan_grade: rows.iter().map(|&i| cycle.grade_rad[i].tan()).collect(),
-            x_m,
+            cell,
+            fraction,
+            differences,
         }
     }
 
     /// The sine and cosine of the measured grade at each row under the map's forward
-    /// differences `d`.
+    /// differences `d` (drawn to cover `end_m`).
     pub(super) fn sin_cos(&self, d: &[f64]) -> (Column, Column) {
-        let n = self.x_m.len();
+        assert_eq!(
+            d.len(),
+            self.differences,
+            "the map's differences cover the rows"
+        );
+        let n = self.tan_grade.len();
         let [sin, cos] = Column::filled_together(n, |[sin, cos]| {
             #[cfg(target_arch = "x86_64")]
             if let Some(avx2) = Avx2::detect() {
@@ -113,9 +165,10 @@ impl MapRows {
     /// The sines and cosines of [`MapRows::sin_cos`] written into `sin` and `cos`.
     #[inline(always)]
     fn sin_cos_into(&self, d: &[f64], sin: &mut [f64], cos: &mut [f64]) {
-        let rows = self.x_m.iter().zip(&self.heading).zip(&self.tan_grade);
-        for (s, ((x, heading), tan)) in sin.iter_mut().zip(rows) {
-            *s = mapped_tangent(*tan, *x, *heading, d);
+        let cells = self.cell.iter().zip(&self.fraction);
+        let rows = self.heading.iter().zip(&self.tan_grade).zip(cells);
+        for (s, ((heading, tan), (j, fraction))) in sin.iter_mut().zip(rows) {
+            *s = tangent_in_cell(*tan, *heading, d, (*j, *fraction));
         }
         // The tangents become sines as the cosines are written.
         for (s, c) in sin.iter_mut().zip(cos) {
@@ -137,7 +190,7 @@ mod tests {
             length_m: 50.0,
         };
         let mut normals = NormalSequence::for_realisation(7, 0, crate::noise::Stream::GradeMap, 0);
-        let d = map.differences(&mut normals, 400_000.0);
+        let d = map.differences(&mut normals, 400_000.0, <[f64]>::to_vec);
         let n = d.len() as f64;
         let var = d.iter().map(|x| x * x).sum::<f64>() / n;
         let expected = 2.0 * 0.25 * (1.0 - (-1.0f64 / 50.0).exp());
