@@ -251,7 +251,7 @@ pub struct FirstOrder<'a> {
 
 /// The first-order bias of an estimator that does not compensate the noise (OLS, RLS): the
 /// normal equations of the expected sums under the speed noise, solved, minus the truth
-/// (E[Ṽ²] = V² + σ², E[Ṽ⁴] = V⁴ + 6σ²V² + 3σ⁴: docs/model.md#bcls, read backwards).
+/// (E\[Ṽ²\] = V² + σ², E\[Ṽ⁴\] = V⁴ + 6σ²V² + 3σ⁴: docs/model.md#bcls, read backwards).
 pub fn expected_sums_bias(at: &FirstOrder<'_>) -> [f64; 3] {
     let reg = at.regression;
     let s2 = at.noise.speed_sd().powi(2);

@@ -106,7 +106,7 @@ pub struct MomentAccumulator<'r> {
     /// Whether the general path sums the grade term ([`GradeSums`]): only the compensation
     /// of grade noise reads it.
     sum_grade: bool,
-    /// Whether the general path keeps each block's measured rows ([`Self::measured`]).
+    /// Whether the general path keeps each block's measured rows ([`Self::add_block_into`]).
     keep_rows: bool,
     /// No force or grade noise: x̃₁ and x̃₃ are noise-free, and the sums of them alone are
     /// the regression's.
@@ -149,9 +149,9 @@ impl<'r> MomentAccumulator<'r> {
         }
     }
 
-    /// Keep each block's measured rows for [`measured`](Self::measured) only where
-    /// `needed` (an estimator reads the rows); without, the general path's vectorised pass
-    /// writes no columns (the sums keep their bits).
+    /// Keep each block's measured rows ([`add_block_into`](Self::add_block_into) on the
+    /// general path) only where `needed` (an estimator reads the rows); without, the
+    /// general path's vectorised pass writes no columns (the sums keep their bits).
     pub fn keep_rows(self, needed: bool) -> Self {
         MomentAccumulator {
             keep_rows: needed,

@@ -153,7 +153,7 @@ pub struct Wanted {
     /// The sums of x̃₁ and x̃₃ alone (zero without: `MomentAccumulator::finish` takes the
     /// regression's where those columns are noise-free).
     pub regressors: bool,
-    /// The grade term's sums ([`GradeSums`]).
+    /// The grade term's sums ([`GradeSums`](crate::estimate::sums::GradeSums)).
     pub grade: bool,
     /// The measured rows, for [`MeasuredBlock::view`]: without, the vectorised pass writes
     /// no columns and the block's rows are not to be read.

@@ -95,7 +95,7 @@ impl Rows {
 
     /// On the fast path, room for the w of the next block's `len` rows, for the fast
     /// path's sums to write as they take them
-    /// ([`MomentAccumulator::add_block_writing_w`]); that block's
+    /// ([`MomentAccumulator::add_block_writing_w`](super::MomentAccumulator::add_block_writing_w)); that block's
     /// [`push_block`](Self::push_block) then takes w as written there.
     pub fn w_room(&mut self, len: usize) -> &mut [f64] {
         assert!(

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 /// A column of a regression: the first `len` values of storage shared with the regression
 /// of a longer duration of the same cycle, whose rows begin with these
-/// ([`Regression::prefix`]; docs/model.md#row-selection). Reads as a slice.
+/// ([`Regression::prefix`](super::Regression::prefix); docs/model.md#row-selection). Reads as a slice.
 #[derive(Clone, PartialEq)]
 pub struct Column<T = f64> {
     values: Arc<[T]>,

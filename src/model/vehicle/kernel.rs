@@ -144,6 +144,9 @@ impl VehicleModel {
         let in_w = noise.speed_channel();
         for start in (0..n).step_by(BLOCK) {
             let len = BLOCK.min(n - start);
+            // The speed noise of the block's rows where they are consecutive samples of the
+            // span: read where it is, not copied into the block's buffer.
+            let mut span_rows = None;
             if let Some((d, e)) = &span_noise {
                 // Each row's own sample's noise, and σ_v (e_{s+1} − e_{s−1}) / Δt in ỹ.
                 let sd = noise[SPEED];
@@ -152,7 +155,7 @@ impl VehicleModel {
                 let inv_dt = &d.inv_dt[start..start + len];
                 if last - first == len - 1 {
                     // Consecutive samples (the rows are increasing): slices, which vectorise.
-                    buffer.copy_from_slice(&e[first..=last]);
+                    span_rows = Some(&e[first..=last]);
                     let (before, after) = (&e[first - 1..last], &e[first + 1..last + 2]);
                     for j in 0..len {
                         derivative[j] = sd * (after[j] - before[j]) * inv_dt[j];
@@ -182,7 +185,10 @@ impl VehicleModel {
                     if !(channel == in_w && speed_drawn) {
                         s.fill(&mut buffer[..len]);
                     }
-                    &buffer[..len]
+                    match span_rows {
+                        Some(rows) if channel == SPEED && channel == in_w => rows,
+                        _ => &buffer[..len],
+                    }
                 });
             }
             let derivative = span_noise.as_ref().map(|_| &derivative[..len]);
