@@ -127,6 +127,21 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
         truth: &Truth,
     ) -> Result<DriveCycle, SimulationError>;
 
+    /// The cycle of [`cycle`](CycleSource::cycle) for each of `truths` (each
+    /// realisation's own), bit for bit what `cycle` gives each: one after the other, or,
+    /// in a mode that integrates the motion, several side by side.
+    fn cycles(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truths: &[Truth],
+    ) -> Vec<Result<DriveCycle, SimulationError>> {
+        truths
+            .iter()
+            .map(|truth| self.cycle(vehicle, road, truth))
+            .collect()
+    }
+
     /// The cycle of [`cycle`](CycleSource::cycle) cut to its first `runs` runs, made without
     /// the rest (a coast-down integrates only those; a drive of one run ignores `runs`).
     fn cycle_of_runs(

@@ -7,7 +7,10 @@ use std::sync::Arc;
 
 use super::truth::TruthSample;
 use super::{CycleSource, DriveCycle, MAX_SAMPLES, Road, SimulationError, Truth, VehicleParams};
-use crate::numeric::ode::{Stage, rk4_step};
+use std::convert::Infallible;
+
+use crate::numeric::ode::{Stage, rk4_step_in};
+use crate::numeric::simd::{Lanes, Quad, Scalar};
 use crate::settings::{KeyError, Params};
 use crate::terrain::GradeTable;
 
@@ -116,6 +119,18 @@ impl CycleSource for TorqueDrive {
         simulate_truth(vehicle, self, table, truth)
     }
 
+    fn cycles(
+        &self,
+        vehicle: &VehicleParams,
+        road: Road<'_>,
+        truths: &[Truth],
+    ) -> Vec<Result<DriveCycle, SimulationError>> {
+        let table = road
+            .table
+            .expect("the torque mode is validated to have a terrain profile");
+        simulate_truths(vehicle, self, table, truths)
+    }
+
     fn duration_step(&self) -> Option<f64> {
         Some(self.time_step_s)
     }
@@ -152,37 +167,75 @@ fn simulate_truth(
     terrain: &GradeTable,
     truth: &Truth,
 ) -> Result<DriveCycle, SimulationError> {
+    let [cycle] = simulate_lanes(Scalar, vehicle, drive, terrain, &[truth])
+        .try_into()
+        .expect("one cycle per truth");
+    cycle
+}
+
+/// [`simulate_truth`] of each of `truths` (at most `L::WIDTH`), integrated side by side in
+/// the lanes of `l`: each lane's arithmetic is the one truth's alone, in the same order (so
+/// the same bits), and the cycles, whose every stage waits on the one before, overlap in the
+/// processor. A truth that fails (it stalls or leaves the terrain) stops its own lane only.
+fn simulate_lanes<L: Lanes>(
+    l: L,
+    vehicle: &VehicleParams,
+    drive: &TorqueDrive,
+    terrain: &GradeTable,
+    truths: &[&Truth],
+) -> Vec<Result<DriveCycle, SimulationError>> {
+    const MAX: usize = 8;
+    let lanes = truths.len();
+    assert!(
+        lanes <= L::WIDTH && L::WIDTH <= MAX,
+        "at most a number's lanes of truths"
+    );
     let h = drive.time_step_s;
     let n = drive.samples();
-    let mut cycle = DriveCycle::one_run(n);
+    let mut cycles: Vec<DriveCycle> = (0..lanes).map(|_| DriveCycle::one_run(n)).collect();
+    let mut failed: [Option<SimulationError>; MAX] = std::array::from_fn(|_| None);
     let end_m = terrain.end_m();
     let state = TruthSample::forwards;
-    // dV/dt at time t (propulsion force f there), position x and speed v, or the error of
-    // leaving the table.
-    let accel = |t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
+    // dV/dt of `truth` at time t (propulsion force f there), position x and speed v, or the
+    // error of leaving the table.
+    let accel = |truth: &Truth, t: f64, f: f64, x: f64, v: f64| -> Result<f64, SimulationError> {
         let grade = terrain
             .grade_at(x)
             .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
         Ok(truth.acceleration(vehicle, &state(t, x, v, grade), f))
     };
 
-    let (mut x, mut v) = (0.0_f64, drive.initial_speed_m_s);
+    // Each lane's position, speed and acceleration at the current sample (the lanes after
+    // `lanes` stay unused).
+    let (mut x, mut v, mut a) = ([0.0_f64; MAX], [drive.initial_speed_m_s; MAX], [0.0; MAX]);
     let mut f = drive.propulsion_n(vehicle, 0.0);
     let stage_forces = stage_forces(drive, vehicle);
     for i in 0..n {
         let t = i as f64 * h;
-        SimulationError::check_state(i, t, x, v)?;
-        let grade = terrain
-            .grade_at(x)
-            .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
-        cycle.t_s.push(t);
-        cycle.x_m.push(x);
-        cycle.v_m_s.push(v);
-        cycle.grade_rad.push(grade);
-        cycle.f_prop_n.push(truth.logged_force(f));
-        cycle
-            .accel_m_s2
-            .push(truth.acceleration(vehicle, &state(t, x, v, grade), f));
+        for (k, (truth, cycle)) in truths.iter().zip(&mut cycles).enumerate() {
+            if failed[k].is_some() {
+                continue;
+            }
+            let (xk, vk) = (x[k], v[k]);
+            let mut sample = || -> Result<f64, SimulationError> {
+                SimulationError::check_state(i, t, xk, vk)?;
+                let grade = terrain
+                    .grade_at(xk)
+                    .ok_or(SimulationError::RanOffTerrain { time_s: t, end_m })?;
+                let accel = truth.acceleration(vehicle, &state(t, xk, vk, grade), f);
+                cycle.t_s.push(t);
+                cycle.x_m.push(xk);
+                cycle.v_m_s.push(vk);
+                cycle.grade_rad.push(grade);
+                cycle.f_prop_n.push(truth.logged_force(f));
+                cycle.accel_m_s2.push(accel);
+                Ok(accel)
+            };
+            match sample() {
+                Ok(accel) => a[k] = accel,
+                Err(e) => failed[k] = Some(e),
+            }
+        }
         if i + 1 == n {
             break;
         }
@@ -191,16 +244,54 @@ fn simulate_truth(
         // full step's force is taken at the next sample's time t_{i+1} = (i+1)·Δt (the
         // time the cycle records), which can differ from t + Δt in the last bit.
         let [f_mid, f_end] = stage_forces[i];
-        [x, v] = rk4_step([x, v], h, [v, cycle.accel_m_s2[i]], |stage, [xs, vs]| {
+        let start = [l.load(&x, 0), l.load(&v, 0)];
+        let k1 = [start[1], l.load(&a, 0)];
+        let step = rk4_step_in(l, start, h, k1, |stage, [xs, vs]| {
             let (ts, fs) = match stage {
                 Stage::Half => (t + 0.5 * h, f_mid),
                 Stage::Full => (t + h, f_end),
             };
-            Ok([vs, accel(ts, fs, xs, vs)?])
-        })?;
+            let (mut xa, mut va, mut out) = ([0.0; MAX], [0.0; MAX], [0.0; MAX]);
+            l.store(xs, &mut xa, 0);
+            l.store(vs, &mut va, 0);
+            for (k, truth) in truths.iter().enumerate() {
+                if failed[k].is_some() {
+                    continue;
+                }
+                match accel(truth, ts, fs, xa[k], va[k]) {
+                    Ok(accel) => out[k] = accel,
+                    Err(e) => failed[k] = Some(e),
+                }
+            }
+            Ok::<_, Infallible>([vs, l.load(&out, 0)])
+        });
+        let Ok([x_next, v_next]) = step;
+        l.store(x_next, &mut x, 0);
+        l.store(v_next, &mut v, 0);
         f = f_end;
     }
-    Ok(cycle)
+    cycles
+        .into_iter()
+        .zip(failed)
+        .map(|(cycle, failed)| match failed {
+            Some(e) => Err(e),
+            None => Ok(cycle),
+        })
+        .collect()
+}
+
+/// [`simulate_truth`] of each of `truths`, four at a time side by side
+/// ([`simulate_lanes`]).
+fn simulate_truths(
+    vehicle: &VehicleParams,
+    drive: &TorqueDrive,
+    terrain: &GradeTable,
+    truths: &[Truth],
+) -> Vec<Result<DriveCycle, SimulationError>> {
+    let refs: Vec<&Truth> = truths.iter().collect();
+    refs.chunks(Quad::WIDTH)
+        .flat_map(|chunk| simulate_lanes(Quad, vehicle, drive, terrain, chunk))
+        .collect()
 }
 
 /// The propulsion force of every RK4 step of `drive` for `vehicle`: at step i's half step
@@ -290,6 +381,66 @@ mod tests {
                 "t={t}: {} vs {exact}",
                 cycle.v_m_s[i]
             );
+        }
+    }
+
+    #[test]
+    fn truths_side_by_side_are_each_truth_alone_bit_for_bit() {
+        use crate::dynamics::truth::{MODEL_ERRORS, entry_index};
+        // A rolling road that ends at 600 m: with a steady wind from −20 m/s (a tailwind)
+        // to +30 m/s (a headwind), and gusts drawn per truth, some lanes run off the road,
+        // some stall on a climb, some drive it; each lane's cycle (or error) is the one its
+        // truth gives alone, whichever lanes share its group and however many there are.
+        let veh = VehicleParams::thesis();
+        let d = drive(45.0);
+        let grades = (0..600)
+            .map(|j| 0.05 * (f64::from(j) / 45.0).sin())
+            .collect();
+        let road = GradeTable::from_grades(grades);
+        let times: Arc<[f64]> = (0..d.samples()).map(|i| i as f64 * 0.01).collect();
+        let truths: Vec<Truth> = (0..11u32)
+            .map(|r| {
+                let mut values = MODEL_ERRORS.map(|e| e.neutral);
+                values[entry_index("wind_speed").unwrap()] = -20.0 + 5.0 * f64::from(r);
+                values[entry_index("wind_gust_sd").unwrap()] = 1.5;
+                let times = std::slice::from_ref(&times);
+                Truth::from_values(&values).realise(3, 1, u64::from(r), times)
+            })
+            .collect();
+        let alone: Vec<_> = truths
+            .iter()
+            .map(|truth| simulate_truth(&veh, &d, &road, truth))
+            .collect();
+        let errors = alone.iter().filter(|c| c.is_err()).count();
+        let what: Vec<String> = alone
+            .iter()
+            .map(|c| match c {
+                Ok(c) => format!("ok {:.0} m", c.x_m.last().unwrap()),
+                Err(e) => e.to_string(),
+            })
+            .collect();
+        assert!(
+            0 < errors && errors < alone.len(),
+            "{errors} failed: {what:#?}"
+        );
+        let bits = |c: &Result<DriveCycle, SimulationError>| match c {
+            Ok(c) => Ok([
+                &c.t_s,
+                &c.x_m,
+                &c.v_m_s,
+                &c.grade_rad,
+                &c.f_prop_n,
+                &c.accel_m_s2,
+            ]
+            .map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>())),
+            Err(e) => Err(e.to_string()),
+        };
+        for from in 0..3 {
+            let together = simulate_truths(&veh, &d, &road, &truths[from..]);
+            assert_eq!(together.len(), truths.len() - from);
+            for (i, (a, b)) in alone[from..].iter().zip(&together).enumerate() {
+                assert_eq!(bits(a), bits(b), "truth {}", from + i);
+            }
         }
     }
 

@@ -1,6 +1,8 @@
 //! The classical fixed-step Runge–Kutta method (RK4), the one stepper every drive mode and
 //! the fit's bootstrap integrate with (docs/model.md#vehicle).
 
+use super::simd::{Lanes, Scalar};
+
 /// Where a stage of an RK4 step evaluates the derivative: the half step (stages 2 and 3)
 /// or the full step (stage 4). The caller knows its time and inputs there.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,15 +22,34 @@ pub fn rk4_step<const N: usize, E>(
     state: [f64; N],
     h: f64,
     k1: [f64; N],
-    mut derivative: impl FnMut(Stage, [f64; N]) -> Result<[f64; N], E>,
+    derivative: impl FnMut(Stage, [f64; N]) -> Result<[f64; N], E>,
 ) -> Result<[f64; N], E> {
-    let at =
-        |k: &[f64; N], c: f64| -> [f64; N] { std::array::from_fn(|j| state[j] + c * h * k[j]) };
+    rk4_step_in(Scalar, state, h, k1, derivative)
+}
+
+/// [`rk4_step`] with each component in the lanes of `l`: several independent systems
+/// stepped side by side, each lane's operations those of [`rk4_step`] in the same order
+/// (so the same bits as stepping each alone).
+#[inline(always)]
+pub fn rk4_step_in<L: Lanes, const N: usize, E>(
+    l: L,
+    state: [L::F64; N],
+    h: f64,
+    k1: [L::F64; N],
+    mut derivative: impl FnMut(Stage, [L::F64; N]) -> Result<[L::F64; N], E>,
+) -> Result<[L::F64; N], E> {
+    let at = |k: &[L::F64; N], c: f64| -> [L::F64; N] {
+        std::array::from_fn(|j| state[j] + l.splat(c * h) * k[j])
+    };
     let k2 = derivative(Stage::Half, at(&k1, 0.5))?;
     let k3 = derivative(Stage::Half, at(&k2, 0.5))?;
-    let k4 = derivative(Stage::Full, std::array::from_fn(|j| state[j] + h * k3[j]))?;
+    let k4 = derivative(
+        Stage::Full,
+        std::array::from_fn(|j| state[j] + l.splat(h) * k3[j]),
+    )?;
+    let (sixth, two) = (l.splat(h / 6.0), l.splat(2.0));
     Ok(std::array::from_fn(|j| {
-        state[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        state[j] + sixth * (k1[j] + two * k2[j] + two * k3[j] + k4[j])
     }))
 }
 

@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 
 use super::VehicleModel;
 use super::draws::{Draws, OwnRegression, SPAN_NOISE, ar1_step, filter_side_by_side};
+use super::world::MovedCycle;
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel, Signal};
 use crate::estimate::conversions::ExtraInputs;
@@ -36,7 +37,7 @@ impl VehicleModel {
     /// channel's normals block by block and accumulates the normal-equation sums (N is NaN,
     /// the sums zero, when the realisation's truth cannot be simulated).
     pub fn moments(&self, seed: u64, c: usize, r: u64) -> Moments {
-        match self.regression_of(seed, c, r) {
+        match self.regression_of(seed, c, r, None) {
             Ok(world) => {
                 let (reg, ar1, _) = self.rows_of(c, &world);
                 self.measure(seed, c, r, reg, ar1, None, None)
@@ -52,13 +53,19 @@ impl VehicleModel {
     /// correlated speed noise, when the realisation has its own (a condition with a
     /// [`World`](super::world::World); `None`: the condition's); an error says why its truth
     /// cannot be simulated.
-    fn regression_of(&self, seed: u64, c: usize, r: u64) -> Result<Option<OwnRegression>, String> {
+    fn regression_of(
+        &self,
+        seed: u64,
+        c: usize,
+        r: u64,
+        moved: Option<Result<MovedCycle, String>>,
+    ) -> Result<Option<OwnRegression>, String> {
         let cond = &self.conditions[c];
         let Some(world) = &cond.world else {
             return Ok(None);
         };
-        let (reg, inv_mass) =
-            world.regression(&self.study, &cond.regression, (seed, self.stream_key(c), r))?;
+        let ids = (seed, self.stream_key(c), r);
+        let (reg, inv_mass) = world.regression_given(&self.study, &cond.regression, ids, moved)?;
         let ar1 = cond
             .noise
             .velocity_correlated()
@@ -224,7 +231,10 @@ impl VehicleModel {
 
 impl VehicleModel {
     /// [`Model::realise`](crate::model::Model::realise) with a thread's row buffer (and the
-    /// span's speed noise filtered already, see [`Self::measure`]).
+    /// span's speed noise filtered already, see [`Self::measure`]; the realisation's truth
+    /// and cycle made already, `moved`, see [`World::moved_cycles`]).
+    ///
+    /// [`World::moved_cycles`]: super::world::World::moved_cycles
     #[allow(clippy::too_many_arguments)]
     pub(super) fn realise_with(
         &self,
@@ -235,9 +245,10 @@ impl VehicleModel {
         scans: &mut RowScans,
         slots: &mut [f64],
         span: Option<&[f64]>,
+        moved: Option<Result<MovedCycle, String>>,
     ) {
         let cond = &self.conditions[c];
-        let world = match self.regression_of(seed, c, r) {
+        let world = match self.regression_of(seed, c, r, moved) {
             Ok(world) => world,
             Err(_) => return self.unsimulated(slots),
         };
@@ -259,6 +270,22 @@ impl VehicleModel {
             let moments = self.measure(seed, c, r, reg, ar1, None, span);
             self.conclude(c, reg, truth, &moments, None, slots)
         }
+    }
+
+    /// The truths and cycles of realisations `first .. first + count` of condition `c`, made
+    /// side by side, where each realisation's truth moves the vehicle
+    /// ([`World::moved_cycles`]; `None` elsewhere).
+    ///
+    /// [`World::moved_cycles`]: super::world::World::moved_cycles
+    pub(super) fn moved_cycles(
+        &self,
+        seed: u64,
+        c: usize,
+        first: u64,
+        count: usize,
+    ) -> Option<Vec<Result<MovedCycle, String>>> {
+        let world = self.conditions[c].world.as_ref()?;
+        world.moved_cycles(&self.study, (seed, self.stream_key(c)), first, count)
     }
 
     /// The slots of a realisation whose truth cannot be simulated: every estimator's

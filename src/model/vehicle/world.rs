@@ -39,6 +39,10 @@ fn run_times(cycle: &DriveCycle, start: f64) -> Vec<Arc<[f64]>> {
         .collect()
 }
 
+/// A realisation's cycle driven by its own truth, and that truth
+/// ([`World::moved_cycles`]).
+pub(super) type MovedCycle = (DriveCycle, Truth);
+
 /// A condition whose realisations each have their own regression.
 #[derive(Debug)]
 pub(super) struct World {
@@ -166,7 +170,59 @@ impl World {
         &self,
         vs: &VehicleStudy,
         condition: &Regression,
+        ids: (u64, u64, u64),
+    ) -> Result<(Regression, Option<f64>), String> {
+        self.regression_given(vs, condition, ids, None)
+    }
+
+    /// The truths of realisations `first .. first + count` and the cycles they drive, made
+    /// side by side where the drive mode integrates several at once (each what
+    /// [`World::regression`] makes alone), when the truth moves the vehicle in every
+    /// realisation: else `None`. An error says why a realisation's truth cannot be used.
+    pub fn moved_cycles(
+        &self,
+        vs: &VehicleStudy,
+        (seed, key): (u64, u64),
+        first: u64,
+        count: usize,
+    ) -> Option<Vec<Result<MovedCycle, String>>> {
+        if !self.moves_side_by_side() {
+            return None;
+        }
+        let truths: Vec<Truth> = (first..first + count as u64)
+            .map(|r| self.truth.realise(seed, key, r, &self.run_times_s))
+            .collect();
+        let road = Road {
+            table: self.table.as_deref(),
+            scale: self.scale,
+        };
+        let cycles = vs.drive.cycles(&vs.vehicle, road, &truths);
+        Some(
+            cycles
+                .into_iter()
+                .zip(truths)
+                .map(|(cycle, truth)| Ok((cycle.map_err(|e| e.to_string())?, truth)))
+                .collect(),
+        )
+    }
+
+    /// Whether [`World::moved_cycles`] makes the realisations' cycles: the truth moves the
+    /// vehicle in every realisation (and the cycle is not cut to a coast-down's first runs).
+    pub fn moves_side_by_side(&self) -> bool {
+        !self.filter_truth.is_drawn()
+            && self.truth.is_drawn()
+            && self.truth.moves_per_realisation()
+            && !matches!(self.prefix, Prefix::Runs(_))
+    }
+
+    /// [`World::regression`] of a realisation whose truth and cycle [`World::moved_cycles`]
+    /// made already (`moved`; `None`: made here).
+    pub fn regression_given(
+        &self,
+        vs: &VehicleStudy,
+        condition: &Regression,
         (seed, key, r): (u64, u64, u64),
+        moved: Option<Result<MovedCycle, String>>,
     ) -> Result<(Regression, Option<f64>), String> {
         let only_calibration = self.truth.is_drawn()
             && !self.truth.moves_per_realisation()
@@ -213,17 +269,23 @@ impl World {
         } else if self.truth.moves_per_realisation() {
             // The force the truth needs changes: the drive mode makes the cycle again
             // (integrates it, or logs another force for the same motion).
-            let truth = self.truth.realise(seed, key, r, &self.run_times_s);
-            let road = Road {
-                table: self.table.as_deref(),
-                scale: self.scale,
+            let (cycle, truth) = match moved {
+                Some(moved) => moved?,
+                None => {
+                    let truth = self.truth.realise(seed, key, r, &self.run_times_s);
+                    let road = Road {
+                        table: self.table.as_deref(),
+                        scale: self.scale,
+                    };
+                    // Only the runs the condition uses (a coast-down's first k).
+                    let cycle = match self.prefix {
+                        Prefix::Runs(k) => vs.drive.cycle_of_runs(&vs.vehicle, road, &truth, k),
+                        _ => vs.drive.cycle(&vs.vehicle, road, &truth),
+                    }
+                    .map_err(|e| e.to_string())?;
+                    (cycle, truth)
+                }
             };
-            // Only the runs the condition uses (a coast-down's first k).
-            let cycle = match self.prefix {
-                Prefix::Runs(k) => vs.drive.cycle_of_runs(&vs.vehicle, road, &truth, k),
-                _ => vs.drive.cycle(&vs.vehicle, road, &truth),
-            }
-            .map_err(|e| e.to_string())?;
             (cycle, Cow::Owned(truth))
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
