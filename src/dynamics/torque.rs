@@ -236,7 +236,8 @@ fn simulate_lanes<L: Lanes>(
                 Err(e) => failed[k] = Some(e),
             }
         }
-        if i + 1 == n {
+        // The last sample, or every lane failed.
+        if i + 1 == n || failed[..lanes].iter().all(Option::is_some) {
             break;
         }
         // Classical RK4 on (X, V): dX/dt = V, dV/dt = accel(t, X, V); the force at the

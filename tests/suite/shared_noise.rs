@@ -63,6 +63,43 @@ fn one_draw_for_a_group_gives_each_condition_bit_for_bit_its_own_realisation() {
 }
 
 #[test]
+fn gusty_conditions_realised_side_by_side_are_each_realisation_alone_bit_for_bit() {
+    // Gusts move the vehicle in every realisation: a group's cycles are integrated four at
+    // a time, condition by condition, into the group's slots. Each slot must be what
+    // `realise` gives alone, for a group of four conditions and a count that is not a
+    // multiple of four (6: a chunk of four, then two), from a first realisation that is not
+    // a multiple of four either.
+    let text = shared_thesis(true, "");
+    let text = format!("{text}\n[truth]\nwind_gust_sd = [1.5]\n");
+    let study = Study::from_toml(&text, "gusty").unwrap();
+    let model = VehicleModel::new(&study).unwrap();
+    let stride = model.layout().realisation_stride();
+    let members: Vec<usize> = (0..model.condition_count())
+        .filter(|&c| model.draw_group(c) == model.draw_group(0))
+        .collect();
+    assert_eq!(members.len(), 4, "2 scales × 2 durations share their draws");
+    let (first, n) = (5u64, 6usize);
+    let mut together = vec![0.0; members.len() * n * stride];
+    model.realise_group(2018, &members, first, n, &mut together);
+    for i in 0..n {
+        for (k, &c) in members.iter().enumerate() {
+            let mut alone = vec![0.0; stride];
+            model.realise(2018, c, first + i as u64, &mut alone);
+            let at = (i * members.len() + k) * stride;
+            assert_eq!(
+                together[at..at + stride]
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "condition {c}, realisation {}",
+                first + i as u64
+            );
+        }
+    }
+}
+
+#[test]
 fn the_in_memory_executor_gives_every_condition_its_own_realisations_bit_for_bit() {
     // `montecarlo::in_memory` (design's and check's summaries, fit's bootstrap) computes draw
     // groups together through the run's executor; each slot must be what `realise` gives

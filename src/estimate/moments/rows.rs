@@ -217,7 +217,11 @@ impl Rows {
     }
 
     /// Take the `len` rows written into [`room`](Self::room), whose channels moved x̃₁ and
-    /// x̃₃ as `moved` says: the columns these rows copy are exactly those.
+    /// x̃₃ as `moved` says: the columns these rows copy are exactly those. They agree
+    /// because a channel that is on at a level that moves nothing has no draws (a channel's
+    /// draws exist where its level is > 0, and every channel that moves x̃₁ or x̃₃ moves it
+    /// at any level > 0); were they ever to differ, this stops the run before a scan reads
+    /// the rows.
     pub fn take_room(&mut self, len: usize, moved: [bool; 2]) {
         let [force, grade] = moved;
         assert_eq!(

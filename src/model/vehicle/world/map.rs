@@ -100,10 +100,11 @@ fn sin_cos_of_tangent(t: f64) -> (f64, f64) {
     (t * r, r)
 }
 
-/// The rows of a condition's regression as the map reads them: each used sample's position,
-/// heading and true grade's tangent, and the farthest position (computed once per
-/// condition; a realisation draws only the map's error). Each row's grid cell is found
-/// once here, for the forward differences a realisation draws to cover `end_m`.
+/// The rows of a regression as the map reads them: each used sample's heading, true grade's
+/// tangent and grid cell, and the farthest position. Where the map's error is the only thing
+/// a realisation draws, they are the condition's, made once (a realisation draws only the
+/// map's error); where the truth is drawn too, each realisation makes its own. The cells
+/// are found here, for the forward differences drawn to cover `end_m`.
 #[derive(Debug)]
 pub(super) struct MapRows {
     heading: Vec<f64>,
