@@ -106,6 +106,12 @@ pub(super) fn duration_steps(p: &Params<'_>) -> Result<(f64, f64, usize), KeyErr
     Ok((duration_s, time_step_s, steps as usize))
 }
 
+/// The grade table of `road`, which the torque mode is validated to have.
+fn terrain(road: Road<'_>) -> &GradeTable {
+    road.table
+        .expect("the torque mode is validated to have a terrain profile")
+}
+
 impl CycleSource for TorqueDrive {
     fn cycle(
         &self,
@@ -113,10 +119,7 @@ impl CycleSource for TorqueDrive {
         road: Road<'_>,
         truth: &Truth,
     ) -> Result<DriveCycle, SimulationError> {
-        let table = road
-            .table
-            .expect("the torque mode is validated to have a terrain profile");
-        simulate_truth(vehicle, self, table, truth)
+        simulate_truth(vehicle, self, terrain(road), truth)
     }
 
     fn cycles(
@@ -125,10 +128,7 @@ impl CycleSource for TorqueDrive {
         road: Road<'_>,
         truths: &[Truth],
     ) -> Vec<Result<DriveCycle, SimulationError>> {
-        let table = road
-            .table
-            .expect("the torque mode is validated to have a terrain profile");
-        simulate_truths(vehicle, self, table, truths)
+        simulate_truths(vehicle, self, terrain(road), truths)
     }
 
     fn duration_step(&self) -> Option<f64> {

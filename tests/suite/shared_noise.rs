@@ -20,6 +20,36 @@ fn shared_thesis(share: bool, extra_noise: &str) -> String {
     )
 }
 
+/// `realise_group` of realisations `first .. first + n` of the draw group `members` against
+/// `realise` of each member alone, bit for bit, slot by slot.
+fn assert_group_is_each_alone(
+    model: &VehicleModel,
+    members: &[usize],
+    first: u64,
+    n: usize,
+    what: &str,
+) {
+    let stride = model.layout().realisation_stride();
+    let mut together = vec![0.0; members.len() * n * stride];
+    model.realise_group(2018, members, first, n, &mut together);
+    for i in 0..n {
+        for (k, &c) in members.iter().enumerate() {
+            let mut alone = vec![0.0; stride];
+            model.realise(2018, c, first + i as u64, &mut alone);
+            let at = (i * members.len() + k) * stride;
+            assert_eq!(
+                together[at..at + stride]
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{what}: condition {c}, realisation {}",
+                first + i as u64
+            );
+        }
+    }
+}
+
 #[test]
 fn one_draw_for_a_group_gives_each_condition_bit_for_bit_its_own_realisation() {
     // The group path (one draw, every condition accumulated from it, realisations side by
@@ -33,7 +63,6 @@ fn one_draw_for_a_group_gives_each_condition_bit_for_bit_its_own_realisation() {
         let text = shared_thesis(true, extra).replacen("output_sd = [0.0] ", "# ", 1);
         let study = Study::from_toml(&text, "shared").unwrap();
         let model = VehicleModel::new(&study).unwrap();
-        let stride = model.layout().realisation_stride();
         let count = model.condition_count();
         let groups: Vec<usize> = (0..count).map(|c| model.draw_group(c)).collect();
         let inner = count / 4; // 2 scales × 2 durations
@@ -41,23 +70,7 @@ fn one_draw_for_a_group_gives_each_condition_bit_for_bit_its_own_realisation() {
         for g in 0..inner {
             let members: Vec<usize> = (0..count).filter(|&c| groups[c] == g).collect();
             assert_eq!(members.len(), 4, "{extra}");
-            let (first, n) = (7u64, 3usize);
-            let mut together = vec![0.0; members.len() * n * stride];
-            model.realise_group(2018, &members, first, n, &mut together);
-            for i in 0..n {
-                for (k, &c) in members.iter().enumerate() {
-                    let mut alone = vec![0.0; stride];
-                    model.realise(2018, c, first + i as u64, &mut alone);
-                    let at = (i * members.len() + k) * stride;
-                    let got = &together[at..at + stride];
-                    assert_eq!(
-                        got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                        alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                        "{extra}: condition {c}, realisation {}",
-                        first + i as u64
-                    );
-                }
-            }
+            assert_group_is_each_alone(&model, &members, 7, 3, extra);
         }
     }
 }
@@ -73,30 +86,11 @@ fn gusty_conditions_realised_side_by_side_are_each_realisation_alone_bit_for_bit
     let text = format!("{text}\n[truth]\nwind_gust_sd = [1.5]\n");
     let study = Study::from_toml(&text, "gusty").unwrap();
     let model = VehicleModel::new(&study).unwrap();
-    let stride = model.layout().realisation_stride();
     let members: Vec<usize> = (0..model.condition_count())
         .filter(|&c| model.draw_group(c) == model.draw_group(0))
         .collect();
     assert_eq!(members.len(), 4, "2 scales × 2 durations share their draws");
-    let (first, n) = (5u64, 6usize);
-    let mut together = vec![0.0; members.len() * n * stride];
-    model.realise_group(2018, &members, first, n, &mut together);
-    for i in 0..n {
-        for (k, &c) in members.iter().enumerate() {
-            let mut alone = vec![0.0; stride];
-            model.realise(2018, c, first + i as u64, &mut alone);
-            let at = (i * members.len() + k) * stride;
-            assert_eq!(
-                together[at..at + stride]
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .collect::<Vec<_>>(),
-                alone.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                "condition {c}, realisation {}",
-                first + i as u64
-            );
-        }
-    }
+    assert_group_is_each_alone(&model, &members, 5, 6, "gusts");
 }
 
 #[test]

@@ -20,7 +20,7 @@ use crate::noise::{BLOCK, NormalStream};
 /// The speed sensor's channel: its noise is drawn by the kernel itself where it is
 /// differentiated into the output (correlated noise in w is drawn likewise, whichever
 /// channel's: `NoiseLevels::speed_channel`).
-const SPEED: Channel = Channel::of(Signal::Speed);
+pub(super) const SPEED: Channel = Channel::of(Signal::Speed);
 
 impl VehicleModel {
     /// The standard normal draws of `channel` in realisation `r` of condition `c`, in the
@@ -272,22 +272,6 @@ impl VehicleModel {
         }
     }
 
-    /// The truths and cycles of realisations `first .. first + count` of condition `c`, made
-    /// side by side, where each realisation's truth moves the vehicle
-    /// ([`World::moved_cycles`]; `None` elsewhere).
-    ///
-    /// [`World::moved_cycles`]: super::world::World::moved_cycles
-    pub(super) fn moved_cycles(
-        &self,
-        seed: u64,
-        c: usize,
-        first: u64,
-        count: usize,
-    ) -> Option<Vec<Result<MovedCycle, String>>> {
-        let world = self.conditions[c].world.as_ref()?;
-        world.moved_cycles(&self.study, (seed, self.stream_key(c)), first, count)
-    }
-
     /// The slots of a realisation whose truth cannot be simulated: every estimator's
     /// status [`Status::Unsimulated`], every number NaN.
     fn unsimulated(&self, slots: &mut [f64]) {
@@ -312,46 +296,6 @@ impl VehicleModel {
                     && !(cond.regression.differentiation.is_some()
                         && cond.noise.speed_noise_differentiated())
             })
-    }
-
-    /// Whether the realisations of condition `c` take their speed noise AR(1)-filtered over
-    /// a differentiated acceleration's span, on the condition's own regression: then
-    /// [`Self::filter_spans`] filters a group of them side by side.
-    pub(super) fn spans_filtered_together(&self, c: usize) -> bool {
-        let cond = &self.conditions[c];
-        cond.world.is_none()
-            && cond.ar1.is_some()
-            && cond.regression.differentiation.is_some()
-            && cond.noise.speed_noise_differentiated()
-    }
-
-    /// The speed noise of the span of realisations `first .. first + count` of condition
-    /// `c` ([`Self::spans_filtered_together`]) into `out`, realisation i's at
-    /// `i * len .. (i + 1) * len` (`len` returned): drawn as [`Self::measure`] draws it,
-    /// and AR(1)-filtered with the realisations side by side. The recursions are
-    /// independent, so the processor overlaps them; one alone waits on each step's
-    /// multiply and add. The same operations in the same order, so the same bits.
-    pub(super) fn filter_spans(
-        &self,
-        seed: u64,
-        c: usize,
-        first: u64,
-        count: usize,
-        out: &mut Vec<f64>,
-    ) -> usize {
-        let cond = &self.conditions[c];
-        let (Some(d), Some(ar1)) = (&cond.regression.differentiation, &cond.ar1) else {
-            unreachable!("filter_spans on a condition without a filtered span");
-        };
-        let len = d.span_t.len();
-        out.resize(count * len, 0.0);
-        let key = self.stream_key(c);
-        for (i, e) in out.chunks_exact_mut(len).enumerate() {
-            Draws::new(self.shared, seed, key, SPEED, first + i as u64).fill(e);
-        }
-        let mut spans: Vec<&mut [f64]> = out.chunks_exact_mut(len).collect();
-        filter_side_by_side(&mut spans, |s| &mut **s, &mut vec![0.0; count], &ar1[..len]);
-        len
     }
 
     /// The moments of realisations `first .. first + count` of each of `conditions` (one

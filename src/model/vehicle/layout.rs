@@ -103,10 +103,7 @@ fn parameter_info(i: usize) -> ParameterInfo {
 thread_local! {
     /// The measured rows of this thread's current realisation and the sums taken over them
     /// (memory reused).
-    static ROWS: RefCell<(Rows, RowScans)> = RefCell::default();
-    /// The filtered span noise of this thread's current group of realisations (memory
-    /// reused).
-    static SPANS: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+    pub(super) static ROWS: RefCell<(Rows, RowScans)> = RefCell::default();
 }
 
 impl Model for VehicleModel {
@@ -184,21 +181,7 @@ impl Model for VehicleModel {
         if let [c] = *conditions
             && self.spans_filtered_together(c)
         {
-            // Each realisation on its own, from spans filtered side by side.
-            return SPANS.with_borrow_mut(|spans| {
-                let len = self.filter_spans(seed, c, first, count, spans);
-                let stride = self.layout.realisation_stride();
-                ROWS.with_borrow_mut(|(rows, scans)| {
-                    for (i, (slots, span)) in slots
-                        .chunks_exact_mut(stride)
-                        .zip(spans.chunks_exact(len))
-                        .enumerate()
-                    {
-                        let r = first + i as u64;
-                        self.realise_with(seed, c, r, rows, scans, slots, Some(span), None);
-                    }
-                })
-            });
+            return self.realise_filtered_spans(seed, c, first, count, slots);
         }
         if !self.one_draw_serves(conditions) {
             if conditions.iter().any(|&c| self.moves_per_realisation(c)) {
@@ -219,51 +202,5 @@ impl Model for VehicleModel {
                 );
             }
         }
-    }
-}
-
-/// How many realisations' cycles are integrated side by side where each realisation's truth
-/// moves the vehicle (their cycles held at once).
-const SIDE_BY_SIDE: usize = 4;
-
-impl VehicleModel {
-    /// Whether each realisation of condition `c` drives a cycle of its own truth
-    /// ([`World::moves_side_by_side`](super::world::World::moves_side_by_side)).
-    fn moves_per_realisation(&self, c: usize) -> bool {
-        self.conditions[c]
-            .world
-            .as_ref()
-            .is_some_and(|w| w.moves_side_by_side())
-    }
-
-    /// [`Model::realise_group`] where a condition's realisations each drive a cycle of their
-    /// own truth: a condition at a time, its realisations' cycles made [`SIDE_BY_SIDE`] at
-    /// once ([`VehicleModel::moved_cycles`]), each realisation then as
-    /// [`Model::realise`] computes it, into its place among the slots.
-    fn realise_moved(
-        &self,
-        seed: u64,
-        conditions: &[usize],
-        first: u64,
-        count: usize,
-        slots: &mut [f64],
-    ) {
-        let stride = self.layout.realisation_stride();
-        ROWS.with_borrow_mut(|(rows, scans)| {
-            for (k, &c) in conditions.iter().enumerate() {
-                for from in (0..count).step_by(SIDE_BY_SIDE) {
-                    let chunk = SIDE_BY_SIDE.min(count - from);
-                    let at = first + from as u64;
-                    let mut moved = self.moved_cycles(seed, c, at, chunk).map(Vec::into_iter);
-                    for i in from..from + chunk {
-                        let place = (i * conditions.len() + k) * stride;
-                        let slots = &mut slots[place..place + stride];
-                        let given = moved.as_mut().map(|m| m.next().expect("a cycle each"));
-                        let r = first + i as u64;
-                        self.realise_with(seed, c, r, rows, scans, slots, None, given);
-                    }
-                }
-            }
-        });
     }
 }

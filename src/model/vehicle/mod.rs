@@ -27,6 +27,7 @@ mod layout;
 mod pcrlb;
 mod prepare;
 mod replayed;
+mod side_by_side;
 pub use designed::designed_profile_criterion;
 pub use identification::is_metric as is_identification_metric;
 pub use replayed::ReplayTruth;
