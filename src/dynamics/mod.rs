@@ -16,6 +16,7 @@ mod designed;
 mod error;
 pub mod filter_truth;
 mod replay;
+mod spare;
 mod speed_trace;
 mod torque;
 pub mod truth;
@@ -281,20 +282,6 @@ pub struct DriveCycle {
 }
 
 impl DriveCycle {
-    /// An empty cycle of one run driven forwards, with room for `n` samples.
-    pub fn one_run(n: usize) -> Self {
-        DriveCycle {
-            t_s: Vec::with_capacity(n),
-            x_m: Vec::with_capacity(n),
-            v_m_s: Vec::with_capacity(n),
-            grade_rad: Vec::with_capacity(n),
-            f_prop_n: Vec::with_capacity(n),
-            accel_m_s2: Vec::with_capacity(n),
-            run: vec![0; n],
-            run_heading: vec![1.0],
-        }
-    }
-
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.t_s.len()
@@ -340,7 +327,11 @@ impl DriveCycle {
     pub fn into_selected(self, used: &[bool]) -> DriveCycle {
         match used.iter().all(|&u| u) && used.len() == self.t_s.len() {
             true => self,
-            false => self.select_from(used),
+            false => {
+                let selected = self.select_from(used);
+                self.recycle();
+                selected
+            }
         }
     }
 

@@ -113,7 +113,7 @@ impl Regression {
         Self::with_sums(
             RowColumns {
                 t: column(&cycle.t_s),
-                run: cycle.run.clone().into(),
+                run: cycle.run[..].into(),
                 f: column(&cycle.f_prop_n),
                 c,
                 v: column(&cycle.v_m_s),

@@ -3,6 +3,7 @@
 //! (another sensor's in every realisation). Each realises as a steady entry of `steady.rs`
 //! or as [`RunGusts`], a [`WindSeries`] per run (docs/model.md#model-errors).
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
 use super::steady::ForceScale;
@@ -25,21 +26,61 @@ pub struct Gust {
 impl Gust {
     /// A stationary AR(1) series of the gust at `times_s` from the next normals of `normals`.
     fn series(&self, normals: &mut NormalSequence, times_s: &Arc<[f64]>) -> WindSeries {
-        let mut w = vec![0.0; times_s.len()];
+        let mut w = SPARE_WINDS.with_borrow_mut(Vec::pop).unwrap_or_default();
+        w.resize(times_s.len(), 0.0);
         normals.fill(&mut w);
+        let steps = self.steps(times_s);
         let mut previous = 0.0;
         for (i, z) in w.iter_mut().enumerate() {
             *z = match i {
                 0 => self.sd_m_s * *z,
                 _ => {
-                    let phi = (-(times_s[i] - times_s[i - 1]) / self.time_s).exp();
-                    phi * previous + self.sd_m_s * (1.0 - phi * phi).sqrt() * *z
+                    let [phi, scale] = steps[i - 1];
+                    phi * previous + scale * *z
                 }
             };
             previous = *z;
         }
         WindSeries::new(times_s.clone(), w)
     }
+
+    /// φᵢ and σ_w √(1 − φᵢ²) of each step of `times_s` (i ≥ 1). The same in every
+    /// realisation, so each thread keeps those of the last run and gust it drew.
+    fn steps(&self, times_s: &Arc<[f64]>) -> Arc<[[f64; 2]]> {
+        type Kept = Option<(Arc<[f64]>, [u64; 2], Arc<[[f64; 2]]>)>;
+        thread_local! {
+            static LAST: RefCell<Kept> = const { RefCell::new(None) };
+        }
+        let key = [self.sd_m_s.to_bits(), self.time_s.to_bits()];
+        LAST.with_borrow_mut(|last| {
+            if let Some((times, k, steps)) = last.as_ref()
+                && Arc::ptr_eq(times, times_s)
+                && *k == key
+            {
+                return steps.clone();
+            }
+            let steps: Arc<[[f64; 2]]> = times_s
+                .windows(2)
+                .map(|t| {
+                    let phi = (-(t[1] - t[0]) / self.time_s).exp();
+                    [phi, self.sd_m_s * (1.0 - phi * phi).sqrt()]
+                })
+                .collect();
+            *last = Some((times_s.clone(), key, steps.clone()));
+            steps
+        })
+    }
+}
+
+/// Spare wind columns a thread keeps at most (those of a group of realisations side by
+/// side and the next), and the most values they hold together (32 MiB).
+const SPARE_WIND_COLUMNS: usize = 16;
+const SPARE_WIND_VALUES: usize = 4 << 20;
+
+thread_local! {
+    /// The wind columns of the thread's dropped series ([`WindSeries`]'s `Drop`), whose
+    /// memory the next series writes into.
+    static SPARE_WINDS: RefCell<Vec<Vec<f64>>> = const { RefCell::new(Vec::new()) };
 }
 
 impl ModelError for Gust {
@@ -118,6 +159,22 @@ impl WindSeries {
                 w[j - 1] + u * (w[j] - w[j - 1])
             }
         }
+    }
+}
+
+impl Drop for WindSeries {
+    /// Its wind column becomes the thread's spare, for the next series drawn.
+    fn drop(&mut self) {
+        let wind = std::mem::take(&mut self.wind_m_s);
+        let _ = SPARE_WINDS.try_with(|spare| {
+            if let Ok(mut spare) = spare.try_borrow_mut()
+                && spare.len() < SPARE_WIND_COLUMNS
+                && spare.iter().map(Vec::capacity).sum::<usize>() + wind.capacity()
+                    <= SPARE_WIND_VALUES
+            {
+                spare.push(wind);
+            }
+        });
     }
 }
 

@@ -38,6 +38,16 @@ impl<T> From<Vec<T>> for Column<T> {
     }
 }
 
+impl<T: Clone> From<&[T]> for Column<T> {
+    /// A copy of `values` (one allocation: a `Vec` made into a column is copied once more).
+    fn from(values: &[T]) -> Self {
+        Column {
+            values: values.into(),
+            len: values.len(),
+        }
+    }
+}
+
 impl<T> Deref for Column<T> {
     type Target = [T];
     fn deref(&self) -> &[T] {

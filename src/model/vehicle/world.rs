@@ -325,32 +325,35 @@ impl World {
                 }
             });
         }
-        Ok((
-            match self.source {
-                Acceleration::Differentiated => {
-                    Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle)
+        // The realisation's cycle goes to the thread's spares once its regression is built.
+        let regression = match self.source {
+            Acceleration::Differentiated => {
+                let regression =
+                    Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle);
+                cycle.recycle();
+                regression
+            }
+            Acceleration::Model if mapped.is_some() => {
+                let (sin, cos) = mapped.expect("the map's grade");
+                let selected = cycle.into_selected(&used);
+                let regression = Regression::with_sin_cos(&selected, sin, cos, &vs.vehicle);
+                selected.recycle();
+                read_grade(vs, regression)
+            }
+            Acceleration::Model => {
+                let mut selected = cycle.into_selected(&used);
+                if self.grade_bias_rad != 0.0 {
+                    selected
+                        .grade_rad
+                        .iter_mut()
+                        .for_each(|g| *g += self.grade_bias_rad);
                 }
-                Acceleration::Model if mapped.is_some() => {
-                    let (sin, cos) = mapped.expect("the map's grade");
-                    let selected = cycle.into_selected(&used);
-                    read_grade(
-                        vs,
-                        Regression::with_sin_cos(&selected, sin, cos, &vs.vehicle),
-                    )
-                }
-                Acceleration::Model => {
-                    let mut selected = cycle.into_selected(&used);
-                    if self.grade_bias_rad != 0.0 {
-                        selected
-                            .grade_rad
-                            .iter_mut()
-                            .for_each(|g| *g += self.grade_bias_rad);
-                    }
-                    read_grade(vs, Regression::new(&selected, &vs.vehicle))
-                }
-            },
-            inv_mass,
-        ))
+                let regression = Regression::new(&selected, &vs.vehicle);
+                selected.recycle();
+                read_grade(vs, regression)
+            }
+        };
+        Ok((regression, inv_mass))
     }
 }
 
