@@ -120,6 +120,19 @@ pub trait ModelError: Send + Sync + fmt::Debug {
         1.0
     }
 
+    /// Its added inertia, omitted force, wind and air density factor at `sample`, in that
+    /// order: one call where the truth's force needs all four (each entry's own methods,
+    /// called statically inside it).
+    #[inline]
+    fn contributions(&self, vehicle: &VehicleParams, sample: &TruthSample) -> [f64; 4] {
+        [
+            self.added_inertia_kg(vehicle, sample),
+            self.omitted_force(vehicle, sample),
+            self.wind_m_s(sample),
+            self.air_density_factor(),
+        ]
+    }
+
     /// The force \[N\] the log records when the truth's propulsion force is `force_n` (a
     /// calibration error; the truth's motion does not see it).
     fn logged_force(&self, force_n: f64) -> f64 {
@@ -369,12 +382,8 @@ impl Truth {
             self.entries
                 .iter()
                 .fold((0.0, 0.0, 0.0, 1.0), |(m, d, w, r), e| {
-                    (
-                        m + e.added_inertia_kg(vehicle, sample),
-                        d + e.omitted_force(vehicle, sample),
-                        w + e.wind_m_s(sample),
-                        r * e.air_density_factor(),
-                    )
+                    let [inertia, omitted, wind, density] = e.contributions(vehicle, sample);
+                    (m + inertia, d + omitted, w + wind, r * density)
                 });
         let aero = match wind == 0.0 && density == 1.0 {
             true => 0.0,
