@@ -139,6 +139,15 @@ pub trait ModelError: Send + Sync + fmt::Debug {
         force_n
     }
 
+    /// Each of `forces_n` \[N\] replaced by the force the log records for it
+    /// ([`ModelError::logged_force`] of each in turn: one call for a whole column).
+    #[inline]
+    fn log_forces(&self, forces_n: &mut [f64]) {
+        for f in forces_n {
+            *f = self.logged_force(*f);
+        }
+    }
+
     /// How it draws, when it is drawn anew in every realisation (`None`: the same in every
     /// realisation, set per condition).
     fn drawn(&self) -> Option<Drawn> {
@@ -344,6 +353,14 @@ impl Truth {
     /// calibration in turn).
     pub fn logged_force(&self, force_n: f64) -> f64 {
         self.entries.iter().fold(force_n, |f, e| e.logged_force(f))
+    }
+
+    /// [`Truth::logged_force`] of each of `forces_n` in place: each entry's calibration
+    /// applied to the whole column in turn (each value through the same operations).
+    pub fn log_forces(&self, forces_n: &mut [f64]) {
+        for e in &self.entries {
+            e.log_forces(forces_n);
+        }
     }
 
     /// The truth's inertia \[kg\] at `sample`: M plus every entry's added inertia (a

@@ -16,10 +16,14 @@ use crate::numeric::simd::{Lanes4, Quad, Real};
 use crate::numeric::sum::{Dot, LaneSums, Plain, SquareDot, exact_sum_of};
 
 impl Regression {
-    /// This regression with its force column F logged through `logged` (a calibration
-    /// drawn per realisation): bit for bit the regression built from the logged force.
-    pub fn with_force(&self, logged: impl Fn(f64) -> f64) -> Regression {
-        let f = Column::collected(self.f.iter().map(|&f| logged(f)));
+    /// This regression with its force column F logged through `log` (a calibration drawn
+    /// per realisation, which replaces each force of the column it is given by the logged
+    /// one): bit for bit the regression built from the logged force.
+    pub fn with_force(&self, log: impl FnOnce(&mut [f64])) -> Regression {
+        let f = Column::filled(self.len(), |f| {
+            f.copy_from_slice(&self.f);
+            log(f);
+        });
         let dot = |a: &[f64], b: &[f64]| exact_sum_of(&Dot(a, b));
         let mut reg = self.clone();
         reg.xtx[(0, 0)] = dot(&f, &f);

@@ -105,7 +105,7 @@ fn a_recalibrated_or_regraded_regression_is_the_one_built_whole_bit_for_bit() {
         .iter_mut()
         .for_each(|f| *f = logged(*f));
     assert_same_bits(
-        &base.with_force(logged),
+        &base.with_force(|f| f.iter_mut().for_each(|f| *f = logged(*f))),
         &Regression::new(&recalibrated, &vehicle),
     );
     // Another grade, given by its sine and cosine (an elevation map's error).

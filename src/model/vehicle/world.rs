@@ -235,7 +235,7 @@ impl World {
             // and the calibration (a scale) turns the force's sign.
             let keeps_signs = drawn.logged_force(1.0) > 0.0 && drawn.logged_force(-1.0) < 0.0;
             if !vs.selection.exclude_braking || keeps_signs {
-                return Ok((condition.with_force(|f| drawn.logged_force(f)), None));
+                return Ok((condition.with_force(|f| drawn.log_forces(f)), None));
             }
         }
         let only_map = !self.truth.is_drawn() && !self.filter_truth.is_drawn();
