@@ -319,23 +319,6 @@ impl DriveCycle {
 
     /// The samples where `used` is true, in order.
     pub fn select(&self, used: &[bool]) -> DriveCycle {
-        self.select_from(used)
-    }
-
-    /// [`DriveCycle::select`] of a cycle no longer needed: itself where every sample is
-    /// used (nothing copied).
-    pub fn into_selected(self, used: &[bool]) -> DriveCycle {
-        match used.iter().all(|&u| u) && used.len() == self.t_s.len() {
-            true => self,
-            false => {
-                let selected = self.select_from(used);
-                self.recycle();
-                selected
-            }
-        }
-    }
-
-    fn select_from(&self, used: &[bool]) -> DriveCycle {
         let pick = |v: &Vec<f64>| -> Vec<f64> {
             v.iter()
                 .zip(used)

@@ -45,36 +45,52 @@ impl Gust {
     }
 
     /// φᵢ and σ_w √(1 − φᵢ²) of each step of `times_s` (i ≥ 1). The same in every
-    /// realisation, so each thread keeps those of the last run and gust it drew.
+    /// realisation, so each thread keeps those of the last [`KEPT_STEPS`] runs it drew
+    /// gusts on (a coast-down's runs each have their own times).
     fn steps(&self, times_s: &Arc<[f64]>) -> Arc<[[f64; 2]]> {
-        type Kept = Option<(Arc<[f64]>, [u64; 2], Arc<[[f64; 2]]>)>;
+        type Kept = Vec<(Arc<[f64]>, [u64; 2], Arc<[[f64; 2]]>)>;
         thread_local! {
-            static LAST: RefCell<Kept> = const { RefCell::new(None) };
+            static KEPT: RefCell<Kept> = const { RefCell::new(Vec::new()) };
         }
         let key = [self.sd_m_s.to_bits(), self.time_s.to_bits()];
-        LAST.with_borrow_mut(|last| {
-            if let Some((times, k, steps)) = last.as_ref()
-                && Arc::ptr_eq(times, times_s)
-                && *k == key
-            {
-                return steps.clone();
-            }
-            let steps: Arc<[[f64; 2]]> = times_s
+        let make = || -> Arc<[[f64; 2]]> {
+            times_s
                 .windows(2)
                 .map(|t| {
                     let phi = (-(t[1] - t[0]) / self.time_s).exp();
                     [phi, self.sd_m_s * (1.0 - phi * phi).sqrt()]
                 })
-                .collect();
-            *last = Some((times_s.clone(), key, steps.clone()));
-            steps
+                .collect()
+        };
+        KEPT.try_with(|kept| {
+            let mut kept = kept.try_borrow_mut().ok()?;
+            // The times are held here, so a pointer that matches is these times.
+            if let Some((_, _, steps)) = kept
+                .iter()
+                .find(|(times, k, _)| Arc::ptr_eq(times, times_s) && *k == key)
+            {
+                return Some(steps.clone());
+            }
+            let steps = make();
+            if kept.len() == KEPT_STEPS {
+                kept.remove(0);
+            }
+            kept.push((times_s.clone(), key, steps.clone()));
+            Some(steps)
         })
+        .ok()
+        .flatten()
+        .unwrap_or_else(make)
     }
 }
 
+/// The runs whose gusts' steps a thread keeps ([`Gust::steps`]).
+const KEPT_STEPS: usize = 32;
+
 /// Spare wind columns a thread keeps at most (those of a group of realisations side by
-/// side and the next), and the most values they hold together (32 MiB).
+/// side and the next).
 const SPARE_WIND_COLUMNS: usize = 16;
+/// The most values the spare wind columns hold together (32 MiB).
 const SPARE_WIND_VALUES: usize = 4 << 20;
 
 thread_local! {
@@ -163,7 +179,8 @@ impl WindSeries {
 }
 
 impl Drop for WindSeries {
-    /// Its wind column becomes the thread's spare, for the next series drawn.
+    /// Its wind column becomes the thread's spare, for the next series drawn (unless the
+    /// spares are full).
     fn drop(&mut self) {
         let wind = std::mem::take(&mut self.wind_m_s);
         let _ = SPARE_WINDS.try_with(|spare| {

@@ -122,7 +122,7 @@ pub trait ModelError: Send + Sync + fmt::Debug {
 
     /// Its added inertia, omitted force, wind and air density factor at `sample`, in that
     /// order: one call where the truth's force needs all four (each entry's own methods,
-    /// called statically inside it).
+    /// called statically inside it). An entry that overrides it gives what they give.
     #[inline]
     fn contributions(&self, vehicle: &VehicleParams, sample: &TruthSample) -> [f64; 4] {
         [
@@ -140,7 +140,8 @@ pub trait ModelError: Send + Sync + fmt::Debug {
     }
 
     /// Each of `forces_n` \[N\] replaced by the force the log records for it
-    /// ([`ModelError::logged_force`] of each in turn: one call for a whole column).
+    /// ([`ModelError::logged_force`] of each in turn: one call for a whole column). An
+    /// entry that overrides it gives what `logged_force` gives, value by value.
     #[inline]
     fn log_forces(&self, forces_n: &mut [f64]) {
         for f in forces_n {

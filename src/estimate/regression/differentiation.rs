@@ -105,7 +105,7 @@ impl Regression {
         let end = rows[rows.len() - 1] + 1;
         let mut reg = Regression::new(&selected, vehicle);
         reg.differentiation = Some(Differentiation {
-            span_t: t[start..=end].to_vec().into(),
+            span_t: t[start..=end].into(),
             span_run: cycle.run[start..=end].into(),
             sample: rows.iter().map(|&i| i - start).collect::<Vec<_>>().into(),
             inv_dt: inv_dt.into(),

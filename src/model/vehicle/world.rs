@@ -252,6 +252,11 @@ impl World {
         }
         let nominal = &*self.cycle;
         let mut inv_mass = None;
+        // Whether the cycle was integrated for this realisation alone: its memory then goes
+        // to the thread's spares once read, for the next realisation's integration.
+        let integrated = !self.filter_truth.is_drawn()
+            && self.truth.is_drawn()
+            && self.truth.moves_per_realisation();
         let (mut cycle, truth) = if self.filter_truth.is_drawn() {
             // The filters' model: its own Euler path (validated to come without model
             // errors).
@@ -291,9 +296,7 @@ impl World {
             // Only a calibration is drawn: the noise-free cycle's log through it.
             let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
             let mut cycle = nominal.clone();
-            for f in &mut cycle.f_prop_n {
-                *f = drawn.logged_force(*f);
-            }
+            drawn.log_forces(&mut cycle.f_prop_n);
             (cycle, Cow::Borrowed(&self.steady))
         };
         let used = used_samples(&cycle, vs, self.prefix, self.source);
@@ -325,23 +328,22 @@ impl World {
                 }
             });
         }
-        // The realisation's cycle goes to the thread's spares once its regression is built.
         let regression = match self.source {
             Acceleration::Differentiated => {
                 let regression =
                     Regression::differentiated(&cycle, &used, self.grade_bias_rad, &vs.vehicle);
-                cycle.recycle();
+                give_back(cycle, integrated);
                 regression
             }
             Acceleration::Model if mapped.is_some() => {
                 let (sin, cos) = mapped.expect("the map's grade");
-                let selected = cycle.into_selected(&used);
+                let (selected, own) = selected_rows(cycle, &used, integrated);
                 let regression = Regression::with_sin_cos(&selected, sin, cos, &vs.vehicle);
-                selected.recycle();
+                give_back(selected, own);
                 read_grade(vs, regression)
             }
             Acceleration::Model => {
-                let mut selected = cycle.into_selected(&used);
+                let (mut selected, own) = selected_rows(cycle, &used, integrated);
                 if self.grade_bias_rad != 0.0 {
                     selected
                         .grade_rad
@@ -349,11 +351,32 @@ impl World {
                         .for_each(|g| *g += self.grade_bias_rad);
                 }
                 let regression = Regression::new(&selected, &vs.vehicle);
-                selected.recycle();
+                give_back(selected, own);
                 read_grade(vs, regression)
             }
         };
         Ok((regression, inv_mass))
+    }
+}
+
+/// The rows of `cycle` that `used` keeps: the cycle itself where it keeps every row, else a
+/// copy, the cycle then given to the thread's spares when it was `integrated` for one
+/// realisation ([`DriveCycle::recycle`]). With it, whether the rows are that integrated
+/// cycle, to be given back once read.
+fn selected_rows(cycle: DriveCycle, used: &[bool], integrated: bool) -> (DriveCycle, bool) {
+    if used.len() == cycle.len() && used.iter().all(|&u| u) {
+        return (cycle, integrated);
+    }
+    let selected = cycle.select(used);
+    give_back(cycle, integrated);
+    (selected, false)
+}
+
+/// `cycle` to the thread's spares when `integrated` for one realisation: only such a cycle
+/// has the room the next realisation's integration asks for.
+fn give_back(cycle: DriveCycle, integrated: bool) {
+    if integrated {
+        cycle.recycle();
     }
 }
 
