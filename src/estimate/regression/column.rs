@@ -82,7 +82,8 @@ impl Column<f64> {
             })
             .ok()
             .flatten();
-        let mut values = spare.unwrap_or_else(|| Arc::from(vec![0.0; n]));
+        // New storage in one allocation (a `Vec` made into an `Arc` would be copied).
+        let mut values = spare.unwrap_or_else(|| std::iter::repeat_n(0.0, n).collect());
         fill(Arc::get_mut(&mut values).expect("spare storage is held by nothing else"));
         Column { values, len: n }
     }
