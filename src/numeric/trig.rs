@@ -1,10 +1,9 @@
-//! Sine and cosine of many small angles at once, for the grade noise of the Monte Carlo
-//! kernel: the noisy grade θ + δ is formed by angle addition from the precomputed sin θ,
-//! cos θ and the sine and cosine of the small noise angle δ = σ_θ·e
-//! (docs/model.md#noise-channels). A loop of `f64::sin_cos` calls cannot vectorise; here
-//! every |x| ≤ π/4 is evaluated by the same branch-free polynomials, which the compiler
-//! turns into SIMD code, and the rare larger or non-finite argument is handed to
-//! `f64::sin_cos` afterwards.
+//! Sine and cosine of many small angles at once, with the same bits on every x86-64 CPU. A
+//! loop of `f64::sin_cos` calls cannot vectorise; here every |x| ≤ π/4 is evaluated by the
+//! same branch-free polynomials, which the compiler turns into SIMD code, and the rare
+//! larger or non-finite argument is handed to `f64::sin_cos` afterwards. Grade noise turns
+//! each sample's gravity terms by its small angle δ = σ_θ·e ([`turn`], its own short series,
+//! these kernels for a larger δ; docs/model.md#noise-channels).
 //!
 //! The polynomials are the fdlibm kernels `__kernel_sin` and `__kernel_cos` as musl has them
 //! (src/math/__sin.c and src/math/__cos.c, from FreeBSD's k_sin.c / k_cos.c; Copyright (C)
@@ -16,6 +15,9 @@
 //! gives the same bits.
 
 use std::f64::consts::FRAC_PI_4;
+
+mod turn;
+pub use turn::{SMALL_ANGLE, turn, turn_one};
 
 /// The fdlibm coefficients, written with the digits musl has (more than an `f64` holds, so
 /// clippy's excessive-precision lint is off here); the tests check their bits against the
@@ -83,37 +85,6 @@ pub fn kernel_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
     let w = c(1.0) - hz;
     let cos = w + (((c(1.0) - w) - hz) + z * r);
     (sin, cos)
-}
-
-/// sin and cos of each lane of `x`: the kernels where |x| ≤ π/4, otherwise (and for NaN,
-/// ±∞) `f64::sin_cos`, lane for lane the bits [`sin_cos`] gives.
-#[inline(always)]
-pub fn sin_cos_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
-    let (sin, cos) = kernel_lanes(l, x);
-    match outside_kernel_range(l, x) {
-        0 => (sin, cos),
-        outside => outside_lanes(l, x, (sin, cos), outside),
-    }
-}
-
-/// `(sin, cos)` with the lanes in the mask `outside` replaced by `f64::sin_cos` of `x`'s.
-/// Inlined: returned from a call, the pair would pass through memory on the common path
-/// too.
-#[inline(always)]
-fn outside_lanes<L: Lanes>(
-    l: L,
-    x: L::F64,
-    (sin, cos): (L::F64, L::F64),
-    outside: u32,
-) -> (L::F64, L::F64) {
-    let (mut xs, mut s, mut c) = ([0.0; 8], [0.0; 8], [0.0; 8]);
-    l.store(x, &mut xs, 0);
-    l.store(sin, &mut s, 0);
-    l.store(cos, &mut c, 0);
-    for lane in (0..L::WIDTH).filter(|lane| outside >> lane & 1 == 1) {
-        (s[lane], c[lane]) = xs[lane].sin_cos();
-    }
-    (l.load(&s, 0), l.load(&c, 0))
 }
 
 /// The mask of the lanes of `x` outside the kernels' range (bit l for lane l: |x| > π/4 or

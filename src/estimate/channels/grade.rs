@@ -8,7 +8,7 @@ use super::{
 use crate::estimate::sums::Column;
 use crate::estimate::sums::{GradeSums, Moments};
 use crate::numeric::simd::Lanes;
-use crate::numeric::trig::sin_cos_lanes;
+use crate::numeric::trig::turn;
 
 /// The grade-noise channel.
 #[derive(Debug, Clone, Copy)]
@@ -26,17 +26,13 @@ impl ChannelTerms for GradeNoise {
     const OMEGA_RANK: usize = 2;
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
-    /// sin and cos of θ + δ, δ = σe, from those of θ and δ (angle addition), the small
-    /// angle's by the vectorised sin/cos (docs/model.md#sensors); then x̃₃ = −g cos θ̃ and
-    /// s̃ = g sin θ̃.
+    /// x̃₃ = −g cos θ̃ and s̃ = g sin θ̃ of θ̃ = θ + δ, δ = σe, from the noise-free ones:
+    /// the point (−g cos θ, g sin θ) = g (cos(π − θ), sin(π − θ)) turned by −δ
+    /// (`numeric::trig::turn`, the short series of the small angle,
+    /// docs/model.md#noise-channels).
     #[inline(always)]
     fn measure<L: Lanes>(l: L, x: &mut Sample<L::F64>, sd: f64, e: L::F64) {
-        let (sin_d, cos_d) = sin_cos_lanes(l, l.splat(sd) * e);
-        let (sin0, cos0) = (x.sin_grade, x.cos_grade);
-        let sin = sin0 * cos_d + cos0 * sin_d;
-        let cos = cos0 * cos_d - sin0 * sin_d;
-        x.c = l.splat(-x.g) * cos;
-        x.s = l.splat(x.g) * sin;
+        (x.c, x.s) = turn(l, x.c, x.s, l.splat(-sd) * e);
     }
 
     /// σ_θ = 0 moves nothing: the regression's own x̃₃ and s̃ stand.

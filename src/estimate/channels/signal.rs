@@ -49,12 +49,6 @@ pub struct Sample<R> {
     pub force: R,
     /// The speed Ṽ \[m/s\].
     pub speed: R,
-    /// The noise-free sin θ of the grade (what a channel that moves the grade starts from).
-    pub sin_grade: R,
-    /// The noise-free cos θ of the grade.
-    pub cos_grade: R,
-    /// Gravity g \[m/s²\].
-    pub g: f64,
     /// x̃₃ = −g cos θ̃ \[m/s²\] (the noise-free one until a channel moves the grade).
     pub c: R,
     /// The grade term s̃ = g sin θ̃ of the output \[m/s²\] (likewise).

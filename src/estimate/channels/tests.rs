@@ -35,9 +35,6 @@ fn a_zero_draw_leaves_the_samples_unchanged() {
         let noise_free = Sample {
             force: reg.f[j],
             speed: reg.v[j],
-            sin_grade: reg.sin_grade[j],
-            cos_grade: reg.cos_grade[j],
-            g: reg.g,
             c: reg.c[j],
             s: reg.g_sin[j],
             output_noise: None,

@@ -156,9 +156,6 @@ pub fn measured_speed<L: Lanes>(l: L, v: L::F64, sd: f64, e: L::F64) -> L::F64 {
     let mut x = Sample {
         force: zero,
         speed: v,
-        sin_grade: zero,
-        cos_grade: zero,
-        g: 0.0,
         c: zero,
         s: zero,
         output_noise: None,

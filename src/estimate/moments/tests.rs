@@ -166,12 +166,14 @@ fn row_by_row(
 
 #[test]
 fn the_vectorised_general_path_keeps_the_row_by_row_sums_within_rounding() {
-    // Every channel on, and a derivative's noise: the general path (the block measured
-    // column by column, the grade's small angle by the vectorised sin/cos, the sums in
-    // four lanes) and the fast path of a differentiated acceleration against the sums
-    // row by row as they were computed before. The vectorised sin/cos is within 1 ulp of
-    // `f64::sin_cos` (numeric/trig.rs), which moves a term by a few ε of itself, and the
-    // lanes only regroup the additions: each order's rounding error is below
+    // Every channel on, and a derivative's noise: the general path (the block measured in
+    // one pass, the grade's gravity terms turned by the short series of its small angle,
+    // the sums in four lanes) and the fast path of a differentiated acceleration against
+    // the sums row by row as they were first computed (libm's sin and cos of the small
+    // angle, the angle addition of sin θ and cos θ). Either way the turned terms are within
+    // about an ulp of the true ones (numeric/trig/turn.rs's tests: the two within 2 ε of
+    // each other), which moves a term by a few ε of itself, and the lanes only regroup the
+    // additions: each order's rounding error is below
     // (N − 1) u Σ|term| (Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed.,
     // §4.2; u = ε/2), so the two agree within N ε Σ|term| (1.3e-12 Σ|term| for these
     // 6001 rows); the largest relative difference is printed.
