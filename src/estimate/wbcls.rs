@@ -23,7 +23,7 @@ use super::moments::Moments;
 use super::moments::RowsView;
 use super::regression::Regression;
 use super::moments::segment_sums::{output_sums, segment_moments_lanes};
-use super::sums::{Column as Factor, Sum};
+use super::sums::{Column as Factor, Sum, WeightedSums};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
 use crate::numeric::simd::{Lanes4, Quad};
@@ -149,16 +149,16 @@ impl Weighting<'_> {
 
     #[inline(always)]
     fn total_body(&self) -> Option<Moments> {
-        let mut total = Moments::default();
+        let mut total = WeightedSums::default();
         for (b, (m, &(v2, c2))) in self.moments.iter().zip(self.local).enumerate() {
             let variance = row_variance(&self.theta, self.k, v2, c2, self.noise)
                 + self.derivative.map_or(0.0, |d| d[b]);
             if !(variance > 0.0 && variance.is_finite()) {
                 return None;
             }
-            total.add_scaled(m, 1.0 / variance);
+            total.add(m, 1.0 / variance);
         }
-        Some(total)
+        Some(total.finish())
     }
 }
 

@@ -5,7 +5,9 @@
 use nalgebra::Vector3;
 
 use super::VehicleModel;
-use super::draws::{Draws, OwnRegression, SPAN_NOISE, ar1_step, filter_side_by_side};
+use super::draws::{
+    Draws, OwnRegression, SPAN_NOISE, ar1_step, central_differences, filter_side_by_side,
+};
 use super::world::MovedCycle;
 use crate::estimate::bounds::{BOUNDS, BoundValue, thesis_bound};
 use crate::estimate::channels::{BlockNoise, CHANNEL_COUNT, Channel, PerChannel, Signal};
@@ -164,9 +166,7 @@ impl VehicleModel {
                     // Consecutive samples (the rows are increasing): slices, which vectorise.
                     span_rows = Some(&e[first..=last]);
                     let (before, after) = (&e[first - 1..last], &e[first + 1..last + 2]);
-                    for j in 0..len {
-                        derivative[j] = sd * (after[j] - before[j]) * inv_dt[j];
-                    }
+                    central_differences(sd, after, before, inv_dt, &mut derivative[..len]);
                 } else {
                     for (j, i) in (start..start + len).enumerate() {
                         let s = d.sample[i];
