@@ -2,8 +2,8 @@
 //! loop of `f64::sin_cos` calls cannot vectorise; here every |x| ≤ π/4 is evaluated by the
 //! same branch-free polynomials, which the compiler turns into SIMD code, and the rare
 //! larger or non-finite argument is handed to `f64::sin_cos` afterwards. Grade noise turns
-//! each sample's gravity terms by its small angle δ = σ_θ·e ([`turn`], its own short series,
-//! these kernels for a larger δ; docs/model.md#noise-channels).
+//! each sample's gravity terms by the small angle −δ, δ = σ_θ·e ([`turn`], its own short
+//! series, these kernels for a larger δ; docs/model.md#noise-channels).
 //!
 //! The polynomials are the fdlibm kernels `__kernel_sin` and `__kernel_cos` as musl has them
 //! (src/math/__sin.c and src/math/__cos.c, from FreeBSD's k_sin.c / k_cos.c; Copyright (C)
@@ -88,7 +88,7 @@ pub fn kernel_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
 }
 
 /// The mask of the lanes of `x` outside the kernels' range (bit l for lane l: |x| > π/4 or
-/// NaN, as `!in_kernel_range`), whose results a caller replaces by `f64::sin_cos`.
+/// NaN, as `!in_kernel_range`), whose results `f64::sin_cos` gives instead.
 #[inline(always)]
 pub fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
     l.not_le_mask(x.abs(), FRAC_PI_4)

@@ -26,7 +26,8 @@ impl ChannelTerms for GradeNoise {
     const OMEGA_RANK: usize = 2;
     const PARTS: &'static [Part] = &[Part::C, Part::S];
 
-    /// x̃₃ = −g cos θ̃ and s̃ = g sin θ̃ of θ̃ = θ + δ, δ = σe, from the noise-free ones:
+    /// x̃₃ = −g cos θ̃ and s̃ = g sin θ̃ of θ̃ = θ + δ, δ = σe, from the noise-free ones in
+    /// `x.c` and `x.s` (no other channel moves them):
     /// the point (−g cos θ, g sin θ) = g (cos(π − θ), sin(π − θ)) turned by −δ
     /// (`numeric::trig::turn`, the short series of the small angle,
     /// docs/model.md#noise-channels).

@@ -245,8 +245,9 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
     // where the CPU has it), and its moments summed in that pass: the same operations,
     // so the same bits. Each channel on or off (the speed's or the air speed's), the grade
     // noise with speed noise alone (the
-    // grade-noise study), grade angles beyond the polynomials' π/4 (σ_θ = 0.5: a few in
-    // every block),
+    // grade-noise study), grade angles beyond the short series' 1/32 rad and the
+    // polynomials' π/4 (σ_θ = 0.5: most of each block beyond the first, lanes of either
+    // kind side by side, a few beyond the second in every block),
     // with and without a derivative's noise, whole and partial blocks.
     let reg = regression();
     let levels = |v: f64, y: f64, theta: f64, f: f64| {
