@@ -17,7 +17,7 @@
 use std::f64::consts::FRAC_PI_4;
 
 mod turn;
-pub use turn::{SMALL_ANGLE, turn, turn_one};
+pub use turn::turn;
 
 /// The fdlibm coefficients, written with the digits musl has (more than an `f64` holds, so
 /// clippy's excessive-precision lint is off here); the tests check their bits against the
@@ -89,8 +89,8 @@ pub fn kernel_lanes<L: Lanes>(l: L, x: L::F64) -> (L::F64, L::F64) {
 
 /// The mask of the lanes of `x` outside the kernels' range (bit l for lane l: |x| > π/4 or
 /// NaN, as `!in_kernel_range`), whose results `f64::sin_cos` gives instead.
-#[inline(always)]
-pub fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
+#[cfg(test)]
+fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
     l.not_le_mask(x.abs(), FRAC_PI_4)
 }
 

@@ -252,12 +252,9 @@ impl World {
         }
         let nominal = &*self.cycle;
         let mut inv_mass = None;
-        // Whether the cycle was integrated for this realisation alone: its memory then goes
-        // to the thread's spares once read, for the next realisation's integration.
-        let integrated = !self.filter_truth.is_drawn()
-            && self.truth.is_drawn()
-            && self.truth.moves_per_realisation();
-        let (mut cycle, truth) = if self.filter_truth.is_drawn() {
+        // With the cycle, whether it was integrated for this realisation alone: its memory
+        // then goes to the thread's spares once read, for the next realisation's integration.
+        let (mut cycle, truth, integrated) = if self.filter_truth.is_drawn() {
             // The filters' model: its own Euler path (validated to come without model
             // errors).
             let (cycle, drawn) = self.filter_truth.cycle(
@@ -268,9 +265,9 @@ impl World {
                 (seed, key, r),
             )?;
             inv_mass = self.filter_truth.mass_prior.map(|_| drawn);
-            (cycle, Cow::Borrowed(&self.truth))
+            (cycle, Cow::Borrowed(&self.truth), false)
         } else if !self.truth.is_drawn() {
-            (nominal.clone(), Cow::Borrowed(&self.truth))
+            (nominal.clone(), Cow::Borrowed(&self.truth), false)
         } else if self.truth.moves_per_realisation() {
             // The force the truth needs changes: the drive mode makes the cycle again
             // (integrates it, or logs another force for the same motion).
@@ -291,13 +288,13 @@ impl World {
                     (cycle, truth)
                 }
             };
-            (cycle, Cow::Owned(truth))
+            (cycle, Cow::Owned(truth), true)
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
             let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
             let mut cycle = nominal.clone();
             drawn.log_forces(&mut cycle.f_prop_n);
-            (cycle, Cow::Borrowed(&self.steady))
+            (cycle, Cow::Borrowed(&self.steady), false)
         };
         let used = used_samples(&cycle, vs, self.prefix, self.source);
         if used.iter().filter(|u| **u).count() < 3 {

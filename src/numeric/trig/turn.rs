@@ -5,7 +5,7 @@
 //! half the operations of the fdlibm kernels ([`super::sin_cos`]) that a larger δ goes to.
 
 use super::sin_cos;
-use crate::numeric::simd::{Lanes, Real, Scalar};
+use crate::numeric::simd::{Lanes, Real};
 
 /// The largest |δ| the short series take: beyond it, [`super::sin_cos`] and the rotation by
 /// its values. At |δ| = 1/32 the first term each series leaves out is δ⁹/9! < 2.6·10⁻¹⁸ |δ|
@@ -30,7 +30,7 @@ const C6: f64 = -1.0 / 720.0;
 /// x + (x·m − y·s) and y + (y·m + x·s), each a small correction added last to the value it
 /// moves (within about one ulp of |(x, y)| of the true values). Elsewhere (and for NaN):
 /// [`super::sin_cos`] of δ, then x cos δ − y sin δ and y cos δ + x sin δ. Every lane's result
-/// is that of its own values alone, the bits one `f64` gives ([`turn_one`]).
+/// is that of its own values alone, the bits one `f64` gives (`Scalar` lanes).
 #[inline(always)]
 pub fn turn<L: Lanes>(l: L, x: L::F64, y: L::F64, d: L::F64) -> (L::F64, L::F64) {
     let c = |v: f64| l.splat(v);
@@ -45,9 +45,9 @@ pub fn turn<L: Lanes>(l: L, x: L::F64, y: L::F64, d: L::F64) -> (L::F64, L::F64)
 }
 
 /// [`turn`] of one point.
-#[inline]
-pub fn turn_one(x: f64, y: f64, d: f64) -> (f64, f64) {
-    turn(Scalar, x, y, d)
+#[cfg(test)]
+fn turn_one(x: f64, y: f64, d: f64) -> (f64, f64) {
+    turn(crate::numeric::simd::Scalar, x, y, d)
 }
 
 /// The rotation by [`super::sin_cos`]'s values, for |δ| beyond the short series.
