@@ -11,11 +11,6 @@ use crate::numeric::simd::{Lanes4, Quad};
 
 const LANES: usize = 4;
 
-#[inline(always)]
-fn reduce(l: [f64; LANES]) -> f64 {
-    (l[0] + l[1]) + (l[2] + l[3])
-}
-
 /// The moments of rows `start..end` (N = the row count). With `constant`, the sums of
 /// x̃₁ and x̃₃ alone (Σx̃₁², Σx̃₁x̃₃, Σx̃₃², Σx̃₁, Σx̃₃) are taken from it instead of being
 /// summed: the caller passes them where those columns are noise-free (the segment's of
@@ -57,23 +52,25 @@ type Term = (usize, usize);
 /// The second factor of a [`Term`] that is one column alone.
 const ALONE: usize = usize::MAX;
 
-/// Each term summed over rows `0..whole` (a multiple of four) of `cols`, row i into lane
-/// i mod 4, in the lanes of `l` (portable, or one AVX2 register: the same bits). Always
-/// inlined, so that the terms are constants of the loop.
+/// Each term summed over rows `0..n` of `cols`, row i into lane i mod 4 for the groups of
+/// four and into lane 0 for the rows after them, in the lanes of `l` (portable, or one AVX2
+/// register: the same bits). Always inlined, so that the terms are constants of the loop.
 #[inline(always)]
 fn lane_sums<L: Lanes4, const K: usize>(
     l: L,
     cols: [&[f64]; 4],
     terms: [Term; K],
-    whole: usize,
-) -> [[f64; LANES]; K] {
+    n: usize,
+) -> [L::F64; K] {
     let used = |c: usize| terms.iter().any(|&(x, z)| x == c || z == c);
     for (c, col) in cols.iter().enumerate() {
-        assert!(!used(c) || col.len() >= whole);
+        assert!(!used(c) || col.len() >= n);
     }
+    let whole = n - n % LANES;
     let mut acc = [l.splat(0.0); K];
     for i in (0..whole).step_by(LANES) {
         for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+            // An `if`, not a closure: a closure is not inlined into the AVX2 functions.
             let t = if z == ALONE {
                 l.load(cols[x], i)
             } else {
@@ -82,13 +79,26 @@ fn lane_sums<L: Lanes4, const K: usize>(
             *a = *a + t;
         }
     }
-    l.lanes_each(acc)
+    #[allow(clippy::needless_range_loop)] // row i of each of the columns a term names
+    for i in whole..n {
+        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
+            let v = if z == ALONE {
+                cols[x][i]
+            } else {
+                cols[x][i] * cols[z][i]
+            };
+            // Into lane 0 alone: −0 is the exact identity of the others (x + (−0) = x for
+            // every x, ±0 included).
+            *a = *a + l.load(&[v, -0.0, -0.0, -0.0], 0);
+        }
+    }
+    acc
 }
 
-/// Each term summed over all rows of `cols` (`n` rows): [`lane_sums`] of the groups of
-/// four, the rows after them into lane 0, then each sum (l₀ + l₁) + (l₂ + l₃). The sums
-/// below are this with their lists of terms; a term's lanes are summed apart from the
-/// others', so a term has the same bits in any list.
+/// Each term summed over all rows of `cols` (`n` rows): [`lane_sums`], then each sum
+/// (l₀ + l₁) + (l₂ + l₃), four sums at a time ([`Lanes4::reduce4`]). The sums below are
+/// this with their lists of terms; a term's lanes are summed apart from the others', so a
+/// term has the same bits in any list.
 #[inline(always)]
 fn sums<L: Lanes4, const K: usize>(
     l: L,
@@ -96,19 +106,26 @@ fn sums<L: Lanes4, const K: usize>(
     terms: [Term; K],
     n: usize,
 ) -> [f64; K] {
-    let whole = n - n % LANES;
-    let mut acc = lane_sums(l, cols, terms, whole);
-    #[allow(clippy::needless_range_loop)] // row i of each of the columns a term names
-    for i in whole..n {
-        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-            a[0] += if z == ALONE {
-                cols[x][i]
-            } else {
-                cols[x][i] * cols[z][i]
-            };
+    let acc = lane_sums(l, cols, terms, n);
+    let mut out = [0.0; K];
+    let mut k = 0;
+    while k < K {
+        // Four sums at a time; past the last, any (here the first) stands in.
+        let mut four = [acc[0]; LANES];
+        for (j, v) in four.iter_mut().enumerate() {
+            if k + j < K {
+                *v = acc[k + j];
+            }
         }
+        let reduced = l.lanes(l.reduce4(four));
+        for (j, r) in reduced.into_iter().enumerate() {
+            if k + j < K {
+                out[k + j] = r;
+            }
+        }
+        k += LANES;
     }
-    acc.map(reduce)
+    out
 }
 
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
