@@ -17,6 +17,8 @@ mod error;
 pub mod filter_truth;
 mod replay;
 mod spare;
+#[cfg(test)]
+pub(crate) use spare::spare_cycles;
 mod speed_trace;
 mod torque;
 pub mod truth;
@@ -158,6 +160,13 @@ pub trait CycleSource: fmt::Debug + Send + Sync {
 
     /// The drive in a few words, for tables and figures.
     fn describe(&self) -> String;
+
+    /// Whether [`cycle`](Self::cycle) writes into the thread's spare cycles
+    /// ([`DriveCycle::one_run`]) when it integrates a realisation's own cycle: only then is
+    /// that cycle worth giving back to them ([`DriveCycle::recycle`]) once read.
+    fn reuses_spares(&self) -> bool {
+        false
+    }
 
     /// Whether the cycle needs a terrain profile (otherwise `[terrain]` is optional, and only
     /// its `scales` are read unless [`uses_terrain`](Self::uses_terrain)).

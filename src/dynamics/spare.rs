@@ -93,6 +93,12 @@ impl DriveCycle {
     }
 }
 
+/// How many spare cycles this thread keeps.
+#[cfg(test)]
+pub(crate) fn spare_cycles() -> usize {
+    SPARE.with(|spare| spare.borrow().len())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -113,6 +113,11 @@ fn terrain(road: Road<'_>) -> &GradeTable {
 }
 
 impl CycleSource for TorqueDrive {
+    /// The cycle is integrated into a spare ([`DriveCycle::one_run`]).
+    fn reuses_spares(&self) -> bool {
+        true
+    }
+
     fn cycle(
         &self,
         vehicle: &VehicleParams,

@@ -69,6 +69,11 @@ impl DesignedDrive {
 }
 
 impl CycleSource for DesignedDrive {
+    /// The cycle is integrated into a spare ([`DriveCycle::one_run`]).
+    fn reuses_spares(&self) -> bool {
+        true
+    }
+
     fn cycle(
         &self,
         vehicle: &VehicleParams,

@@ -288,7 +288,9 @@ impl World {
                     (cycle, truth)
                 }
             };
-            (cycle, Cow::Owned(truth), true)
+            // Given back to the spares once read where the mode builds its cycles in them
+            // (a speed trace's or a replay's would pile up there unused).
+            (cycle, Cow::Owned(truth), vs.drive.reuses_spares())
         } else {
             // Only a calibration is drawn: the noise-free cycle's log through it.
             let drawn = self.drawn.realise(seed, key, r, &self.run_times_s);
@@ -403,5 +405,87 @@ impl super::VehicleModel {
             Some(_) => "noise.grade_map_sd",
             None => "truth",
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use crate::dynamics::spare_cycles;
+    use crate::model::Model;
+    use crate::model::vehicle::VehicleModel;
+    use crate::study::Study;
+
+    /// `spare_cycles()` after eight gusty realisations of a two-minute drive in `[drive]`
+    /// mode `drive` on this thread (the spares emptied first), with a flat trace at 20 m/s
+    /// written in `dir` for the modes that read one.
+    fn spares_after_gusts(dir: &Path, drive: &str) -> usize {
+        let trace: String = (0..=1200)
+            .map(|i| format!("{},20.0,0.0\n", i as f64 * 0.1))
+            .collect();
+        std::fs::write(dir.join("trace.csv"), format!("t,v,grade\n{trace}")).unwrap();
+        let text = format!(
+            r#"
+            name = "spares"
+            seed = 1
+            realisations = 8
+            [vehicle]
+            mass = 1800.0
+            drag_coefficient = 0.35
+            rolling_resistance = 0.0125
+            frontal_area = 2.2
+            air_density = 1.2
+            gravity = 9.81
+            final_drive_ratio = 2.7
+            wheel_radius = 0.3
+            [drive]
+            {drive}
+            [terrain]
+            profile = "cos2"
+            height = 5.0
+            period = 300.0
+            length = 20000
+            scales = [1.0]
+            scale_applies_to = "grade"
+            [noise]
+            velocity_sd = [0.1]
+            output_sd = [0.0]
+            [estimation]
+            estimators = ["ols"]
+            [truth]
+            wind_gust_sd = [2.0]
+            "#
+        );
+        let study = Study::from_toml_in(&text, "(test)", dir).unwrap();
+        let model = VehicleModel::new(&study).unwrap();
+        while crate::dynamics::DriveCycle::one_run(0).t_s.capacity() > 0 {}
+        let mut slots = vec![0.0; 8 * model.layout().realisation_stride()];
+        model.realise_group(1, &[0], 0, 8, &mut slots);
+        spare_cycles()
+    }
+
+    #[test]
+    fn only_a_mode_that_integrates_into_the_spares_gives_its_gusty_cycles_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let torque = r#"duration = 120.0
+            time_step = 0.1
+            initial_speed = 20.0
+            torque_mean = 225.0
+            torque_amplitude = 0.1
+            torque_frequency = 0.1"#;
+        let trace = r#"mode = "speed_trace"
+            trace = "trace.csv"
+            time_column = "t"
+            speed_column = "v"
+            speed_unit = "m/s""#;
+        // The torque drive takes its spares back: some are left over, never more than a few.
+        let kept = spares_after_gusts(dir.path(), torque);
+        assert!(
+            (1..=8).contains(&kept),
+            "{kept} spare cycles after the torque drive"
+        );
+        // A speed trace builds its cycles elsewhere: none of them goes to the spares.
+        assert_eq!(spares_after_gusts(dir.path(), trace), 0);
     }
 }
