@@ -1,9 +1,10 @@
-//! Sine and cosine of many small angles at once, with the same bits on every x86-64 CPU. A
-//! loop of `f64::sin_cos` calls cannot vectorise; here every |x| ≤ π/4 is evaluated by the
-//! same branch-free polynomials, which the compiler turns into SIMD code, and the rare
-//! larger or non-finite argument is handed to `f64::sin_cos` afterwards. Grade noise turns
-//! each sample's gravity terms by the small angle −δ, δ = σ_θ·e ([`turn`], its own short
-//! series, these kernels for a larger δ; docs/model.md#noise-channels).
+//! Sine and cosine with the same bits on every x86-64 CPU: every |x| ≤ π/4 is evaluated by
+//! the same branch-free polynomials, written once over the number types of `numeric::simd`
+//! (so the compiler can turn them into SIMD code), and a larger or non-finite argument is
+//! handed to `f64::sin_cos`. Grade noise turns each sample's gravity terms by the small
+//! angle −δ, δ = σ_θ·e ([`turn`], its own short series, [`sin_cos`] for a larger δ;
+//! docs/model.md#noise-channels). The tests hold the polynomials, one value at a time and
+//! over slices in AVX2, against the fdlibm coefficients and the system's libm.
 //!
 //! The polynomials are the fdlibm kernels `__kernel_sin` and `__kernel_cos` as musl has them
 //! (src/math/__sin.c and src/math/__cos.c, from FreeBSD's k_sin.c / k_cos.c; Copyright (C)
@@ -94,7 +95,8 @@ fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
     l.not_le_mask(x.abs(), FRAC_PI_4)
 }
 
-/// sin and cos of every `x[i]` into `sin[i]`, `cos[i]` (slices of equal length).
+/// sin and cos of every `x[i]` into `sin[i]`, `cos[i]` (slices of equal length): the
+/// polynomials over many values at once, as the tests check them (no caller outside them).
 ///
 /// For |x| ≤ π/4 the fdlibm polynomials (see the module doc), within one ulp of the true
 /// values and bit-identical on every x86-64 CPU; otherwise (and for NaN, ±∞) exactly what
@@ -102,7 +104,8 @@ fn outside_kernel_range<L: Lanes>(l: L, x: L::F64) -> u32 {
 ///
 /// # Panics
 /// If the three slices differ in length.
-pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+#[cfg(test)]
+fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     assert!(
         sin.len() == x.len() && cos.len() == x.len(),
         "sin_cos_slice: slices of lengths {}, {}, {}",
@@ -120,7 +123,8 @@ pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     sin_cos_slice_body(x, sin, cos);
 }
 
-/// One value, the same bits as [`sin_cos_slice`] gives for it.
+/// sin x and cos x: the polynomials for |x| ≤ π/4 (within one ulp, the same bits on every
+/// x86-64 CPU), `f64::sin_cos` otherwise; the same bits as the slices' form gives.
 #[inline]
 pub fn sin_cos(x: f64) -> (f64, f64) {
     if in_kernel_range(x) {
@@ -130,7 +134,7 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx2")]
 fn sin_cos_slice_avx2(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     sin_cos_slice_body(x, sin, cos);
@@ -139,6 +143,7 @@ fn sin_cos_slice_avx2(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
 /// The polynomials for every element (a loop the compiler vectorises, noting on the way
 /// whether any element lies outside their range), then, only if one does, a scalar pass
 /// that overwrites those elements with `f64::sin_cos`.
+#[cfg(test)]
 #[inline(always)]
 fn sin_cos_slice_body(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     let mut outside = false;
