@@ -18,7 +18,7 @@ pub mod filter_truth;
 mod replay;
 mod spare;
 #[cfg(test)]
-pub(crate) use spare::spare_cycles;
+pub(crate) use spare::{clear_spares, spare_cycles};
 mod speed_trace;
 mod torque;
 pub mod truth;

@@ -99,6 +99,12 @@ pub(crate) fn spare_cycles() -> usize {
     SPARE.with(|spare| spare.borrow().len())
 }
 
+/// Drop this thread's spare cycles.
+#[cfg(test)]
+pub(crate) fn clear_spares() {
+    SPARE.with(|spare| spare.borrow_mut().clear());
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -70,7 +70,8 @@ fn lane_sums<L: Lanes4, const K: usize>(
     let mut acc = [l.splat(0.0); K];
     for i in (0..whole).step_by(LANES) {
         for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-            // An `if`, not a closure: a closure is not inlined into the AVX2 functions.
+            // An `if`, not a closure: a closure's body is not compiled with the caller's
+            // target features, so the intrinsics in it would be calls.
             let t = if z == ALONE {
                 l.load(cols[x], i)
             } else {

@@ -412,7 +412,7 @@ impl super::VehicleModel {
 mod tests {
     use std::path::Path;
 
-    use crate::dynamics::spare_cycles;
+    use crate::dynamics::{clear_spares, spare_cycles};
     use crate::model::Model;
     use crate::model::vehicle::VehicleModel;
     use crate::study::Study;
@@ -459,7 +459,7 @@ mod tests {
         );
         let study = Study::from_toml_in(&text, "(test)", dir).unwrap();
         let model = VehicleModel::new(&study).unwrap();
-        while crate::dynamics::DriveCycle::one_run(0).t_s.capacity() > 0 {}
+        clear_spares();
         let mut slots = vec![0.0; 8 * model.layout().realisation_stride()];
         model.realise_group(1, &[0], 0, 8, &mut slots);
         spare_cycles()
