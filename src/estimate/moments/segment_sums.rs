@@ -7,7 +7,7 @@
 use super::{GradeSums, Moments, RowsView};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
-use crate::numeric::simd::{Lanes4, Quad};
+use crate::numeric::simd::{Lanes, Lanes4, Quad, Scalar};
 
 const LANES: usize = 4;
 
@@ -52,6 +52,18 @@ type Term = (usize, usize);
 /// The second factor of a [`Term`] that is one column alone.
 const ALONE: usize = usize::MAX;
 
+/// Term `(x, z)` of `cols` at rows `i .. i + M::WIDTH` in the lanes of `m`: column x alone,
+/// or its product with column z. A function, not a closure: a closure's body is not
+/// compiled with the caller's target features, so the intrinsics in it would be calls.
+#[inline(always)]
+fn term<M: Lanes>(m: M, cols: &[&[f64]; 4], (x, z): Term, i: usize) -> M::F64 {
+    if z == ALONE {
+        m.load(cols[x], i)
+    } else {
+        m.load(cols[x], i) * m.load(cols[z], i)
+    }
+}
+
 /// Each term summed over rows `0..n` of `cols`, row i into lane i mod 4 for the groups of
 /// four and into lane 0 for the rows after them, in the lanes of `l` (portable, or one AVX2
 /// register: the same bits). Always inlined, so that the terms are constants of the loop.
@@ -69,28 +81,15 @@ fn lane_sums<L: Lanes4, const K: usize>(
     let whole = n - n % LANES;
     let mut acc = [l.splat(0.0); K];
     for i in (0..whole).step_by(LANES) {
-        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-            // An `if`, not a closure: a closure's body is not compiled with the caller's
-            // target features, so the intrinsics in it would be calls.
-            let t = if z == ALONE {
-                l.load(cols[x], i)
-            } else {
-                l.load(cols[x], i) * l.load(cols[z], i)
-            };
-            *a = *a + t;
+        for (a, &t) in acc.iter_mut().zip(&terms) {
+            *a = *a + term(l, &cols, t, i);
         }
     }
-    #[allow(clippy::needless_range_loop)] // row i of each of the columns a term names
     for i in whole..n {
-        for (a, &(x, z)) in acc.iter_mut().zip(&terms) {
-            let v = if z == ALONE {
-                cols[x][i]
-            } else {
-                cols[x][i] * cols[z][i]
-            };
+        for (a, &t) in acc.iter_mut().zip(&terms) {
             // Into lane 0 alone: −0 is the exact identity of the others (x + (−0) = x for
             // every x, ±0 included).
-            *a = *a + l.load(&[v, -0.0, -0.0, -0.0], 0);
+            *a = *a + l.load(&[term(Scalar, &cols, t, i), -0.0, -0.0, -0.0], 0);
         }
     }
     acc
