@@ -292,6 +292,15 @@ pub trait RowScan: Any + Send + Sync + fmt::Debug {
     /// Take the measured rows up to `end` (exclusive; a multiple of four or the row
     /// count).
     fn advance(&mut self, rows: RowsView<'_>, end: usize);
+
+    /// Whether, after [`reset`](Self::reset), the scan reads the lane sums of the rows'
+    /// chunks ([`RowsView::chunks`]), holding the grade term's where `grade`, in place of
+    /// the rows inside them: the kernel's pass then takes them (and where every scan reads
+    /// them and nothing else reads the rows, writes only the rows after the chunks).
+    fn reads_chunks(&self, grade: bool) -> bool {
+        let _ = grade;
+        false
+    }
 }
 
 /// What a scan starts a realisation from besides its regression.
@@ -341,6 +350,13 @@ impl RowScans {
         for scan in &mut self.scans {
             scan.advance(rows, end);
         }
+    }
+
+    /// Whether some scan reads the lane sums of the rows' chunks, and whether every scan
+    /// reads them in place of the rows inside them ([`RowScan::reads_chunks`]).
+    pub fn reads_chunks(&self, grade: bool) -> [bool; 2] {
+        let mut reads = self.scans.iter().map(|scan| scan.reads_chunks(grade));
+        [reads.clone().any(|r| r), reads.all(|r| r)]
     }
 
     /// The scan of type `T` (`None`: no estimator has one).

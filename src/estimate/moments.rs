@@ -18,7 +18,10 @@ mod block;
 mod lane_sums;
 mod rows;
 pub mod segment_sums;
-pub use block::{Block, MeasuredBlock, RowsOut, RowsView, Wanted};
+pub(crate) use block::chunk_moments;
+pub use block::{
+    Block, CHUNK_ROWS, ChunkLanes, MeasuredBlock, RowChunks, RowsOut, RowsView, Wanted,
+};
 pub use rows::Rows;
 
 /// The sums of w = V² without speed noise — Σw, ΣwF, Σwc, Σw², Σwy — block by block in
@@ -278,6 +281,11 @@ impl<'r> MomentAccumulator<'r> {
         derivative: Option<&[f64]>,
     ) {
         self.add_general_into(start, len, draws, derivative, None);
+    }
+
+    /// Whether the general path sums the grade term ([`GradeSums`]).
+    pub fn sums_grade(&self) -> bool {
+        self.sum_grade
     }
 
     /// Whether the blocks are measured on the general path with their rows kept: then

@@ -333,8 +333,8 @@ impl WeightedSums {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::moments::RowsView;
     use crate::estimate::moments::segment_sums::segment_moments;
+    use crate::estimate::moments::{RowChunks, RowsView};
     use crate::estimate::regression::test_regression;
     use crate::estimate::wbcls::WeightSegments;
 
@@ -387,6 +387,7 @@ mod tests {
             s: &reg.g_sin,
             noise_free_f_c: true,
             noise_free_y: true,
+            chunks: RowChunks::NONE,
         };
         let segments = WeightSegments::of(&reg);
         let (ranges, constant) = (&segments.ranges, &segments.sums);

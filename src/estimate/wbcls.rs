@@ -22,7 +22,8 @@ use super::estimator::{
 use super::moments::Moments;
 use super::moments::RowsView;
 use super::regression::Regression;
-use super::moments::segment_sums::{output_sums, segment_moments_lanes};
+use super::moments::{CHUNK_ROWS, chunk_moments};
+use super::moments::segment_sums::{output_sums, segment_moments_lanes, with_constants};
 use super::sums::{Column as Factor, Sum, WeightedSums};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
@@ -248,6 +249,10 @@ pub(crate) struct WeightSegments {
     /// The shortest time from a segment's first row to the next segment's (at least
     /// [`SEGMENT_S`]; [`SEGMENT_S`] with one segment) \[s\].
     pub(crate) shortest_s: f64,
+    /// Whether every segment but the last is the chunk of [`CHUNK_ROWS`] rows at its
+    /// place (rows 16·j .. 16·(j + 1)), as where the samples are at least 1/30 s apart:
+    /// then the kernel's pass takes their moments ([`RowsView::chunks`]).
+    pub(crate) chunks: bool,
 }
 
 impl WeightSegments {
@@ -291,10 +296,16 @@ impl WeightSegments {
                     m
                 })
                 .collect();
+            let full = &ranges[..ranges.len().saturating_sub(1)];
+            let chunks = full
+                .iter()
+                .enumerate()
+                .all(|(j, &range)| range == (CHUNK_ROWS * j, CHUNK_ROWS * (j + 1)));
             WeightSegments {
                 ranges,
                 sums,
                 shortest_s,
+                chunks,
             }
         })
     }
@@ -306,6 +317,8 @@ impl WeightSegments {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SegmentScan {
     grade: bool,
+    /// Whether the segments are the rows' chunks ([`WeightSegments::chunks`]).
+    chunks: bool,
     segments: Option<Arc<WeightSegments>>,
     pub(crate) done: Vec<Moments>,
 }
@@ -313,8 +326,14 @@ pub(crate) struct SegmentScan {
 impl RowScan for SegmentScan {
     fn reset(&mut self, reg: &Regression, start: &ScanStart<'_>) {
         self.grade = start.noise.measures_noisy(Signal::Grade);
-        self.segments = Some(WeightSegments::of(reg));
+        let segments = WeightSegments::of(reg);
+        self.chunks = segments.chunks;
+        self.segments = Some(segments);
         self.done.clear();
+    }
+
+    fn reads_chunks(&self, grade: bool) -> bool {
+        self.chunks && (grade || !self.grade)
     }
 
     fn advance(&mut self, rows: RowsView<'_>, end: usize) {
@@ -363,12 +382,32 @@ impl SegmentScan {
             if b > end {
                 break;
             }
-            let constant = rows.noise_free_f_c.then_some(&constants[self.done.len()]);
-            self.done
-                .push(segment_moments_lanes(l, rows, a, b, constant, self.grade));
+            let j = self.done.len();
+            let constant = rows.noise_free_f_c.then_some(&constants[j]);
+            // The chunk's moments as the pass took them, where it took them (with the
+            // grade term's sums where they are wanted): the bits summing the rows gives.
+            let chunk = rows.chunks.get(j).filter(|_| {
+                (a, b) == (CHUNK_ROWS * j, CHUNK_ROWS * (j + 1)) && (rows.chunks.grade || !self.grade)
+            });
+            self.done.push(match chunk {
+                Some(lanes) => {
+                    let m = chunk_moments(l, lanes, self.grade);
+                    with_constants(m, constant, rows.noise_free_y)
+                }
+                None => {
+                    assert!(
+                        rows.chunks.rows || a >= rows.chunks.end(),
+                        "a segment read from rows that were not written"
+                    );
+                    segment_moments_lanes(l, rows, a, b, constant, self.grade)
+                }
+            });
         }
     }
 }
+
+#[cfg(test)]
+mod chunk_tests;
 
 #[cfg(test)]
 mod tests {

@@ -11,6 +11,9 @@ use crate::numeric::simd::Quad;
 
 mod one_pass;
 
+pub use one_pass::ChunkLanes;
+pub(crate) use one_pass::chunk_moments;
+
 /// The output's channel, which the fast path carries beside the noise in w.
 pub(super) const OUTPUT: Channel = Channel::of(Signal::Acceleration);
 
@@ -112,6 +115,7 @@ impl MeasuredBlock {
             s,
             noise_free_f_c: f.is_none() && !self.grade_moved,
             noise_free_y: false,
+            chunks: RowChunks::NONE,
         }
     }
 }
@@ -133,6 +137,44 @@ pub struct RowsView<'a> {
     pub noise_free_f_c: bool,
     /// True when ỹ is the regression's noise-free column.
     pub noise_free_y: bool,
+    /// The lane sums the pass took of the last block's whole chunks ([`RowChunks`]).
+    pub chunks: RowChunks<'a>,
+}
+
+/// The lane sums of the whole chunks of [`CHUNK_ROWS`] rows of the last block measured,
+/// as the pass took them ([`RowsOut::chunks`]); chunk j holds rows [`CHUNK_ROWS`]·j ..
+/// [`CHUNK_ROWS`]·(j + 1).
+#[derive(Debug, Clone, Copy)]
+pub struct RowChunks<'a> {
+    /// The chunks' lane sums (empty: none taken).
+    pub lanes: &'a [ChunkLanes],
+    /// The index of the first of them among the rows' chunks.
+    pub from: usize,
+    /// Whether they hold the grade term's sums.
+    pub grade: bool,
+    /// Whether the rows inside whole chunks are written (else only the rows after each
+    /// block's last whole chunk are, and a reader takes the chunks' lane sums).
+    pub rows: bool,
+}
+
+impl RowChunks<'_> {
+    /// No chunks taken, every row written.
+    pub const NONE: RowChunks<'static> = RowChunks {
+        lanes: &[],
+        from: 0,
+        grade: false,
+        rows: true,
+    };
+
+    /// The lane sums of chunk `j` of the rows, where taken.
+    pub fn get(&self, j: usize) -> Option<&ChunkLanes> {
+        self.lanes.get(j.checked_sub(self.from)?)
+    }
+
+    /// The first row after the taken chunks.
+    pub fn end(&self) -> usize {
+        CHUNK_ROWS * (self.from + self.lanes.len())
+    }
 }
 
 impl RowsView<'_> {
@@ -176,4 +218,19 @@ pub struct RowsOut<'a> {
     pub s: Option<&'a mut [f64]>,
     /// ỹ \[m/s²\].
     pub y: &'a mut [f64],
+    /// Where given (room for the block's whole chunks of [`CHUNK_ROWS`] rows; the block
+    /// starts at a multiple of it), the pass takes the block's sums chunk by chunk: each
+    /// whole chunk's terms summed in lanes of their own, written here (the lanes
+    /// `segment_moments` in `moments/segment_sums.rs` sums those rows in, so the same
+    /// bits), and the block's lanes the chunks' added in order, then the rows after them
+    /// (the same sums in another order than without: docs/model.md#wbcls).
+    pub chunks: Option<&'a mut [ChunkLanes]>,
+    /// With chunks, whether the rows inside them are written as well (else only the
+    /// rows after the last whole chunk).
+    pub chunk_rows: bool,
 }
+
+/// The rows of a chunk of the pass's sums ([`RowsOut::chunks`]): `wbcls`'s least number of
+/// rows in a weight segment, which every segment but the last holds where the samples are
+/// at least 1/30 s apart (a real log's 1 or 10 Hz; docs/model.md#wbcls).
+pub const CHUNK_ROWS: usize = 16;

@@ -1,11 +1,14 @@
 //! The measured rows of one realisation, kept for the estimators that read rows ([`Rows`]):
 //! the columns the noise moves, block by block, the regression's standing in for the rest.
 
-use super::block::{Block, MeasuredBlock, OUTPUT, RowsOut, RowsView};
+use super::block::{
+    Block, CHUNK_ROWS, ChunkLanes, MeasuredBlock, OUTPUT, RowChunks, RowsOut, RowsView,
+};
 use super::lane_sums::ZEROS;
 use crate::estimate::channels::{BlockNoise, Channel, NoiseLevels, measured_speed};
 use crate::estimate::regression::Regression;
 use crate::estimate::sums::Column;
+use crate::noise::BLOCK;
 use crate::numeric::simd::Scalar;
 
 /// The measured rows of one realisation, for estimators that need more than the sums
@@ -36,6 +39,18 @@ pub struct Rows {
     /// On the fast path (only Ṽ and ỹ carry noise), the channel whose noise is in w
     /// ([`NoiseLevels::speed_channel`]); `None`: the general path.
     fast: Option<Channel>,
+    /// Whether the general path's pass takes the lane sums of the rows' chunks
+    /// ([`Rows::take_chunks`]).
+    chunked: bool,
+    /// Whether the pass sums the grade term in them.
+    chunk_grade: bool,
+    /// The lane sums of the last block's whole chunks ([`RowsView::chunks`]), room for a
+    /// block's: a scan reads them before the next block is measured.
+    chunks: Vec<ChunkLanes>,
+    /// The index of the first of them among the realisation's chunks, and their number.
+    chunks_at: (usize, usize),
+    /// Whether the rows inside whole chunks are written ([`RowsView::chunk_rows`]).
+    chunk_rows: bool,
 }
 
 impl Rows {
@@ -63,6 +78,8 @@ impl Rows {
         };
         self.len = 0;
         self.w_ahead = None;
+        self.chunked = false;
+        self.chunk_rows = true;
         self.w.resize(n, 0.0);
         // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
         let force = general && noise.moves(Column::F);
@@ -73,6 +90,25 @@ impl Rows {
         column(&mut self.y, output);
         column(&mut self.s, grade);
         self.copies = [force, grade, output, grade];
+    }
+
+    /// On the general path, have the pass take the lane sums of each chunk of
+    /// [`CHUNK_ROWS`] rows as it measures them where a scan `reads` them, and write only the
+    /// rows after each block's whole chunks where `only` the scans read the rows, all of
+    /// them from the chunks ([`RowScans::reads_chunks`]); `grade`: whether the pass sums
+    /// the grade term. The realisation's sums are then taken chunk by chunk
+    /// ([`RowsOut::chunks`]). Set after [`reset`](Self::reset), before the first block.
+    ///
+    /// [`RowScans::reads_chunks`]: crate::estimate::estimator::RowScans::reads_chunks
+    pub fn take_chunks(&mut self, [reads, only]: [bool; 2], grade: bool) {
+        assert_eq!(self.len, 0, "chunks are chosen before the first block");
+        self.chunked = reads && self.fast.is_none();
+        self.chunk_rows = !(self.chunked && only);
+        self.chunk_grade = grade;
+        self.chunks_at = (0, 0);
+        if self.chunked {
+            self.chunks.resize(BLOCK / CHUNK_ROWS, Default::default());
+        }
     }
 
     /// The columns, with `reg`'s (the regression the rows were measured on) where the noise
@@ -90,6 +126,12 @@ impl Rows {
             s: pick(&self.s, self.copies[3], &reg.g_sin),
             noise_free_f_c: !self.copies[0] && !self.copies[1],
             noise_free_y: !self.copies[2],
+            chunks: RowChunks {
+                lanes: &self.chunks[..self.chunks_at.1],
+                from: self.chunks_at.0,
+                grade: self.chunk_grade,
+                rows: self.chunk_rows,
+            },
         }
     }
 
@@ -198,6 +240,10 @@ impl Rows {
     pub fn room(&mut self, len: usize) -> RowsOut<'_> {
         assert!(self.fast.is_none(), "the general path's room");
         let range = self.len..self.len + len;
+        let whole_chunks = range.start / CHUNK_ROWS..range.end / CHUNK_ROWS;
+        if self.chunked {
+            self.chunks_at = (whole_chunks.start, whole_chunks.len());
+        }
         let [f, c, y, s] = [&mut self.f, &mut self.c, &mut self.y, &mut self.s];
         let [copy_f, copy_c, copy_y, copy_s] = self.copies;
         fn room(
@@ -213,6 +259,8 @@ impl Rows {
             c: room(c, copy_c, range.clone()),
             s: room(s, copy_s, range.clone()),
             y: room(y, copy_y, range).expect("the general path copies ỹ"),
+            chunks: self.chunked.then(|| &mut self.chunks[..whole_chunks.len()]),
+            chunk_rows: self.chunk_rows,
         }
     }
 

@@ -96,7 +96,7 @@ fn lane_sums<L: Lanes4, const K: usize>(
 }
 
 /// Each term summed over all rows of `cols` (`n` rows): [`lane_sums`], then each sum
-/// (l₀ + l₁) + (l₂ + l₃), four sums at a time ([`Lanes4::reduce4`]). The sums below are
+/// (l₀ + l₁) + (l₂ + l₃), four sums at a time ([`Lanes4::reduce_each`]). The sums below are
 /// this with their lists of terms; a term's lanes are summed apart from the others', so a
 /// term has the same bits in any list.
 #[inline(always)]
@@ -106,26 +106,7 @@ fn sums<L: Lanes4, const K: usize>(
     terms: [Term; K],
     n: usize,
 ) -> [f64; K] {
-    let acc = lane_sums(l, cols, terms, n);
-    let mut out = [0.0; K];
-    let mut k = 0;
-    while k < K {
-        // Four sums at a time; past the last, any (here the first) stands in.
-        let mut four = [acc[0]; LANES];
-        for (j, v) in four.iter_mut().enumerate() {
-            if k + j < K {
-                *v = acc[k + j];
-            }
-        }
-        let reduced = l.lanes(l.reduce4(four));
-        for (j, r) in reduced.into_iter().enumerate() {
-            if k + j < K {
-                out[k + j] = r;
-            }
-        }
-        k += LANES;
-    }
-    out
+    l.reduce_each(lane_sums(l, cols, terms, n))
 }
 
 /// The sums that involve w or ỹ: [Σx̃₁ỹ, Σx̃₃ỹ, Σx̃₁w, Σx̃₃w, Σw², Σwỹ, Σw, Σỹ].
@@ -179,6 +160,33 @@ fn grade_sums<L: Lanes4>(l: L, f: &[f64], w: &[f64], c: &[f64], s: &[f64]) -> Gr
         s_1s,
         s_3s,
         s_ws,
+    }
+}
+
+/// `m`, the moments of a segment's rows, with the sums [`segment_moments`] takes from
+/// `constant` taken from it: those of x̃₁ and x̃₃ alone, and where `noise_free_y` those of
+/// ỹ without w (Σx̃₁ỹ, Σx̃₃ỹ, Σỹ).
+#[inline(always)]
+pub(crate) fn with_constants(
+    m: Moments,
+    constant: Option<&Moments>,
+    noise_free_y: bool,
+) -> Moments {
+    let Some(c) = constant else { return m };
+    let (s_1y, s_3y, s_y) = match noise_free_y {
+        true => (c.s_1y, c.s_3y, c.s_y),
+        false => (m.s_1y, m.s_3y, m.s_y),
+    };
+    Moments {
+        s_11: c.s_11,
+        s_13: c.s_13,
+        s_33: c.s_33,
+        s_1: c.s_1,
+        s_3: c.s_3,
+        s_1y,
+        s_3y,
+        s_y,
+        ..m
     }
 }
 

@@ -320,6 +320,8 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
                         c: Some(&mut c),
                         s: Some(&mut s),
                         y: &mut y,
+                        chunks: None,
+                        chunk_rows: true,
                     };
                     let elsewhere = block.measure_and_sum(b, wanted(true), Some(out));
                     let [force, grade] = block.moved();
@@ -332,6 +334,7 @@ fn the_dispatched_and_portable_blocks_agree_bit_for_bit() {
                         s: if grade { &s } else { &reg.g_sin[range] },
                         noise_free_f_c: !force && !grade,
                         noise_free_y: false,
+                        chunks: RowChunks::NONE,
                     };
                     let what = format!("{noise:?} rows written elsewhere {start}+{len}");
                     assert_same_rows(blocks[0].view(&reg), written, &what);

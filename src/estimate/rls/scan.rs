@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::estimate::moments::RowsView;
+use crate::estimate::moments::{RowChunks, RowsView};
 use crate::estimate::regression::Regression;
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
@@ -127,6 +127,7 @@ impl RlsPlan {
                 s: y,
                 noise_free_f_c: false,
                 noise_free_y: false,
+                chunks: RowChunks::NONE,
             };
             scan.advance(rows, whole);
             let states = scan.run.record.take().unwrap_or_default();

@@ -126,6 +126,14 @@ impl VehicleModel {
             .grade_sums(self.grade_sums)
             .keep_rows(rows.is_some());
         let n = reg.len();
+        if let Some((rows, scans)) = &mut rows {
+            // The rows themselves are read whole by an estimator that reads rows, or a
+            // campaign's verdict.
+            let whole = self.study.estimators.iter().any(|e| e.reads_rows())
+                || self.study.campaign.is_some();
+            let [reads, only] = scans.reads_chunks(acc.sums_grade());
+            rows.take_chunks([reads, only && !whole], acc.sums_grade());
+        }
         // A differentiated acceleration: the speed noise of every logged sample of the span
         // (AR(1)-filtered where correlated), drawn before the rows that read it, into this
         // thread's buffer (kept from one realisation to the next).

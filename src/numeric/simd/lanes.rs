@@ -85,6 +85,31 @@ pub trait Lanes4: Lanes {
     }
     /// Lane c: (l₀ + l₁) + (l₂ + l₃) of `v[c]`, the reduction of four numbers at once.
     fn reduce4(self, v: [Self::F64; 4]) -> Self::F64;
+    /// Each of `v` reduced to (l₀ + l₁) + (l₂ + l₃), four at a time
+    /// ([`reduce4`](Self::reduce4)); each sum is reduced apart from the others, so it has
+    /// the same bits whatever its neighbours in `v`.
+    #[inline(always)]
+    fn reduce_each<const K: usize>(self, v: [Self::F64; K]) -> [f64; K] {
+        let mut out = [0.0; K];
+        let mut k = 0;
+        while k < K {
+            // Four sums at a time; past the last, any (here the first) stands in.
+            let mut four = [v[0]; 4];
+            for (j, x) in four.iter_mut().enumerate() {
+                if k + j < K {
+                    *x = v[k + j];
+                }
+            }
+            let reduced = self.lanes(self.reduce4(four));
+            for (j, r) in reduced.into_iter().enumerate() {
+                if k + j < K {
+                    out[k + j] = r;
+                }
+            }
+            k += 4;
+        }
+        out
+    }
     /// `a & b` bit by bit, lane by lane (a mask's lanes are all ones or all zeros).
     fn and(self, a: Self::F64, b: Self::F64) -> Self::F64;
     /// The mask of a ≤ b (ordered: false where either is NaN), lane by lane.

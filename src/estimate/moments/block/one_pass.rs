@@ -7,154 +7,36 @@
 //! `numeric::simd`: four samples at a time in the portable lanes or in an AVX2 register, the
 //! samples after the last group one at a time.
 
-use super::{Block, MeasuredBlock, RowsOut, Wanted};
-use crate::estimate::channels::{CHANNEL_COUNT, Channel, Sample};
+use super::{Block, CHUNK_ROWS, MeasuredBlock, RowsOut, Wanted};
 use crate::estimate::sums::Column;
 use crate::estimate::sums::{GradeSums, Moments};
 #[cfg(target_arch = "x86_64")]
 use crate::numeric::simd::Avx2;
-use crate::numeric::simd::{Lanes, Lanes4, Quad, Real, Scalar};
+use crate::numeric::simd::{Lanes4, Quad, Real, Scalar};
 
-/// The bit of a channel in the set `CH` of those that move a block (`1 << index`); the
-/// differentiated acceleration's noise has the bit after the channels'.
-const fn bit(c: Channel) -> u32 {
-    1 << c.index()
-}
-
-/// The bit of a differentiated acceleration's noise in `CH`.
-const DERIVATIVE: u32 = 1 << CHANNEL_COUNT;
-
-/// `CH` for a loop that reads which channels are on at run time.
-const RUNTIME: u32 = u32::MAX;
-
+mod flat;
 mod passes;
+
+use flat::{DERIVATIVE, Flat, RUNTIME, bit};
 
 use passes::{MAX_PASSES, PASSES};
 
 // `pass` names each entry of PASSES, 0 .. 32.
 const _: () = assert!(MAX_PASSES == 32, "list each entry of PASSES in `pass`");
 
-/// Whether the source `bit` is on: a constant of the loop, or, for [`RUNTIME`], read from
-/// the inputs (`present`).
-#[inline(always)]
-fn on<const CH: u32>(bit: u32, present: bool) -> bool {
-    if CH == RUNTIME {
-        present
-    } else {
-        CH & bit != 0
-    }
-}
-
-/// What a block is measured from, as pointers to `len` values each, checked once per block:
-/// the regression's noise-free samples of the block, each channel's draws (null: off, or
-/// at a level that moves nothing) and standard deviation, and a differentiated
-/// acceleration's noise (null: none).
-#[derive(Clone, Copy)]
-struct Flat {
-    len: usize,
-    f: *const f64,
-    v: *const f64,
-    c: *const f64,
-    g_sin: *const f64,
-    accel: *const f64,
-    e: [*const f64; CHANNEL_COUNT],
-    sd: [f64; CHANNEL_COUNT],
-    d: *const f64,
-}
-
-// SAFETY: the pointers are read only, from slices that outlive the pass (a `Flat` lives in
-// one call of `MeasuredBlock::pass`).
-impl Flat {
-    fn new(b: Block<'_>) -> Self {
-        let Block {
-            reg,
-            levels,
-            start,
-            len,
-            draws,
-            derivative,
-        } = b;
-        let range = start..start + len;
-        let ptr = |s: &[f64]| {
-            assert_eq!(s.len(), len, "a column of the block");
-            s.as_ptr()
-        };
-        let mut flat = Flat {
-            len,
-            f: ptr(&reg.f[range.clone()]),
-            v: ptr(&reg.v[range.clone()]),
-            c: ptr(&reg.c[range.clone()]),
-            g_sin: ptr(&reg.g_sin[range.clone()]),
-            accel: ptr(&reg.accel[range]),
-            e: [std::ptr::null(); CHANNEL_COUNT],
-            sd: [0.0; CHANNEL_COUNT],
-            d: derivative.map_or(std::ptr::null(), |d| ptr(&d[..len])),
-        };
-        for (channel, &sd) in levels.iter() {
-            if let Some(e) = draws[channel].filter(|_| channel.moves_at(sd)) {
-                flat.e[channel.index()] = ptr(&e[..len]);
-                flat.sd[channel.index()] = sd;
-            }
-        }
-        flat
-    }
-
-    /// The bits of the sources that move the block.
-    fn channels(&self) -> u32 {
-        let channels = Channel::ALL
-            .into_iter()
-            .filter(|c| !self.e[c.index()].is_null())
-            .fold(0, |bits, c| bits | bit(c));
-        channels | if self.d.is_null() { 0 } else { DERIVATIVE }
-    }
-
-    /// Whether a channel that is on moves the measured column `column`.
-    fn moves(&self, column: Column) -> bool {
-        Channel::ALL
-            .into_iter()
-            .any(|c| !self.e[c.index()].is_null() && c.columns().contains(&column))
-    }
-
-    /// Samples `i .. i + L::WIDTH` measured: `[x̃₁, w, x̃₃, s̃, ỹ]`. Each channel on (of
-    /// `CH`, or of the inputs for [`RUNTIME`]) moves the sample, in the order of
-    /// [`Channel::ALL`] ([`Channel::measure_each`]; each moves its own quantities, so the
-    /// order changes no value).
-    ///
-    /// # Safety
-    /// `i + L::WIDTH <= self.len`, and a channel `CH` says is on has its pointer.
-    #[inline(always)]
-    unsafe fn measure<L: Lanes, const CH: u32>(&self, l: L, i: usize) -> [L::F64; 5] {
-        // SAFETY: every pointer read holds `len` ≥ `i + L::WIDTH` values.
-        unsafe {
-            let mut x = Sample {
-                force: l.load_ptr(self.f, i),
-                speed: l.load_ptr(self.v, i),
-                c: l.load_ptr(self.c, i),
-                s: l.load_ptr(self.g_sin, i),
-                output_noise: None,
-            };
-            Channel::measure_each(l, &mut x, |c| {
-                let k = c.index();
-                // A channel that is on has its pointer, of `len` values (the block above).
-                on::<CH>(bit(c), !self.e[k].is_null())
-                    .then(|| (self.sd[k], l.load_ptr(self.e[k], i)))
-            });
-            let w = x.speed * x.speed;
-            let mut y = l.load_ptr(self.accel, i) + x.s;
-            if let Some(noise) = x.output_noise {
-                y = y + noise;
-            }
-            if on::<CH>(DERIVATIVE, !self.d.is_null()) {
-                y = y + l.load_ptr(self.d, i);
-            }
-            [x.force, w, x.c, x.s, y]
-        }
-    }
-}
-
 /// The block's lane sums, accumulator k of the terms of [`terms`]: sample i into lane
 /// i mod 4 (the lanes of `moments/segment_sums.rs`).
 type LaneSums = [[f64; LANES]; TERMS];
+
+/// A chunk's lane sums ([`RowsOut::chunks`]), as a block's ([`LaneSums`]).
+pub type ChunkLanes = LaneSums;
+
+/// The moments of a chunk from its lane sums, each reduced as `segment_moments` reduces a
+/// segment's (so the same bits); with the grade term's sums where `grade`.
+#[inline(always)]
+pub(crate) fn chunk_moments<L: Lanes4>(l: L, lanes: &ChunkLanes, grade: bool) -> Moments {
+    moments(l.reduce_each(l.load_each(lanes)), CHUNK_ROWS, true, grade)
+}
 
 const LANES: usize = 4;
 
@@ -192,11 +74,12 @@ fn terms<R: Real>([f, w, c, s, y]: [R; 5]) -> [R; TERMS] {
 const REGRESSOR_TERMS: usize = 8;
 const GRADE_TERMS: usize = 13;
 
-/// The moments of the lanes as `segment_moments` forms them: each sum (l₀ + l₁) + (l₂ + l₃);
-/// without `regressors` the sums of x̃₁ and x̃₃ alone are zero (left to
-/// `MomentAccumulator::finish`), without `grade` there are no grade sums.
-fn moments(lanes: &LaneSums, len: usize, regressors: bool, grade: bool) -> Moments {
-    let sums = lanes.map(|l| (l[0] + l[1]) + (l[2] + l[3]));
+/// The moments of `len` rows from their sums of [`terms`], each reduced from its lanes as
+/// `segment_moments` reduces them, (l₀ + l₁) + (l₂ + l₃); without `regressors` the sums of
+/// x̃₁ and x̃₃ alone are zero (left to `MomentAccumulator::finish`), without `grade` there
+/// are no grade sums.
+#[inline(always)]
+fn moments(sums: [f64; TERMS], len: usize, regressors: bool, grade: bool) -> Moments {
     let [
         s_1y,
         s_3y,
@@ -321,7 +204,8 @@ impl MeasuredBlock {
             (false, true) => self.pass::<L, true, false, true>(l, b, rows, out),
             (false, false) => self.pass::<L, true, false, false>(l, b, rows, out),
         };
-        moments(&lanes, b.len, wanted.regressors, wanted.grade)
+        let sums = lanes.map(|l| (l[0] + l[1]) + (l[2] + l[3]));
+        moments(sums, b.len, wanted.regressors, wanted.grade)
     }
 
     /// The pass: the block measured (without `rows`, the groups write no columns), and
@@ -387,17 +271,18 @@ impl MeasuredBlock {
             &mut self.s[..len],
             &mut self.y[..len],
         ];
-        let [f_out, w_out, c_out, s_out, y_out] = match out {
-            None => own,
+        let ([f_out, w_out, c_out, s_out, y_out], chunks, chunk_rows) = match out {
+            None => (own, None, true),
             Some(o) => {
                 let [f, _, c, s, _] = own;
-                [
+                let columns = [
                     o.f.unwrap_or(f),
                     o.w,
                     o.c.unwrap_or(c),
                     o.s.unwrap_or(s),
                     o.y,
-                ]
+                ];
+                (columns, o.chunks, o.chunk_rows)
             }
         };
         for column in [&f_out, &w_out, &c_out, &s_out, &y_out] {
@@ -407,29 +292,68 @@ impl MeasuredBlock {
             k < REGRESSOR_TERMS || (REGRESSORS && k < GRADE_TERMS) || (GRADE && k >= GRADE_TERMS)
         };
         let whole = len - len % LANES;
+        // Group i (rows i .. i + 4) measured, its rows written where kept, its terms added
+        // to the lanes `$acc`. A macro, not a closure: a closure's body is not compiled
+        // with the caller's target features.
+        macro_rules! group {
+            ($i:expr, $acc:expr, $rows:expr) => {{
+                let (i, rows) = ($i, $rows);
+                // SAFETY: i + 4 <= len; `CH` is the inputs' channels or RUNTIME (checked).
+                let values = unsafe { x.measure::<L, CH>(l, i) };
+                let [f, w, c, s, y] = values;
+                if rows {
+                    if force {
+                        l.store(f, f_out, i);
+                    }
+                    if grade {
+                        l.store(c, c_out, i);
+                        l.store(s, s_out, i);
+                    }
+                    l.store(w, w_out, i);
+                    l.store(y, y_out, i);
+                }
+                if SUMS {
+                    for (k, t) in terms(values).into_iter().enumerate() {
+                        if wanted(k) {
+                            $acc[k] = $acc[k] + t;
+                        }
+                    }
+                }
+            }};
+        }
         let mut acc = [l.splat(0.0); TERMS];
-        for i in (0..whole).step_by(LANES) {
-            // SAFETY: i + 4 <= len; `CH` is the inputs' channels or RUNTIME (checked).
-            let values = unsafe { x.measure::<L, CH>(l, i) };
-            let [f, w, c, s, y] = values;
-            if rows {
-                if force {
-                    l.store(f, f_out, i);
+        let mut first = 0;
+        if let Some(chunks) = chunks {
+            // Chunk by chunk: each chunk's sums in lanes of their own, kept in `chunks`;
+            // then the chunks' lanes added to the block's in order.
+            assert!(
+                SUMS && self.start.is_multiple_of(CHUNK_ROWS),
+                "chunks of the pass's sums"
+            );
+            let count = len / CHUNK_ROWS;
+            assert_eq!(chunks.len(), count, "room for the block's whole chunks");
+            let mut part = [l.splat(0.0); TERMS];
+            for i in (0..count * CHUNK_ROWS).step_by(LANES) {
+                group!(i, part, rows && chunk_rows);
+                if (i + LANES).is_multiple_of(CHUNK_ROWS) {
+                    for (kept, p) in chunks[i / CHUNK_ROWS].iter_mut().zip(part) {
+                        l.store(p, kept, 0);
+                    }
+                    part = [l.splat(0.0); TERMS];
                 }
-                if grade {
-                    l.store(c, c_out, i);
-                    l.store(s, s_out, i);
-                }
-                l.store(w, w_out, i);
-                l.store(y, y_out, i);
             }
-            if SUMS {
-                for (k, t) in terms(values).into_iter().enumerate() {
+            for kept in chunks.iter() {
+                let part = l.load_each(kept);
+                for (k, (a, p)) in acc.iter_mut().zip(part).enumerate() {
                     if wanted(k) {
-                        acc[k] = acc[k] + t;
+                        *a = *a + p;
                     }
                 }
             }
+            first = count * CHUNK_ROWS;
+        }
+        for i in (first..whole).step_by(LANES) {
+            group!(i, acc, rows);
         }
         let mut lanes = [[0.0; LANES]; TERMS];
         if SUMS {

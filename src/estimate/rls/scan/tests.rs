@@ -37,6 +37,7 @@ fn view(cols: &[Vec<f64>; 4]) -> RowsView<'_> {
         s: &cols[3],
         noise_free_f_c: false,
         noise_free_y: false,
+        chunks: RowChunks::NONE,
     }
 }
 
