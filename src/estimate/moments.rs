@@ -384,3 +384,6 @@ impl<'r> MomentAccumulator<'r> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+pub(crate) mod test_draws;

@@ -39,18 +39,26 @@ pub struct Rows {
     /// On the fast path (only Ṽ and ỹ carry noise), the channel whose noise is in w
     /// ([`NoiseLevels::speed_channel`]); `None`: the general path.
     fast: Option<Channel>,
-    /// Whether the general path's pass takes the lane sums of the rows' chunks
-    /// ([`Rows::take_chunks`]).
-    chunked: bool,
-    /// Whether the pass sums the grade term in them.
-    chunk_grade: bool,
+    /// What the general path's pass takes of the rows' chunks in this realisation
+    /// ([`Rows::take_chunks`]); `None`: no chunks, every row written.
+    chunking: Option<Chunking>,
     /// The lane sums of the last block's whole chunks ([`RowsView::chunks`]), room for a
     /// block's: a scan reads them before the next block is measured.
     chunks: Vec<ChunkLanes>,
-    /// The index of the first of them among the realisation's chunks, and their number.
-    chunks_at: (usize, usize),
-    /// Whether the rows inside whole chunks are written ([`RowsView::chunk_rows`]).
-    chunk_rows: bool,
+}
+
+/// The chunks the pass takes in a realisation, and where the last block's are
+/// ([`RowChunks`] is the view of them).
+#[derive(Debug, Clone, Copy)]
+struct Chunking {
+    /// Whether the pass sums the grade term in them.
+    grade: bool,
+    /// Whether the rows inside whole chunks are written ([`RowChunks::rows`]).
+    rows: bool,
+    /// The index of the last block's first whole chunk among the realisation's chunks.
+    from: usize,
+    /// The number of the last block's whole chunks.
+    count: usize,
 }
 
 impl Rows {
@@ -78,8 +86,7 @@ impl Rows {
         };
         self.len = 0;
         self.w_ahead = None;
-        self.chunked = false;
-        self.chunk_rows = true;
+        self.chunking = None;
         self.w.resize(n, 0.0);
         // Only force noise moves x̃₁, only grade noise x̃₃ and s̃ (the general path's).
         let force = general && noise.moves(Column::F);
@@ -102,11 +109,13 @@ impl Rows {
     /// [`RowScans::reads_chunks`]: crate::estimate::estimator::RowScans::reads_chunks
     pub fn take_chunks(&mut self, [reads, only]: [bool; 2], grade: bool) {
         assert_eq!(self.len, 0, "chunks are chosen before the first block");
-        self.chunked = reads && self.fast.is_none();
-        self.chunk_rows = !(self.chunked && only);
-        self.chunk_grade = grade;
-        self.chunks_at = (0, 0);
-        if self.chunked {
+        self.chunking = (reads && self.fast.is_none()).then_some(Chunking {
+            grade,
+            rows: !only,
+            from: 0,
+            count: 0,
+        });
+        if self.chunking.is_some() {
             self.chunks.resize(BLOCK / CHUNK_ROWS, Default::default());
         }
     }
@@ -126,11 +135,14 @@ impl Rows {
             s: pick(&self.s, self.copies[3], &reg.g_sin),
             noise_free_f_c: !self.copies[0] && !self.copies[1],
             noise_free_y: !self.copies[2],
-            chunks: RowChunks {
-                lanes: &self.chunks[..self.chunks_at.1],
-                from: self.chunks_at.0,
-                grade: self.chunk_grade,
-                rows: self.chunk_rows,
+            chunks: match self.chunking {
+                Some(c) => RowChunks {
+                    lanes: &self.chunks[..c.count],
+                    from: c.from,
+                    grade: c.grade,
+                    rows: c.rows,
+                },
+                None => RowChunks::NONE,
             },
         }
     }
@@ -241,8 +253,8 @@ impl Rows {
         assert!(self.fast.is_none(), "the general path's room");
         let range = self.len..self.len + len;
         let whole_chunks = range.start / CHUNK_ROWS..range.end / CHUNK_ROWS;
-        if self.chunked {
-            self.chunks_at = (whole_chunks.start, whole_chunks.len());
+        if let Some(c) = &mut self.chunking {
+            (c.from, c.count) = (whole_chunks.start, whole_chunks.len());
         }
         let [f, c, y, s] = [&mut self.f, &mut self.c, &mut self.y, &mut self.s];
         let [copy_f, copy_c, copy_y, copy_s] = self.copies;
@@ -259,8 +271,11 @@ impl Rows {
             c: room(c, copy_c, range.clone()),
             s: room(s, copy_s, range.clone()),
             y: room(y, copy_y, range).expect("the general path copies ỹ"),
-            chunks: self.chunked.then(|| &mut self.chunks[..whole_chunks.len()]),
-            chunk_rows: self.chunk_rows,
+            chunks: self
+                .chunking
+                .is_some()
+                .then(|| &mut self.chunks[..whole_chunks.len()]),
+            chunk_rows: self.chunking.is_none_or(|c| c.rows),
         }
     }
 

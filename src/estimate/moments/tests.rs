@@ -1,6 +1,7 @@
 use super::*;
 use crate::estimate::channels::Channel;
 use crate::estimate::moments::segment_sums::segment_moments;
+use crate::estimate::moments::test_draws::{block_draws, channel_draws};
 use crate::estimate::regression::test_regression as regression;
 use crate::estimate::sums::Sum;
 use crate::noise::{BLOCK, NormalStream};
@@ -99,32 +100,6 @@ fn rows_whose_w_the_sums_write_equal_the_rows_pushed_whole() {
             );
         }
     }
-}
-
-/// The draws of rows `start .. start + len` of each channel `noise` has on.
-fn block_draws<'a>(
-    draws: &'a [Vec<f64>],
-    noise: &NoiseLevels,
-    start: usize,
-    len: usize,
-) -> BlockNoise<'a> {
-    BlockNoise::from_fn(|c| {
-        noise
-            .is_on(c)
-            .then(|| &draws[c.index()][start..start + len])
-    })
-}
-
-/// `n` standard normals of every channel, from realisation `r` of seed `seed`.
-fn channel_draws(n: usize, seed: u64, r: u64) -> Vec<Vec<f64>> {
-    Channel::ALL
-        .iter()
-        .map(|c| {
-            let mut z = vec![0.0; n];
-            NormalStream::for_realisation(seed, 0, c.stream(), r).fill(&mut z);
-            z
-        })
-        .collect()
 }
 
 /// The sums as the kernel computed them before its general path was vectorised, row by

@@ -4,37 +4,11 @@
 
 use super::*;
 use crate::dynamics::VehicleParams;
-use crate::estimate::channels::BlockNoise;
 use crate::estimate::estimator::EstimatorSettings;
+use crate::estimate::moments::test_draws::{block_draws, channel_draws};
 use crate::estimate::moments::{MomentAccumulator, Rows};
 use crate::estimate::sums::Sum;
-use crate::noise::{BLOCK, NormalStream};
-
-/// The draws of rows `start .. start + len` of each channel `noise` has on.
-fn block_draws<'a>(
-    draws: &'a [Vec<f64>],
-    noise: &NoiseLevels,
-    start: usize,
-    len: usize,
-) -> BlockNoise<'a> {
-    BlockNoise::from_fn(|c| {
-        noise
-            .is_on(c)
-            .then(|| &draws[c.index()][start..start + len])
-    })
-}
-
-/// `n` standard normals of every channel, from realisation `r` of seed `seed`.
-fn channel_draws(n: usize, seed: u64, r: u64) -> Vec<Vec<f64>> {
-    Channel::ALL
-        .iter()
-        .map(|c| {
-            let mut z = vec![0.0; n];
-            NormalStream::for_realisation(seed, 0, c.stream(), r).fill(&mut z);
-            z
-        })
-        .collect()
-}
+use crate::noise::BLOCK;
 
 /// The test cycle sampled every 0.5 s (1203 rows: four whole blocks and a partial one, 75
 /// whole chunks and 3 rows after them): WBCLS's segments are then its chunks.
