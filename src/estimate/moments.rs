@@ -111,6 +111,9 @@ pub struct MomentAccumulator<'r> {
     sum_grade: bool,
     /// Whether the general path keeps each block's measured rows ([`Self::add_block_into`]).
     keep_rows: bool,
+    /// No force noise: x̃₁ is noise-free, and the sums of it alone (x̃₁², x̃₁) are the
+    /// regression's (the general path's pass leaves them).
+    noise_free_f: bool,
     /// No force or grade noise: x̃₁ and x̃₃ are noise-free, and the sums of them alone are
     /// the regression's.
     noise_free_f_c: bool,
@@ -135,6 +138,7 @@ impl<'r> MomentAccumulator<'r> {
             use_fast_path: noise.fast_path(),
             sum_grade: noise.moves(Column::C),
             keep_rows: true,
+            noise_free_f: !noise.moves(Column::F),
             noise_free_f_c: !noise.moves(Column::F) && !noise.moves(Column::C),
             fast,
             general: Moments::default(),
@@ -342,6 +346,8 @@ impl<'r> MomentAccumulator<'r> {
             derivative,
         };
         let m = block.measure_and_sum(b, wanted, out);
+        // The pass leaves x̃₁'s sums alone exactly where `finish` takes the regression's.
+        assert_eq!(block.moved()[0], !self.noise_free_f, "x̃₁ moved");
         self.general.add(&m);
     }
 
@@ -351,11 +357,13 @@ impl<'r> MomentAccumulator<'r> {
         let n = reg.len() as f64;
         if !self.use_fast_path {
             let mut m = Moments { n, ..self.general };
-            if self.noise_free_f_c {
+            if self.noise_free_f {
                 m.s_11 = reg.xtx[(0, 0)];
+                m.s_1 = reg.sum_f;
+            }
+            if self.noise_free_f_c {
                 m.s_13 = reg.xtx[(0, 2)];
                 m.s_33 = reg.xtx[(2, 2)];
-                m.s_1 = reg.sum_f;
                 m.s_3 = reg.sum_c;
             }
             return m;

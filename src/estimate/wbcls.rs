@@ -317,8 +317,6 @@ impl WeightSegments {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SegmentScan {
     grade: bool,
-    /// Whether the segments are the rows' chunks ([`WeightSegments::chunks`]).
-    chunks: bool,
     segments: Option<Arc<WeightSegments>>,
     pub(crate) done: Vec<Moments>,
 }
@@ -326,14 +324,12 @@ pub(crate) struct SegmentScan {
 impl RowScan for SegmentScan {
     fn reset(&mut self, reg: &Regression, start: &ScanStart<'_>) {
         self.grade = start.noise.measures_noisy(Signal::Grade);
-        let segments = WeightSegments::of(reg);
-        self.chunks = segments.chunks;
-        self.segments = Some(segments);
+        self.segments = Some(WeightSegments::of(reg));
         self.done.clear();
     }
 
     fn reads_chunks(&self, grade: bool) -> bool {
-        self.chunks && (grade || !self.grade)
+        self.segments.as_ref().is_some_and(|s| s.chunks) && self.serves(grade)
     }
 
     fn advance(&mut self, rows: RowsView<'_>, end: usize) {
@@ -353,6 +349,12 @@ impl RowScan for SegmentScan {
 }
 
 impl SegmentScan {
+    /// Whether chunks' moments taken with the grade term's sums or without (`grade`) serve
+    /// the scan: without them only where it does not read them.
+    fn serves(&self, grade: bool) -> bool {
+        grade || !self.grade
+    }
+
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn advance_avx2(
@@ -387,7 +389,7 @@ impl SegmentScan {
             // The chunk's moments as the pass took them, where it took them (with the
             // grade term's sums where they are wanted): the bits summing the rows gives.
             let chunk = rows.chunks.get(j).filter(|_| {
-                (a, b) == (CHUNK_ROWS * j, CHUNK_ROWS * (j + 1)) && (rows.chunks.grade || !self.grade)
+                (a, b) == (CHUNK_ROWS * j, CHUNK_ROWS * (j + 1)) && self.serves(rows.chunks.grade)
             });
             self.done.push(match chunk {
                 Some(lanes) => {

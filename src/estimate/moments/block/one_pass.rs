@@ -17,7 +17,7 @@ use crate::numeric::simd::{Lanes4, Quad, Real, Scalar};
 mod flat;
 mod passes;
 
-use flat::{DERIVATIVE, Flat, RUNTIME, bit};
+use flat::{DERIVATIVE, Flat, RUNTIME, bit, moves};
 
 use passes::{MAX_PASSES, PASSES};
 
@@ -73,6 +73,11 @@ fn terms<R: Real>([f, w, c, s, y]: [R; 5]) -> [R; TERMS] {
 /// term's.
 const REGRESSOR_TERMS: usize = 8;
 const GRADE_TERMS: usize = 13;
+
+/// The terms of x̃₁ alone in [`terms`], x̃₁² and x̃₁: constant where no source moves x̃₁, so
+/// a block's are not summed there (the realisation takes the regression's,
+/// `MomentAccumulator::finish`).
+const FORCE_TERMS: [usize; 2] = [8, 11];
 
 /// The moments of `len` rows from their sums of [`terms`], each reduced from its lanes as
 /// `segment_moments` reduces them, (l₀ + l₁) + (l₂ + l₃); without `regressors` the sums of
@@ -205,7 +210,12 @@ impl MeasuredBlock {
             (false, false) => self.pass::<L, true, false, false>(l, b, rows, out),
         };
         let sums = lanes.map(|l| (l[0] + l[1]) + (l[2] + l[3]));
-        moments(sums, b.len, wanted.regressors, wanted.grade)
+        let mut m = moments(sums, b.len, wanted.regressors, wanted.grade);
+        if !self.force_moved {
+            // Left to the realisation (FORCE_TERMS): zero, as without `regressors`.
+            (m.s_11, m.s_1) = (0.0, 0.0);
+        }
+        m
     }
 
     /// The pass: the block measured (without `rows`, the groups write no columns), and
@@ -291,12 +301,16 @@ impl MeasuredBlock {
         let wanted = |k: usize| {
             k < REGRESSOR_TERMS || (REGRESSORS && k < GRADE_TERMS) || (GRADE && k >= GRADE_TERMS)
         };
+        // The block's sums: not those of x̃₁ alone where the loop's sources leave it
+        // noise-free (FORCE_TERMS; a loop that reads its sources at run time sums them, and
+        // `measure_and_sum_in` drops them alike). The chunks keep every wanted sum.
+        let block_sum = |k: usize| wanted(k) && (moves(CH, Column::F) || !FORCE_TERMS.contains(&k));
         let whole = len - len % LANES;
         // Group i (rows i .. i + 4) measured, its rows written where kept, its terms added
         // to the lanes `$acc`. A macro, not a closure: a closure's body is not compiled
         // with the caller's target features.
         macro_rules! group {
-            ($i:expr, $acc:expr, $rows:expr) => {{
+            ($i:expr, $acc:expr, $rows:expr, $summed:expr) => {{
                 let (i, rows) = ($i, $rows);
                 // SAFETY: i + 4 <= len; `CH` is the inputs' channels or RUNTIME (checked).
                 let values = unsafe { x.measure::<L, CH>(l, i) };
@@ -314,7 +328,7 @@ impl MeasuredBlock {
                 }
                 if SUMS {
                     for (k, t) in terms(values).into_iter().enumerate() {
-                        if wanted(k) {
+                        if $summed(k) {
                             $acc[k] = $acc[k] + t;
                         }
                     }
@@ -334,7 +348,7 @@ impl MeasuredBlock {
             assert_eq!(chunks.len(), count, "room for the block's whole chunks");
             let mut part = [l.splat(0.0); TERMS];
             for i in (0..count * CHUNK_ROWS).step_by(LANES) {
-                group!(i, part, rows && chunk_rows);
+                group!(i, part, rows && chunk_rows, wanted);
                 if (i + LANES).is_multiple_of(CHUNK_ROWS) {
                     for (kept, p) in chunks[i / CHUNK_ROWS].iter_mut().zip(part) {
                         l.store(p, kept, 0);
@@ -353,7 +367,7 @@ impl MeasuredBlock {
             first = count * CHUNK_ROWS;
         }
         for i in (first..whole).step_by(LANES) {
-            group!(i, acc, rows);
+            group!(i, acc, rows, block_sum);
         }
         let mut lanes = [[0.0; LANES]; TERMS];
         if SUMS {
@@ -365,7 +379,7 @@ impl MeasuredBlock {
             (f_out[j], w_out[j], c_out[j], s_out[j], y_out[j]) = (r[0], r[1], r[2], r[3], r[4]);
             if SUMS {
                 for (k, t) in terms(r).into_iter().enumerate() {
-                    if wanted(k) {
+                    if block_sum(k) {
                         lanes[k][0] += t;
                     }
                 }

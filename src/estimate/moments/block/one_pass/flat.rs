@@ -15,6 +15,28 @@ pub(super) const fn bit(c: Channel) -> u32 {
 /// The bit of a differentiated acceleration's noise in `CH`.
 pub(super) const DERIVATIVE: u32 = 1 << CHANNEL_COUNT;
 
+/// Whether a source of the set `ch` moves the measured column `column` (a differentiated
+/// acceleration's noise moves ỹ alone); [`RUNTIME`] counts as moving every column.
+pub(super) const fn moves(ch: u32, column: Column) -> bool {
+    if ch == RUNTIME || (ch & DERIVATIVE != 0 && column as usize == Column::Y as usize) {
+        return true;
+    }
+    let mut i = 0;
+    while i < CHANNEL_COUNT {
+        let c = Channel::ALL[i];
+        let columns = c.columns();
+        let mut k = 0;
+        while ch & bit(c) != 0 && k < columns.len() {
+            if columns[k] as usize == column as usize {
+                return true;
+            }
+            k += 1;
+        }
+        i += 1;
+    }
+    false
+}
+
 /// `CH` for a loop that reads which channels are on at run time.
 pub(super) const RUNTIME: u32 = u32::MAX;
 
