@@ -193,7 +193,8 @@ impl RowsView<'_> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Wanted {
     /// The sums of x̃₁ and x̃₃ alone (zero without: `MomentAccumulator::finish` takes the
-    /// regression's where those columns are noise-free).
+    /// regression's where those columns are noise-free). Σx̃₁² and Σx̃₁ are zero as well
+    /// wherever no source moved x̃₁: `finish` takes the regression's.
     pub regressors: bool,
     /// The grade term's sums ([`GradeSums`](crate::estimate::sums::GradeSums)).
     pub grade: bool,

@@ -213,6 +213,8 @@ fn the_noise_free_force_sums_agree_with_the_summed_ones_within_1e_12() {
     // Algorithms, 2nd ed., §4.2).
     let reg = regression();
     let n = reg.len();
+    // Positive terms, for which Σ|term| is the sum itself (the bound above).
+    assert!(reg.f.iter().all(|&f| f > 0.0), "positive forces");
     let mut noise = NoiseLevels::default();
     noise[Channel::Velocity] = 0.4;
     noise[Channel::Grade] = 0.01;

@@ -140,7 +140,8 @@ impl MeasuredBlock {
     }
 
     /// The block measured as by [`measure`](Self::measure) and its moments as
-    /// `segment_moments` (`moments/segment_sums.rs`) takes them from the measured rows, bit for bit;
+    /// `segment_moments` (`moments/segment_sums.rs`) takes them from the measured rows, bit for bit,
+    /// but Σx̃₁² and Σx̃₁, zero where no source moved x̃₁ (left to the realisation);
     /// `wanted` says which sums besides those of w and ỹ, and whether the rows are kept.
     /// The sums are added in the pass, in the lanes the samples are measured in (on x86-64
     /// one AVX2 register, with AVX-512VL where the CPU has it: the same operations, more
@@ -304,7 +305,8 @@ impl MeasuredBlock {
         // The block's sums: not those of x̃₁ alone where the loop's sources leave it
         // noise-free (FORCE_TERMS; a loop that reads its sources at run time sums them, and
         // `measure_and_sum_in` drops them alike). The chunks keep every wanted sum.
-        let block_sum = |k: usize| wanted(k) && (moves(CH, Column::F) || !FORCE_TERMS.contains(&k));
+        let block_sum =
+            |k: usize| wanted(k) && (const { moves(CH, Column::F) } || !FORCE_TERMS.contains(&k));
         let whole = len - len % LANES;
         // Group i (rows i .. i + 4) measured, its rows written where kept, its terms added
         // to the lanes `$acc`. A macro, not a closure: a closure's body is not compiled
@@ -359,7 +361,7 @@ impl MeasuredBlock {
             for kept in chunks.iter() {
                 let part = l.load_each(kept);
                 for (k, (a, p)) in acc.iter_mut().zip(part).enumerate() {
-                    if wanted(k) {
+                    if block_sum(k) {
                         *a = *a + p;
                     }
                 }
